@@ -1,0 +1,1 @@
+//! Reference unbounded stack, scoreboard and stack-consistency properties.

@@ -1,0 +1,484 @@
+//! The one configuration type, and every register width derived from it.
+//!
+//! Everything that has a width in the hardware (Top, Bottom, Next TID, Priority, Flush, the RB
+//! count, the global spill pointer, …) gets it from [`Widths`], which is computed once from a
+//! validated [`Config`]. The stack manager sizes its registers from it, the waveform dump
+//! declares its wires from it and the cost report counts bits from it.
+
+use std::fmt;
+use std::str::FromStr;
+
+/// Primary (ray-buffer) stack size per thread.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RbSize {
+    /// N entries, 1 ≤ N ≤ 64.
+    Entries(u32),
+    /// Unbounded on chip: never spills (the paper's RB_FULL).
+    Full,
+}
+
+impl RbSize {
+    /// Capacity in entries; `None` for FULL.
+    pub fn capacity(self) -> Option<u32> {
+        match self {
+            RbSize::Entries(n) => Some(n),
+            RbSize::Full => None,
+        }
+    }
+}
+
+impl fmt::Display for RbSize {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RbSize::Entries(n) => write!(f, "{n}"),
+            RbSize::Full => write!(f, "FULL"),
+        }
+    }
+}
+
+/// Dynamic intra-warp reallocation (SPEC section 5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Realloc {
+    /// Most stacks a thread may borrow at once (paper: 4).
+    pub borrow_limit: u32,
+    /// Most consecutive flushes counted per stack (paper: 3). The counter saturates there.
+    pub flush_limit: u32,
+}
+
+impl Default for Realloc {
+    fn default() -> Self {
+        Realloc {
+            borrow_limit: 4,
+            flush_limit: 3,
+        }
+    }
+}
+
+/// A stack design and the RT unit it sits in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Config {
+    /// Primary stack entries per thread (N).
+    pub rb: RbSize,
+    /// Secondary (shared-memory) stack entries per thread (M); 0 = no SH level.
+    pub sh_entries: u32,
+    /// Skewed bank access (SK).
+    pub skew: bool,
+    /// Intra-warp reallocation (RA), or `None`.
+    pub realloc: Option<Realloc>,
+    /// Threads per warp (hardware: 32).
+    pub warp_size: u32,
+    /// Warps per RT unit (hardware: 4).
+    pub warps: u32,
+    /// Shared-memory banks (32).
+    pub banks: u32,
+    /// Bytes per bank word (4).
+    pub bank_bytes: u32,
+    /// Bytes per stack entry (8).
+    pub entry_bytes: u32,
+    /// Width of the per-thread global spill pointer: the deepest global spill region, in entries,
+    /// is 2^bits - 1. Exceeding it is reported as an error, never wrapped.
+    pub spill_ptr_bits: u32,
+}
+
+impl Default for Config {
+    /// The paper's baseline, RB_8.
+    fn default() -> Self {
+        Config {
+            rb: RbSize::Entries(8),
+            sh_entries: 0,
+            skew: false,
+            realloc: None,
+            warp_size: 32,
+            warps: 4,
+            banks: 32,
+            bank_bytes: 4,
+            entry_bytes: 8,
+            spill_ptr_bits: 16,
+        }
+    }
+}
+
+/// Why a configuration was rejected: which parameter, what value, and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ConfigError {
+    pub parameter: &'static str,
+    pub value: String,
+    pub reason: String,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "invalid configuration: {} = {}: {}",
+            self.parameter, self.value, self.reason
+        )
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+fn reject(
+    parameter: &'static str,
+    value: impl fmt::Display,
+    reason: impl Into<String>,
+) -> ConfigError {
+    ConfigError {
+        parameter,
+        value: value.to_string(),
+        reason: reason.into(),
+    }
+}
+
+/// Bits needed to hold values 0..=max.
+pub const fn bits_for(max: u64) -> u32 {
+    if max == 0 {
+        0
+    } else {
+        64 - max.leading_zeros()
+    }
+}
+
+impl Config {
+    /// The paper's proposed SMS: RB_8 + SH_8 + SK + RA.
+    pub fn sms() -> Self {
+        Config {
+            sh_entries: 8,
+            skew: true,
+            realloc: Some(Realloc::default()),
+            ..Config::default()
+        }
+    }
+
+    /// Threads per RT unit.
+    pub fn threads(&self) -> u32 {
+        self.warps * self.warp_size
+    }
+
+    /// Checks every parameter; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if let RbSize::Entries(n) = self.rb {
+            if !(1..=64).contains(&n) {
+                return Err(reject("rb", n, "RB entries must be 1 to 64, or FULL"));
+            }
+        }
+        let m = self.sh_entries;
+        if m > 32 || (m != 0 && !m.is_power_of_two()) {
+            return Err(reject(
+                "sh",
+                m,
+                "SH entries per thread must be 0 or a power of two up to 32",
+            ));
+        }
+        if self.warp_size == 0 || self.warp_size > 32 || !self.warp_size.is_power_of_two() {
+            return Err(reject(
+                "warp_size",
+                self.warp_size,
+                "must be a power of two from 1 to 32",
+            ));
+        }
+        if !(1..=64).contains(&self.warps) {
+            return Err(reject("warps", self.warps, "must be 1 to 64"));
+        }
+        if self.banks == 0 || !self.banks.is_power_of_two() || self.banks > 64 {
+            return Err(reject(
+                "banks",
+                self.banks,
+                "must be a power of two from 1 to 64",
+            ));
+        }
+        if self.bank_bytes == 0 || !self.bank_bytes.is_power_of_two() || self.bank_bytes > 8 {
+            return Err(reject(
+                "bank_bytes",
+                self.bank_bytes,
+                "must be 1, 2, 4 or 8",
+            ));
+        }
+        if self.entry_bytes == 0
+            || self.entry_bytes > 8
+            || !self.entry_bytes.is_power_of_two()
+            || self.entry_bytes < self.bank_bytes
+        {
+            return Err(reject(
+                "entry_bytes",
+                self.entry_bytes,
+                "must be a power of two, at most 8 and at least one bank word",
+            ));
+        }
+        if !(4..=32).contains(&self.spill_ptr_bits) {
+            return Err(reject(
+                "spill_ptr_bits",
+                self.spill_ptr_bits,
+                "must be 4 to 32",
+            ));
+        }
+        if let Some(ra) = self.realloc {
+            if m == 0 {
+                return Err(reject(
+                    "realloc",
+                    "on",
+                    "reallocation lends SH stacks, so it needs SH entries (sh > 0)",
+                ));
+            }
+            if self.rb == RbSize::Full {
+                return Err(reject(
+                    "realloc",
+                    "on",
+                    "with RB = FULL nothing ever spills, so there is nothing to reallocate",
+                ));
+            }
+            if ra.borrow_limit == 0 || ra.borrow_limit >= self.warp_size {
+                return Err(reject(
+                    "borrow_limit",
+                    ra.borrow_limit,
+                    format!(
+                        "must be 1 to warp_size - 1 = {}",
+                        self.warp_size.saturating_sub(1)
+                    ),
+                ));
+            }
+            if !(1..=15).contains(&ra.flush_limit) {
+                return Err(reject("flush_limit", ra.flush_limit, "must be 1 to 15"));
+            }
+        }
+        if self.skew && m == 0 {
+            return Err(reject(
+                "skew",
+                "on",
+                "skewed access places SH queues, so it needs SH entries (sh > 0)",
+            ));
+        }
+        if self.rb == RbSize::Full && m != 0 {
+            return Err(reject(
+                "sh",
+                m,
+                "with RB = FULL nothing spills to SH; use sh = 0",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Validates and derives every width.
+    pub fn widths(&self) -> Result<Widths, ConfigError> {
+        self.validate()?;
+        Ok(Widths::derive(self))
+    }
+
+    /// Entry index at which thread `tid` (index within its warp) starts its SH queue.
+    ///
+    /// Without skew, 0. With skew, `(tid / k) mod M` with `k = max(1, W / (M · e))`, where W is
+    /// the bank count and e the bank words per entry (32 / (2M) for the paper's 32 banks and
+    /// 8-byte entries). When a thread's queue spans the whole bank row or more (2M ≥ 32), k = 1:
+    /// consecutive threads start one entry apart, the best spread there is.
+    pub fn skew_base(&self, tid: u32) -> u32 {
+        let m = self.sh_entries;
+        if !self.skew || m == 0 {
+            return 0;
+        }
+        let words_per_entry = self.entry_bytes / self.bank_bytes;
+        let k = (self.banks / (m * words_per_entry)).max(1);
+        (tid / k) % m
+    }
+
+    /// Short name in the paper's style: `RB_8`, `RB_8+SH_8+SK+RA`, `RB_FULL`.
+    pub fn name(&self) -> String {
+        let mut s = format!("RB_{}", self.rb);
+        if self.sh_entries > 0 {
+            s += &format!("+SH_{}", self.sh_entries);
+        }
+        if self.skew {
+            s += "+SK";
+        }
+        if self.realloc.is_some() {
+            s += "+RA";
+        }
+        s
+    }
+}
+
+impl FromStr for Config {
+    type Err = ConfigError;
+
+    /// Parses the paper's names: `RB_8`, `RB_FULL`, `RB_8+SH_8`, `RB_8+SH_8+SK`,
+    /// `RB_8+SH_8+SK+RA`, `SMS` (= RB_8+SH_8+SK+RA). Case-insensitive. The result is validated.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let mut cfg = Config::default();
+        let upper = s.trim().to_ascii_uppercase();
+        if upper == "SMS" {
+            return Ok(Config::sms());
+        }
+        let mut saw_rb = false;
+        for part in upper.split('+') {
+            if let Some(n) = part.strip_prefix("RB_") {
+                saw_rb = true;
+                cfg.rb = if n == "FULL" {
+                    RbSize::Full
+                } else {
+                    RbSize::Entries(
+                        n.parse()
+                            .map_err(|_| reject("rb", n, "expected a number or FULL"))?,
+                    )
+                };
+            } else if let Some(m) = part.strip_prefix("SH_") {
+                cfg.sh_entries = m
+                    .parse()
+                    .map_err(|_| reject("sh", m, "expected a number"))?;
+            } else if part == "SK" {
+                cfg.skew = true;
+            } else if part == "RA" {
+                cfg.realloc = Some(Realloc::default());
+            } else {
+                return Err(reject(
+                    "config",
+                    s,
+                    format!("unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK, RA or SMS"),
+                ));
+            }
+        }
+        if !saw_rb {
+            return Err(reject(
+                "config",
+                s,
+                "a configuration name must start with RB_N or RB_FULL",
+            ));
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+}
+
+/// Width in bits of every register field, derived once from a validated [`Config`].
+///
+/// A width of 0 means the field does not exist in this configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Widths {
+    /// One stack entry (a node address).
+    pub entry: u32,
+    /// RB occupancy counter, 0..=N (0 for FULL: counted in `rb_count_full`).
+    pub rb_count: u32,
+    /// SH Top and Bottom pointers: log2 M each.
+    pub top: u32,
+    pub bottom: u32,
+    /// The empty bit that settles Top == Bottom (SPEC 9.1): 1 when M > 0.
+    pub sh_empty: u32,
+    /// Overflow: global memory holds entries of this thread.
+    pub overflow: u32,
+    /// Idle: finished, and its SH stack not lent (RA only).
+    pub idle: u32,
+    /// Next TID: link of the borrow chain (RA only): log2 warp size.
+    pub next_tid: u32,
+    /// Priority: rank of a stack in its chain, 0..=borrow_limit (RA only).
+    pub priority: u32,
+    /// Flush: consecutive flushes of a stack, 0..=flush_limit (RA only).
+    pub flush: u32,
+    /// Global spill pointer: entries this thread holds in global memory.
+    pub spill_ptr: u32,
+    /// Thread id within the warp (for probes and bank math).
+    pub tid: u32,
+}
+
+impl Widths {
+    fn derive(c: &Config) -> Widths {
+        let m = c.sh_entries;
+        let log2m = if m == 0 { 0 } else { m.trailing_zeros() };
+        let ra = c.realloc;
+        Widths {
+            entry: c.entry_bytes * 8,
+            rb_count: c.rb.capacity().map_or(0, |n| bits_for(n as u64)),
+            top: log2m,
+            bottom: log2m,
+            sh_empty: u32::from(m > 0),
+            overflow: 1,
+            idle: u32::from(ra.is_some()),
+            next_tid: ra.map_or(0, |_| bits_for(c.warp_size as u64 - 1)),
+            priority: ra.map_or(0, |r| bits_for(r.borrow_limit as u64)),
+            flush: ra.map_or(0, |r| bits_for(r.flush_limit as u64)),
+            spill_ptr: c.spill_ptr_bits,
+            tid: bits_for(c.warp_size as u64 - 1),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_configuration_widths() {
+        let w = Config::sms().widths().unwrap();
+        assert_eq!((w.top, w.bottom, w.sh_empty), (3, 3, 1));
+        assert_eq!((w.overflow, w.idle, w.next_tid, w.flush), (1, 1, 5, 2));
+        // Priority ranks 0..=4 (dedicated + 4 borrowed): 3 bits, one more than the paper's 2.
+        assert_eq!(w.priority, 3);
+        assert_eq!(w.rb_count, 4);
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for name in [
+            "RB_8",
+            "RB_FULL",
+            "RB_8+SH_8",
+            "RB_8+SH_8+SK",
+            "RB_8+SH_8+SK+RA",
+            "RB_2+SH_8+SK+RA",
+        ] {
+            let c: Config = name.parse().unwrap();
+            assert_eq!(c.name(), name);
+        }
+        assert_eq!("sms".parse::<Config>().unwrap(), Config::sms());
+    }
+
+    #[test]
+    fn bad_configurations_name_the_parameter() {
+        let cases: [(&str, &str); 8] = [
+            ("RB_0", "rb"),
+            ("RB_65", "rb"),
+            ("RB_8+SH_6", "sh"),
+            ("RB_8+SH_64", "sh"),
+            ("RB_8+RA", "realloc"),
+            ("RB_8+SK", "skew"),
+            ("RB_FULL+SH_8", "sh"),
+            ("RB_X", "rb"),
+        ];
+        for (name, param) in cases {
+            let e = name.parse::<Config>().unwrap_err();
+            assert_eq!(e.parameter, param, "{name}: {e}");
+        }
+        let e = "SH_8".parse::<Config>().unwrap_err();
+        assert_eq!(e.parameter, "config");
+        let bad = Config {
+            warp_size: 12,
+            ..Config::default()
+        };
+        assert_eq!(bad.validate().unwrap_err().parameter, "warp_size");
+        let bad = Config {
+            realloc: Some(Realloc {
+                borrow_limit: 0,
+                flush_limit: 3,
+            }),
+            ..Config::sms()
+        };
+        assert_eq!(bad.validate().unwrap_err().parameter, "borrow_limit");
+    }
+
+    #[test]
+    fn skew_matches_the_spec_example() {
+        let c = Config {
+            skew: true,
+            ..Config::sms()
+        };
+        // M = 8, k = 2: threads 0 and 16 start at entry 0, 2 and 18 at entry 1, 3 and 19 at 1.
+        assert_eq!(
+            [0, 16, 2, 18, 1, 17, 3, 19].map(|t| c.skew_base(t)),
+            [0, 0, 1, 1, 0, 0, 1, 1]
+        );
+        let m32 = Config {
+            sh_entries: 32,
+            ..c
+        };
+        assert_eq!(m32.skew_base(5), 5, "2M > 32: k = 1");
+        let no_skew = Config { skew: false, ..c };
+        assert_eq!(no_skew.skew_base(5), 0);
+    }
+}

@@ -1,0 +1,1 @@
+//! Testbenches, workloads and reports for the SMS model.
