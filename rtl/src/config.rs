@@ -130,6 +130,9 @@ fn reject(
     }
 }
 
+/// RB count width the model uses for RB = FULL.
+pub const RB_FULL_COUNT_BITS: u32 = 16;
+
 /// Bits needed to hold values 0..=max.
 pub const fn bits_for(max: u64) -> u32 {
     if max == 0 {
@@ -148,6 +151,31 @@ impl Config {
             realloc: Some(Realloc::default()),
             ..Config::default()
         }
+    }
+
+    /// The stack configurations of SPEC section 8: RB_N for N in {2, 4, 8, 16, 32, FULL};
+    /// RB_8+SH_M for M in {4, 8, 16}; RB_8+SH_8+SK; the full SMS; SMS on RB_2, RB_4, RB_16.
+    pub fn paper_set() -> Vec<Config> {
+        let names = [
+            "RB_2",
+            "RB_4",
+            "RB_8",
+            "RB_16",
+            "RB_32",
+            "RB_FULL",
+            "RB_8+SH_4",
+            "RB_8+SH_8",
+            "RB_8+SH_16",
+            "RB_8+SH_8+SK",
+            "RB_8+SH_8+SK+RA",
+            "RB_2+SH_8+SK+RA",
+            "RB_4+SH_8+SK+RA",
+            "RB_16+SH_8+SK+RA",
+        ];
+        names
+            .iter()
+            .map(|n| n.parse().expect("paper configurations are valid"))
+            .collect()
     }
 
     /// Threads per RT unit.
@@ -350,11 +378,12 @@ impl FromStr for Config {
 /// Width in bits of every register field, derived once from a validated [`Config`].
 ///
 /// A width of 0 means the field does not exist in this configuration.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Widths {
     /// One stack entry (a node address).
     pub entry: u32,
-    /// RB occupancy counter, 0..=N (0 for FULL: counted in `rb_count_full`).
+    /// RB occupancy counter, 0..=N. FULL has no hardware bound; the model gives it
+    /// [`RB_FULL_COUNT_BITS`], and the cost report sizes FULL to a scene's deepest stack.
     pub rb_count: u32,
     /// SH Top and Bottom pointers: log2 M each.
     pub top: u32,
@@ -384,7 +413,10 @@ impl Widths {
         let ra = c.realloc;
         Widths {
             entry: c.entry_bytes * 8,
-            rb_count: c.rb.capacity().map_or(0, |n| bits_for(n as u64)),
+            rb_count: c
+                .rb
+                .capacity()
+                .map_or(RB_FULL_COUNT_BITS, |n| bits_for(n as u64)),
             top: log2m,
             bottom: log2m,
             sh_empty: u32::from(m > 0),

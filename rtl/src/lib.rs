@@ -2,9 +2,8 @@
 //!
 //! Conventions (see `../shared/STYLE.md`):
 //! - one hardware unit per file, named after the unit;
-//! - each unit keeps its registers as `q` (current) and computes `d` (next) in `eval`, reading
-//!   only `q` and its inputs; `commit` is the clock edge (`q <= d`). No unit reads a value that
-//!   another unit wrote in the same cycle;
+//! - a unit reads only its own registers and the *registered* outputs of other units (what they
+//!   produced in the previous cycle); `step` is one clock cycle;
 //! - every width comes from [`config::Widths`], used alike by the logic, the waveform dump and
 //!   the cost report;
 //! - signals are exposed to a [`trace::Sink`] through [`trace::Probe`]; the [`trace::NullSink`]
@@ -12,5 +11,9 @@
 //!
 //! No I/O lives in this crate.
 
+pub mod bank_arbiter;
 pub mod config;
+pub mod mem_sched;
+pub mod stack_manager;
+pub mod stack_unit;
 pub mod trace;

@@ -9,6 +9,8 @@
 /// nothing: `enabled()` is a constant `false` and every probe returns before walking.
 pub trait Sink {
     fn enabled(&self) -> bool;
+    /// Marks the start of a new cycle's walk (a VCD timestamp).
+    fn begin_cycle(&mut self, _cycle: u64) {}
     fn push_scope(&mut self, name: &str);
     fn pop_scope(&mut self);
     fn signal(&mut self, name: &str, width: u32, value: u64);

@@ -1,0 +1,251 @@
+//! The properties every stack design must keep, checked against the RTL's own registers.
+//!
+//! Each check names the [`Property`] it enforces, so a failure (or a caught mutant) says which
+//! one caught it.
+
+use rtl::stack_manager::StackManager;
+
+use crate::reference::RefStack;
+
+/// The properties of issue 6, one name each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Property {
+    /// Every pop returns what the reference returns; pop on empty is reported.
+    Equivalence,
+    /// RB + SH chain + global, read top first, is exactly the reference stack: nothing lost or
+    /// duplicated.
+    Conservation,
+    /// Top and Bottom in range; empty ⇒ Top == Bottom.
+    Pointers,
+    /// Overflow set exactly when the thread's global region holds entries.
+    Overflow,
+    /// Idle set exactly for finished threads whose stack is not lent.
+    Idle,
+    /// No stack in two chains, no active thread's stack lent, chains ring-shaped with Priority a
+    /// permutation of 0..len, at most 1 + borrow limit stacks; only the top stack or the
+    /// dedicated one may be empty.
+    Chains,
+    /// Flush never above its limit, and 0 on every empty stack.
+    Flush,
+    /// At warp exit every queue is empty and every stack back with its owner.
+    WarpExit,
+    /// The request sequences of SPEC section 3.
+    RequestSequence,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Violation {
+    pub property: Property,
+    pub detail: String,
+}
+
+impl std::fmt::Display for Violation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?} violated: {}", self.property, self.detail)
+    }
+}
+
+impl std::error::Error for Violation {}
+
+pub(crate) fn fail<T>(property: Property, detail: impl Into<String>) -> Result<T, Violation> {
+    Err(Violation {
+        property,
+        detail: detail.into(),
+    })
+}
+
+/// The stacks of thread `t`'s chain, top stack first (highest Priority first).
+pub fn chain_by_priority(sm: &StackManager, t: u32) -> Vec<u32> {
+    let mut c = sm.chain(t);
+    c.sort_by_key(|&s| std::cmp::Reverse(sm.stack(s).priority));
+    c
+}
+
+/// Thread `t`'s stack as the hardware holds it, newest first: RB top → bottom, then the chain's
+/// SH stacks from the top stack down (each Top → Bottom), then global memory newest → oldest.
+pub fn logical_stack(sm: &StackManager, t: u32) -> Vec<u64> {
+    let m = sm.config().sh_entries;
+    let mut out: Vec<u64> = sm.rb(t).iter().rev().copied().collect();
+    if m > 0 {
+        // A finished thread's ring may be a borrower's now; it then owns no SH entries.
+        let lent = sm.thread(t).done
+            && sm
+                .warp_threads(sm.warp_of(t))
+                .any(|u| u != t && !sm.thread(u).done && sm.chain(u).contains(&t));
+        let stacks = if lent {
+            vec![]
+        } else if sm.thread(t).done {
+            vec![t]
+        } else {
+            chain_by_priority(sm, t)
+        };
+        for s in stacks {
+            let st = sm.stack(s);
+            let mut e = st.top;
+            for _ in 0..st.count(m) {
+                out.push(sm.sh_entry(s, e));
+                e = (e + m - 1) % m;
+            }
+        }
+    }
+    out.extend(sm.global(t).iter().rev());
+    out
+}
+
+/// Per-thread properties; the thread must be quiescent (`sm.ready(t)`).
+pub fn check_thread(sm: &StackManager, t: u32, reference: &RefStack) -> Result<(), Violation> {
+    let got = logical_stack(sm, t);
+    if !got.iter().copied().eq(reference.top_first()) {
+        return fail(
+            Property::Conservation,
+            format!(
+                "thread {t}: hardware holds {got:x?}, reference {:x?}",
+                reference.top_first().collect::<Vec<_>>()
+            ),
+        );
+    }
+    let th = sm.thread(t);
+    if th.overflow != (th.spill_ptr > 0) {
+        return fail(
+            Property::Overflow,
+            format!(
+                "thread {t}: overflow {} with {} global entries",
+                th.overflow, th.spill_ptr
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// Field properties of one warp; every thread of the warp must be quiescent.
+pub fn check_warp(sm: &StackManager, w: u32) -> Result<(), Violation> {
+    let cfg = sm.config();
+    let m = cfg.sh_entries;
+    let ws = cfg.warp_size;
+    let base = w * ws;
+    let mut holder = vec![None::<u32>; ws as usize];
+    // Chains are walked from active threads only: a lent stack's ring is its borrower's.
+    for t in sm.warp_threads(w).filter(|&t| !sm.thread(t).done) {
+        let chain = sm.chain(t);
+        let limit = 1 + cfg.realloc.map_or(0, |r| r.borrow_limit) as usize;
+        if chain.len() > limit {
+            return fail(
+                Property::Chains,
+                format!("thread {t}: chain {chain:?} longer than {limit}"),
+            );
+        }
+        let mut prios: Vec<u32> = chain.iter().map(|&s| sm.stack(s).priority).collect();
+        prios.sort_unstable();
+        if prios.iter().enumerate().any(|(i, &p)| p != i as u32) {
+            return fail(
+                Property::Chains,
+                format!("thread {t}: priorities {prios:?} of chain {chain:?} not 0..len"),
+            );
+        }
+        if m > 0 {
+            let by_prio = chain_by_priority(sm, t);
+            for (i, &s) in by_prio.iter().enumerate() {
+                if sm.stack(s).empty && i != 0 && s != t {
+                    return fail(
+                        Property::Chains,
+                        format!("thread {t}: borrowed stack {s} empty below the top"),
+                    );
+                }
+            }
+        }
+        for &s in &chain {
+            let lane = (s - base) as usize;
+            if let Some(other) = holder[lane] {
+                return fail(
+                    Property::Chains,
+                    format!("stack {s} in the chains of threads {other} and {t}"),
+                );
+            }
+            holder[lane] = Some(t);
+            if s != t && !sm.thread(s).done {
+                return fail(
+                    Property::Chains,
+                    format!("thread {t} holds the stack of active thread {s}"),
+                );
+            }
+        }
+    }
+    for t in sm.warp_threads(w).filter(|&t| sm.thread(t).done) {
+        let lane = (t - base) as usize;
+        if holder[lane].is_none() {
+            let chain = sm.chain(t);
+            if chain != [t] || sm.stack(t).priority != 0 {
+                return fail(
+                    Property::Chains,
+                    format!("finished thread {t} with its stack not lent has chain {chain:?}"),
+                );
+            }
+            holder[lane] = Some(t);
+        }
+    }
+    for s in sm.warp_threads(w) {
+        let st = sm.stack(s);
+        if m > 0 && (st.top >= m || st.bottom >= m || (st.empty && st.top != st.bottom)) {
+            return fail(
+                Property::Pointers,
+                format!(
+                    "stack {s}: top {} bottom {} empty {} with M = {m}",
+                    st.top, st.bottom, st.empty
+                ),
+            );
+        }
+        let lent = holder[(s - base) as usize].is_some_and(|h| h != s);
+        let want_idle = cfg.realloc.is_some() && sm.thread(s).done && !lent;
+        if st.idle != want_idle {
+            return fail(
+                Property::Idle,
+                format!(
+                    "stack {s}: idle {} but done {} lent {lent}",
+                    st.idle,
+                    sm.thread(s).done
+                ),
+            );
+        }
+        if let Some(ra) = cfg.realloc {
+            if st.flush > ra.flush_limit || (st.empty && st.flush != 0) {
+                return fail(
+                    Property::Flush,
+                    format!(
+                        "stack {s}: flush {} (limit {}, empty {})",
+                        st.flush, ra.flush_limit, st.empty
+                    ),
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Warp-exit properties: everything empty and back with its owner.
+pub fn check_warp_exit(sm: &StackManager, w: u32) -> Result<(), Violation> {
+    check_warp(sm, w)?;
+    for t in sm.warp_threads(w) {
+        let st = sm.stack(t);
+        let th = sm.thread(t);
+        let lane = t % sm.config().warp_size;
+        if !th.done || !sm.rb(t).is_empty() || !st.empty || th.spill_ptr != 0 || th.overflow {
+            return fail(
+                Property::WarpExit,
+                format!(
+                    "thread {t} leaves with done {} rb {} sh empty {} global {}",
+                    th.done,
+                    sm.rb(t).len(),
+                    st.empty,
+                    th.spill_ptr
+                ),
+            );
+        }
+        if st.next_tid != lane || st.priority != 0 || sm.chain(t) != [t] {
+            return fail(
+                Property::WarpExit,
+                format!("stack {t} not back with its owner: chain {:?}", sm.chain(t)),
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,107 @@
+//! The stack subsystem of one RT unit, standing alone: stack manager, bank arbiter, memory
+//! scheduler with its response FIFO, and a fixed-latency global memory.
+//!
+//! ```text
+//!            cmds ──► stack_manager ──SH reqs──► bank_arbiter ──done (next cycle)──┐
+//!                       ▲   │                                                       │
+//!                       │   └──global reqs──► mem_sched ──► fixed-latency memory    │
+//!                       │                        ▲   FIFO ◄──── completions ◄───────┘
+//!                       └──── done / delivered ──┴──────────────────────────────────┘
+//! ```
+//!
+//! Each unit reads only what the others registered in the previous cycle. The RT unit uses the
+//! same three units but routes global requests through its cache hierarchy instead.
+
+use crate::bank_arbiter::BankArbiter;
+use crate::config::{Config, ConfigError};
+use crate::mem_sched::{FixedLatencyMem, MemSched};
+use crate::stack_manager::{Cmd, StackError, StackManager, StackStats};
+use crate::trace::{Probe, Sink};
+
+/// Default global-memory latency of the standalone stack unit, in cycles.
+pub const DEFAULT_GLOBAL_LATENCY: u64 = 100;
+
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct StackUnit {
+    pub sm: StackManager,
+    pub arb: BankArbiter,
+    pub sched: MemSched,
+    pub mem: FixedLatencyMem,
+    pub cycle: u64,
+}
+
+/// What one run cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct UnitStats {
+    pub stack: StackStats,
+    pub conflict_cycles: u64,
+    pub conflict_word_waits: u64,
+    pub cycles: u64,
+}
+
+impl StackUnit {
+    pub fn new(cfg: Config, global_latency: u64) -> Result<Self, ConfigError> {
+        Ok(StackUnit {
+            sm: StackManager::new(cfg, 0)?,
+            arb: BankArbiter::new(cfg.banks),
+            sched: MemSched::new(),
+            mem: FixedLatencyMem::new(global_latency),
+            cycle: 0,
+        })
+    }
+
+    /// One clock cycle.
+    pub fn step(&mut self, cmds: &[(u32, Cmd)]) -> Result<(), StackError> {
+        self.sm
+            .step(cmds, self.arb.done(), self.sched.delivered())?;
+        self.arb.step(self.sm.sh_requests());
+        let port = self
+            .sched
+            .step(self.sm.global_requests(), true, self.mem.completions());
+        self.mem.step(port);
+        self.cycle += 1;
+        Ok(())
+    }
+
+    /// Nothing in flight anywhere: stepping without commands changes nothing but time.
+    pub fn idle(&self) -> bool {
+        self.sm.quiescent() && self.arb.is_idle() && self.sched.is_idle() && self.mem.is_idle()
+    }
+
+    /// When only global loads are in flight, nothing happens until the first returns: skips
+    /// those cycles, but not past cycle `limit`. Returns how many were skipped.
+    pub fn skip_to_next_event(&mut self, limit: u64) -> u64 {
+        let waiting = self.arb.is_idle() && self.sched.is_idle();
+        match self.mem.next_event() {
+            Some(at) if waiting && at.min(limit) > self.cycle + 1 => {
+                let n = at.min(limit) - self.cycle - 1;
+                self.mem.skip(n);
+                self.cycle += n;
+                n
+            }
+            _ => 0,
+        }
+    }
+
+    pub fn stats(&self) -> UnitStats {
+        UnitStats {
+            stack: self.sm.stats,
+            conflict_cycles: self.arb.conflict_cycles,
+            conflict_word_waits: self.arb.conflict_word_waits,
+            cycles: self.cycle,
+        }
+    }
+}
+
+impl Probe for StackUnit {
+    fn probe<S: Sink>(&self, s: &mut S) {
+        if !s.enabled() {
+            return;
+        }
+        s.push_scope("rt_unit");
+        self.sm.probe(s);
+        self.arb.probe(s);
+        self.sched.probe(s);
+        s.pop_scope();
+    }
+}
