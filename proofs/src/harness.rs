@@ -52,12 +52,7 @@ impl Scoreboard {
 
     /// Checks the design's answer to `cmd` from thread `t` against the reference, and advances
     /// the reference. Invalid commands must be refused with the matching error.
-    pub fn check(
-        &mut self,
-        t: u32,
-        cmd: Cmd,
-        got: Result<Option<u64>, StackError>,
-    ) -> Result<(), Violation> {
+    pub fn check(&mut self, t: u32, cmd: Cmd, got: Result<Option<u64>, StackError>) -> Result<(), Violation> {
         let r = &mut self.refs[t as usize];
         let done = &mut self.done[t as usize];
         let expect: Result<Option<u64>, StackError> = match cmd {
@@ -126,16 +121,13 @@ pub struct CycleOpts {
     pub check_every_cycle: bool,
     /// Give up after this many cycles (a deadlock would otherwise run forever).
     pub max_cycles: u64,
+    /// SIMT-style: a warp's lanes issue together, only when every unfinished lane is ready.
+    pub lockstep: bool,
 }
 
 impl Default for CycleOpts {
     fn default() -> Self {
-        CycleOpts {
-            max_gap: 8,
-            seed: 1,
-            check_every_cycle: false,
-            max_cycles: u64::MAX,
-        }
+        CycleOpts { max_gap: 8, seed: 1, check_every_cycle: false, max_cycles: u64::MAX, lockstep: false }
     }
 }
 
@@ -220,12 +212,7 @@ where
                 .map(|l| {
                     let ops = job.lanes.get(l).cloned().flatten();
                     active |= u32::from(ops.is_some()) << l;
-                    Lane {
-                        ops: ops.unwrap_or_default(),
-                        pos: 0,
-                        next_at: now,
-                        finished: false,
-                    }
+                    Lane { ops: ops.unwrap_or_default(), pos: 0, next_at: now, finished: false }
                 })
                 .collect();
             unit.sm.load_warp(w as u32, active);
@@ -240,6 +227,10 @@ where
         let mut earliest = u64::MAX;
         for (w, slot) in slots.iter_mut().enumerate() {
             let Some(lanes) = slot else { continue };
+            let warp_threads = unit.sm.warp_threads(w as u32);
+            if opts.lockstep && !warp_threads.clone().all(|t| unit.sm.ready(t)) {
+                continue;
+            }
             for (l, lane) in lanes.iter_mut().enumerate() {
                 let t = w as u32 * ws + l as u32;
                 if lane.finished || unit.sm.thread(t).done || !unit.sm.ready(t) {
@@ -263,13 +254,12 @@ where
                 cmds.push((t, cmd));
             }
         }
-        unit.step(&cmds)
-            .map_err(|error| RunError::Stack { cycle: now, error })?;
+        unit.step(&cmds);
         for &(t, cmd) in &cmds {
-            let got = match cmd {
-                Cmd::Pop => Ok(unit.sm.pops().iter().find(|p| p.0 == t).map(|p| p.1)),
-                _ => Ok(None),
-            };
+            let got = unit.sm.answer(t);
+            if let Err(error @ StackError::SpillRegionFull { .. }) = got {
+                return Err(RunError::Stack { cycle: now, error });
+            }
             sb.check(t, cmd, got).map_err(|v| violation(now, v))?;
         }
         if sink.enabled() {
@@ -301,4 +291,40 @@ where
     summary.stats = unit.stats();
     summary.pops_checked = sb.pops_checked;
     Ok(summary)
+}
+
+/// Functional level over whole warps: lanes take turns, one command each per round (lockstep
+/// order), micro-ops complete at once; every pop checked, every warp checked at exit.
+/// Without reallocation the counts equal the cycle level's exactly (each thread's decisions depend
+/// on its own history only); with it, borrowing depends on when threads finish.
+pub fn run_functional_warps<I>(sm: &mut StackManager, work: I) -> Result<Scoreboard, Violation>
+where
+    I: IntoIterator<Item = WarpWork>,
+{
+    let cfg = *sm.config();
+    let mut sb = Scoreboard::new(cfg.threads());
+    for job in work {
+        let w = 0;
+        let active = (0..cfg.warp_size)
+            .fold(0u32, |a, l| a | u32::from(matches!(job.lanes.get(l as usize), Some(Some(_)))) << l);
+        sm.load_warp(w, active);
+        sb.load_warp(sm.warp_threads(w), active);
+        let longest = job.lanes.iter().flatten().map(Vec::len).max().unwrap_or(0);
+        for i in 0..=longest {
+            for (l, ops) in job.lanes.iter().enumerate() {
+                let Some(ops) = ops else { continue };
+                let t = w * cfg.warp_size + l as u32;
+                let cmd = match ops.get(i) {
+                    Some(Op::Push(v)) => Cmd::Push(*v),
+                    Some(Op::Pop) => Cmd::Pop,
+                    None if i == ops.len() => Cmd::Finish,
+                    None => continue,
+                };
+                let got = sm.apply(t, cmd);
+                sb.check(t, cmd, got)?;
+            }
+        }
+        check_warp_exit(sm, w)?;
+    }
+    Ok(sb)
 }

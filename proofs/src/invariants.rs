@@ -48,10 +48,7 @@ impl std::fmt::Display for Violation {
 impl std::error::Error for Violation {}
 
 pub(crate) fn fail<T>(property: Property, detail: impl Into<String>) -> Result<T, Violation> {
-    Err(Violation {
-        property,
-        detail: detail.into(),
-    })
+    Err(Violation { property, detail: detail.into() })
 }
 
 /// The stacks of thread `t`'s chain, top stack first (highest Priority first).
@@ -108,10 +105,7 @@ pub fn check_thread(sm: &StackManager, t: u32, reference: &RefStack) -> Result<(
     if th.overflow != (th.spill_ptr > 0) {
         return fail(
             Property::Overflow,
-            format!(
-                "thread {t}: overflow {} with {} global entries",
-                th.overflow, th.spill_ptr
-            ),
+            format!("thread {t}: overflow {} with {} global entries", th.overflow, th.spill_ptr),
         );
     }
     Ok(())
@@ -129,10 +123,7 @@ pub fn check_warp(sm: &StackManager, w: u32) -> Result<(), Violation> {
         let chain = sm.chain(t);
         let limit = 1 + cfg.realloc.map_or(0, |r| r.borrow_limit) as usize;
         if chain.len() > limit {
-            return fail(
-                Property::Chains,
-                format!("thread {t}: chain {chain:?} longer than {limit}"),
-            );
+            return fail(Property::Chains, format!("thread {t}: chain {chain:?} longer than {limit}"));
         }
         let mut prios: Vec<u32> = chain.iter().map(|&s| sm.stack(s).priority).collect();
         prios.sort_unstable();
@@ -156,17 +147,11 @@ pub fn check_warp(sm: &StackManager, w: u32) -> Result<(), Violation> {
         for &s in &chain {
             let lane = (s - base) as usize;
             if let Some(other) = holder[lane] {
-                return fail(
-                    Property::Chains,
-                    format!("stack {s} in the chains of threads {other} and {t}"),
-                );
+                return fail(Property::Chains, format!("stack {s} in the chains of threads {other} and {t}"));
             }
             holder[lane] = Some(t);
             if s != t && !sm.thread(s).done {
-                return fail(
-                    Property::Chains,
-                    format!("thread {t} holds the stack of active thread {s}"),
-                );
+                return fail(Property::Chains, format!("thread {t} holds the stack of active thread {s}"));
             }
         }
     }
@@ -188,10 +173,7 @@ pub fn check_warp(sm: &StackManager, w: u32) -> Result<(), Violation> {
         if m > 0 && (st.top >= m || st.bottom >= m || (st.empty && st.top != st.bottom)) {
             return fail(
                 Property::Pointers,
-                format!(
-                    "stack {s}: top {} bottom {} empty {} with M = {m}",
-                    st.top, st.bottom, st.empty
-                ),
+                format!("stack {s}: top {} bottom {} empty {} with M = {m}", st.top, st.bottom, st.empty),
             );
         }
         let lent = holder[(s - base) as usize].is_some_and(|h| h != s);
@@ -199,21 +181,14 @@ pub fn check_warp(sm: &StackManager, w: u32) -> Result<(), Violation> {
         if st.idle != want_idle {
             return fail(
                 Property::Idle,
-                format!(
-                    "stack {s}: idle {} but done {} lent {lent}",
-                    st.idle,
-                    sm.thread(s).done
-                ),
+                format!("stack {s}: idle {} but done {} lent {lent}", st.idle, sm.thread(s).done),
             );
         }
         if let Some(ra) = cfg.realloc {
             if st.flush > ra.flush_limit || (st.empty && st.flush != 0) {
                 return fail(
                     Property::Flush,
-                    format!(
-                        "stack {s}: flush {} (limit {}, empty {})",
-                        st.flush, ra.flush_limit, st.empty
-                    ),
+                    format!("stack {s}: flush {} (limit {}, empty {})", st.flush, ra.flush_limit, st.empty),
                 );
             }
         }

@@ -14,11 +14,8 @@ pub fn stream(seed: u64, peak: u32) -> Vec<Op> {
         mix(seed ^ i.wrapping_mul(0x2545_F491_4F6C_DD1D))
     };
     // Climb to the peak with 70 % pushes, wander 4 × peak steps at 50 %, drain at 25 %.
-    let phases: [(u64, &dyn Fn(u32, u32) -> bool); 3] = [
-        (70, &|depth, _| depth >= peak),
-        (50, &|_, steps| steps >= 4 * peak),
-        (25, &|depth, _| depth == 0),
-    ];
+    let phases: [(u64, &dyn Fn(u32, u32) -> bool); 3] =
+        [(70, &|depth, _| depth >= peak), (50, &|_, steps| steps >= 4 * peak), (25, &|depth, _| depth == 0)];
     for (push_pct, done) in phases {
         let mut steps = 0;
         while !done(depth, steps) {

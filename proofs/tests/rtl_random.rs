@@ -10,46 +10,25 @@ use rtl::trace::NullSink;
 fn run(cfg: Config, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
     let mut unit = StackUnit::new(cfg, 40).unwrap();
     let work = warps(seed, warp_count, cfg.warp_size, 130);
-    let opts = CycleOpts {
-        max_gap: 6,
-        seed,
-        check_every_cycle,
-        max_cycles: 50_000_000,
-    };
-    run_cycle(&mut unit, work, opts, &mut NullSink)
-        .unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
+    let opts = CycleOpts { max_gap: 6, seed, check_every_cycle, max_cycles: 50_000_000 };
+    run_cycle(&mut unit, work, opts, &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
 }
 
 #[test]
 fn every_paper_configuration_matches_the_reference() {
     for cfg in Config::paper_set() {
         let s = run(cfg, 7, 8, false);
-        assert!(
-            s.pops_checked > 50_000,
-            "{}: {} pops",
-            cfg.name(),
-            s.pops_checked
-        );
+        assert!(s.pops_checked > 50_000, "{}: {} pops", cfg.name(), s.pops_checked);
         let st = s.stats.stack;
         match cfg.rb.capacity() {
-            None => assert_eq!(
-                st.global_accesses() + st.sh_loads() + st.sh_stores(),
-                0,
-                "FULL never spills"
-            ),
-            Some(_) => assert!(
-                st.global_accesses() > 0,
-                "{}: depth 130 must reach global memory",
-                cfg.name()
-            ),
+            None => assert_eq!(st.global_accesses() + st.sh_loads() + st.sh_stores(), 0, "FULL never spills"),
+            Some(_) => {
+                assert!(st.global_accesses() > 0, "{}: depth 130 must reach global memory", cfg.name())
+            }
         }
         if cfg.realloc.is_some() {
             assert!(st.borrows > 0 && st.releases > 0, "{}: {st:?}", cfg.name());
-            assert!(
-                st.flushes > 0 && st.global_to_sh > 0,
-                "{}: {st:?}",
-                cfg.name()
-            );
+            assert!(st.flushes > 0 && st.global_to_sh > 0, "{}: {st:?}", cfg.name());
             assert!(st.demotions > 0, "{}: {st:?}", cfg.name());
         }
     }
@@ -57,16 +36,8 @@ fn every_paper_configuration_matches_the_reference() {
 
 #[test]
 fn every_cycle_checks_hold_on_the_full_sms() {
-    for cfg in [
-        Config::sms(),
-        "RB_2+SH_8+SK+RA".parse().unwrap(),
-        "RB_8+SH_4".parse().unwrap(),
-    ] {
+    for cfg in [Config::sms(), "RB_2+SH_8+SK+RA".parse().unwrap(), "RB_8+SH_4".parse().unwrap()] {
         let s = run(cfg, 11, 4, true);
-        assert!(
-            s.stats.stack.flushes_saturated > 0
-                || cfg.realloc.is_none()
-                || s.stats.stack.flushes > 0
-        );
+        assert!(s.stats.stack.flushes_saturated > 0 || cfg.realloc.is_none() || s.stats.stack.flushes > 0);
     }
 }

@@ -59,10 +59,7 @@ pub struct BankArbiter {
 
 impl BankArbiter {
     pub fn new(banks: u32) -> Self {
-        BankArbiter {
-            banks,
-            ..Default::default()
-        }
+        BankArbiter { banks, ..Default::default() }
     }
 
     /// Threads whose request completed in the previous cycle.
@@ -115,8 +112,7 @@ impl BankArbiter {
         self.conflict_word_waits += waits;
         self.grant_mask = grant_mask;
         self.conflict_mask = conflict_mask;
-        self.pending
-            .extend(new.iter().map(|&req| Pending { req, served: 0 }));
+        self.pending.extend(new.iter().map(|&req| Pending { req, served: 0 }));
     }
 }
 
@@ -141,12 +137,7 @@ mod tests {
     fn req(thread: u32, words: &[u32]) -> ShReq {
         let mut w = [0; MAX_WORDS];
         w[..words.len()].copy_from_slice(words);
-        ShReq {
-            thread,
-            write: false,
-            words: w,
-            len: words.len() as u8,
-        }
+        ShReq { thread, write: false, words: w, len: words.len() as u8 }
     }
 
     #[test]

@@ -47,10 +47,7 @@ pub struct Realloc {
 
 impl Default for Realloc {
     fn default() -> Self {
-        Realloc {
-            borrow_limit: 4,
-            flush_limit: 3,
-        }
+        Realloc { borrow_limit: 4, flush_limit: 3 }
     }
 }
 
@@ -108,26 +105,14 @@ pub struct ConfigError {
 
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "invalid configuration: {} = {}: {}",
-            self.parameter, self.value, self.reason
-        )
+        write!(f, "invalid configuration: {} = {}: {}", self.parameter, self.value, self.reason)
     }
 }
 
 impl std::error::Error for ConfigError {}
 
-fn reject(
-    parameter: &'static str,
-    value: impl fmt::Display,
-    reason: impl Into<String>,
-) -> ConfigError {
-    ConfigError {
-        parameter,
-        value: value.to_string(),
-        reason: reason.into(),
-    }
+fn reject(parameter: &'static str, value: impl fmt::Display, reason: impl Into<String>) -> ConfigError {
+    ConfigError { parameter, value: value.to_string(), reason: reason.into() }
 }
 
 /// RB count width the model uses for RB = FULL.
@@ -145,12 +130,7 @@ pub const fn bits_for(max: u64) -> u32 {
 impl Config {
     /// The paper's proposed SMS: RB_8 + SH_8 + SK + RA.
     pub fn sms() -> Self {
-        Config {
-            sh_entries: 8,
-            skew: true,
-            realloc: Some(Realloc::default()),
-            ..Config::default()
-        }
+        Config { sh_entries: 8, skew: true, realloc: Some(Realloc::default()), ..Config::default() }
     }
 
     /// The stack configurations of SPEC section 8: RB_N for N in {2, 4, 8, 16, 32, FULL};
@@ -172,10 +152,7 @@ impl Config {
             "RB_4+SH_8+SK+RA",
             "RB_16+SH_8+SK+RA",
         ];
-        names
-            .iter()
-            .map(|n| n.parse().expect("paper configurations are valid"))
-            .collect()
+        names.iter().map(|n| n.parse().expect("paper configurations are valid")).collect()
     }
 
     /// Threads per RT unit.
@@ -192,35 +169,19 @@ impl Config {
         }
         let m = self.sh_entries;
         if m > 32 || (m != 0 && !m.is_power_of_two()) {
-            return Err(reject(
-                "sh",
-                m,
-                "SH entries per thread must be 0 or a power of two up to 32",
-            ));
+            return Err(reject("sh", m, "SH entries per thread must be 0 or a power of two up to 32"));
         }
         if self.warp_size == 0 || self.warp_size > 32 || !self.warp_size.is_power_of_two() {
-            return Err(reject(
-                "warp_size",
-                self.warp_size,
-                "must be a power of two from 1 to 32",
-            ));
+            return Err(reject("warp_size", self.warp_size, "must be a power of two from 1 to 32"));
         }
         if !(1..=64).contains(&self.warps) {
             return Err(reject("warps", self.warps, "must be 1 to 64"));
         }
         if self.banks == 0 || !self.banks.is_power_of_two() || self.banks > 64 {
-            return Err(reject(
-                "banks",
-                self.banks,
-                "must be a power of two from 1 to 64",
-            ));
+            return Err(reject("banks", self.banks, "must be a power of two from 1 to 64"));
         }
         if self.bank_bytes == 0 || !self.bank_bytes.is_power_of_two() || self.bank_bytes > 8 {
-            return Err(reject(
-                "bank_bytes",
-                self.bank_bytes,
-                "must be 1, 2, 4 or 8",
-            ));
+            return Err(reject("bank_bytes", self.bank_bytes, "must be 1, 2, 4 or 8"));
         }
         if self.entry_bytes == 0
             || self.entry_bytes > 8
@@ -234,11 +195,7 @@ impl Config {
             ));
         }
         if !(4..=32).contains(&self.spill_ptr_bits) {
-            return Err(reject(
-                "spill_ptr_bits",
-                self.spill_ptr_bits,
-                "must be 4 to 32",
-            ));
+            return Err(reject("spill_ptr_bits", self.spill_ptr_bits, "must be 4 to 32"));
         }
         if let Some(ra) = self.realloc {
             if m == 0 {
@@ -259,10 +216,7 @@ impl Config {
                 return Err(reject(
                     "borrow_limit",
                     ra.borrow_limit,
-                    format!(
-                        "must be 1 to warp_size - 1 = {}",
-                        self.warp_size.saturating_sub(1)
-                    ),
+                    format!("must be 1 to warp_size - 1 = {}", self.warp_size.saturating_sub(1)),
                 ));
             }
             if !(1..=15).contains(&ra.flush_limit) {
@@ -277,11 +231,7 @@ impl Config {
             ));
         }
         if self.rb == RbSize::Full && m != 0 {
-            return Err(reject(
-                "sh",
-                m,
-                "with RB = FULL nothing spills to SH; use sh = 0",
-            ));
+            return Err(reject("sh", m, "with RB = FULL nothing spills to SH; use sh = 0"));
         }
         Ok(())
     }
@@ -342,15 +292,10 @@ impl FromStr for Config {
                 cfg.rb = if n == "FULL" {
                     RbSize::Full
                 } else {
-                    RbSize::Entries(
-                        n.parse()
-                            .map_err(|_| reject("rb", n, "expected a number or FULL"))?,
-                    )
+                    RbSize::Entries(n.parse().map_err(|_| reject("rb", n, "expected a number or FULL"))?)
                 };
             } else if let Some(m) = part.strip_prefix("SH_") {
-                cfg.sh_entries = m
-                    .parse()
-                    .map_err(|_| reject("sh", m, "expected a number"))?;
+                cfg.sh_entries = m.parse().map_err(|_| reject("sh", m, "expected a number"))?;
             } else if part == "SK" {
                 cfg.skew = true;
             } else if part == "RA" {
@@ -364,11 +309,7 @@ impl FromStr for Config {
             }
         }
         if !saw_rb {
-            return Err(reject(
-                "config",
-                s,
-                "a configuration name must start with RB_N or RB_FULL",
-            ));
+            return Err(reject("config", s, "a configuration name must start with RB_N or RB_FULL"));
         }
         cfg.validate()?;
         Ok(cfg)
@@ -413,10 +354,7 @@ impl Widths {
         let ra = c.realloc;
         Widths {
             entry: c.entry_bytes * 8,
-            rb_count: c
-                .rb
-                .capacity()
-                .map_or(RB_FULL_COUNT_BITS, |n| bits_for(n as u64)),
+            rb_count: c.rb.capacity().map_or(RB_FULL_COUNT_BITS, |n| bits_for(n as u64)),
             top: log2m,
             bottom: log2m,
             sh_empty: u32::from(m > 0),
@@ -447,14 +385,7 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        for name in [
-            "RB_8",
-            "RB_FULL",
-            "RB_8+SH_8",
-            "RB_8+SH_8+SK",
-            "RB_8+SH_8+SK+RA",
-            "RB_2+SH_8+SK+RA",
-        ] {
+        for name in ["RB_8", "RB_FULL", "RB_8+SH_8", "RB_8+SH_8+SK", "RB_8+SH_8+SK+RA", "RB_2+SH_8+SK+RA"] {
             let c: Config = name.parse().unwrap();
             assert_eq!(c.name(), name);
         }
@@ -479,36 +410,18 @@ mod tests {
         }
         let e = "SH_8".parse::<Config>().unwrap_err();
         assert_eq!(e.parameter, "config");
-        let bad = Config {
-            warp_size: 12,
-            ..Config::default()
-        };
+        let bad = Config { warp_size: 12, ..Config::default() };
         assert_eq!(bad.validate().unwrap_err().parameter, "warp_size");
-        let bad = Config {
-            realloc: Some(Realloc {
-                borrow_limit: 0,
-                flush_limit: 3,
-            }),
-            ..Config::sms()
-        };
+        let bad = Config { realloc: Some(Realloc { borrow_limit: 0, flush_limit: 3 }), ..Config::sms() };
         assert_eq!(bad.validate().unwrap_err().parameter, "borrow_limit");
     }
 
     #[test]
     fn skew_matches_the_spec_example() {
-        let c = Config {
-            skew: true,
-            ..Config::sms()
-        };
+        let c = Config { skew: true, ..Config::sms() };
         // M = 8, k = 2: threads 0 and 16 start at entry 0, 2 and 18 at entry 1, 3 and 19 at 1.
-        assert_eq!(
-            [0, 16, 2, 18, 1, 17, 3, 19].map(|t| c.skew_base(t)),
-            [0, 0, 1, 1, 0, 0, 1, 1]
-        );
-        let m32 = Config {
-            sh_entries: 32,
-            ..c
-        };
+        assert_eq!([0, 16, 2, 18, 1, 17, 3, 19].map(|t| c.skew_base(t)), [0, 0, 1, 1, 0, 0, 1, 1]);
+        let m32 = Config { sh_entries: 32, ..c };
         assert_eq!(m32.skew_base(5), 5, "2M > 32: k = 1");
         let no_skew = Config { skew: false, ..c };
         assert_eq!(no_skew.skew_base(5), 0);

@@ -59,11 +59,7 @@ impl MemSched {
     /// Returns the request sent to the port.
     pub fn step(&mut self, new: &[GReq], port_ready: bool, completions: &[u32]) -> Option<GReq> {
         self.delivered = self.fifo.pop_front();
-        self.issued = if port_ready {
-            self.queue.pop_front()
-        } else {
-            None
-        };
+        self.issued = if port_ready { self.queue.pop_front() } else { None };
         self.fifo.extend(completions.iter().copied());
         self.queue.extend(new.iter().copied());
         self.max_queue = self.max_queue.max(self.queue.len());
@@ -78,11 +74,7 @@ impl Probe for MemSched {
         }
         s.push_scope("mem_sched");
         s.signal("req_valid", 1, u64::from(self.issued.is_some()));
-        s.signal(
-            "req_write",
-            1,
-            self.issued.map_or(0, |r| u64::from(r.write)),
-        );
+        s.signal("req_write", 1, self.issued.map_or(0, |r| u64::from(r.write)));
         s.signal("req_addr", 64, self.issued.map_or(0, |r| r.addr));
         s.signal("req_thread", 16, self.issued.map_or(0, |r| r.thread as u64));
         s.signal("queue", 16, self.queue.len() as u64);
@@ -108,10 +100,7 @@ pub struct FixedLatencyMem {
 
 impl FixedLatencyMem {
     pub fn new(latency: u64) -> Self {
-        FixedLatencyMem {
-            latency: latency.max(1),
-            ..Default::default()
-        }
+        FixedLatencyMem { latency: latency.max(1), ..Default::default() }
     }
 
     /// Loads that completed in the previous cycle.
@@ -138,8 +127,7 @@ impl FixedLatencyMem {
             self.inflight.pop_front();
         }
         if let Some(r) = req.filter(|r| !r.write) {
-            self.inflight
-                .push_back((self.cycle + self.latency, r.thread));
+            self.inflight.push_back((self.cycle + self.latency, r.thread));
         }
         self.cycle += 1;
     }
@@ -158,11 +146,7 @@ mod tests {
     fn load_round_trip_takes_latency_plus_fifo() {
         let mut s = MemSched::new();
         let mut m = FixedLatencyMem::new(10);
-        let load = GReq {
-            thread: 3,
-            write: false,
-            addr: 0,
-        };
+        let load = GReq { thread: 3, write: false, addr: 0 };
         let mut arrived = None;
         for cycle in 0..20 {
             let new = if cycle == 0 { vec![load] } else { vec![] };
@@ -180,18 +164,7 @@ mod tests {
     #[test]
     fn one_request_per_cycle_and_stores_need_no_response() {
         let mut s = MemSched::new();
-        let reqs = [
-            GReq {
-                thread: 0,
-                write: true,
-                addr: 0,
-            },
-            GReq {
-                thread: 1,
-                write: false,
-                addr: 8,
-            },
-        ];
+        let reqs = [GReq { thread: 0, write: true, addr: 0 }, GReq { thread: 1, write: false, addr: 8 }];
         assert_eq!(s.step(&reqs, true, &[]), None);
         assert_eq!(s.step(&[], true, &[]), Some(reqs[0]));
         assert_eq!(s.step(&[], false, &[]), None, "port not ready");

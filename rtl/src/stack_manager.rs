@@ -126,7 +126,7 @@ pub enum Uop {
 
 /// Commands the stack manager refuses. Each is a bug in whoever sent the command, or (spill
 /// region) a traversal deeper than the configured region.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum StackError {
     PopEmpty { thread: u32 },
     FinishNonEmpty { thread: u32 },
@@ -149,13 +149,28 @@ impl std::fmt::Display for StackError {
                 write!(f, "thread {thread}: command after finish")
             }
             StackError::SpillRegionFull { thread, entries } => {
-                write!(f, "thread {thread}: global spill region full ({entries} entries); raise spill_ptr_bits")
+                write!(
+                    f,
+                    "thread {thread}: global spill region full ({entries} entries); raise spill_ptr_bits"
+                )
             }
         }
     }
 }
 
 impl std::error::Error for StackError {}
+
+impl StackError {
+    pub fn thread(&self) -> u32 {
+        match *self {
+            StackError::PopEmpty { thread }
+            | StackError::FinishNonEmpty { thread }
+            | StackError::Busy { thread }
+            | StackError::AfterFinish { thread }
+            | StackError::SpillRegionFull { thread, .. } => thread,
+        }
+    }
+}
 
 /// Event counters. Transfers are counted when planned, so both executors count alike.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -254,6 +269,7 @@ pub struct StackManager {
     sh_out: Vec<ShReq>,
     g_out: Vec<GReq>,
     pops_out: Vec<(u32, Entry)>,
+    errors_out: Vec<StackError>,
     cmds_seen: Vec<(u32, Cmd)>,
     pub stats: StackStats,
     #[cfg(feature = "mutants")]
@@ -277,6 +293,7 @@ impl StackManager {
             sh_out: Vec::new(),
             g_out: Vec::new(),
             pops_out: Vec::new(),
+            errors_out: Vec::new(),
             cmds_seen: Vec::new(),
             stats: StackStats::default(),
             #[cfg(feature = "mutants")]
@@ -336,8 +353,7 @@ impl StackManager {
     }
     /// Every thread of warp `w` finished and quiet: the warp may leave.
     pub fn warp_done(&self, w: u32) -> bool {
-        self.warp_threads(w)
-            .all(|t| self.threads[t as usize].done && self.ready(t))
+        self.warp_threads(w).all(|t| self.threads[t as usize].done && self.ready(t))
     }
     pub fn warp_threads(&self, w: u32) -> std::ops::Range<u32> {
         w * self.cfg.warp_size..(w + 1) * self.cfg.warp_size
@@ -356,6 +372,20 @@ impl StackManager {
         &self.pops_out
     }
 
+    /// Commands refused in the last `step` (the per-thread error signals).
+    pub fn errors(&self) -> &[StackError] {
+        &self.errors_out
+    }
+
+    /// What the last `step` answered to thread `t`'s command: the popped entry, nothing, or the
+    /// refusal.
+    pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
+        if let Some(e) = self.errors_out.iter().find(|e| e.thread() == t) {
+            return Err(*e);
+        }
+        Ok(self.pops_out.iter().find(|p| p.0 == t).map(|p| p.1))
+    }
+
     /// Byte address of a global spill slot.
     pub fn spill_addr(&self, t: u32, slot: u32) -> u64 {
         let region = (1u64 << self.cfg.spill_ptr_bits) * self.cfg.entry_bytes as u64;
@@ -371,11 +401,7 @@ impl StackManager {
             let t = (w * ws + lane) as usize;
             let base = self.cfg.skew_base(lane);
             let on = active & (1 << lane) != 0;
-            self.threads[t] = ThreadRegs {
-                overflow: false,
-                spill_ptr: 0,
-                done: !on,
-            };
+            self.threads[t] = ThreadRegs { overflow: false, spill_ptr: 0, done: !on };
             self.stacks[t] = StackRegs {
                 top: base,
                 bottom: base,
@@ -444,11 +470,7 @@ impl StackManager {
 
     fn push_bottom(&mut self, s: u32) -> u32 {
         let r = self.stacks[s as usize];
-        let bottom = if r.empty {
-            r.bottom
-        } else {
-            self.dec(r.bottom)
-        };
+        let bottom = if r.empty { r.bottom } else { self.dec(r.bottom) };
         let st = &mut self.stacks[s as usize];
         st.bottom = bottom;
         st.empty = false;
@@ -474,10 +496,7 @@ impl StackManager {
     }
 
     fn members(&self, t: u32) -> Chain {
-        let mut c = Chain {
-            ids: [0; 32],
-            len: 0,
-        };
+        let mut c = Chain { ids: [0; 32], len: 0 };
         let base = self.warp_base(t);
         let mut s = t;
         loop {
@@ -546,10 +565,7 @@ impl StackManager {
     fn unlink(&mut self, t: u32, s: u32) {
         let base = self.warp_base(t);
         let c = self.members(t);
-        let pred = c
-            .iter()
-            .find(|&p| base + self.stacks[p as usize].next_tid == s)
-            .unwrap_or(t);
+        let pred = c.iter().find(|&p| base + self.stacks[p as usize].next_tid == s).unwrap_or(t);
         self.stacks[pred as usize].next_tid = self.stacks[s as usize].next_tid;
         let st = &mut self.stacks[s as usize];
         st.next_tid = s - base;
@@ -567,10 +583,7 @@ impl StackManager {
         let limit = (1u32 << self.cfg.spill_ptr_bits.min(31)) - 1;
         let th = &mut self.threads[t as usize];
         if th.spill_ptr + n > limit {
-            return Err(StackError::SpillRegionFull {
-                thread: t,
-                entries: limit,
-            });
+            return Err(StackError::SpillRegionFull { thread: t, entries: limit });
         }
         let slot = th.spill_ptr;
         th.spill_ptr += n;
@@ -582,13 +595,7 @@ impl StackManager {
     fn spill(&mut self, t: u32, v: Entry) -> Result<(), StackError> {
         if self.cfg.sh_entries == 0 {
             let slot = self.claim_spill_slots(t, 1)?;
-            self.emit(
-                t,
-                Uop::GlobalStore {
-                    slot,
-                    src: Src::Value(v),
-                },
-            );
+            self.emit(t, Uop::GlobalStore { slot, src: Src::Value(v) });
             self.stats.rb_to_global += 1;
             return Ok(());
         }
@@ -619,20 +626,8 @@ impl StackManager {
         // SPEC 3, push case 3: SH load (Bottom) → global store → SH store (Top + 1).
         let slot = self.claim_spill_slots(t, 1)?;
         let b = self.pop_bottom(top);
-        self.emit(
-            t,
-            Uop::ShLoad {
-                stack: top,
-                entry: b,
-            },
-        );
-        self.emit(
-            t,
-            Uop::GlobalStore {
-                slot,
-                src: Src::Latch,
-            },
-        );
+        self.emit(t, Uop::ShLoad { stack: top, entry: b });
+        self.emit(t, Uop::GlobalStore { slot, src: Src::Latch });
         self.stats.sh_to_global += 1;
         self.spill_into(t, top, v);
         Ok(())
@@ -641,14 +636,7 @@ impl StackManager {
     fn spill_into(&mut self, t: u32, s: u32, v: Entry) {
         let e = self.push_top(s);
         if !self.mutant(MutantTag::SpillDropsEntry) {
-            self.emit(
-                t,
-                Uop::ShStore {
-                    stack: s,
-                    entry: e,
-                    src: Src::Value(v),
-                },
-            );
+            self.emit(t, Uop::ShStore { stack: s, entry: e, src: Src::Value(v) });
         }
         self.stats.rb_to_sh += 1;
     }
@@ -661,13 +649,7 @@ impl StackManager {
         for i in 0..n {
             let e = self.pop_bottom(s);
             self.emit(t, Uop::ShLoad { stack: s, entry: e });
-            self.emit(
-                t,
-                Uop::GlobalStore {
-                    slot: first + i,
-                    src: Src::Latch,
-                },
-            );
+            self.emit(t, Uop::GlobalStore { slot: first + i, src: Src::Latch });
         }
         self.stats.sh_to_global += n as u64;
         self.stats.flushes += 1;
@@ -682,11 +664,7 @@ impl StackManager {
 
     fn plan_push(&mut self, t: u32, v: Entry) -> Result<(), StackError> {
         self.stats.pushes += 1;
-        let full = self
-            .cfg
-            .rb
-            .capacity()
-            .is_some_and(|n| self.rb[t as usize].len() as u32 >= n);
+        let full = self.cfg.rb.capacity().is_some_and(|n| self.rb[t as usize].len() as u32 >= n);
         if full {
             let oldest = self.rb[t as usize].pop_front().unwrap_or(POISON);
             if let Err(e) = self.spill(t, oldest) {
@@ -720,13 +698,7 @@ impl StackManager {
             } else {
                 self.pop_top(top)
             };
-            self.emit(
-                t,
-                Uop::ShLoad {
-                    stack: top,
-                    entry: e,
-                },
-            );
+            self.emit(t, Uop::ShLoad { stack: top, entry: e });
             self.emit(t, Uop::RbBottom);
             self.stats.sh_to_rb += 1;
             let drained = self.stacks[top as usize].empty
@@ -754,14 +726,7 @@ impl StackManager {
                 let slot = self.release_spill_slot(t);
                 let e = self.push_bottom(oldest);
                 self.emit(t, Uop::GlobalLoad { slot });
-                self.emit(
-                    t,
-                    Uop::ShStore {
-                        stack: oldest,
-                        entry: e,
-                        src: Src::Latch,
-                    },
-                );
+                self.emit(t, Uop::ShStore { stack: oldest, entry: e, src: Src::Latch });
                 self.stats.global_to_sh += 1;
             }
         }
@@ -842,10 +807,7 @@ impl StackManager {
                 self.sh_data[i] = v;
             }
             Uop::GlobalLoad { slot } => {
-                let v = self.global[t as usize]
-                    .get(slot as usize)
-                    .copied()
-                    .unwrap_or(POISON);
+                let v = self.global[t as usize].get(slot as usize).copied().unwrap_or(POISON);
                 self.seq[t as usize].latch = Some(v);
             }
             Uop::GlobalStore { slot, src } => {
@@ -876,12 +838,7 @@ impl StackManager {
         for (i, w) in words.iter_mut().take(wpe as usize).enumerate() {
             *w = first + i as u32;
         }
-        ShReq {
-            thread: t,
-            write,
-            words,
-            len: wpe as u8,
-        }
+        ShReq { thread: t, write, words, len: wpe as u8 }
     }
 
     /// Issues thread `t`'s next micro-op, if it has one and nothing is in flight.
@@ -903,26 +860,14 @@ impl StackManager {
                 let v = self.take_src(t, src);
                 let r = self.sh_request(t, stack, entry, true);
                 self.sh_out.push(r);
-                self.seq[t as usize].inflight = Some(Uop::ShStore {
-                    stack,
-                    entry,
-                    src: Src::Value(v),
-                });
+                self.seq[t as usize].inflight = Some(Uop::ShStore { stack, entry, src: Src::Value(v) });
             }
             Uop::GlobalLoad { slot } => {
-                self.g_out.push(GReq {
-                    thread: t,
-                    write: false,
-                    addr: self.spill_addr(t, slot),
-                });
+                self.g_out.push(GReq { thread: t, write: false, addr: self.spill_addr(t, slot) });
                 self.seq[t as usize].inflight = Some(u);
             }
             Uop::GlobalStore { slot, .. } => {
-                self.g_out.push(GReq {
-                    thread: t,
-                    write: true,
-                    addr: self.spill_addr(t, slot),
-                });
+                self.g_out.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
                 self.complete(t, u);
             }
             Uop::RbBottom | Uop::Release { .. } => self.complete(t, u),
@@ -933,16 +878,12 @@ impl StackManager {
     ///
     /// `sh_done` are the threads whose SH request the arbiter completed last cycle, `g_done` the
     /// thread whose load data the response FIFO delivered last cycle; `cmds` go to ready threads.
-    /// Afterwards `sh_requests`, `global_requests` and `pops` hold this cycle's outputs.
-    pub fn step(
-        &mut self,
-        cmds: &[(u32, Cmd)],
-        sh_done: &[u32],
-        g_done: Option<u32>,
-    ) -> Result<(), StackError> {
+    /// Afterwards `sh_requests`, `global_requests`, `pops` and `errors` hold this cycle's outputs.
+    pub fn step(&mut self, cmds: &[(u32, Cmd)], sh_done: &[u32], g_done: Option<u32>) {
         self.sh_out.clear();
         self.g_out.clear();
         self.pops_out.clear();
+        self.errors_out.clear();
         self.cmds_seen.clear();
         for &t in sh_done.iter().chain(g_done.iter()) {
             if let Some(u) = self.seq[t as usize].inflight.take() {
@@ -954,11 +895,12 @@ impl StackManager {
         }
         for &(t, cmd) in cmds {
             self.cmds_seen.push((t, cmd));
-            if let Some(v) = self.accept(t, cmd)? {
-                self.pops_out.push((t, v));
+            match self.accept(t, cmd) {
+                Ok(Some(v)) => self.pops_out.push((t, v)),
+                Ok(None) => {}
+                Err(e) => self.errors_out.push(e),
             }
         }
-        Ok(())
     }
 
     /// Threads with work in flight or queued.
@@ -1012,18 +954,11 @@ impl Probe for StackManager {
             for t in self.warp_threads(wp) {
                 let lane = t % self.cfg.warp_size;
                 s.push_scope(&format!("thread[{lane}]"));
-                let cmd = self
-                    .cmds_seen
-                    .iter()
-                    .find(|c| c.0 == t)
-                    .map_or(Cmd::None, |c| c.1);
+                let cmd = self.cmds_seen.iter().find(|c| c.0 == t).map_or(Cmd::None, |c| c.1);
                 let (kind, data) = match cmd {
                     Cmd::None => (0, 0),
                     Cmd::Push(v) => (1, v),
-                    Cmd::Pop => (
-                        2,
-                        self.pops_out.iter().find(|p| p.0 == t).map_or(0, |p| p.1),
-                    ),
+                    Cmd::Pop => (2, self.pops_out.iter().find(|p| p.0 == t).map_or(0, |p| p.1)),
                     Cmd::Finish => (3, 0),
                 };
                 s.signal("cmd_valid", 1, u64::from(kind != 0));
@@ -1032,11 +967,7 @@ impl Probe for StackManager {
                 let th = &self.threads[t as usize];
                 let st = &self.stacks[t as usize];
                 s.signal("rb_count", w.rb_count, self.rb[t as usize].len() as u64);
-                s.signal(
-                    "rb_top",
-                    w.entry,
-                    self.rb[t as usize].back().copied().unwrap_or(0),
-                );
+                s.signal("rb_top", w.entry, self.rb[t as usize].back().copied().unwrap_or(0));
                 if w.top > 0 {
                     s.signal("top", w.top, st.top as u64);
                     s.signal("bottom", w.bottom, st.bottom as u64);

@@ -15,7 +15,7 @@
 use crate::bank_arbiter::BankArbiter;
 use crate::config::{Config, ConfigError};
 use crate::mem_sched::{FixedLatencyMem, MemSched};
-use crate::stack_manager::{Cmd, StackError, StackManager, StackStats};
+use crate::stack_manager::{Cmd, StackManager, StackStats};
 use crate::trace::{Probe, Sink};
 
 /// Default global-memory latency of the standalone stack unit, in cycles.
@@ -50,17 +50,13 @@ impl StackUnit {
         })
     }
 
-    /// One clock cycle.
-    pub fn step(&mut self, cmds: &[(u32, Cmd)]) -> Result<(), StackError> {
-        self.sm
-            .step(cmds, self.arb.done(), self.sched.delivered())?;
+    /// One clock cycle. The answers to `cmds` are in `self.sm.answer(t)`.
+    pub fn step(&mut self, cmds: &[(u32, Cmd)]) {
+        self.sm.step(cmds, self.arb.done(), self.sched.delivered());
         self.arb.step(self.sm.sh_requests());
-        let port = self
-            .sched
-            .step(self.sm.global_requests(), true, self.mem.completions());
+        let port = self.sched.step(self.sm.global_requests(), true, self.mem.completions());
         self.mem.step(port);
         self.cycle += 1;
-        Ok(())
     }
 
     /// Nothing in flight anywhere: stepping without commands changes nothing but time.
