@@ -10,7 +10,7 @@ use rtl::trace::NullSink;
 fn run(cfg: Config, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
     let mut unit = StackUnit::new(cfg, 40).unwrap();
     let work = warps(seed, warp_count, cfg.warp_size, 130);
-    let opts = CycleOpts { max_gap: 6, seed, check_every_cycle, max_cycles: 50_000_000 };
+    let opts = CycleOpts { max_gap: 6, seed, check_every_cycle, max_cycles: 50_000_000, lockstep: false };
     run_cycle(&mut unit, work, opts, &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
 }
 
