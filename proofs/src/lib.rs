@@ -4,6 +4,7 @@
 //! runs three ways: randomly under `cargo test`, exhaustively over small bounds
 //! ([`exhaustive`]), and as Kani proofs where Kani is installed.
 
+pub mod exhaustive;
 pub mod harness;
 pub mod invariants;
 pub mod reference;

@@ -822,6 +822,30 @@ impl StackManager {
         }
     }
 
+    /// Completes thread `t`'s next micro-op at once (for exploring every interleaving of
+    /// micro-ops across threads). Returns false if it had none.
+    pub fn complete_next(&mut self, t: u32) -> bool {
+        match self.seq[t as usize].uops.pop_front() {
+            Some(u) => {
+                self.complete(t, u);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Hashes the architectural state: every register, queue, sequencer and memory word, but not
+    /// the event counters or last cycle's outputs, so equal states hash equal.
+    pub fn hash_state<H: std::hash::Hasher>(&self, h: &mut H) {
+        use std::hash::Hash;
+        self.threads.hash(h);
+        self.stacks.hash(h);
+        self.rb.hash(h);
+        self.seq.hash(h);
+        self.sh_data.hash(h);
+        self.global.hash(h);
+    }
+
     /// Functional level: accept the command and complete its whole program at once.
     pub fn apply(&mut self, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
         let r = self.accept(t, cmd)?;

@@ -1,0 +1,92 @@
+//! Exhaustive checks of the small configurations, and every mutant caught by them.
+
+use proofs::exhaustive::{check, describe, small_configs, Bounds, Coverage};
+use proofs::invariants::Property;
+use rtl::config::{Config, RbSize, Realloc};
+use rtl::stack_manager::Mutant;
+
+/// Depth per configuration: 2-thread warps go deeper (reloads from global need long
+/// sequences), 4-thread warps cover more interleavings at a smaller depth.
+fn bounds(c: &Config) -> Bounds {
+    let depth = if c.warp_size == 2 { 16 } else { 9 };
+    Bounds { depth, values: 2, max_states: 5_000_000 }
+}
+
+fn run(c: Config) -> Coverage {
+    let cov = check(c, bounds(&c), |sm| sm).unwrap_or_else(|e| panic!("{}: {e}", describe(&c)));
+    println!(
+        "{:42} depth {:2} states {:8} sequences {:>16} in {:>6.2?}  borrows {} flushes {} reloads {} releases {}",
+        describe(&c),
+        cov.depth_reached,
+        cov.states,
+        cov.sequences,
+        cov.elapsed,
+        cov.borrows,
+        cov.flushes,
+        cov.global_reloads,
+        cov.releases
+    );
+    assert!(cov.complete, "{}: state cap hit", describe(&c));
+    cov
+}
+
+#[test]
+fn small_configurations_keep_every_property() {
+    for c in small_configs() {
+        let cov = run(c);
+        assert!(cov.warp_exits > 0, "{}: no warp exit reached", describe(&c));
+        if c.rb != RbSize::Full {
+            assert!(
+                cov.global_reloads > 0 || c.warp_size == 4,
+                "{}: no reload from global reached",
+                describe(&c)
+            );
+        }
+        if c.realloc.is_some() {
+            // The cover points: a borrow and a flush everywhere; a release (which needs the
+            // borrowed stack filled and drained again) within the 2-thread warps' deeper bound.
+            assert!(cov.borrows > 0 && cov.flushes > 0, "{}: {cov:?}", describe(&c));
+            assert!(cov.releases > 0 || c.warp_size == 4, "{}: {cov:?}", describe(&c));
+        }
+    }
+}
+
+fn mutant_caught(c: Config, m: Mutant) -> Property {
+    match check(c, bounds(&c), |sm| sm.with_mutant(Some(m))) {
+        Err(cex) => {
+            println!(
+                "{m:?} on {}: caught by {:?} after {} actions\n{cex}",
+                describe(&c),
+                cex.violation.property,
+                cex.trace.len()
+            );
+            cex.violation.property
+        }
+        Ok(cov) => panic!("{m:?} on {} survived {} states", describe(&c), cov.states),
+    }
+}
+
+#[test]
+fn every_mutant_is_caught() {
+    let ra = |n, m| Config {
+        rb: RbSize::Entries(n),
+        sh_entries: m,
+        realloc: Some(Realloc { borrow_limit: 1, flush_limit: 1 }),
+        warp_size: 2,
+        warps: 1,
+        ..Config::default()
+    };
+    let plain = |n, m| Config { realloc: None, ..ra(n, m) };
+    let cases = [
+        (plain(1, 2), Mutant::QueueWrapOffByOne, Property::Conservation),
+        (plain(1, 2), Mutant::ReloadWrongEntry, Property::Conservation),
+        (plain(1, 1), Mutant::SpillDropsEntry, Property::Conservation),
+        (plain(1, 1), Mutant::MissingGlobalReload, Property::Equivalence),
+        (ra(1, 2), Mutant::EarlyRelease, Property::Conservation),
+        (plain(1, 1), Mutant::SkipOverflowClear, Property::Overflow),
+        (ra(1, 1), Mutant::FlushKeepsCount, Property::Flush),
+    ];
+    for (c, m, expected) in cases {
+        assert_eq!(mutant_caught(c, m), expected, "{m:?}");
+    }
+}
