@@ -13,4 +13,5 @@
 //! No I/O lives in this crate.
 
 pub mod config;
+pub mod mem;
 pub mod trace;
