@@ -104,8 +104,8 @@ pub struct TagStore {
     geom: Geometry,
     /// `sets × ways` slots, set-major.
     slots: Vec<Option<Way>>,
-    /// Line number → slot, for lookup only (never iterated).
-    index: BTreeMap<u64, usize>,
+    /// Per set: line number → way, for lookup only (never iterated).
+    index: Vec<BTreeMap<u64, u32>>,
     /// Per set: stamp → way, least recently used first.
     lru: Vec<BTreeMap<u64, u32>>,
     /// Per set: empty ways, lowest popped first.
@@ -119,7 +119,7 @@ impl TagStore {
         TagStore {
             geom,
             slots: vec![None; sets * geom.ways as usize],
-            index: BTreeMap::new(),
+            index: vec![BTreeMap::new(); sets],
             lru: vec![BTreeMap::new(); sets],
             free: vec![(0..geom.ways).rev().collect(); sets],
             clock: 0,
@@ -132,13 +132,13 @@ impl TagStore {
 
     /// Lines currently held.
     pub fn lines_held(&self) -> usize {
-        self.index.len()
+        self.index.iter().map(BTreeMap::len).sum()
     }
 
     pub fn lookup(&self, addr: u64) -> Lookup {
-        match self.index.get(&self.geom.line_of(addr)) {
+        match self.find(addr) {
             None => Lookup::LineMiss,
-            Some(&slot) => {
+            Some(slot) => {
                 let way = self.slots[slot]
                     .as_ref()
                     .expect("indexed slot holds a line");
@@ -153,7 +153,7 @@ impl TagStore {
 
     /// The line a fill of `addr` would evict now: none if its line is present or a way is free.
     pub fn victim(&self, addr: u64) -> Option<Victim> {
-        if self.index.contains_key(&self.geom.line_of(addr)) {
+        if self.find(addr).is_some() {
             return None;
         }
         let set = self.geom.set_of(addr);
@@ -174,7 +174,7 @@ impl TagStore {
 
     /// Makes the line of `addr` most recently used; no effect if absent.
     pub fn touch(&mut self, addr: u64) {
-        if let Some(&slot) = self.index.get(&self.geom.line_of(addr)) {
+        if let Some(slot) = self.find(addr) {
             self.make_mru(slot);
         }
     }
@@ -185,17 +185,17 @@ impl TagStore {
     pub fn fill(&mut self, addr: u64, dirty: Option<ReqKind>) -> Option<Victim> {
         let line = self.geom.line_of(addr);
         let victim = self.victim(addr);
-        let slot = match self.index.get(&line) {
-            Some(&slot) => slot,
+        let set = self.geom.set_of(addr);
+        let slot = match self.find(addr) {
+            Some(slot) => slot,
             None => {
-                let set = self.geom.set_of(addr);
                 let way = match self.free[set].pop() {
                     Some(way) => way,
                     None => {
                         let (_, way) = self.lru[set].pop_first().expect("full set has an LRU way");
                         let slot = self.slot(set, way);
                         let old = self.slots[slot].take().expect("LRU way");
-                        self.index.remove(&old.line);
+                        self.index[set].remove(&old.line);
                         way
                     }
                 };
@@ -207,7 +207,7 @@ impl TagStore {
                     dirty_kind: ReqKind::NodeFetch,
                     stamp: 0,
                 });
-                self.index.insert(line, slot);
+                self.index[set].insert(line, way);
                 slot
             }
         };
@@ -220,6 +220,14 @@ impl TagStore {
         }
         self.make_mru(slot);
         victim
+    }
+
+    /// Slot holding the line of `addr`, if present.
+    fn find(&self, addr: u64) -> Option<usize> {
+        let set = self.geom.set_of(addr);
+        self.index[set]
+            .get(&self.geom.line_of(addr))
+            .map(|&way| self.slot(set, way))
     }
 
     fn slot(&self, set: usize, way: u32) -> usize {

@@ -195,9 +195,16 @@ mod tests {
     }
 
     /// Offers each SM's requests in order, each no earlier than its cycle, until all are answered.
-    fn drive(sys: &mut MemSystem, mut traffic: Vec<VecDeque<(u64, MemReq)>>, skip: Skip) -> Log {
+    /// Returns the responses and the number of cycles evaluated.
+    fn drive(
+        sys: &mut MemSystem,
+        mut traffic: Vec<VecDeque<(u64, MemReq)>>,
+        skip: Skip,
+    ) -> (Log, u64) {
         let mut log = Log::new();
+        let mut evals = 0;
         loop {
+            evals += 1;
             let c = sys.cycle();
             let offers: Vec<Option<MemReq>> = traffic
                 .iter()
@@ -214,7 +221,7 @@ mod tests {
             let arrival = traffic.iter().filter_map(|q| q.front().map(|x| x.0)).min();
             let event = sys.next_event_cycle();
             if arrival.is_none() && event.is_none() {
-                return log;
+                return (log, evals);
             }
             let now = sys.cycle();
             let target = arrival.into_iter().chain(event).min().unwrap().max(now);
@@ -296,7 +303,7 @@ mod tests {
         };
         let mut latency = |sm, req| {
             let start = sys.cycle();
-            let log = drive(&mut sys, one(sm, req), Skip::ToNextEvent);
+            let (log, _) = drive(&mut sys, one(sm, req), Skip::ToNextEvent);
             assert_eq!(log.len(), 1);
             assert_eq!(log[0].2, req.response());
             log[0].0 - start
@@ -325,7 +332,7 @@ mod tests {
         let mut sys = MemSystem::new(p).unwrap();
         let mut t: Vec<VecDeque<(u64, MemReq)>> = vec![VecDeque::new(); 8];
         t[0].push_back((0, MemReq::read(1, 0, 8, ReqKind::NodeFetch)));
-        let log = drive(&mut sys, t, Skip::Never);
+        let (log, _) = drive(&mut sys, t, Skip::Never);
         // A 32-byte sector at 8 B/cycle holds the bus 4 cycles: 3 more than one.
         assert_eq!(log[0].0, 263);
     }
@@ -340,7 +347,7 @@ mod tests {
             .enumerate()
             .flat_map(|(sm, q)| q.iter().map(move |x| (sm, x.1)))
             .collect();
-        let log = drive(&mut sys, t, Skip::Never);
+        let (log, _) = drive(&mut sys, t, Skip::Never);
         let mut got: Vec<(usize, MemResp)> = log.iter().map(|x| (x.1, x.2)).collect();
         let mut want: Vec<(usize, MemResp)> =
             all.iter().map(|(sm, r)| (*sm, r.response())).collect();
@@ -399,7 +406,11 @@ mod tests {
     #[test]
     fn skipping_idle_cycles_matches_stepping() {
         for seed in [3, 4] {
-            let t = traffic(seed, 4, 200);
+            // Sparse enough to leave the SMs waiting on memory, dense enough to queue at times.
+            let t: Vec<VecDeque<(u64, MemReq)>> = traffic(seed, 4, 200)
+                .into_iter()
+                .map(|q| q.into_iter().map(|(t, r)| (t * 20, r)).collect())
+                .collect();
             let stepped = drive(
                 &mut MemSystem::new(small()).unwrap(),
                 t.clone(),
@@ -410,13 +421,19 @@ mod tests {
                 t.clone(),
                 Skip::ToNextEvent,
             );
-            assert_eq!(stepped, skipped, "seed {seed}");
+            assert_eq!(stepped.0, skipped.0, "seed {seed}");
+            assert!(
+                skipped.1 * 2 < stepped.1,
+                "idle cycles were skipped: {} of {}",
+                skipped.1,
+                stepped.1
+            );
             let planted = drive(
                 &mut MemSystem::new(small()).unwrap(),
                 t,
                 Skip::PastNextEvent,
             );
-            assert_ne!(stepped, planted, "skipping past an event must show");
+            assert_ne!(stepped.0, planted.0, "skipping past an event must show");
         }
     }
 
@@ -455,7 +472,7 @@ mod tests {
             let want = r.lookup(addr);
             let hits = sys.l1d(0).counters().hits;
             let start = sys.cycle();
-            let log = drive(
+            let (log, _) = drive(
                 &mut sys,
                 vec![VecDeque::from([(start, req)])],
                 Skip::ToNextEvent,

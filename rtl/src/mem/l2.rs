@@ -145,6 +145,10 @@ impl L2 {
             fills: fills.to_vec(),
             ..Step::default()
         };
+        let bank_of: Vec<Option<usize>> = reqs
+            .iter()
+            .map(|r| r.map(|r| self.bank_of(r.addr)))
+            .collect();
         for (b, bank) in self.banks.iter().enumerate() {
             if bank.len() >= self.params.l2_bank_queue as usize {
                 continue;
@@ -152,7 +156,7 @@ impl L2 {
             let first = self.rr[b] as usize;
             let pick = (0..sms)
                 .map(|k| (first + k) % sms)
-                .find(|&sm| reqs[sm].is_some_and(|r| self.bank_of(r.addr) == b));
+                .find(|&sm| bank_of[sm] == Some(b));
             if let Some(sm) = pick {
                 step.granted[sm] = true;
                 step.accepted
