@@ -331,17 +331,18 @@ mod tests {
         }
     }
 
-    /// Drives the tag store and the reference with one random stream of reads (hit: touch, miss:
-    /// fill) and clean stores (fill dirty); returns the first disagreement.
-    fn compare(g: Geometry, seed: u64, steps: usize, fifo_ref: bool) -> Result<(), String> {
+    /// Drives the tag store and the reference with one address stream (hit: touch; miss: fill,
+    /// as a read-allocate cache does) and returns the first disagreement in lookup result or
+    /// evicted line.
+    fn compare(
+        g: Geometry,
+        addrs: impl IntoIterator<Item = u64>,
+        fifo_ref: bool,
+    ) -> Result<(), String> {
         let mut dut = TagStore::new(g);
         let mut r = RefLru::new(g);
         r.fifo = fifo_ref;
-        let mut rng = XorShift(seed);
-        // Three times the capacity, so there are hits, sector misses and evictions.
-        let span = u64::from(g.lines() * g.line_bytes) * 3;
-        for step in 0..steps {
-            let addr = rng.below(span);
+        for (step, addr) in addrs.into_iter().enumerate() {
             let got = dut.lookup(addr);
             let want = r.lookup(addr);
             if got != want {
@@ -364,28 +365,51 @@ mod tests {
         Ok(())
     }
 
+    /// Random addresses over three times the capacity: hits, sector misses and evictions.
+    fn random(g: Geometry, seed: u64, steps: usize) -> impl Iterator<Item = u64> {
+        let mut rng = XorShift(seed);
+        let span = u64::from(g.lines() * g.line_bytes) * 3;
+        (0..steps).map(move |_| rng.below(span))
+    }
+
+    #[test]
+    fn lru_matches_reference_exhaustively_on_small_bounds() {
+        // Every sequence of 6 accesses over 3 lines × 2 sectors, into 2 ways: 6^6 streams.
+        let g = geom(1, 2);
+        let addrs: Vec<u64> = (0..3).flat_map(|l| [l * 128, l * 128 + 32]).collect();
+        let n = addrs.len();
+        let addrs = &addrs;
+        let stream = |code: usize| (0..6).map(move |i| addrs[code / n.pow(i) % n]);
+        for code in 0..n.pow(6) {
+            compare(g, stream(code), false).unwrap();
+        }
+        // The same enumeration finds FIFO out.
+        let caught = (0..n.pow(6)).any(|code| compare(g, stream(code), true).is_err());
+        assert!(caught);
+    }
+
     #[test]
     fn lru_matches_reference_set_associative() {
         for seed in 1..=8 {
-            compare(geom(4, 4), seed, 4000, false).unwrap();
+            compare(geom(4, 4), random(geom(4, 4), seed, 4000), false).unwrap();
         }
     }
 
     #[test]
     fn lru_matches_reference_fully_associative_non_power_of_two() {
         for seed in 1..=4 {
-            compare(geom(1, 7), seed, 4000, false).unwrap();
+            compare(geom(1, 7), random(geom(1, 7), seed, 4000), false).unwrap();
         }
         // 1536 sets, as the default L2 has.
-        compare(geom(1536, 2), 9, 20000, false).unwrap();
+        compare(geom(1536, 2), random(geom(1536, 2), 9, 20000), false).unwrap();
     }
 
     #[test]
     fn checker_catches_a_fifo_reference() {
         // The comparison above would pass for any replacement policy if it never looked at the
         // order; a FIFO reference must be caught.
-        assert!(compare(geom(4, 4), 1, 4000, true).is_err());
-        assert!(compare(geom(1, 7), 1, 4000, true).is_err());
+        assert!(compare(geom(4, 4), random(geom(4, 4), 1, 4000), true).is_err());
+        assert!(compare(geom(1, 7), random(geom(1, 7), 1, 4000), true).is_err());
     }
 
     #[test]

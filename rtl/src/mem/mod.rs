@@ -13,8 +13,12 @@
 //!
 //! Clocking: every unit has `eval`, which reads only its current registers and its inputs and
 //! records its decisions in a next-state step `d`, and `commit`, the clock edge, which applies `d`.
-//! Every output a unit shows another unit (ready, downstream request, responses) is a function of
-//! its registers alone, so the order in which units are evaluated within a cycle does not matter.
+//! The state here is RAM-like (tag arrays, MSHR tables, queues), so `d` holds the cycle's
+//! decisions (accept, hit, merge, allocate, park, pop) rather than a copy of the state, and
+//! `commit` writes them into the arrays without deciding anything new. Every output a unit shows
+//! another unit (ready, downstream request, responses) is a function of its registers alone, so
+//! the order in which units are evaluated within a cycle does not matter. Probes show the cycle's
+//! inputs and decisions when sampled between `eval` and `commit`.
 //!
 //! Unloaded latencies, measured from the cycle a request is accepted to the cycle its response is
 //! visible to the SM, with the defaults: L1D hit 20 (`l1d_hit_latency`); L1D miss, L2 hit 160
