@@ -21,7 +21,7 @@
 
 use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
-use super::{Counters, MemParams, MemReq, MemResp, ReqKind, ADDR_BITS};
+use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS};
 use crate::config::bits_for;
 use crate::trace::{Probe, Sink};
 use std::collections::{BTreeMap, VecDeque};
@@ -66,8 +66,8 @@ pub struct L2 {
     rr: Vec<u32>,
     /// Requests for DRAM; the head is offered.
     dram_queue: VecDeque<MemReq>,
-    /// DRAM reads in flight: id → (sector, kind).
-    pending: BTreeMap<u64, (u64, ReqKind)>,
+    /// DRAM reads in flight: id → sector.
+    pending: BTreeMap<u64, u64>,
     next_dram_id: u64,
     /// Per SM: responses visible this cycle.
     out: Vec<Vec<MemResp>>,
@@ -117,9 +117,9 @@ impl L2 {
         self.dram_queue.front().copied()
     }
 
-    /// Whether SM `sm`'s request was accepted in the last `eval`.
+    /// Whether SM `sm`'s request is accepted this cycle (valid between `eval` and `commit`).
     pub fn granted(&self, sm: usize) -> bool {
-        self.d.granted[sm]
+        self.d.granted.get(sm).copied().unwrap_or(false)
     }
 
     pub fn counters(&self) -> &Counters {
@@ -258,7 +258,7 @@ impl L2 {
                             self.params.sector_bytes,
                             r.kind,
                         ));
-                        self.pending.insert(id, (key, r.kind));
+                        self.pending.insert(id, key);
                     }
                 }
                 Check::Write => {
@@ -271,7 +271,7 @@ impl L2 {
             }
         }
         for f in &step.fills {
-            let (key, _) = self
+            let key = self
                 .pending
                 .remove(&f.id)
                 .unwrap_or_else(|| panic!("L2 got a DRAM response for unknown id {}", f.id));
@@ -347,7 +347,7 @@ impl Probe for L2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mem::Assoc;
+    use crate::mem::{Assoc, ReqKind};
     use crate::trace::Snapshot;
 
     /// An L2 with a stand-in DRAM answering every read `dram` cycles after it is offered.
