@@ -178,7 +178,7 @@ impl Probe for MemSystem {
 mod tests {
     use super::*;
     use crate::mem::cache::reference::RefLru;
-    use crate::mem::cache::Lookup;
+    use crate::mem::cache::Geometry;
     use crate::mem::testutil::XorShift;
     use crate::mem::{Assoc, ReqKind};
     use crate::trace::Snapshot;
@@ -449,62 +449,94 @@ mod tests {
         sys.skip_to(e + 1);
     }
 
-    /// One SM, one request at a time: every L1D hit or miss must be what a reference LRU cache
-    /// (write-through, no write-allocate) predicts, and a read hits exactly when it takes 20
-    /// cycles.
-    fn l1_against_reference(fifo_ref: bool) -> Result<(), String> {
+    /// One SM, one request at a time: every L1D and L2 hit or miss must be what reference LRU
+    /// caches predict (L1D write-through without allocate, L2 write-allocate), and every latency
+    /// must be the level's figure: 20, 160 or 260 for reads, 160 for stores.
+    fn caches_against_reference(fifo_l1d: bool, fifo_l2: bool) -> Result<(), String> {
         let p = MemParams {
             sms: 1,
             l1d_bytes: 2048,
+            l2_bytes: 8192,
+            l2_assoc: Assoc::Ways(4),
             ..MemParams::default()
         };
         let mut sys = MemSystem::new(p).unwrap();
-        let mut r = RefLru::new(sys.l1d(0).tags().geometry());
-        r.fifo = fifo_ref;
+        let mut r1 = RefLru::new(sys.l1d(0).tags().geometry());
+        let mut r2 = RefLru::new(Geometry::new(8192, Assoc::Ways(4), 128, 32));
+        r1.fifo = fifo_l1d;
+        r2.fifo = fifo_l2;
         let mut rng = XorShift(11);
-        for i in 0..1500 {
-            let addr = rng.below(3 * 2048 / 8) * 8;
+        for i in 0..3000 {
+            // Half the accesses within three L1Ds' worth, half within three L2s' worth.
+            let span = if rng.below(2) == 0 {
+                3 * 2048
+            } else {
+                3 * 8192
+            };
+            let addr = rng.below(span / 8) * 8;
             let req = if rng.below(4) == 0 {
                 MemReq::write(i, addr, 8, ReqKind::StackSpill)
             } else {
                 MemReq::read(i, addr, 8, ReqKind::NodeFetch)
             };
-            let want = r.lookup(addr);
-            let hits = sys.l1d(0).counters().hits;
+            let want1 = r1.lookup(addr).is_hit();
+            let want2 = (req.write || !want1).then(|| r2.lookup(addr).is_hit());
+            let (h1, a2, h2) = (
+                sys.l1d(0).counters().hits,
+                sys.l2().counters().accesses,
+                sys.l2().counters().hits,
+            );
             let start = sys.cycle();
             let (log, _) = drive(
                 &mut sys,
                 vec![VecDeque::from([(start, req)])],
                 Skip::ToNextEvent,
             );
-            let hit = sys.l1d(0).counters().hits > hits;
-            if hit != want.is_hit() {
+            let got1 = sys.l1d(0).counters().hits > h1;
+            let got2 = (sys.l2().counters().accesses > a2).then(|| sys.l2().counters().hits > h2);
+            if (got1, got2) != (want1, want2) {
                 return Err(format!(
-                    "request {i} {req:?}: hit {hit}, reference {want:?}"
+                    "request {i} {req:?}: L1D/L2 hit {got1}/{got2:?}, reference {want1}/{want2:?}"
                 ));
             }
-            if !req.write && hit != (log[0].0 - start == 20) {
-                return Err(format!("request {i}: latency {}", log[0].0 - start));
+            let latency = log[0].0 - start;
+            let expected = match (req.write, want1, want2) {
+                (true, _, _) => 160,
+                (false, true, _) => 20,
+                (false, false, Some(true)) => 160,
+                (false, false, _) => 260,
+            };
+            if latency != expected {
+                return Err(format!(
+                    "request {i} {req:?}: latency {latency}, expected {expected}"
+                ));
             }
-            match (req.write, want) {
-                (_, Lookup::Hit) => r.touch(addr),
-                (false, _) => {
-                    r.fill(addr);
+            // Update the references as the caches do.
+            if want1 {
+                r1.touch(addr);
+            } else if !req.write {
+                r1.fill(addr);
+            }
+            match want2 {
+                Some(true) => r2.touch(addr),
+                Some(false) => {
+                    r2.fill(addr);
                 }
-                (true, _) => {}
+                None => {}
             }
         }
         Ok(())
     }
 
     #[test]
-    fn l1d_hits_match_reference_lru() {
-        l1_against_reference(false).unwrap();
+    fn cache_hits_and_latencies_match_reference_lru() {
+        caches_against_reference(false, false).unwrap();
     }
 
     #[test]
-    fn l1d_checker_catches_a_fifo_reference() {
-        assert!(l1_against_reference(true).is_err());
+    fn cache_checker_catches_a_fifo_reference() {
+        assert!(caches_against_reference(true, false).is_err());
+        assert!(caches_against_reference(false, true).is_err());
     }
 
     #[test]

@@ -438,6 +438,26 @@ mod tests {
     }
 
     #[test]
+    fn a_full_mshr_entry_parks_the_next_merge() {
+        let p = MemParams {
+            l1d_mshr_merge: 2,
+            ..MemParams::default()
+        };
+        let mut b = Bench::new(p, 40);
+        assert!(b.step(read(1, 0x100)));
+        assert!(b.step(read(2, 0x104)));
+        // Third request for the sector: taken, parked until the fill frees the entry.
+        assert!(b.step(read(3, 0x108)));
+        assert!(!b.step(read(4, 0x900)));
+        b.run_until_quiet();
+        assert_eq!(b.down_log.len(), 1, "the parked read hits after the fill");
+        let ids: Vec<u64> = b.resp_log.iter().map(|(_, r)| r.id).collect();
+        assert_eq!(ids, vec![1, 2, 3]);
+        assert_eq!(b.l1.counters().merged, 1);
+        assert_eq!(b.l1.counters().hits, 1);
+    }
+
+    #[test]
     fn stores_write_through_without_allocating() {
         let mut b = Bench::new(MemParams::default(), 30);
         assert!(b.step(Some(MemReq::write(1, 0x40, 8, ReqKind::StackSpill))));

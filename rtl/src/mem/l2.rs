@@ -462,6 +462,27 @@ mod tests {
     }
 
     #[test]
+    fn a_full_mshr_stalls_the_bank_until_a_fill() {
+        let mp = MemParams {
+            l2_mshrs: 2,
+            l2_banks: 1,
+            ..p(1)
+        };
+        let mut b = Bench::new(mp, 40);
+        for (i, addr) in [0x000, 0x020, 0x040, 0x040].into_iter().enumerate() {
+            b.step(&[read(i as u64, addr)]);
+        }
+        b.settle(1);
+        // The third read, due at 159, waits until the first fill (input at 198) frees an entry,
+        // allocates at 199, and its DRAM read is answered at 240; the fourth merges into it.
+        assert_eq!(b.dram_log.len(), 3);
+        let times: Vec<(u64, u64)> = b.resp_log.iter().map(|x| (x.2.id, x.0)).collect();
+        assert_eq!(times, vec![(0, 199), (1, 200), (2, 241), (3, 241)]);
+        assert_eq!(b.l2.counters().merged, 1);
+        assert!(b.l2.counters().stall_cycles >= 40);
+    }
+
+    #[test]
     fn dirty_lines_are_written_back_on_eviction() {
         // 2 sets of 2 ways: lines 0, 2, 4 share set 0.
         let mp = MemParams {
