@@ -13,6 +13,7 @@
 
 pub mod bank_arbiter;
 pub mod config;
+pub mod mem;
 pub mod mem_sched;
 pub mod stack_manager;
 pub mod stack_unit;

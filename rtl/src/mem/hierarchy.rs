@@ -1,0 +1,568 @@
+//! The whole memory system: one L1D per SM, the shared L2 and DRAM.
+//!
+//! ```text
+//!   reqs[sm] ─► L1D[sm] ─ down ─► L2 ─ dram_req ─► DRAM
+//!   out[sm]  ◄─ L1D[sm] ◄─ fill ── L2 ◄── fill ──── DRAM
+//! ```
+//!
+//! Per cycle the caller calls [`MemSystem::eval`] with each SM's optional request and gets each
+//! SM's ready flag (its request, if any, was accepted) and the responses visible this cycle, then
+//! [`MemSystem::commit`]. Every signal crossing between units comes from the sender's registers,
+//! so the units' `eval`s may run in any order; the order below is only dataflow convenience.
+//!
+//! When no SM has anything to offer, [`MemSystem::next_event_cycle`] tells the first cycle in
+//! which anything happens, and [`MemSystem::skip_to`] jumps there: the skipped cycles would have
+//! changed nothing (tested against stepping every cycle).
+
+use super::dram::Dram;
+use super::l1d::L1d;
+use super::l2::L2;
+use super::{Counters, MemParams, MemReq, MemResp};
+use crate::config::ConfigError;
+use crate::trace::{Probe, Sink};
+
+/// What one SM sees in one cycle.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SmOut {
+    /// The L1D accepts a request this cycle (if one was offered, it was taken).
+    pub ready: bool,
+    /// Responses completed this cycle.
+    pub resp: Vec<MemResp>,
+}
+
+#[derive(Clone, Debug)]
+pub struct MemSystem {
+    params: MemParams,
+    l1d: Vec<L1d>,
+    l2: L2,
+    dram: Dram,
+    now: u64,
+    /// Scratch for the L1Ds' down requests (no allocation per cycle).
+    down: Vec<Option<MemReq>>,
+    out: Vec<SmOut>,
+}
+
+impl MemSystem {
+    pub fn new(params: MemParams) -> Result<MemSystem, ConfigError> {
+        params.validate()?;
+        let sms = params.sms as usize;
+        Ok(MemSystem {
+            params,
+            l1d: (0..sms).map(|_| L1d::new(&params)).collect(),
+            l2: L2::new(&params),
+            dram: Dram::new(&params),
+            now: 0,
+            down: vec![None; sms],
+            out: vec![SmOut::default(); sms],
+        })
+    }
+
+    pub fn params(&self) -> &MemParams {
+        &self.params
+    }
+
+    /// The current cycle.
+    pub fn cycle(&self) -> u64 {
+        self.now
+    }
+
+    /// Whether SM `sm`'s L1D would accept a request this cycle.
+    pub fn ready(&self, sm: usize) -> bool {
+        self.l1d[sm].ready()
+    }
+
+    /// One cycle of combinational logic: `reqs[sm]` is SM `sm`'s request, if valid.
+    pub fn eval(&mut self, reqs: &[Option<MemReq>]) -> &[SmOut] {
+        assert_eq!(reqs.len(), self.l1d.len(), "one request slot per SM");
+        self.dram.eval(self.l2.dram_req());
+        for (d, l1) in self.down.iter_mut().zip(&self.l1d) {
+            *d = l1.down_req();
+        }
+        self.l2
+            .eval(&self.down, self.dram.ready(), self.dram.resp());
+        for (sm, l1) in self.l1d.iter_mut().enumerate() {
+            let out = &mut self.out[sm];
+            out.ready = l1.ready();
+            l1.eval(reqs[sm], self.l2.granted(sm), self.l2.resp(sm));
+            out.resp.clear();
+            out.resp.extend_from_slice(l1.resp());
+        }
+        &self.out
+    }
+
+    /// Clock edge.
+    pub fn commit(&mut self) {
+        for l1 in &mut self.l1d {
+            l1.commit();
+        }
+        self.l2.commit();
+        self.dram.commit();
+        self.now += 1;
+    }
+
+    /// The first cycle, from now on, whose `eval`/`commit` does anything if no SM offers a
+    /// request before it; `None` when everything is idle.
+    pub fn next_event_cycle(&self) -> Option<u64> {
+        self.l1d
+            .iter()
+            .filter_map(L1d::next_event)
+            .chain(self.l2.next_event())
+            .chain(self.dram.next_event())
+            .min()
+    }
+
+    /// Jumps to `cycle`, skipping cycles in which nothing would happen. Panics if that would skip
+    /// an event (a caller bug).
+    pub fn skip_to(&mut self, cycle: u64) {
+        assert!(cycle >= self.now, "cannot go back to cycle {cycle}");
+        if let Some(event) = self.next_event_cycle() {
+            assert!(
+                cycle <= event,
+                "skipping to {cycle} would miss the event at {event}"
+            );
+        }
+        self.set_now(cycle);
+    }
+
+    fn set_now(&mut self, cycle: u64) {
+        for l1 in &mut self.l1d {
+            l1.skip_to(cycle);
+        }
+        self.l2.skip_to(cycle);
+        self.dram.skip_to(cycle);
+        self.now = cycle;
+    }
+
+    pub fn l1d(&self, sm: usize) -> &L1d {
+        &self.l1d[sm]
+    }
+
+    pub fn l2(&self) -> &L2 {
+        &self.l2
+    }
+
+    pub fn dram(&self) -> &Dram {
+        &self.dram
+    }
+
+    /// L1D counters summed over SMs.
+    pub fn l1d_counters(&self) -> Counters {
+        let mut total = Counters::default();
+        for l1 in &self.l1d {
+            total.add(l1.counters());
+        }
+        total
+    }
+}
+
+impl Probe for MemSystem {
+    fn probe<S: Sink>(&self, sink: &mut S) {
+        if !sink.enabled() {
+            return;
+        }
+        for (sm, l1) in self.l1d.iter().enumerate() {
+            sink.push_scope(&format!("l1d{sm}"));
+            l1.probe(sink);
+            sink.pop_scope();
+        }
+        sink.push_scope("l2");
+        self.l2.probe(sink);
+        sink.pop_scope();
+        sink.push_scope("dram");
+        self.dram.probe(sink);
+        sink.pop_scope();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mem::cache::reference::RefLru;
+    use crate::mem::cache::Geometry;
+    use crate::mem::testutil::XorShift;
+    use crate::mem::{Assoc, ReqKind};
+    use crate::trace::Snapshot;
+    use std::collections::VecDeque;
+
+    type Log = Vec<(u64, usize, MemResp)>;
+
+    #[derive(Clone, Copy, PartialEq, Eq)]
+    enum Skip {
+        Never,
+        ToNextEvent,
+        /// Planted bug: jump one cycle past the next event.
+        PastNextEvent,
+    }
+
+    /// Offers each SM's requests in order, each no earlier than its cycle, until all are answered.
+    /// Returns the responses and the number of cycles evaluated.
+    fn drive(
+        sys: &mut MemSystem,
+        mut traffic: Vec<VecDeque<(u64, MemReq)>>,
+        skip: Skip,
+    ) -> (Log, u64) {
+        let mut log = Log::new();
+        let mut evals = 0;
+        loop {
+            evals += 1;
+            let c = sys.cycle();
+            let offers: Vec<Option<MemReq>> = traffic
+                .iter()
+                .map(|q| q.front().filter(|(t, _)| *t <= c).map(|x| x.1))
+                .collect();
+            let out = sys.eval(&offers);
+            for (sm, o) in out.iter().enumerate() {
+                log.extend(o.resp.iter().map(|r| (c, sm, *r)));
+                if o.ready && offers[sm].is_some() {
+                    traffic[sm].pop_front();
+                }
+            }
+            sys.commit();
+            let arrival = traffic.iter().filter_map(|q| q.front().map(|x| x.0)).min();
+            let event = sys.next_event_cycle();
+            if arrival.is_none() && event.is_none() {
+                return (log, evals);
+            }
+            let now = sys.cycle();
+            let target = arrival.into_iter().chain(event).min().unwrap().max(now);
+            match skip {
+                Skip::Never => {}
+                Skip::ToNextEvent => sys.skip_to(target),
+                Skip::PastNextEvent => {
+                    if event == Some(target) && target > now {
+                        sys.set_now(target + 1);
+                    } else {
+                        sys.skip_to(target);
+                    }
+                }
+            }
+            assert!(sys.cycle() < 10_000_000, "runaway");
+        }
+    }
+
+    fn small() -> MemParams {
+        MemParams {
+            sms: 4,
+            l1d_bytes: 1024,
+            l1d_mshrs: 4,
+            l1d_mshr_merge: 2,
+            l1d_miss_queue: 2,
+            l2_bytes: 8 * 1024,
+            l2_assoc: Assoc::Ways(4),
+            l2_banks: 2,
+            l2_bank_queue: 16,
+            l2_mshrs: 6,
+            l2_mshr_merge: 3,
+            l2_dram_queue: 4,
+            dram_bytes_per_cycle: 8,
+            dram_queue: 4,
+            ..MemParams::default()
+        }
+    }
+
+    /// Per SM, `n` requests in bursts: reads and writes of all kinds over a span a few times the
+    /// L2, with a shared region every SM reads.
+    fn traffic(seed: u64, sms: usize, n: usize) -> Vec<VecDeque<(u64, MemReq)>> {
+        let mut rng = XorShift(seed);
+        (0..sms)
+            .map(|sm| {
+                let mut t = 0;
+                (0..n as u64)
+                    .map(|i| {
+                        t += if rng.below(40) == 0 {
+                            300
+                        } else {
+                            rng.below(3)
+                        };
+                        let kind = ReqKind::ALL[rng.below(3) as usize];
+                        let addr = if rng.below(2) == 0 {
+                            rng.below(64) * 8
+                        } else {
+                            (sm as u64 + 1) * 0x10_0000 + rng.below(4096) * 8
+                        };
+                        let id = ((sm as u64) << 32) | i;
+                        let req = if kind == ReqKind::StackSpill {
+                            MemReq::write(id, addr, 8, kind)
+                        } else {
+                            MemReq::read(id, addr, 8, kind)
+                        };
+                        (t, req)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn latency_of_each_level() {
+        let mut sys = MemSystem::new(MemParams::default()).unwrap();
+        let one = |sm: usize, req: MemReq| {
+            let mut t: Vec<VecDeque<(u64, MemReq)>> = vec![VecDeque::new(); 8];
+            t[sm].push_back((0, req));
+            t
+        };
+        let mut latency = |sm, req| {
+            let start = sys.cycle();
+            let (log, _) = drive(&mut sys, one(sm, req), Skip::ToNextEvent);
+            assert_eq!(log.len(), 1);
+            assert_eq!(log[0].2, req.response());
+            log[0].0 - start
+        };
+        let node = |addr| MemReq::read(1, addr, 32, ReqKind::NodeFetch);
+        assert_eq!(latency(0, node(0x4000)), 260, "L1D miss, L2 miss");
+        assert_eq!(latency(0, node(0x4000)), 20, "L1D hit");
+        assert_eq!(latency(1, node(0x4000)), 160, "L1D miss, L2 hit");
+        let spill = MemReq::write(2, 0x8000, 8, ReqKind::StackSpill);
+        assert_eq!(latency(0, spill), 160, "store acknowledged by L2");
+        let reload = MemReq::read(3, 0x8000, 8, ReqKind::StackReload);
+        assert_eq!(
+            latency(0, reload),
+            160,
+            "reload: L1D did not allocate, L2 did"
+        );
+        assert_eq!(sys.dram().counters().accesses, 1);
+    }
+
+    #[test]
+    fn dram_bandwidth_adds_transfer_cycles() {
+        let p = MemParams {
+            dram_bytes_per_cycle: 8,
+            ..MemParams::default()
+        };
+        let mut sys = MemSystem::new(p).unwrap();
+        let mut t: Vec<VecDeque<(u64, MemReq)>> = vec![VecDeque::new(); 8];
+        t[0].push_back((0, MemReq::read(1, 0, 8, ReqKind::NodeFetch)));
+        let (log, _) = drive(&mut sys, t, Skip::Never);
+        // A 32-byte sector at 8 B/cycle holds the bus 4 cycles: 3 more than one.
+        assert_eq!(log[0].0, 263);
+    }
+
+    /// Every request answered exactly once, and the counters agree with each other.
+    fn check_run(p: MemParams, seed: u64, n: usize) -> (Log, MemSystem) {
+        let mut sys = MemSystem::new(p).unwrap();
+        let sms = p.sms as usize;
+        let t = traffic(seed, sms, n);
+        let all: Vec<(usize, MemReq)> = t
+            .iter()
+            .enumerate()
+            .flat_map(|(sm, q)| q.iter().map(move |x| (sm, x.1)))
+            .collect();
+        let (log, _) = drive(&mut sys, t, Skip::Never);
+        let mut got: Vec<(usize, MemResp)> = log.iter().map(|x| (x.1, x.2)).collect();
+        let mut want: Vec<(usize, MemResp)> =
+            all.iter().map(|(sm, r)| (*sm, r.response())).collect();
+        got.sort_by_key(|x| (x.0, x.1.id));
+        want.sort_by_key(|x| (x.0, x.1.id));
+        assert_eq!(got, want, "every request answered exactly once");
+
+        let l1 = sys.l1d_counters();
+        let (l2, dram) = (*sys.l2().counters(), *sys.dram().counters());
+        assert_eq!(l1.accesses, (sms * n) as u64);
+        assert_eq!(l1.hits + l1.misses, l1.accesses);
+        let l1_read_misses = l1.misses - l1.by_kind[ReqKind::StackSpill.index()].misses;
+        assert_eq!(
+            l2.reads,
+            l1_read_misses - l1.merged,
+            "one L2 read per L1D fill"
+        );
+        assert_eq!(l2.writes, l1.writes, "write-through");
+        assert_eq!(l2.hits + l2.misses, l2.accesses);
+        let l2_write_misses = l2.kind(ReqKind::StackSpill).misses;
+        assert_eq!(
+            dram.reads,
+            l2.misses - l2_write_misses - l2.merged,
+            "one read per L2 fill"
+        );
+        assert_eq!(dram.writes, l2.write_backs);
+        let by_kind: u64 = dram.by_kind.iter().map(|k| k.accesses).sum();
+        assert_eq!(by_kind, dram.accesses);
+        (log, sys)
+    }
+
+    #[test]
+    fn random_traffic_is_answered_and_counted_consistently() {
+        let (_, sys) = check_run(small(), 1, 400);
+        let l1 = sys.l1d_counters();
+        // The run must exercise what it claims to check.
+        assert!(l1.hits > 0 && l1.merged > 0 && l1.stall_cycles > 0);
+        let l2 = sys.l2().counters();
+        assert!(l2.hits > 0 && l2.merged > 0 && l2.write_backs > 0 && l2.stall_cycles > 0);
+        for kind in ReqKind::ALL {
+            assert!(sys.dram().counters().kind(kind).accesses > 0, "{kind:?}");
+        }
+    }
+
+    #[test]
+    fn runs_are_deterministic() {
+        let (a, sa) = check_run(small(), 7, 200);
+        let (b, sb) = check_run(small(), 7, 200);
+        assert_eq!(a, b);
+        assert_eq!(sa.l1d_counters(), sb.l1d_counters());
+        assert_eq!(sa.l2().counters(), sb.l2().counters());
+        let (c, _) = check_run(small(), 8, 200);
+        assert_ne!(a, c, "a different seed differs");
+    }
+
+    #[test]
+    fn skipping_idle_cycles_matches_stepping() {
+        for seed in [3, 4] {
+            // Sparse enough to leave the SMs waiting on memory, dense enough to queue at times.
+            let t: Vec<VecDeque<(u64, MemReq)>> = traffic(seed, 4, 200)
+                .into_iter()
+                .map(|q| q.into_iter().map(|(t, r)| (t * 20, r)).collect())
+                .collect();
+            let stepped = drive(
+                &mut MemSystem::new(small()).unwrap(),
+                t.clone(),
+                Skip::Never,
+            );
+            let skipped = drive(
+                &mut MemSystem::new(small()).unwrap(),
+                t.clone(),
+                Skip::ToNextEvent,
+            );
+            assert_eq!(stepped.0, skipped.0, "seed {seed}");
+            assert!(
+                skipped.1 * 2 < stepped.1,
+                "idle cycles were skipped: {} of {}",
+                skipped.1,
+                stepped.1
+            );
+            let planted = drive(
+                &mut MemSystem::new(small()).unwrap(),
+                t,
+                Skip::PastNextEvent,
+            );
+            assert_ne!(stepped.0, planted.0, "skipping past an event must show");
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "would miss the event")]
+    fn skip_to_refuses_to_skip_an_event() {
+        let mut sys = MemSystem::new(MemParams::default()).unwrap();
+        let mut reqs = vec![None; 8];
+        reqs[0] = Some(MemReq::read(1, 0, 8, ReqKind::NodeFetch));
+        sys.eval(&reqs);
+        sys.commit();
+        let e = sys.next_event_cycle().unwrap();
+        sys.skip_to(e + 1);
+    }
+
+    /// One SM, one request at a time: every L1D and L2 hit or miss must be what reference LRU
+    /// caches predict (L1D write-through without allocate, L2 write-allocate), and every latency
+    /// must be the level's figure: 20, 160 or 260 for reads, 160 for stores.
+    fn caches_against_reference(fifo_l1d: bool, fifo_l2: bool) -> Result<(), String> {
+        let p = MemParams {
+            sms: 1,
+            l1d_bytes: 2048,
+            l2_bytes: 8192,
+            l2_assoc: Assoc::Ways(4),
+            ..MemParams::default()
+        };
+        let mut sys = MemSystem::new(p).unwrap();
+        let mut r1 = RefLru::new(sys.l1d(0).tags().geometry());
+        let mut r2 = RefLru::new(Geometry::new(8192, Assoc::Ways(4), 128, 32));
+        r1.fifo = fifo_l1d;
+        r2.fifo = fifo_l2;
+        let mut rng = XorShift(11);
+        for i in 0..3000 {
+            // Half the accesses within three L1Ds' worth, half within three L2s' worth.
+            let span = if rng.below(2) == 0 {
+                3 * 2048
+            } else {
+                3 * 8192
+            };
+            let addr = rng.below(span / 8) * 8;
+            let req = if rng.below(4) == 0 {
+                MemReq::write(i, addr, 8, ReqKind::StackSpill)
+            } else {
+                MemReq::read(i, addr, 8, ReqKind::NodeFetch)
+            };
+            let want1 = r1.lookup(addr).is_hit();
+            let want2 = (req.write || !want1).then(|| r2.lookup(addr).is_hit());
+            let (h1, a2, h2) = (
+                sys.l1d(0).counters().hits,
+                sys.l2().counters().accesses,
+                sys.l2().counters().hits,
+            );
+            let start = sys.cycle();
+            let (log, _) = drive(
+                &mut sys,
+                vec![VecDeque::from([(start, req)])],
+                Skip::ToNextEvent,
+            );
+            let got1 = sys.l1d(0).counters().hits > h1;
+            let got2 = (sys.l2().counters().accesses > a2).then(|| sys.l2().counters().hits > h2);
+            if (got1, got2) != (want1, want2) {
+                return Err(format!(
+                    "request {i} {req:?}: L1D/L2 hit {got1}/{got2:?}, reference {want1}/{want2:?}"
+                ));
+            }
+            let latency = log[0].0 - start;
+            let expected = match (req.write, want1, want2) {
+                (true, _, _) => 160,
+                (false, true, _) => 20,
+                (false, false, Some(true)) => 160,
+                (false, false, _) => 260,
+            };
+            if latency != expected {
+                return Err(format!(
+                    "request {i} {req:?}: latency {latency}, expected {expected}"
+                ));
+            }
+            // Update the references as the caches do.
+            if want1 {
+                r1.touch(addr);
+            } else if !req.write {
+                r1.fill(addr);
+            }
+            match want2 {
+                Some(true) => r2.touch(addr),
+                Some(false) => {
+                    r2.fill(addr);
+                }
+                None => {}
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn cache_hits_and_latencies_match_reference_lru() {
+        caches_against_reference(false, false).unwrap();
+    }
+
+    #[test]
+    fn cache_checker_catches_a_fifo_reference() {
+        assert!(caches_against_reference(true, false).is_err());
+        assert!(caches_against_reference(false, true).is_err());
+    }
+
+    #[test]
+    fn probe_names_every_unit() {
+        let mut sys = MemSystem::new(MemParams {
+            sms: 2,
+            ..MemParams::default()
+        })
+        .unwrap();
+        sys.eval(&[Some(MemReq::read(1, 0x40, 8, ReqKind::NodeFetch)), None]);
+        let mut s = Snapshot::default();
+        sys.probe(&mut s);
+        assert_eq!(s.get("l1d0.req_valid"), Some(1));
+        assert_eq!(s.get("l1d0.req_addr"), Some(0x40));
+        assert_eq!(s.get("l1d1.req_valid"), Some(0));
+        assert!(s.get("l2.mshr_occupancy").is_some());
+        assert!(s.get("dram.queue_depth").is_some());
+    }
+
+    #[test]
+    fn bad_parameters_are_rejected() {
+        let e = MemSystem::new(MemParams {
+            l1d_bytes: 0,
+            ..MemParams::default()
+        })
+        .unwrap_err();
+        assert_eq!(e.parameter, "l1d_bytes");
+    }
+}

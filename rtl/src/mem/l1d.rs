@@ -1,0 +1,496 @@
+//! Per-SM L1 data cache.
+//!
+//! ```text
+//!             ┌──────── parked (1 request that could not proceed) ────────┐
+//!   req ─────►│ tag check ─ hit ──► hit pipe (hit_latency) ──────────────► │ out ─► resp
+//!   (≤ 1/cyc) │           ─ read miss ─► MSHR ─ allocate ─► miss queue ───┼──► down (to L2)
+//!             │           ─ write ─────────── write-through ─► miss queue │
+//!   fill ────►│ tag fill, release MSHR waiters / forward write acks ─────► │ out
+//!             └────────────────────────────────────────────────────────────┘
+//! ```
+//!
+//! Handshake: `ready` is high unless a request is parked. A request accepted in cycle `t` is
+//! looked up in cycle `t`: a read hit answers at `t + hit_latency`; a read miss merges into the
+//! MSHR entry of its sector or allocates one and queues a sector read for L2; a store is written
+//! through (no allocate: a store hit refreshes LRU, a store miss leaves the tags alone) and is
+//! acknowledged when L2 acknowledges it. A request that needs an MSHR entry or a miss-queue slot
+//! that is not there is parked and retried every cycle, and `ready` is low meanwhile (so a later
+//! hit waits behind it, as in an in-order cache pipeline). Responses from L2 are registered: they
+//! fill the tags at the clock edge and their waiters' responses are visible the next cycle. All
+//! responses visible in a cycle are delivered together.
+
+use super::cache::{Geometry, TagStore};
+use super::mshr::{Mshr, Outcome, Waiter};
+use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS};
+use crate::config::bits_for;
+use crate::trace::{Probe, Sink};
+use std::collections::{BTreeMap, VecDeque};
+
+/// What the tag-check stage does with its request this cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Action {
+    Hit,
+    Merge,
+    Allocate,
+    WriteThrough,
+    Park,
+}
+
+/// What an L2 response completes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pending {
+    /// The sector fill of an MSHR entry.
+    Fill(u64),
+    /// A store; forward this acknowledgement.
+    Write(MemResp),
+}
+
+/// Next-state decisions of one cycle.
+#[derive(Clone, Debug, Default)]
+struct Step {
+    /// The offered request (shown by the probe).
+    req: Option<MemReq>,
+    /// The request in the tag-check stage (parked or newly accepted) and its fate.
+    work: Option<(MemReq, Action)>,
+    down_fire: bool,
+    fills: Vec<MemResp>,
+}
+
+#[derive(Clone, Debug)]
+pub struct L1d {
+    params: MemParams,
+    tags: TagStore,
+    mshr: Mshr,
+    /// Hits in flight: (cycle visible, response), in order.
+    hit_pipe: VecDeque<(u64, MemResp)>,
+    /// Requests for L2; the head is offered on the down port.
+    miss_queue: VecDeque<MemReq>,
+    /// Down requests awaiting L2's response, by down id.
+    pending: BTreeMap<u64, Pending>,
+    next_down_id: u64,
+    parked: Option<MemReq>,
+    /// Responses visible this cycle.
+    out: Vec<MemResp>,
+    now: u64,
+    counters: Counters,
+    d: Step,
+}
+
+impl L1d {
+    pub fn new(p: &MemParams) -> L1d {
+        L1d {
+            params: *p,
+            tags: TagStore::new(Geometry::new(
+                p.l1d_bytes,
+                p.l1d_assoc,
+                p.line_bytes,
+                p.sector_bytes,
+            )),
+            mshr: Mshr::new(p.l1d_mshrs, p.l1d_mshr_merge),
+            hit_pipe: VecDeque::new(),
+            miss_queue: VecDeque::new(),
+            pending: BTreeMap::new(),
+            next_down_id: 0,
+            parked: None,
+            out: Vec::new(),
+            now: 0,
+            counters: Counters::default(),
+            d: Step::default(),
+        }
+    }
+
+    pub fn ready(&self) -> bool {
+        self.parked.is_none()
+    }
+
+    /// Request offered to L2 this cycle.
+    pub fn down_req(&self) -> Option<MemReq> {
+        self.miss_queue.front().copied()
+    }
+
+    /// Responses visible this cycle.
+    pub fn resp(&self) -> &[MemResp] {
+        &self.out
+    }
+
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    pub fn mshr_occupancy(&self) -> usize {
+        self.mshr.len()
+    }
+
+    pub fn tags(&self) -> &TagStore {
+        &self.tags
+    }
+
+    /// One cycle of combinational logic. `req`: the SM's request, if valid. `down_ready`: L2
+    /// accepts [`L1d::down_req`] this cycle. `fills`: L2's responses for this L1D. Returns
+    /// whether `req` was accepted.
+    pub fn eval(&mut self, req: Option<MemReq>, down_ready: bool, fills: &[MemResp]) -> bool {
+        let ready = self.ready();
+        if let (true, Some(r)) = (ready, &req) {
+            self.params.check_request(r);
+        }
+        let work = match self.parked {
+            Some(parked) => Some(parked),
+            None => req,
+        }
+        .map(|r| (r, self.classify(&r)));
+        self.d = Step {
+            req,
+            work,
+            down_fire: down_ready && !self.miss_queue.is_empty(),
+            fills: fills.to_vec(),
+        };
+        ready && req.is_some()
+    }
+
+    fn classify(&self, r: &MemReq) -> Action {
+        let room = self.miss_queue.len() < self.params.l1d_miss_queue as usize;
+        if r.write {
+            return if room {
+                Action::WriteThrough
+            } else {
+                Action::Park
+            };
+        }
+        if self.tags.lookup(r.addr).is_hit() {
+            return Action::Hit;
+        }
+        match self.mshr.check(self.params.sector_of(r.addr)) {
+            Outcome::Merge => Action::Merge,
+            Outcome::Allocate if room => Action::Allocate,
+            _ => Action::Park,
+        }
+    }
+
+    fn send_down(&mut self, req: MemReq, pending: Pending) {
+        let id = self.next_down_id;
+        self.next_down_id += 1;
+        self.miss_queue.push_back(MemReq { id, ..req });
+        self.pending.insert(id, pending);
+    }
+
+    /// Clock edge.
+    pub fn commit(&mut self) {
+        let step = std::mem::take(&mut self.d);
+        let next = self.now + 1;
+        if step.down_fire {
+            self.miss_queue.pop_front();
+        }
+        if let Some((r, action)) = step.work {
+            self.parked = None;
+            let key = self.params.sector_of(r.addr);
+            let waiter = Waiter {
+                port: 0,
+                id: r.id,
+                addr: r.addr,
+            };
+            match action {
+                Action::Park => {
+                    self.parked = Some(r);
+                    self.counters.stall_cycles += 1;
+                }
+                Action::Hit => {
+                    self.tags.touch(r.addr);
+                    let visible = self.now + u64::from(self.params.l1d_hit_latency);
+                    self.hit_pipe.push_back((visible, r.response()));
+                    self.counters.lookup(&r, true);
+                }
+                Action::Merge => {
+                    self.mshr.insert(key, waiter);
+                    self.counters.lookup(&r, false);
+                    self.counters.merged += 1;
+                }
+                Action::Allocate => {
+                    self.mshr.insert(key, waiter);
+                    let fill = MemReq::read(0, key, self.params.sector_bytes, r.kind);
+                    self.send_down(fill, Pending::Fill(key));
+                    self.counters.lookup(&r, false);
+                }
+                Action::WriteThrough => {
+                    let hit = self.tags.lookup(r.addr).is_hit();
+                    if hit {
+                        self.tags.touch(r.addr);
+                    }
+                    self.send_down(r, Pending::Write(r.response()));
+                    self.counters.lookup(&r, hit);
+                }
+            }
+        }
+        self.out.clear();
+        while let Some(&(visible, resp)) = self.hit_pipe.front() {
+            if visible > next {
+                break;
+            }
+            self.out.push(resp);
+            self.hit_pipe.pop_front();
+        }
+        for f in &step.fills {
+            match self.pending.remove(&f.id) {
+                Some(Pending::Fill(key)) => {
+                    // Write-through: L1D lines are never dirty, so a victim needs no write-back.
+                    self.tags.fill(key, None);
+                    self.out
+                        .extend(self.mshr.release(key).iter().map(|w| MemResp {
+                            id: w.id,
+                            addr: w.addr,
+                        }));
+                }
+                Some(Pending::Write(ack)) => self.out.push(ack),
+                None => panic!("L1D got a response for unknown down id {}", f.id),
+            }
+        }
+        self.now = next;
+    }
+
+    /// Next cycle whose commit changes something, ignoring L2 responses; `None` when idle.
+    pub fn next_event(&self) -> Option<u64> {
+        if self.parked.is_some() || !self.out.is_empty() || !self.miss_queue.is_empty() {
+            return Some(self.now);
+        }
+        self.hit_pipe.front().map(|&(visible, _)| visible - 1)
+    }
+
+    pub(crate) fn skip_to(&mut self, cycle: u64) {
+        self.now = cycle;
+    }
+}
+
+impl Probe for L1d {
+    fn probe<S: Sink>(&self, sink: &mut S) {
+        if !sink.enabled() {
+            return;
+        }
+        let req = self.d.req;
+        let action = self.d.work.map(|(_, a)| a);
+        let down = self.down_req();
+        sink.signal("req_valid", 1, u64::from(req.is_some()));
+        sink.signal("req_ready", 1, u64::from(self.ready()));
+        sink.signal("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr));
+        sink.signal("req_write", 1, u64::from(req.is_some_and(|r| r.write)));
+        sink.signal("req_kind", 2, req.map_or(0, |r| r.kind.code()));
+        sink.signal("hit", 1, u64::from(action == Some(Action::Hit)));
+        sink.signal("merge", 1, u64::from(action == Some(Action::Merge)));
+        sink.signal("park", 1, u64::from(action == Some(Action::Park)));
+        sink.signal(
+            "mshr_occupancy",
+            bits_for(u64::from(self.params.l1d_mshrs)),
+            self.mshr.len() as u64,
+        );
+        sink.signal(
+            "miss_queue_depth",
+            bits_for(u64::from(self.params.l1d_miss_queue)),
+            self.miss_queue.len() as u64,
+        );
+        sink.signal("down_valid", 1, u64::from(down.is_some()));
+        sink.signal("down_addr", ADDR_BITS, down.map_or(0, |r| r.addr));
+        sink.signal("resp_valid", 1, u64::from(!self.out.is_empty()));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mem::ReqKind;
+    use crate::trace::Snapshot;
+
+    /// An L1D in front of a stand-in L2 that accepts one request per cycle and answers every
+    /// request `delay` cycles later.
+    struct Bench {
+        l1: L1d,
+        delay: u64,
+        l2: VecDeque<(u64, MemResp)>,
+        l2_out: Vec<MemResp>,
+        down_log: Vec<MemReq>,
+        resp_log: Vec<(u64, MemResp)>,
+        cycle: u64,
+    }
+
+    impl Bench {
+        fn new(p: MemParams, delay: u64) -> Bench {
+            Bench {
+                l1: L1d::new(&p),
+                delay,
+                l2: VecDeque::new(),
+                l2_out: Vec::new(),
+                down_log: Vec::new(),
+                resp_log: Vec::new(),
+                cycle: 0,
+            }
+        }
+
+        /// One cycle; returns whether `req` was accepted.
+        fn step(&mut self, req: Option<MemReq>) -> bool {
+            for r in self.l1.resp() {
+                self.resp_log.push((self.cycle, *r));
+            }
+            let down = self.l1.down_req();
+            let fills = std::mem::take(&mut self.l2_out);
+            let fire = self.l1.eval(req, true, &fills);
+            self.l1.commit();
+            if let Some(d) = down {
+                self.down_log.push(d);
+                self.l2.push_back((self.cycle + self.delay, d.response()));
+            }
+            while self.l2.front().is_some_and(|&(c, _)| c <= self.cycle + 1) {
+                self.l2_out.push(self.l2.pop_front().unwrap().1);
+            }
+            self.cycle += 1;
+            fire
+        }
+
+        fn run_until_quiet(&mut self) {
+            for _ in 0..10_000 {
+                if self.l1.next_event().is_none() && self.l2.is_empty() && self.l2_out.is_empty() {
+                    return;
+                }
+                self.step(None);
+            }
+            panic!("did not settle");
+        }
+    }
+
+    fn read(id: u64, addr: u64) -> Option<MemReq> {
+        Some(MemReq::read(id, addr, 8, ReqKind::NodeFetch))
+    }
+
+    #[test]
+    fn hit_takes_exactly_the_hit_latency() {
+        let mut b = Bench::new(MemParams::default(), 50);
+        assert!(b.step(read(1, 0x1000)));
+        b.run_until_quiet();
+        let t = b.cycle;
+        assert!(b.step(read(2, 0x1008)));
+        b.run_until_quiet();
+        assert_eq!(
+            b.resp_log.last(),
+            Some(&(
+                t + 20,
+                MemResp {
+                    id: 2,
+                    addr: 0x1008
+                }
+            ))
+        );
+        assert_eq!(b.l1.counters().hits, 1);
+        assert_eq!(b.l1.counters().misses, 1);
+    }
+
+    #[test]
+    fn two_misses_to_one_sector_make_one_l2_request() {
+        let mut b = Bench::new(MemParams::default(), 50);
+        assert!(b.step(read(1, 0x2000)));
+        assert!(b.step(read(2, 0x2010)));
+        // Another sector of the same line is another fill.
+        assert!(b.step(read(3, 0x2020)));
+        b.run_until_quiet();
+        assert_eq!(
+            b.down_log.iter().map(|r| r.addr).collect::<Vec<_>>(),
+            vec![0x2000, 0x2020]
+        );
+        let mut ids: Vec<u64> = b.resp_log.iter().map(|(_, r)| r.id).collect();
+        ids.sort();
+        assert_eq!(ids, vec![1, 2, 3]);
+        assert_eq!(b.l1.counters().merged, 1);
+        // Both merged requests answer in the same cycle: the fill's.
+        assert_eq!(b.resp_log[0].0, b.resp_log[1].0);
+    }
+
+    #[test]
+    fn line_granular_configuration_merges_same_line_misses() {
+        let p = MemParams {
+            sector_bytes: 128,
+            ..MemParams::default()
+        };
+        let mut b = Bench::new(p, 50);
+        assert!(b.step(read(1, 0x2000)));
+        assert!(b.step(read(2, 0x2060)));
+        b.run_until_quiet();
+        assert_eq!(b.down_log.len(), 1);
+        assert_eq!(b.resp_log.len(), 2);
+    }
+
+    #[test]
+    fn full_mshr_stalls_until_a_fill() {
+        let p = MemParams {
+            l1d_miss_queue: 64,
+            ..MemParams::default()
+        };
+        let mut b = Bench::new(p, 100);
+        for i in 0..32 {
+            assert!(b.step(read(i, i * 32)), "miss {i}");
+        }
+        assert_eq!(b.l1.mshr_occupancy(), 32);
+        // The 33rd distinct sector is taken but parks; nothing more is accepted.
+        assert!(b.step(read(32, 32 * 32)));
+        let mut refused = 0;
+        while !b.step(read(33, 0)) {
+            refused += 1;
+        }
+        assert!(refused > 50, "stalled {refused} cycles");
+        assert!(b.l1.counters().stall_cycles > 50);
+        b.run_until_quiet();
+        assert_eq!(b.resp_log.len(), 34);
+        assert_eq!(b.down_log.len(), 33);
+    }
+
+    #[test]
+    fn a_full_mshr_entry_parks_the_next_merge() {
+        let p = MemParams {
+            l1d_mshr_merge: 2,
+            ..MemParams::default()
+        };
+        let mut b = Bench::new(p, 40);
+        assert!(b.step(read(1, 0x100)));
+        assert!(b.step(read(2, 0x104)));
+        // Third request for the sector: taken, parked until the fill frees the entry.
+        assert!(b.step(read(3, 0x108)));
+        assert!(!b.step(read(4, 0x900)));
+        b.run_until_quiet();
+        assert_eq!(b.down_log.len(), 1, "the parked read hits after the fill");
+        let ids: Vec<u64> = b.resp_log.iter().map(|(_, r)| r.id).collect();
+        assert_eq!(ids, vec![1, 2, 3]);
+        assert_eq!(b.l1.counters().merged, 1);
+        assert_eq!(b.l1.counters().hits, 1);
+    }
+
+    #[test]
+    fn stores_write_through_without_allocating() {
+        let mut b = Bench::new(MemParams::default(), 30);
+        assert!(b.step(Some(MemReq::write(1, 0x40, 8, ReqKind::StackSpill))));
+        b.run_until_quiet();
+        assert_eq!(b.resp_log.len(), 1, "store acknowledged");
+        assert_eq!(b.l1.tags().lines_held(), 0, "no allocate");
+        assert!(b.down_log[0].write);
+        assert!(b.step(Some(MemReq::read(2, 0x40, 8, ReqKind::StackReload))));
+        b.run_until_quiet();
+        assert_eq!(b.l1.counters().kind(ReqKind::StackReload).misses, 1);
+        // Now present: a store hits, is still written through, and a reload hits.
+        assert!(b.step(Some(MemReq::write(3, 0x40, 8, ReqKind::StackSpill))));
+        assert!(b.step(Some(MemReq::read(4, 0x40, 8, ReqKind::StackReload))));
+        b.run_until_quiet();
+        assert_eq!(b.down_log.len(), 3);
+        assert_eq!(b.l1.counters().hits, 2);
+    }
+
+    #[test]
+    fn probe_shows_the_cycle() {
+        let mut l1 = L1d::new(&MemParams::default());
+        l1.eval(read(1, 0x80), false, &[]);
+        let mut s = Snapshot::default();
+        l1.probe(&mut s);
+        assert_eq!(s.get("req_valid"), Some(1));
+        assert_eq!(s.get("req_addr"), Some(0x80));
+        assert_eq!(s.get("hit"), Some(0));
+        l1.commit();
+        let mut s = Snapshot::default();
+        l1.probe(&mut s);
+        assert_eq!(s.get("mshr_occupancy"), Some(1));
+        assert_eq!(s.get("down_valid"), Some(1));
+        let widths: Vec<u32> = s.signals.iter().map(|x| x.1).collect();
+        assert!(widths.iter().all(|&w| (1..=64).contains(&w)));
+    }
+}

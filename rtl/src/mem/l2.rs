@@ -1,0 +1,517 @@
+//! L2 cache shared by all SMs: banked, write-back, write-allocate.
+//!
+//! ```text
+//!   L1D 0..n down ports ─► per bank: round-robin grant (1 request/cycle/bank)
+//!        ─► bank pipeline (l2_latency - 3 cycles) ─► tag check (1/cycle/bank, in order)
+//!             read hit  ─► out (to the requesting SM)
+//!             read miss ─► MSHR merge / allocate ─► DRAM queue ─► DRAM
+//!             store     ─► allocate + dirty (write-back of a dirty victim ─► DRAM queue) ─► ack
+//!   DRAM fill ─► tag fill (write-back of a dirty victim) ─► release MSHR waiters ─► out
+//! ```
+//!
+//! Lines are interleaved over banks (`bank = line mod l2_banks`); each bank grants at most one SM
+//! per cycle, round-robin starting after the SM it granted last, while its pipeline has room. The
+//! tag check sits at the end of the bank pipeline, so a miss pays the L2 latency and then DRAM's.
+//! If the head of a bank cannot proceed (MSHR or DRAM queue full) it waits there and the bank
+//! behind it waits too. Fills are applied after the tag checks of the same cycle, so a request
+//! that merges into an entry whose fill arrives that cycle is released with it. Stores are
+//! acknowledged at the tag check; a store that allocates over a dirty line queues a write-back
+//! even if the DRAM queue is momentarily over its limit (a store is only checked in when there is
+//! room for one), and so does a fill.
+
+use super::cache::{Geometry, TagStore, Victim};
+use super::mshr::{Mshr, Outcome, Waiter};
+use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS};
+use crate::config::bits_for;
+use crate::trace::{Probe, Sink};
+use std::collections::{BTreeMap, VecDeque};
+
+/// A request travelling through a bank pipeline.
+#[derive(Clone, Copy, Debug)]
+struct Lane {
+    /// Cycle of its tag check.
+    due: u64,
+    sm: u32,
+    req: MemReq,
+}
+
+/// Fate of a bank's head at its tag check.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Check {
+    Hit,
+    Merge,
+    Allocate,
+    Write,
+    Stall,
+}
+
+#[derive(Clone, Debug, Default)]
+struct Step {
+    granted: Vec<bool>,
+    /// (bank, sm, request) entering bank pipelines.
+    accepted: Vec<(usize, u32, MemReq)>,
+    /// (bank, fate) of each bank head checked this cycle.
+    checks: Vec<(usize, Check)>,
+    dram_fire: bool,
+    fills: Vec<MemResp>,
+}
+
+#[derive(Clone, Debug)]
+pub struct L2 {
+    params: MemParams,
+    tags: TagStore,
+    mshr: Mshr,
+    banks: Vec<VecDeque<Lane>>,
+    /// Per bank: the SM to consider first.
+    rr: Vec<u32>,
+    /// Requests for DRAM; the head is offered.
+    dram_queue: VecDeque<MemReq>,
+    /// DRAM reads in flight: id → sector.
+    pending: BTreeMap<u64, u64>,
+    next_dram_id: u64,
+    /// Per SM: responses visible this cycle.
+    out: Vec<Vec<MemResp>>,
+    now: u64,
+    counters: Counters,
+    d: Step,
+}
+
+impl L2 {
+    pub fn new(p: &MemParams) -> L2 {
+        let sms = p.sms as usize;
+        L2 {
+            params: *p,
+            tags: TagStore::new(Geometry::new(
+                p.l2_bytes,
+                p.l2_assoc,
+                p.line_bytes,
+                p.sector_bytes,
+            )),
+            mshr: Mshr::new(p.l2_mshrs, p.l2_mshr_merge),
+            banks: vec![VecDeque::new(); p.l2_banks as usize],
+            rr: vec![0; p.l2_banks as usize],
+            dram_queue: VecDeque::new(),
+            pending: BTreeMap::new(),
+            next_dram_id: 0,
+            out: vec![Vec::new(); sms],
+            now: 0,
+            counters: Counters::default(),
+            d: Step {
+                granted: vec![false; sms],
+                ..Step::default()
+            },
+        }
+    }
+
+    fn bank_of(&self, addr: u64) -> usize {
+        ((addr / u64::from(self.params.line_bytes)) % u64::from(self.params.l2_banks)) as usize
+    }
+
+    /// Responses for SM `sm` visible this cycle.
+    pub fn resp(&self, sm: usize) -> &[MemResp] {
+        &self.out[sm]
+    }
+
+    /// Request offered to DRAM this cycle.
+    pub fn dram_req(&self) -> Option<MemReq> {
+        self.dram_queue.front().copied()
+    }
+
+    /// Whether SM `sm`'s request is accepted this cycle (valid between `eval` and `commit`).
+    pub fn granted(&self, sm: usize) -> bool {
+        self.d.granted.get(sm).copied().unwrap_or(false)
+    }
+
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    pub fn mshr_occupancy(&self) -> usize {
+        self.mshr.len()
+    }
+
+    pub fn dram_queue_depth(&self) -> usize {
+        self.dram_queue.len()
+    }
+
+    /// One cycle of combinational logic. `reqs[sm]`: each L1D's down request. `dram_ready`:
+    /// DRAM accepts [`L2::dram_req`]. `fills`: DRAM's read responses.
+    pub fn eval(&mut self, reqs: &[Option<MemReq>], dram_ready: bool, fills: &[MemResp]) {
+        let sms = self.out.len();
+        assert_eq!(reqs.len(), sms, "one down port per SM");
+        let mut step = Step {
+            granted: vec![false; sms],
+            dram_fire: dram_ready && !self.dram_queue.is_empty(),
+            fills: fills.to_vec(),
+            ..Step::default()
+        };
+        let bank_of: Vec<Option<usize>> = reqs
+            .iter()
+            .map(|r| r.map(|r| self.bank_of(r.addr)))
+            .collect();
+        for (b, bank) in self.banks.iter().enumerate() {
+            if bank.len() >= self.params.l2_bank_queue as usize {
+                continue;
+            }
+            let first = self.rr[b] as usize;
+            let pick = (0..sms)
+                .map(|k| (first + k) % sms)
+                .find(|&sm| bank_of[sm] == Some(b));
+            if let Some(sm) = pick {
+                step.granted[sm] = true;
+                step.accepted
+                    .push((b, sm as u32, reqs[sm].expect("picked")));
+            }
+        }
+        // Allocations this cycle share the MSHR and the DRAM queue, in bank order.
+        let mut mshr_free = self.mshr.capacity() - self.mshr.len();
+        let mut dram_room =
+            (self.params.l2_dram_queue as usize).saturating_sub(self.dram_queue.len());
+        for (b, bank) in self.banks.iter().enumerate() {
+            let Some(head) = bank.front().filter(|l| l.due <= self.now) else {
+                continue;
+            };
+            let r = head.req;
+            let check = if r.write {
+                if dram_room == 0 {
+                    Check::Stall
+                } else {
+                    if self.tags.victim(r.addr).is_some_and(|v| v.dirty != 0) {
+                        dram_room -= 1;
+                    }
+                    Check::Write
+                }
+            } else if self.tags.lookup(r.addr).is_hit() {
+                Check::Hit
+            } else {
+                match self.mshr.check(self.params.sector_of(r.addr)) {
+                    Outcome::Merge => Check::Merge,
+                    Outcome::Allocate if mshr_free > 0 && dram_room > 0 => {
+                        mshr_free -= 1;
+                        dram_room -= 1;
+                        Check::Allocate
+                    }
+                    _ => Check::Stall,
+                }
+            };
+            step.checks.push((b, check));
+        }
+        self.d = step;
+    }
+
+    fn write_back(&mut self, victim: Option<Victim>) {
+        if let Some(v) = victim.filter(|v| v.dirty != 0) {
+            let bytes = v.dirty.count_ones() * self.params.sector_bytes;
+            self.dram_queue
+                .push_back(MemReq::write(0, v.addr, bytes, v.dirty_kind));
+            self.counters.write_backs += 1;
+        }
+    }
+
+    /// Clock edge.
+    pub fn commit(&mut self) {
+        let step = std::mem::take(&mut self.d);
+        let delay = u64::from(self.params.l2_latency - 3);
+        if step.dram_fire {
+            self.dram_queue.pop_front();
+        }
+        for out in &mut self.out {
+            out.clear();
+        }
+        for &(b, sm, req) in &step.accepted {
+            self.banks[b].push_back(Lane {
+                due: self.now + delay,
+                sm,
+                req,
+            });
+            self.rr[b] = (sm + 1) % self.params.sms;
+        }
+        for &(b, check) in &step.checks {
+            if check == Check::Stall {
+                self.counters.stall_cycles += 1;
+                continue;
+            }
+            let Lane { sm, req: r, .. } = self.banks[b].pop_front().expect("checked head");
+            let key = self.params.sector_of(r.addr);
+            match check {
+                Check::Hit => {
+                    self.tags.touch(r.addr);
+                    self.out[sm as usize].push(r.response());
+                    self.counters.lookup(&r, true);
+                }
+                Check::Merge | Check::Allocate => {
+                    let waiter = Waiter {
+                        port: sm,
+                        id: r.id,
+                        addr: r.addr,
+                    };
+                    self.mshr.insert(key, waiter);
+                    self.counters.lookup(&r, false);
+                    if check == Check::Merge {
+                        self.counters.merged += 1;
+                    } else {
+                        let id = self.next_dram_id;
+                        self.next_dram_id += 1;
+                        self.dram_queue.push_back(MemReq::read(
+                            id,
+                            key,
+                            self.params.sector_bytes,
+                            r.kind,
+                        ));
+                        self.pending.insert(id, key);
+                    }
+                }
+                Check::Write => {
+                    self.counters.lookup(&r, self.tags.lookup(r.addr).is_hit());
+                    let victim = self.tags.fill(r.addr, Some(r.kind));
+                    self.write_back(victim);
+                    self.out[sm as usize].push(r.response());
+                }
+                Check::Stall => unreachable!("stalls skipped above"),
+            }
+        }
+        for f in &step.fills {
+            let key = self
+                .pending
+                .remove(&f.id)
+                .unwrap_or_else(|| panic!("L2 got a DRAM response for unknown id {}", f.id));
+            let victim = self.tags.fill(key, None);
+            self.write_back(victim);
+            for w in self.mshr.release(key) {
+                self.out[w.port as usize].push(MemResp {
+                    id: w.id,
+                    addr: w.addr,
+                });
+            }
+        }
+        self.now += 1;
+    }
+
+    /// Next cycle whose commit changes something, ignoring new requests and DRAM responses;
+    /// `None` when idle.
+    pub fn next_event(&self) -> Option<u64> {
+        if self.out.iter().any(|o| !o.is_empty()) || !self.dram_queue.is_empty() {
+            return Some(self.now);
+        }
+        self.banks
+            .iter()
+            .filter_map(|b| b.front().map(|l| l.due.max(self.now)))
+            .min()
+    }
+
+    pub(crate) fn skip_to(&mut self, cycle: u64) {
+        self.now = cycle;
+    }
+}
+
+impl Probe for L2 {
+    fn probe<S: Sink>(&self, sink: &mut S) {
+        if !sink.enabled() {
+            return;
+        }
+        let p = &self.params;
+        let count = |c: Check| self.d.checks.iter().filter(|x| x.1 == c).count() as u64;
+        let bank_bits = bits_for(u64::from(p.l2_banks));
+        sink.signal("accept_count", bank_bits, self.d.accepted.len() as u64);
+        sink.signal(
+            "accept_addr",
+            ADDR_BITS,
+            self.d.accepted.first().map_or(0, |a| a.2.addr),
+        );
+        sink.signal("hit_count", bank_bits, count(Check::Hit));
+        sink.signal(
+            "miss_count",
+            bank_bits,
+            count(Check::Merge) + count(Check::Allocate),
+        );
+        sink.signal("stall_count", bank_bits, count(Check::Stall));
+        sink.signal(
+            "mshr_occupancy",
+            bits_for(u64::from(p.l2_mshrs)),
+            self.mshr.len() as u64,
+        );
+        sink.signal(
+            "pipeline_depth_max",
+            bits_for(u64::from(p.l2_bank_queue)),
+            self.banks.iter().map(VecDeque::len).max().unwrap_or(0) as u64,
+        );
+        // Write-backs may push the DRAM queue past its limit by a few: size for twice the limit.
+        sink.signal(
+            "dram_queue_depth",
+            bits_for(2 * u64::from(p.l2_dram_queue) + u64::from(p.l2_banks)),
+            self.dram_queue.len() as u64,
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mem::{Assoc, ReqKind};
+    use crate::trace::Snapshot;
+
+    /// An L2 with a stand-in DRAM answering every read `dram` cycles after it is offered.
+    struct Bench {
+        l2: L2,
+        dram: u64,
+        in_dram: VecDeque<(u64, MemResp)>,
+        dram_out: Vec<MemResp>,
+        dram_log: Vec<MemReq>,
+        resp_log: Vec<(u64, usize, MemResp)>,
+        cycle: u64,
+    }
+
+    impl Bench {
+        fn new(p: MemParams, dram: u64) -> Bench {
+            Bench {
+                l2: L2::new(&p),
+                dram,
+                in_dram: VecDeque::new(),
+                dram_out: Vec::new(),
+                dram_log: Vec::new(),
+                resp_log: Vec::new(),
+                cycle: 0,
+            }
+        }
+
+        fn step(&mut self, reqs: &[Option<MemReq>]) -> Vec<bool> {
+            for sm in 0..self.l2.out.len() {
+                for r in self.l2.resp(sm) {
+                    self.resp_log.push((self.cycle, sm, *r));
+                }
+            }
+            let to_dram = self.l2.dram_req();
+            let fills = std::mem::take(&mut self.dram_out);
+            self.l2.eval(reqs, true, &fills);
+            let granted = (0..reqs.len()).map(|sm| self.l2.granted(sm)).collect();
+            self.l2.commit();
+            if let Some(r) = to_dram {
+                self.dram_log.push(r);
+                if !r.write {
+                    self.in_dram
+                        .push_back((self.cycle + self.dram, r.response()));
+                }
+            }
+            while self
+                .in_dram
+                .front()
+                .is_some_and(|&(c, _)| c <= self.cycle + 1)
+            {
+                self.dram_out.push(self.in_dram.pop_front().unwrap().1);
+            }
+            self.cycle += 1;
+            granted
+        }
+
+        fn settle(&mut self, sms: usize) {
+            for _ in 0..10_000 {
+                if self.l2.next_event().is_none()
+                    && self.in_dram.is_empty()
+                    && self.dram_out.is_empty()
+                {
+                    return;
+                }
+                self.step(&vec![None; sms]);
+            }
+            panic!("did not settle");
+        }
+    }
+
+    fn p(sms: u32) -> MemParams {
+        MemParams {
+            sms,
+            ..MemParams::default()
+        }
+    }
+
+    fn read(id: u64, addr: u64) -> Option<MemReq> {
+        Some(MemReq::read(id, addr, 32, ReqKind::NodeFetch))
+    }
+
+    #[test]
+    fn hit_and_miss_timing() {
+        let mut b = Bench::new(p(1), 40);
+        assert_eq!(b.step(&[read(1, 0x100)]), vec![true]);
+        b.settle(1);
+        // Miss: tag check at 157, DRAM offered at 158, fill visible at 198, response at 199.
+        assert_eq!(b.resp_log, vec![(199, 0, MemResp { id: 1, addr: 0x100 })]);
+        let t = b.cycle;
+        b.step(&[read(2, 0x110)]);
+        b.settle(1);
+        // Hit: visible l2_latency - 2 after acceptance (the L1D's two port registers make 160).
+        assert_eq!(b.resp_log[1], (t + 158, 0, MemResp { id: 2, addr: 0x110 }));
+        assert_eq!((b.l2.counters().hits, b.l2.counters().misses), (1, 1));
+    }
+
+    #[test]
+    fn one_bank_grants_one_sm_per_cycle_round_robin() {
+        let mut b = Bench::new(p(3), 10);
+        // Lines 0 and 8 share bank 0; line 1 is in bank 1.
+        let reqs = [read(1, 0), read(2, 8 * 128), read(3, 128)];
+        assert_eq!(b.step(&reqs), vec![true, false, true]);
+        assert_eq!(
+            b.step(&[read(4, 0), read(2, 8 * 128), None]),
+            vec![false, true, false]
+        );
+        assert_eq!(b.step(&[read(4, 0), None, None]), vec![true, false, false]);
+        b.settle(3);
+        // SM 0's two reads of one sector: one DRAM read.
+        assert_eq!(b.dram_log.len(), 3);
+        assert_eq!(b.l2.counters().merged, 1);
+        assert_eq!(b.resp_log.len(), 4);
+    }
+
+    #[test]
+    fn a_full_mshr_stalls_the_bank_until_a_fill() {
+        let mp = MemParams {
+            l2_mshrs: 2,
+            l2_banks: 1,
+            ..p(1)
+        };
+        let mut b = Bench::new(mp, 40);
+        for (i, addr) in [0x000, 0x020, 0x040, 0x040].into_iter().enumerate() {
+            b.step(&[read(i as u64, addr)]);
+        }
+        b.settle(1);
+        // The third read, due at 159, waits until the first fill (input at 198) frees an entry,
+        // allocates at 199, and its DRAM read is answered at 240; the fourth merges into it.
+        assert_eq!(b.dram_log.len(), 3);
+        let times: Vec<(u64, u64)> = b.resp_log.iter().map(|x| (x.2.id, x.0)).collect();
+        assert_eq!(times, vec![(0, 199), (1, 200), (2, 241), (3, 241)]);
+        assert_eq!(b.l2.counters().merged, 1);
+        assert!(b.l2.counters().stall_cycles >= 40);
+    }
+
+    #[test]
+    fn dirty_lines_are_written_back_on_eviction() {
+        // 2 sets of 2 ways: lines 0, 2, 4 share set 0.
+        let mp = MemParams {
+            l2_bytes: 4 * 128,
+            l2_assoc: Assoc::Ways(2),
+            l2_banks: 1,
+            ..p(1)
+        };
+        let mut b = Bench::new(mp, 10);
+        b.step(&[Some(MemReq::write(1, 0x20, 8, ReqKind::StackSpill))]);
+        b.step(&[Some(MemReq::write(2, 0x40, 8, ReqKind::StackSpill))]);
+        b.step(&[read(3, 2 * 128)]);
+        b.settle(1);
+        assert!(b.dram_log.iter().all(|r| !r.write));
+        b.step(&[read(4, 4 * 128)]);
+        b.settle(1);
+        let wb: Vec<&MemReq> = b.dram_log.iter().filter(|r| r.write).collect();
+        assert_eq!(wb.len(), 1);
+        assert_eq!(
+            (wb[0].addr, wb[0].bytes, wb[0].kind),
+            (0, 64, ReqKind::StackSpill)
+        );
+        assert_eq!(b.l2.counters().write_backs, 1);
+        // The stores allocated without a DRAM read and were acknowledged.
+        assert_eq!(b.resp_log.len(), 4);
+        // Misses: the first store, the second (same line, other sector) and both reads.
+        assert_eq!(b.l2.counters().misses, 4);
+        let mut s = Snapshot::default();
+        b.l2.probe(&mut s);
+        assert_eq!(s.get("mshr_occupancy"), Some(0));
+    }
+}

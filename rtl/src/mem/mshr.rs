@@ -1,0 +1,186 @@
+//! Miss status holding registers: one entry per missed sector (or line) in flight, each holding
+//! the requests waiting for it.
+//!
+//! ```text
+//!   miss(key) ─► entry for key? ── yes, room ─► Merge    (no new downstream request)
+//!                               ── yes, full ─► Full     (stall)
+//!                               ── no, free  ─► Allocate (one downstream request)
+//!                               ── no, none  ─► Full     (stall)
+//!   fill(key) ─► release: every waiter of key, oldest first; the entry frees
+//! ```
+//!
+//! Entries live in a `BTreeMap` so nothing depends on hash order.
+
+use std::collections::BTreeMap;
+
+/// A request waiting for a fill.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Waiter {
+    /// Which requester (SM) to answer; 0 where there is only one.
+    pub port: u32,
+    pub id: u64,
+    pub addr: u64,
+}
+
+/// What a miss to a key would do now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    Merge,
+    Allocate,
+    /// No free entry, or the key's entry has no room for another waiter: stall.
+    Full,
+}
+
+#[derive(Clone, Debug)]
+pub struct Mshr {
+    entries: BTreeMap<u64, Vec<Waiter>>,
+    capacity: usize,
+    max_merge: usize,
+}
+
+impl Mshr {
+    /// `capacity` entries of up to `max_merge` waiters each.
+    pub fn new(capacity: u32, max_merge: u32) -> Mshr {
+        Mshr {
+            entries: BTreeMap::new(),
+            capacity: capacity as usize,
+            max_merge: max_merge as usize,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    pub fn contains(&self, key: u64) -> bool {
+        self.entries.contains_key(&key)
+    }
+
+    /// Pure: what [`Mshr::insert`] of a miss to `key` would do.
+    pub fn check(&self, key: u64) -> Outcome {
+        match self.entries.get(&key) {
+            Some(w) if w.len() < self.max_merge => Outcome::Merge,
+            Some(_) => Outcome::Full,
+            None if self.entries.len() < self.capacity => Outcome::Allocate,
+            None => Outcome::Full,
+        }
+    }
+
+    /// Records a miss; on `Full` nothing changes.
+    pub fn insert(&mut self, key: u64, waiter: Waiter) -> Outcome {
+        let outcome = self.check(key);
+        match outcome {
+            Outcome::Merge => self.entries.get_mut(&key).expect("merge").push(waiter),
+            Outcome::Allocate => {
+                self.entries.insert(key, vec![waiter]);
+            }
+            Outcome::Full => {}
+        }
+        outcome
+    }
+
+    /// The fill for `key` arrived: frees its entry and returns its waiters, oldest first.
+    pub fn release(&mut self, key: u64) -> Vec<Waiter> {
+        self.entries.remove(&key).unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mem::testutil::XorShift;
+
+    fn w(id: u64) -> Waiter {
+        Waiter {
+            port: 0,
+            id,
+            addr: id * 4,
+        }
+    }
+
+    #[test]
+    fn same_key_merges_and_releases_all_in_order() {
+        let mut m = Mshr::new(2, 4);
+        assert_eq!(m.insert(0x40, w(1)), Outcome::Allocate);
+        assert_eq!(m.insert(0x40, w(2)), Outcome::Merge);
+        assert_eq!(m.len(), 1);
+        assert_eq!(m.release(0x40), vec![w(1), w(2)]);
+        assert!(m.is_empty());
+        assert_eq!(m.release(0x40), vec![]);
+    }
+
+    #[test]
+    fn full_table_and_full_entry_stall() {
+        let mut m = Mshr::new(2, 2);
+        m.insert(0, w(1));
+        m.insert(32, w(2));
+        assert_eq!(m.check(64), Outcome::Full);
+        assert_eq!(m.insert(64, w(3)), Outcome::Full);
+        assert!(!m.contains(64));
+        assert_eq!(m.insert(0, w(4)), Outcome::Merge);
+        assert_eq!(m.insert(0, w(5)), Outcome::Full, "merge limit");
+        m.release(32);
+        assert_eq!(m.insert(64, w(3)), Outcome::Allocate);
+    }
+
+    /// Random inserts and releases against a list-of-lists reference.
+    fn compare(seed: u64, planted_merge_limit_off: bool) -> Result<(), String> {
+        let (cap, merge) = (4usize, 3usize);
+        let mut m = Mshr::new(cap as u32, merge as u32);
+        let mut r: Vec<(u64, Vec<u64>)> = Vec::new();
+        let mut rng = XorShift(seed);
+        for step in 0..3000u64 {
+            let key = rng.below(8) * 32;
+            if rng.below(3) == 0 {
+                let got: Vec<u64> = m.release(key).iter().map(|w| w.id).collect();
+                let want = r
+                    .iter()
+                    .position(|(k, _)| *k == key)
+                    .map(|i| r.remove(i).1)
+                    .unwrap_or_default();
+                if got != want {
+                    return Err(format!("step {step}: released {got:?} vs {want:?}"));
+                }
+            } else {
+                let held = r.len();
+                let want = match r.iter_mut().find(|(k, _)| *k == key) {
+                    Some((_, ws)) if ws.len() < merge || planted_merge_limit_off => {
+                        ws.push(step);
+                        Outcome::Merge
+                    }
+                    Some(_) => Outcome::Full,
+                    None if held < cap => {
+                        r.push((key, vec![step]));
+                        Outcome::Allocate
+                    }
+                    None => Outcome::Full,
+                };
+                let got = m.insert(key, w(step));
+                if got != want {
+                    return Err(format!("step {step}: {got:?} vs {want:?}"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn matches_reference() {
+        for seed in 1..=8 {
+            compare(seed, false).unwrap();
+        }
+    }
+
+    #[test]
+    fn checker_catches_a_reference_without_merge_limit() {
+        assert!(compare(1, true).is_err());
+    }
+}
