@@ -12,7 +12,7 @@
 //! (data independence), so two distinct values suffice to expose a lost, duplicated or reordered
 //! entry, while keeping equal states equal.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::hash::{Hash, Hasher};
 use std::time::{Duration, Instant};
 
@@ -77,111 +77,155 @@ impl std::fmt::Display for Counterexample {
     }
 }
 
-#[derive(Clone)]
+/// The design under test and its reference, checked after every action.
+#[derive(Clone, Debug)]
+pub struct Model {
+    pub sm: StackManager,
+    pub sb: Scoreboard,
+}
+
+impl Model {
+    /// One warp of `cfg` (its `warps` is forced to 1).
+    pub fn new(cfg: Config) -> Result<Model, rtl::config::ConfigError> {
+        let cfg = Config { warps: 1, ..cfg };
+        Ok(Model { sm: StackManager::new(cfg, 0)?, sb: Scoreboard::new(cfg.threads()) })
+    }
+
+    fn key(&self) -> u128 {
+        let mut h1 = std::collections::hash_map::DefaultHasher::new();
+        let mut h2 = std::collections::hash_map::DefaultHasher::new();
+        0xA5u8.hash(&mut h2);
+        for h in [&mut h1, &mut h2] {
+            self.sm.hash_state(h);
+            self.sb.hash(h);
+        }
+        (h1.finish() as u128) << 64 | h2.finish() as u128
+    }
+
+    /// Applies `a` and checks every property. Returns false if `a` does not apply (a micro-op of
+    /// a thread with none pending).
+    pub fn act(&mut self, a: Action, cov: &mut Coverage) -> Result<bool, Violation> {
+        let sm = &mut self.sm;
+        let before = sm.stats;
+        match a {
+            Action::Cmd(t, cmd) => {
+                let got = sm.accept(t, cmd);
+                self.sb.check(t, cmd, got)?;
+            }
+            Action::Uop(t) => {
+                if !sm.complete_next(t) {
+                    return Ok(false);
+                }
+            }
+        }
+        cov.borrows += sm.stats.borrows - before.borrows;
+        cov.flushes += sm.stats.flushes - before.flushes;
+        cov.global_reloads += sm.stats.global_loads() - before.global_loads();
+        cov.releases += sm.stats.releases - before.releases;
+        let quiescent = sm.quiescent();
+        check_warp_fields(sm, 0, quiescent)?;
+        for t in sm.warp_threads(0).filter(|&t| sm.ready(t)) {
+            check_thread(sm, t, self.sb.reference(t))?;
+        }
+        if quiescent && sm.warp_done(0) {
+            check_warp_exit(sm, 0)?;
+            cov.warp_exits += 1;
+        }
+        Ok(true)
+    }
+
+    /// Every action possible now: commands (valid or not) of ready unfinished threads with push
+    /// values 1..=values, and the next micro-op of each busy thread.
+    pub fn actions(&self, values: u32) -> Vec<Action> {
+        let sm = &self.sm;
+        let mut out = Vec::new();
+        for t in sm.warp_threads(0) {
+            if !sm.ready(t) {
+                out.push(Action::Uop(t));
+                continue;
+            }
+            if sm.thread(t).done {
+                continue;
+            }
+            out.extend((1..=values as u64).map(|v| Action::Cmd(t, Cmd::Push(v))));
+            out.push(Action::Cmd(t, Cmd::Pop));
+            out.push(Action::Cmd(t, Cmd::Finish));
+        }
+        out
+    }
+
+    /// Decodes one input byte pair into an action for the current state: the first byte picks
+    /// the thread (a busy thread completes a micro-op), the second the command, biased to
+    /// pushes so stacks get deep. `value` is the push value to use.
+    pub fn decode(&self, (a, b): (u8, u8), value: u64) -> Action {
+        let t = a as u32 % self.sm.config().warp_size;
+        if !self.sm.ready(t) {
+            return Action::Uop(t);
+        }
+        match b {
+            0..=139 => Action::Cmd(t, Cmd::Push(value)),
+            140..=249 => Action::Cmd(t, Cmd::Pop),
+            _ => Action::Cmd(t, Cmd::Finish),
+        }
+    }
+}
+
+/// Runs byte-encoded actions (see [`Model::decode`]) on one warp of `cfg`, checking every
+/// property after each; pushes take unique values. The random and Kani harnesses call this.
+pub fn run_bytes(cfg: Config, input: &[(u8, u8)]) -> Result<Coverage, Box<Counterexample>> {
+    let mut m = Model::new(cfg).expect("harness configurations are valid");
+    let mut cov = Coverage::default();
+    let mut trace = Vec::new();
+    for (i, &pair) in input.iter().enumerate() {
+        let a = m.decode(pair, i as u64 + 1);
+        trace.push(a);
+        if let Err(violation) = m.act(a, &mut cov) {
+            return Err(Box::new(Counterexample { violation, trace }));
+        }
+    }
+    cov.complete = true;
+    Ok(cov)
+}
+
 struct Node {
-    sm: StackManager,
-    sb: Scoreboard,
+    model: Model,
     trace: Vec<Action>,
     paths: u128,
 }
 
-fn key(sm: &StackManager, sb: &Scoreboard) -> u128 {
-    let mut h1 = std::collections::hash_map::DefaultHasher::new();
-    let mut h2 = std::collections::hash_map::DefaultHasher::new();
-    0xA5u8.hash(&mut h2);
-    for h in [&mut h1, &mut h2] {
-        sm.hash_state(h);
-        sb.hash(h);
-    }
-    (h1.finish() as u128) << 64 | h2.finish() as u128
-}
-
-/// Applies one action to a copy of `node`'s state and checks every property.
-fn apply(
-    node: &Node,
-    a: Action,
-    cov: &mut Coverage,
-) -> Result<Option<(StackManager, Scoreboard)>, Violation> {
-    let mut sm = node.sm.clone();
-    let mut sb = node.sb.clone();
-    let before = sm.stats;
-    match a {
-        Action::Cmd(t, cmd) => {
-            let got = sm.accept(t, cmd);
-            sb.check(t, cmd, got)?;
-        }
-        Action::Uop(t) => {
-            if !sm.complete_next(t) {
-                return Ok(None);
-            }
-        }
-    }
-    cov.borrows += sm.stats.borrows - before.borrows;
-    cov.flushes += sm.stats.flushes - before.flushes;
-    cov.global_reloads += sm.stats.global_loads() - before.global_loads();
-    cov.releases += sm.stats.releases - before.releases;
-    let quiescent = sm.quiescent();
-    check_warp_fields(&sm, 0, quiescent)?;
-    for t in sm.warp_threads(0).filter(|&t| sm.ready(t)) {
-        check_thread(&sm, t, sb.reference(t))?;
-    }
-    if quiescent && sm.warp_done(0) {
-        check_warp_exit(&sm, 0)?;
-        cov.warp_exits += 1;
-    }
-    Ok(Some((sm, sb)))
-}
-
-fn actions(sm: &StackManager, values: u32) -> Vec<Action> {
-    let mut out = Vec::new();
-    for t in sm.warp_threads(0) {
-        if !sm.ready(t) {
-            out.push(Action::Uop(t));
-            continue;
-        }
-        if sm.thread(t).done {
-            continue;
-        }
-        out.extend((1..=values as u64).map(|v| Action::Cmd(t, Cmd::Push(v))));
-        out.push(Action::Cmd(t, Cmd::Pop));
-        out.push(Action::Cmd(t, Cmd::Finish));
-    }
-    out
-}
-
-/// Explores every action sequence up to `bounds.depth` on one warp of `cfg` (whose `warps` is
-/// forced to 1). Returns what was covered, or the first violation with its shortest trace.
+/// Explores every action sequence up to `bounds.depth` on one warp of `cfg`. `design` may
+/// replace the stack manager (a mutant). Returns what was covered, or the first violation with
+/// its shortest trace.
 pub fn check(
     cfg: Config,
     bounds: Bounds,
     design: impl Fn(StackManager) -> StackManager,
 ) -> Result<Coverage, Box<Counterexample>> {
-    let cfg = Config { warps: 1, ..cfg };
     let start = Instant::now();
-    let sm =
-        design(StackManager::new(cfg, 0).expect("exhaustive configurations are validated by the caller"));
-    let sb = Scoreboard::new(cfg.threads());
+    let mut model = Model::new(cfg).expect("exhaustive configurations are validated by the caller");
+    model.sm = design(model.sm);
     let mut cov = Coverage { complete: true, ..Default::default() };
     let mut seen: HashSet<u128> = HashSet::new();
-    seen.insert(key(&sm, &sb));
-    let mut frontier = vec![Node { sm, sb, trace: vec![], paths: 1 }];
+    seen.insert(model.key());
+    let mut frontier = vec![Node { model, trace: vec![], paths: 1 }];
     for depth in 1..=bounds.depth {
         let mut next: Vec<Node> = Vec::new();
-        let mut index: std::collections::HashMap<u128, usize> = std::collections::HashMap::new();
+        let mut index: HashMap<u128, usize> = HashMap::new();
         for node in &frontier {
-            for a in actions(&node.sm, bounds.values) {
+            for a in node.model.actions(bounds.values) {
                 cov.transitions += 1;
-                let (sm, sb) = match apply(node, a, &mut cov) {
-                    Ok(Some(s)) => s,
-                    Ok(None) => continue,
+                let mut model = node.model.clone();
+                match model.act(a, &mut cov) {
+                    Ok(true) => {}
+                    Ok(false) => continue,
                     Err(violation) => {
                         let mut trace = node.trace.clone();
                         trace.push(a);
                         return Err(Box::new(Counterexample { violation, trace }));
                     }
-                };
+                }
                 cov.sequences += node.paths;
-                let k = key(&sm, &sb);
+                let k = model.key();
                 if let Some(&i) = index.get(&k) {
                     next[i].paths = next[i].paths.saturating_add(node.paths);
                     continue;
@@ -192,7 +236,7 @@ pub fn check(
                 let mut trace = node.trace.clone();
                 trace.push(a);
                 index.insert(k, next.len());
-                next.push(Node { sm, sb, trace, paths: node.paths });
+                next.push(Node { model, trace, paths: node.paths });
             }
         }
         cov.depth_reached = depth;
