@@ -173,7 +173,11 @@ impl Model {
 /// Runs byte-encoded actions (see [`Model::decode`]) on one warp of `cfg`, checking every
 /// property after each; pushes take unique values. The random and Kani harnesses call this.
 pub fn run_bytes(cfg: Config, input: &[(u8, u8)]) -> Result<Coverage, Box<Counterexample>> {
-    let mut m = Model::new(cfg).expect("harness configurations are valid");
+    run_bytes_on(Model::new(cfg).expect("harness configurations are valid"), input)
+}
+
+/// [`run_bytes`] on a given model (e.g. one whose stack manager is a mutant).
+pub fn run_bytes_on(mut m: Model, input: &[(u8, u8)]) -> Result<Coverage, Box<Counterexample>> {
     let mut cov = Coverage::default();
     let mut trace = Vec::new();
     for (i, &pair) in input.iter().enumerate() {

@@ -1,6 +1,7 @@
 //! Exhaustive checks of the small configurations, and every mutant caught by them.
 
-use proofs::exhaustive::{check, describe, small_configs, Bounds, Coverage};
+use proofs::exhaustive::{check, describe, run_bytes_on, small_configs, Bounds, Coverage, Model};
+use proofs::harness::mix;
 use proofs::invariants::Property;
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::Mutant;
@@ -89,4 +90,36 @@ fn every_mutant_is_caught() {
     for (c, m, expected) in cases {
         assert_eq!(mutant_caught(c, m), expected, "{m:?}");
     }
+}
+
+/// Setting Idle when the pop is planned (before the drained stack's last entry is read) is safe
+/// under the cycle model's oldest-first arbiter, but not for arbitrary latencies: another thread
+/// may borrow the stack and overwrite the entry first. The race needs three threads and about 14
+/// actions, past the exhaustive bound of 4-thread warps, so random interleavings find it.
+#[test]
+fn eager_release_loses_an_entry_under_some_interleaving() {
+    let c = Config {
+        rb: RbSize::Entries(1),
+        sh_entries: 1,
+        realloc: Some(Realloc { borrow_limit: 1, flush_limit: 1 }),
+        warp_size: 4,
+        warps: 1,
+        ..Config::default()
+    };
+    let input = |seed: u64| -> Vec<(u8, u8)> {
+        (0..400u64).map(|i| mix(seed << 20 | i)).map(|h| ((h % 4) as u8, (h >> 8) as u8)).collect()
+    };
+    let model = |m| {
+        let mut x = Model::new(c).unwrap();
+        x.sm = x.sm.with_mutant(m);
+        x
+    };
+    for seed in 0..2000 {
+        run_bytes_on(model(None), &input(seed)).unwrap_or_else(|e| panic!("correct design failed: {e}"));
+    }
+    let caught =
+        (0..2000).find_map(|seed| run_bytes_on(model(Some(Mutant::EagerRelease)), &input(seed)).err());
+    let cex = caught.expect("EagerRelease survived 2000 random interleavings");
+    println!("EagerRelease caught by {:?} after {} actions", cex.violation.property, cex.trace.len());
+    assert!(matches!(cex.violation.property, Property::Conservation | Property::Equivalence));
 }

@@ -230,6 +230,8 @@ pub enum Mutant {
     SkipOverflowClear,
     /// A drained or released stack keeps its flush count.
     FlushKeepsCount,
+    /// A drained borrowed stack turns Idle when the pop is planned, before its last entry is read.
+    EagerRelease,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -710,7 +712,11 @@ impl StackManager {
                 if chain.len > 1 {
                     if top != t {
                         self.unlink(t, top);
-                        self.emit(t, Uop::Release { stack: top });
+                        if self.mutant(MutantTag::EagerRelease) {
+                            self.stacks[top as usize].idle = true;
+                        } else {
+                            self.emit(t, Uop::Release { stack: top });
+                        }
                         self.stats.releases += 1;
                     } else {
                         self.move_to_rank(&chain, t, 0);
@@ -950,6 +956,7 @@ enum MutantTag {
     EarlyRelease,
     SkipOverflowClear,
     FlushKeepsCount,
+    EagerRelease,
 }
 
 #[cfg(feature = "mutants")]
@@ -963,6 +970,7 @@ impl From<Mutant> for MutantTag {
             Mutant::EarlyRelease => MutantTag::EarlyRelease,
             Mutant::SkipOverflowClear => MutantTag::SkipOverflowClear,
             Mutant::FlushKeepsCount => MutantTag::FlushKeepsCount,
+            Mutant::EagerRelease => MutantTag::EagerRelease,
         }
     }
 }
