@@ -29,14 +29,28 @@ impl Table {
         w
     }
 
-    /// Left-aligned first column, right-aligned numbers, for the terminal.
+    /// Columns of numbers only are right-aligned.
+    fn numeric(&self) -> Vec<bool> {
+        (0..self.headers.len())
+            .map(|i| {
+                self.rows.iter().all(|r| {
+                    r.get(i).is_none_or(|c| {
+                        c.is_empty() || c.trim_end_matches(['%', 'x', '×']).parse::<f64>().is_ok()
+                    })
+                })
+            })
+            .collect()
+    }
+
+    /// Aligned columns for the terminal.
     pub fn to_text(&self) -> String {
         let w = self.widths();
+        let num = self.numeric();
         let line = |cells: &[String]| {
             let parts: Vec<String> = cells
                 .iter()
                 .enumerate()
-                .map(|(i, c)| if i == 0 { format!("{c:<0$}", w[i]) } else { format!("{c:>0$}", w[i]) })
+                .map(|(i, c)| if num[i] { format!("{c:>0$}", w[i]) } else { format!("{c:<0$}", w[i]) })
                 .collect();
             parts.join("  ").trim_end().to_string()
         };
@@ -54,7 +68,7 @@ impl Table {
     pub fn to_markdown(&self) -> String {
         let esc = |c: &String| c.replace('|', "\\|");
         let mut out = format!("| {} |\n", self.headers.iter().map(esc).collect::<Vec<_>>().join(" | "));
-        let align: Vec<&str> = (0..self.headers.len()).map(|i| if i == 0 { "---" } else { "---:" }).collect();
+        let align: Vec<&str> = self.numeric().iter().map(|&n| if n { "---:" } else { "---" }).collect();
         out.push_str(&format!("| {} |\n", align.join(" | ")));
         for r in &self.rows {
             out.push_str(&format!("| {} |\n", r.iter().map(esc).collect::<Vec<_>>().join(" | ")));
@@ -89,6 +103,8 @@ mod tests {
         t.row(["top", "3"]);
         t.row(["a,b", "10"]);
         assert_eq!(t.to_text(), "field  bits\n-----  ----\ntop       3\na,b      10\n");
+        t.row(["x", "many"]);
+        assert!(t.to_text().ends_with("x      many\n"), "a text column is left-aligned");
         assert_eq!(t.to_markdown(), "| field | bits |\n| --- | ---: |\n| top | 3 |\n| a,b | 10 |\n");
         assert_eq!(t.to_csv(), "field,bits\ntop,3\n\"a,b\",10\n");
     }

@@ -1,1 +1,33 @@
-fn main() {}
+//! `sms`: command-line front end of the SMS model. Each subcommand lives in `tb::cli`.
+
+use clap::{Parser, Subcommand};
+use tb::cli;
+
+#[derive(Parser)]
+#[command(version, about = "SMS traversal-stack model tools")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Hardware cost of stack designs, bit by bit, from the RTL's width definitions.
+    Cost(cli::cost::Args),
+    /// Exhaustive bounded model checking of stack consistency on small configurations.
+    Check(cli::check::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let result = match Cli::parse().command {
+        Command::Cost(args) => cli::cost::run(args),
+        Command::Check(args) => cli::check::run(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,55 @@
+//! Stack-configuration arguments shared by every subcommand: a list of names in the paper's
+//! style plus overrides of the RT unit's shape, validated with the RTL's own errors.
+
+use anyhow::{Context, Result};
+use rtl::config::{Config, Realloc};
+
+#[derive(clap::Args, Clone, Debug)]
+pub struct StackConfigArgs {
+    /// Stack configurations, comma-separated: RB_N, RB_FULL, RB_N+SH_M, +SK, +RA, or SMS
+    /// (= RB_8+SH_8+SK+RA); `paper` = every configuration of the paper's evaluation.
+    #[arg(long, short = 'c', default_value = "SMS", value_delimiter = ',')]
+    pub config: Vec<String>,
+    /// Warps per RT unit.
+    #[arg(long)]
+    pub warps: Option<u32>,
+    /// Threads per warp.
+    #[arg(long)]
+    pub warp_size: Option<u32>,
+    /// Most stacks a thread may borrow (reallocation only).
+    #[arg(long)]
+    pub borrow_limit: Option<u32>,
+    /// Flush counter limit per stack (reallocation only).
+    #[arg(long)]
+    pub flush_limit: Option<u32>,
+}
+
+impl StackConfigArgs {
+    /// The configurations asked for, each validated after the overrides.
+    pub fn resolve(&self) -> Result<Vec<Config>> {
+        let mut out = Vec::new();
+        for name in &self.config {
+            let base: Vec<Config> = if name.eq_ignore_ascii_case("paper") {
+                Config::paper_set()
+            } else {
+                vec![name.parse().with_context(|| format!("--config {name}"))?]
+            };
+            for mut c in base {
+                if let Some(w) = self.warps {
+                    c.warps = w;
+                }
+                if let Some(w) = self.warp_size {
+                    c.warp_size = w;
+                }
+                if let Some(ra) = c.realloc.as_mut() {
+                    let Realloc { borrow_limit, flush_limit } = ra;
+                    *borrow_limit = self.borrow_limit.unwrap_or(*borrow_limit);
+                    *flush_limit = self.flush_limit.unwrap_or(*flush_limit);
+                }
+                c.validate().with_context(|| format!("--config {name}"))?;
+                out.push(c);
+            }
+        }
+        Ok(out)
+    }
+}
