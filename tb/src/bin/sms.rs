@@ -1,1 +1,33 @@
-fn main() {}
+//! `sms`: command-line front end of the SMS model. Each subcommand lives in `tb::cli`.
+
+use clap::{Parser, Subcommand};
+use tb::cli;
+
+#[derive(Parser)]
+#[command(version, about = "SMS traversal-stack model tools")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List the scenes with triangle counts, BVH node counts and build times.
+    Scenes(cli::scenes::Args),
+    /// Stack-depth statistics of a scene.
+    Depth(cli::depth::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let result = match Cli::parse().command {
+        Command::Scenes(args) => cli::scenes::run(args),
+        Command::Depth(args) => cli::depth::run(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
