@@ -46,9 +46,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let scene = args.scenes.library().load(&args.scene)?;
     eprintln!(
-        "loaded {} ({} primitives) in {:.2} s",
+        "loaded {} ({} primitives, {} degenerate triangles dropped) in {:.2} s",
         scene.name,
         scene.primitives.len(),
+        scene.dropped_degenerate,
         start.elapsed().as_secs_f64()
     );
     let mut opts = WorkloadOpts::for_scene(&scene);

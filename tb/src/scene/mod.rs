@@ -224,7 +224,7 @@ impl SceneLibrary {
     pub fn load_description(&self, name: &str, path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let desc: SceneDesc = toml::from_str(&text).map_err(|e| {
-            let line = e.span().map_or(0, |s| text[..s.start].lines().count().max(1));
+            let line = e.span().map_or(1, |s| text[..s.start].matches('\n').count() + 1);
             Error::format(path, format!("line {line}"), e.message().to_owned())
         })?;
         if desc.mesh.is_empty() {
@@ -278,3 +278,6 @@ impl SceneLibrary {
 pub fn load_scene(name: &str) -> Result<Scene> {
     SceneLibrary::default().load(name)
 }
+
+#[cfg(test)]
+mod tests;
