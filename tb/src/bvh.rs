@@ -224,3 +224,75 @@ impl Bvh {
         PRIM_BASE + slot as u64 * PRIM_SIZE
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashSet;
+
+    use super::*;
+    use crate::scene::load_scene;
+
+    fn contains(outer: &Aabb, inner: &Aabb) -> bool {
+        outer.min.cmple(inner.min).all() && outer.max.cmpge(inner.max).all()
+    }
+
+    #[test]
+    fn bvh6_structure() {
+        for name in ["wknd", "grid", "clutter", "ship"] {
+            let scene = load_scene(name).expect(name);
+            let bvh = Bvh::build(&scene.primitives, BvhKind::Bvh6).expect("bvh");
+            let Bvh::Bvh6(b) = &bvh else { unreachable!() };
+            let (mut internal_refs, mut leaf_refs) = (vec![0; b.nodes.len()], vec![0; b.leaves.len()]);
+            // Collapsing removes most BVH2 internal nodes (leaf-heavy nodes near the bottom stay narrow).
+            let mean_children = b.children.len() as f64 / b.nodes.len() as f64;
+            assert!(mean_children > 3.5, "{name}: {mean_children} children per node");
+            for (i, node) in b.nodes.iter().enumerate() {
+                let children = b.node_children(i as u32);
+                assert!((2..=BVH6_WIDTH).contains(&children.len()), "{name} node {i}: {} children", children.len());
+                let internal: Vec<u32> = children.iter().filter_map(|c| match c.node { NodeRef::Internal(j) => Some(j), _ => None }).collect();
+                let leaves: Vec<u32> = children.iter().filter_map(|c| match c.node { NodeRef::Leaf(j) => Some(j), _ => None }).collect();
+                for run in [&internal, &leaves] {
+                    assert!(run.windows(2).all(|w| w[1] == w[0] + 1), "{name} node {i}: children not contiguous");
+                }
+                internal.iter().for_each(|&j| internal_refs[j as usize] += 1);
+                leaves.iter().for_each(|&j| leaf_refs[j as usize] += 1);
+                for c in children {
+                    let inner: Vec<Aabb> = match c.node {
+                        NodeRef::Internal(j) => b.node_children(j).iter().map(|g| g.aabb).collect(),
+                        NodeRef::Leaf(j) => b.leaves[j as usize].clone().map(|s| {
+                            let p = b.prim_indices[s as usize] as usize;
+                            match &scene.primitives {
+                                crate::geometry::Primitives::Triangles(t) => obvhs::Boundable::aabb(&t[p]),
+                                crate::geometry::Primitives::Spheres(s) => obvhs::Boundable::aabb(&s[p]),
+                            }
+                        }).collect(),
+                    };
+                    assert!(inner.iter().all(|a| contains(&c.aabb, a)), "{name} node {i}: child box too small");
+                }
+                assert!(node.count as usize == children.len());
+            }
+            assert_eq!(internal_refs[0], 0);
+            assert!(internal_refs[1..].iter().all(|&r| r == 1), "{name}: every internal node has one parent");
+            assert!(leaf_refs.iter().all(|&r| r == 1), "{name}: every leaf has one parent");
+            assert!(b.leaves.iter().all(|l| l.len() == 1), "{name}: one primitive per leaf");
+            let mut prims = b.prim_indices.clone();
+            prims.sort_unstable();
+            assert!(prims.iter().copied().eq(0..scene.primitives.len() as u32), "{name}: primitives covered once");
+
+            let mut addrs = HashSet::new();
+            for i in 0..b.nodes.len() as u32 {
+                let a = bvh.node_addr(NodeRef::Internal(i));
+                assert!(a % BVH6_NODE_SIZE == 0 && (INTERNAL_BASE..LEAF_BASE).contains(&a));
+                assert!(addrs.insert(a));
+            }
+            for j in 0..b.leaves.len() as u32 {
+                let a = bvh.node_addr(NodeRef::Leaf(j));
+                assert!(a % BVH6_LEAF_DESC_SIZE == 0 && (LEAF_BASE..PRIM_BASE).contains(&a));
+                assert!(addrs.insert(a));
+                let p = Bvh::prim_addr(j);
+                assert!(p % PRIM_SIZE == 0 && p >= PRIM_BASE);
+                assert!(addrs.insert(p));
+            }
+        }
+    }
+}

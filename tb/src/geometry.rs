@@ -31,9 +31,11 @@ impl Ray {
         }
     }
 
-    /// The same ray in obvhs's representation, for cross-checking against obvhs's traversal.
+    /// The same ray in obvhs's representation. obvhs takes the CWBVH traversal octant from the
+    /// direction's sign bits but its reciprocal from the value, so `-0.0` would disagree with
+    /// itself and miss; adding `+0.0` turns `-0.0` into `+0.0` and changes nothing else.
     pub fn to_obvhs(&self, tmax: f32) -> obvhs::ray::Ray {
-        obvhs::ray::Ray::new(self.origin, self.dir, self.tmin, tmax)
+        obvhs::ray::Ray::new(self.origin, self.dir + Vec3A::ZERO, self.tmin, tmax)
     }
 
     pub fn at(&self, t: f32) -> Vec3A {

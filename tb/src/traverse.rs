@@ -194,7 +194,8 @@ fn trace_cwbvh<R: Recorder>(
     tmax: f32,
     rec: &mut R,
 ) -> Option<Hit> {
-    let seed = cw.new_traversal(ray.dir);
+    let mut oray = ray.to_obvhs(tmax);
+    let seed = cw.new_traversal(oray.direction);
     let mut state = CwState {
         stack: RecordingStack {
             entries: Vec::new(),
@@ -206,7 +207,6 @@ fn trace_cwbvh<R: Recorder>(
         hitmask: 0,
         primitive_id: 0,
     };
-    let mut oray = ray.to_obvhs(tmax);
     let mut best = None;
     let mut node;
     traverse!(
@@ -235,4 +235,148 @@ fn trace_cwbvh<R: Recorder>(
         }
     );
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3A;
+    use obvhs::ray::RayHit;
+
+    use super::*;
+    use crate::bvh::BvhKind;
+    use crate::raygen::RayGen;
+    use crate::rng::Rng;
+    use crate::scene::{load_scene, Scene};
+
+    /// Camera rays over a 16x16 image plus rays from random points in the scene's box in random
+    /// directions (these start inside the geometry, like bounce rays).
+    fn sample_rays(scene: &Scene) -> Vec<Ray> {
+        let bounds = scene.primitives.bounds();
+        let raygen = RayGen::new(&scene.camera, 16, 16, 3, bounds.diagonal().length());
+        let mut rays: Vec<Ray> = (0..256).map(|p| raygen.primary(p, 0)).collect();
+        for i in 0..256 {
+            let mut rng = Rng::new(&[99, i]);
+            let mut unit = || Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let origin = bounds.min + unit() * bounds.diagonal();
+            let dir = (unit() * 2.0 - Vec3A::ONE).normalize_or(Vec3A::X);
+            rays.push(Ray::new(origin, dir, 0.0));
+        }
+        // Axis-parallel directions, including negative zeros, through the middle of the scene.
+        let center = bounds.center();
+        for dir in [Vec3A::new(-0.0, -1.0, 0.0), Vec3A::new(0.0, 0.0, -1.0), Vec3A::new(1.0, -0.0, -0.0)] {
+            rays.push(Ray::new(center - dir * bounds.diagonal().length(), dir, 0.0));
+        }
+        rays
+    }
+
+    /// Same distance; the primitive may differ only on an exact tie.
+    fn assert_same(what: &str, got: Option<Hit>, want: Option<(usize, f32)>) {
+        match (got, want) {
+            (None, None) => {}
+            (Some(h), Some((p, t))) => assert!(h.t == t, "{what}: hit {h:?}, brute force ({p}, {t})"),
+            _ => panic!("{what}: hit {got:?}, brute force {want:?}"),
+        }
+    }
+
+    fn check_closest_hits(name: &str) {
+        let scene = load_scene(name).expect(name);
+        let prims = &scene.primitives;
+        let rays = sample_rays(&scene);
+        let oracle: Vec<_> = rays.iter().map(|r| prims.brute_force_hit(r, f32::INFINITY)).collect();
+        assert!(oracle.iter().filter(|h| h.is_some()).count() > rays.len() / 10, "{name}: rays should hit");
+        for kind in [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh] {
+            let bvh = Bvh::build(prims, kind).expect("bvh");
+            for order in [ChildOrder::Nearest, ChildOrder::VulkanSim] {
+                for (i, (ray, want)) in rays.iter().zip(&oracle).enumerate() {
+                    let got = trace(&bvh, prims, ray, f32::INFINITY, order, &mut ());
+                    assert_same(&format!("{name} {kind:?} {order:?} ray {i}"), got, *want);
+                }
+            }
+            // obvhs's own traversal of the same hierarchy, with the same primitive test.
+            for (i, (ray, want)) in rays.iter().zip(&oracle).enumerate() {
+                let mut hit = RayHit::none();
+                let oray = ray.to_obvhs(f32::INFINITY);
+                let (found, indices) = match &bvh {
+                    Bvh::Bvh2(b) => {
+                        let test = |r: &obvhs::ray::Ray, slot: usize| {
+                            prims.hit(b.primitive_indices[slot] as usize, ray, r.tmax)
+                        };
+                        (b.ray_traverse(oray, &mut hit, test), &b.primitive_indices)
+                    }
+                    Bvh::Cwbvh(b) => {
+                        let test = |r: &obvhs::ray::Ray, slot: usize| {
+                            prims.hit(b.primitive_indices[slot] as usize, ray, r.tmax)
+                        };
+                        (b.ray_traverse(oray, &mut hit, test), &b.primitive_indices)
+                    }
+                    Bvh::Bvh6(_) => continue,
+                };
+                let got = found.then(|| Hit {
+                    prim: indices[hit.primitive_id as usize],
+                    t: hit.t,
+                });
+                assert_same(&format!("{name} obvhs {kind:?} ray {i}"), got, *want);
+            }
+        }
+    }
+
+    #[test]
+    fn closest_hits_match_brute_force_and_obvhs_wknd() {
+        check_closest_hits("wknd");
+    }
+
+    #[test]
+    fn closest_hits_match_brute_force_and_obvhs_grid() {
+        check_closest_hits("grid");
+    }
+
+    #[test]
+    fn closest_hits_match_brute_force_and_obvhs_clutter() {
+        check_closest_hits("clutter");
+    }
+
+    #[test]
+    fn closest_hits_match_brute_force_and_obvhs_ship() {
+        check_closest_hits("ship");
+    }
+
+    #[test]
+    fn child_orders_differ_but_find_the_same_hits() {
+        let scene = load_scene("clutter").expect("clutter");
+        let bvh = Bvh::build(&scene.primitives, BvhKind::Bvh6).expect("bvh");
+        let mut differing = 0;
+        for ray in sample_rays(&scene) {
+            let (mut a, mut b) = (crate::workload::RayTrace::default(), crate::workload::RayTrace::default());
+            let ha = trace(&bvh, &scene.primitives, &ray, f32::INFINITY, ChildOrder::Nearest, &mut a);
+            let hb = trace(&bvh, &scene.primitives, &ray, f32::INFINITY, ChildOrder::VulkanSim, &mut b);
+            assert_eq!(ha.map(|h| h.t), hb.map(|h| h.t));
+            differing += usize::from(a != b);
+        }
+        assert!(differing > 0);
+    }
+
+    #[test]
+    fn slab_test_handles_zero_directions_without_nan() {
+        let aabb = obvhs::aabb::Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+        let on_face = Ray::new(Vec3A::new(0.0, 0.5, -1.0), Vec3A::new(-0.0, 0.0, 1.0), 0.0);
+        assert_eq!(on_face.hit_box(&aabb, f32::INFINITY), Some(1.0));
+        let outside = Ray::new(Vec3A::new(2.0, 0.5, -1.0), Vec3A::new(0.0, -0.0, 1.0), 0.0);
+        assert_eq!(outside.hit_box(&aabb, f32::INFINITY), None);
+        let on_plane = Ray::new(Vec3A::new(0.0, 0.0, -1.0), Vec3A::new(0.0, 0.0, 1.0), 0.0);
+        assert_eq!(on_plane.hit_box(&aabb, f32::INFINITY), Some(1.0));
+        assert_eq!(on_plane.hit_box(&aabb, 0.5), None);
+    }
+
+    #[test]
+    fn triangle_test_is_watertight_on_a_shared_edge() {
+        let (a, b) = (Vec3A::new(0.0, 0.0, 0.0), Vec3A::new(1.0, 1.0, 0.0));
+        let t1 = obvhs::triangle::Triangle { v0: a, v1: Vec3A::new(1.0, 0.0, 0.0), v2: b };
+        let t2 = obvhs::triangle::Triangle { v0: a, v1: b, v2: Vec3A::new(0.0, 1.0, 0.0) };
+        for i in 0..1000 {
+            let s = i as f32 / 1000.0;
+            let ray = Ray::new(Vec3A::new(s, s, 1.0), Vec3A::new(0.0, 0.0, -1.0), 0.0);
+            let hits = [&t1, &t2].iter().filter(|t| crate::geometry::hit_triangle(&ray, t, f32::INFINITY).is_finite()).count();
+            assert!(hits >= 1, "ray through the shared edge at {s} fell through");
+        }
+    }
 }

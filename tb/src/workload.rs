@@ -95,6 +95,36 @@ impl RayTrace {
     pub fn max_depth(&self) -> u32 {
         self.max_depth
     }
+
+    /// Checks that the trace is a valid stack history: it starts by visiting a node, every pop
+    /// takes the most recent unpopped push, the stack ends empty, and `max_depth` is right.
+    pub fn check_stack_history(&self) -> Result<(), String> {
+        if !matches!(self.ops().next(), Some(TraceOp::Visit { .. })) {
+            return Err("does not start with a visit of the root".into());
+        }
+        let mut stack = Vec::new();
+        let mut max = 0;
+        for (i, op) in self.ops().enumerate() {
+            match op {
+                TraceOp::Push(addr) => {
+                    stack.push(addr);
+                    max = max.max(stack.len() as u32);
+                }
+                TraceOp::Pop(addr) => match stack.pop() {
+                    Some(top) if top == addr => {}
+                    top => return Err(format!("op {i}: pop of {addr:#x}, stack top {top:x?}")),
+                },
+                TraceOp::Visit { .. } => {}
+            }
+        }
+        if !stack.is_empty() {
+            return Err(format!("{} entries left on the stack", stack.len()));
+        }
+        if max != self.max_depth {
+            return Err(format!("max depth {} recorded, {max} replayed", self.max_depth));
+        }
+        Ok(())
+    }
 }
 
 impl Recorder for RayTrace {
@@ -108,7 +138,8 @@ impl Recorder for RayTrace {
     }
     fn pop(&mut self, addr: u64) {
         self.ops.push(TraceOp::Pop(addr).pack());
-        self.depth -= 1;
+        // Saturating so that a faulty traversal yields a trace `check_stack_history` rejects.
+        self.depth = self.depth.saturating_sub(1);
     }
 }
 
@@ -309,5 +340,125 @@ impl<'s> Workload<'s> {
             }
         }
         run
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::load_scene;
+
+    fn small(bvh: BvhKind, order: ChildOrder, seed: u64) -> WorkloadOpts {
+        WorkloadOpts {
+            bvh,
+            order,
+            width: 16,
+            height: 12,
+            spp: 1,
+            max_bounces: 2,
+            seed,
+        }
+    }
+
+    const KINDS: [BvhKind; 3] = [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh];
+    const ORDERS: [ChildOrder; 2] = [ChildOrder::Nearest, ChildOrder::VulkanSim];
+
+    #[test]
+    fn traces_are_valid_stack_histories() {
+        for name in ["wknd", "grid", "clutter"] {
+            let scene = load_scene(name).expect(name);
+            for bvh in KINDS {
+                for order in ORDERS {
+                    let w = Workload::new(&scene, small(bvh, order, 1)).expect("workload");
+                    let mut rays = 0;
+                    let mut deepest = 0;
+                    for job in w.warp_jobs() {
+                        assert_eq!(job.lanes.len(), WARP_SIZE);
+                        for trace in job.lanes.iter().flatten() {
+                            rays += 1;
+                            deepest = deepest.max(trace.max_depth());
+                            trace.check_stack_history().unwrap_or_else(|e| panic!("{name} {bvh:?} {order:?}: {e}"));
+                            assert_eq!(trace.ops().next(), Some(TraceOp::Visit { addr: crate::bvh::INTERNAL_BASE, kind: NodeKind::Internal }));
+                            if bvh != BvhKind::Cwbvh {
+                                // A popped node is fetched next.
+                                let ops: Vec<_> = trace.ops().collect();
+                                for pair in ops.windows(2) {
+                                    if let TraceOp::Pop(a) = pair[0] {
+                                        assert!(matches!(pair[1], TraceOp::Visit { addr, .. } if addr == a));
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    assert_eq!(rays, w.num_rays());
+                    assert!(deepest > 0, "{name} {bvh:?} {order:?} never pushed");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_wrong_pop_is_caught() {
+        let mut good = RayTrace::default();
+        good.visit(crate::bvh::INTERNAL_BASE, NodeKind::Internal);
+        good.push(0x40);
+        good.push(0x80);
+        good.pop(0x80);
+        good.pop(0x40);
+        assert_eq!(good.check_stack_history(), Ok(()));
+        assert_eq!(good.max_depth(), 2);
+        let mut swapped = good.clone();
+        swapped.ops.swap(3, 4);
+        assert!(swapped.check_stack_history().is_err());
+        let mut unbalanced = good.clone();
+        unbalanced.ops.pop();
+        assert!(unbalanced.check_stack_history().is_err());
+    }
+
+    #[test]
+    fn ops_round_trip_through_packing() {
+        let kinds = [NodeKind::Internal, NodeKind::Leaf, NodeKind::Triangle, NodeKind::Procedural];
+        for (i, kind) in kinds.into_iter().enumerate() {
+            let addr = ADDR_MASK - i as u64;
+            for op in [TraceOp::Visit { addr, kind }, TraceOp::Push(addr), TraceOp::Pop(addr)] {
+                assert_eq!(TraceOp::unpack(op.pack()), op);
+            }
+        }
+    }
+
+    #[test]
+    fn same_seed_same_traces_other_seed_other_traces() {
+        let scene = load_scene("clutter").expect("clutter");
+        let jobs = |seed| {
+            let w = Workload::new(&scene, small(BvhKind::Bvh6, ChildOrder::VulkanSim, seed)).expect("workload");
+            (w.warp_jobs().collect::<Vec<_>>(), w.image().clone())
+        };
+        let (a, image_a) = jobs(7);
+        let (b, image_b) = jobs(7);
+        assert_eq!(a, b);
+        assert_eq!(image_a, image_b);
+        assert_ne!(a, jobs(8).0);
+    }
+
+    #[test]
+    fn partial_last_warp_has_inactive_lanes() {
+        let scene = load_scene("grid").expect("grid");
+        let mut opts = small(BvhKind::Bvh2, ChildOrder::Nearest, 0);
+        (opts.width, opts.height, opts.spp) = (10, 5, 2);
+        let w = Workload::new(&scene, opts).expect("workload");
+        assert_eq!(w.num_warps(), 2);
+        assert_eq!(w.image().pixels.len(), 50);
+        let jobs: Vec<_> = w.warp_jobs().collect();
+        let last_warp_jobs = jobs.iter().rev().take_while(|j| j.lanes[18..].iter().all(Option::is_none));
+        assert!(last_warp_jobs.count() >= opts.spp as usize);
+        assert!(jobs.iter().all(|j| j.lanes.iter().any(Option::is_some)));
+    }
+
+    #[test]
+    fn empty_resolution_is_an_error() {
+        let scene = load_scene("grid").expect("grid");
+        let mut opts = small(BvhKind::Bvh6, ChildOrder::Nearest, 0);
+        opts.width = 0;
+        assert!(Workload::new(&scene, opts).is_err());
     }
 }
