@@ -74,8 +74,10 @@ impl RayGen {
         let (phi, r) = (TAU * r1, r2.sqrt());
         let tangent = normal.any_orthonormal_vector();
         let bitangent = normal.cross(tangent);
-        let dir = (tangent * (r * phi.cos()) + bitangent * (r * phi.sin()) + normal * (1.0 - r2).max(0.0).sqrt())
-            .normalize_or(normal);
+        let dir = (tangent * (r * phi.cos())
+            + bitangent * (r * phi.sin())
+            + normal * (1.0 - r2).max(0.0).sqrt())
+        .normalize_or(normal);
         Ray::new(point + normal * self.offset, dir, 0.0)
     }
 

@@ -43,7 +43,12 @@ pub enum TraceOp {
 const OP_SHIFT: u32 = 62;
 const KIND_SHIFT: u32 = 60;
 const ADDR_MASK: u64 = (1 << KIND_SHIFT) - 1;
-const KINDS: [NodeKind; 4] = [NodeKind::Internal, NodeKind::Leaf, NodeKind::Triangle, NodeKind::Procedural];
+const KINDS: [NodeKind; 4] = [
+    NodeKind::Internal,
+    NodeKind::Leaf,
+    NodeKind::Triangle,
+    NodeKind::Procedural,
+];
 
 impl TraceOp {
     fn pack(self) -> u64 {
@@ -121,7 +126,10 @@ impl RayTrace {
             return Err(format!("{} entries left on the stack", stack.len()));
         }
         if max != self.max_depth {
-            return Err(format!("max depth {} recorded, {max} replayed", self.max_depth));
+            return Err(format!(
+                "max depth {} recorded, {max} replayed",
+                self.max_depth
+            ));
         }
         Ok(())
     }
@@ -285,11 +293,17 @@ impl<'s> Workload<'s> {
 
     /// All warp jobs in launch order, traced on demand.
     pub fn warp_jobs(&self) -> impl Iterator<Item = WarpJob> + '_ {
-        (0..self.num_warps()).flat_map(move |warp| {
+        self.warps().flatten()
+    }
+
+    /// The jobs of each warp in launch order, one warp at a time, traced on demand.
+    pub fn warps(&self) -> impl Iterator<Item = Vec<WarpJob>> + '_ {
+        (0..self.num_warps()).map(move |warp| {
             self.run_warp::<RayTrace>(warp)
                 .jobs
                 .into_iter()
                 .map(|lanes| WarpJob { lanes })
+                .collect()
         })
     }
 
@@ -329,7 +343,8 @@ impl<'s> Workload<'s> {
                                 let point = ray.at(h.t);
                                 let normal = prims.normal(h.prim as usize, point, ray.dir);
                                 let pixel = pixels[lane]?;
-                                let next = self.raygen.bounce(pixel, sample, bounce + 1, point, normal);
+                                let next =
+                                    self.raygen.bounce(pixel, sample, bounce + 1, point, normal);
                                 Some((next, throughput * ALBEDO))
                             }
                         };
@@ -377,14 +392,24 @@ mod tests {
                         for trace in job.lanes.iter().flatten() {
                             rays += 1;
                             deepest = deepest.max(trace.max_depth());
-                            trace.check_stack_history().unwrap_or_else(|e| panic!("{name} {bvh:?} {order:?}: {e}"));
-                            assert_eq!(trace.ops().next(), Some(TraceOp::Visit { addr: crate::bvh::INTERNAL_BASE, kind: NodeKind::Internal }));
+                            trace
+                                .check_stack_history()
+                                .unwrap_or_else(|e| panic!("{name} {bvh:?} {order:?}: {e}"));
+                            assert_eq!(
+                                trace.ops().next(),
+                                Some(TraceOp::Visit {
+                                    addr: crate::bvh::INTERNAL_BASE,
+                                    kind: NodeKind::Internal
+                                })
+                            );
                             if bvh != BvhKind::Cwbvh {
                                 // A popped node is fetched next.
                                 let ops: Vec<_> = trace.ops().collect();
                                 for pair in ops.windows(2) {
                                     if let TraceOp::Pop(a) = pair[0] {
-                                        assert!(matches!(pair[1], TraceOp::Visit { addr, .. } if addr == a));
+                                        assert!(
+                                            matches!(pair[1], TraceOp::Visit { addr, .. } if addr == a)
+                                        );
                                     }
                                 }
                             }
@@ -417,10 +442,19 @@ mod tests {
 
     #[test]
     fn ops_round_trip_through_packing() {
-        let kinds = [NodeKind::Internal, NodeKind::Leaf, NodeKind::Triangle, NodeKind::Procedural];
+        let kinds = [
+            NodeKind::Internal,
+            NodeKind::Leaf,
+            NodeKind::Triangle,
+            NodeKind::Procedural,
+        ];
         for (i, kind) in kinds.into_iter().enumerate() {
             let addr = ADDR_MASK - i as u64;
-            for op in [TraceOp::Visit { addr, kind }, TraceOp::Push(addr), TraceOp::Pop(addr)] {
+            for op in [
+                TraceOp::Visit { addr, kind },
+                TraceOp::Push(addr),
+                TraceOp::Pop(addr),
+            ] {
                 assert_eq!(TraceOp::unpack(op.pack()), op);
             }
         }
@@ -430,7 +464,8 @@ mod tests {
     fn same_seed_same_traces_other_seed_other_traces() {
         let scene = load_scene("clutter").expect("clutter");
         let jobs = |seed| {
-            let w = Workload::new(&scene, small(BvhKind::Bvh6, ChildOrder::VulkanSim, seed)).expect("workload");
+            let w = Workload::new(&scene, small(BvhKind::Bvh6, ChildOrder::VulkanSim, seed))
+                .expect("workload");
             (w.warp_jobs().collect::<Vec<_>>(), w.image().clone())
         };
         let (a, image_a) = jobs(7);
@@ -449,7 +484,10 @@ mod tests {
         assert_eq!(w.num_warps(), 2);
         assert_eq!(w.image().pixels.len(), 50);
         let jobs: Vec<_> = w.warp_jobs().collect();
-        let last_warp_jobs = jobs.iter().rev().take_while(|j| j.lanes[18..].iter().all(Option::is_none));
+        let last_warp_jobs = jobs
+            .iter()
+            .rev()
+            .take_while(|j| j.lanes[18..].iter().all(Option::is_none));
         assert!(last_warp_jobs.count() >= opts.spp as usize);
         assert!(jobs.iter().all(|j| j.lanes.iter().any(Option::is_some)));
     }

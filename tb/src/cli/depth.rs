@@ -37,7 +37,9 @@ pub struct Args {
 }
 
 fn parse_res(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT, e.g. 128x128")?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or("expected WIDTHxHEIGHT, e.g. 128x128")?;
     let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("'{v}': {e}"));
     Ok((parse(w)?, parse(h)?))
 }
@@ -74,23 +76,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let start = Instant::now();
     let mut histogram = DepthHistogram::default();
-    let warps = workload.num_warps() as u64;
-    let mut last_warp = 0;
-    for (i, job) in workload.warp_jobs().enumerate() {
-        job.lanes.iter().flatten().for_each(|t| histogram.add_trace(t));
-        // Progress about every 10% of the warps (jobs per warp vary, so estimate from traces).
-        let warp = histogram.traces * warps / workload.num_rays().max(1);
-        if warp * 10 / warps.max(1) != last_warp * 10 / warps.max(1) {
-            eprintln!("  traced {warp}/{warps} warps ({i} jobs)");
+    let warps = workload.num_warps();
+    for (i, jobs) in workload.warps().enumerate() {
+        for job in &jobs {
+            job.lanes
+                .iter()
+                .flatten()
+                .for_each(|t| histogram.add_trace(t));
         }
-        last_warp = warp;
+        let done = i as u32 + 1;
+        if done.is_multiple_of(warps.div_ceil(10)) || done == warps {
+            eprintln!("  traced {done}/{warps} warps");
+        }
     }
     eprintln!("recorded traces in {:.2} s", start.elapsed().as_secs_f64());
 
     let report = DepthReport::new(&scene.name, opts, workload.num_rays(), histogram);
     print!("{}", report.table());
 
-    let out = args.out.unwrap_or_else(|| PathBuf::from("out/depth").join(&scene.name));
+    let out = args
+        .out
+        .unwrap_or_else(|| PathBuf::from("out/depth").join(&scene.name));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let stem = format!("{:?}-{:?}", opts.bvh, opts.order).to_lowercase();
     let write = |name: String, text: String| {
@@ -99,9 +105,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     write(format!("{stem}.csv"), report.csv())?;
     write(format!("{stem}.json"), report.json())?;
-    let title = format!("{} {stem}: max {} mean {:.2} median {}", scene.name, report.max, report.mean, report.median);
+    let title = format!(
+        "{} {stem}: max {} mean {:.2} median {}",
+        scene.name, report.max, report.mean, report.median
+    );
     report.write_svg(&out.join(format!("{stem}.svg")), &title)?;
     workload.image().write_png(&out.join("render.png"))?;
-    eprintln!("wrote {}/{stem}.{{csv,json,svg}} and render.png", out.display());
+    eprintln!(
+        "wrote {}/{stem}.{{csv,json,svg}} and render.png",
+        out.display()
+    );
     Ok(())
 }

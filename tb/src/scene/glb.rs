@@ -39,22 +39,30 @@ fn buffers(doc: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>> {
         .collect()
 }
 
-pub(super) fn load(bytes: &[u8], path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> Result<()> {
-    let doc = gltf::Gltf::from_slice(bytes).map_err(|e| Error::format(path, "glTF", e.to_string()))?;
+pub(super) fn load(
+    bytes: &[u8],
+    path: &Path,
+    xf: &Affine3A,
+    sink: &mut TriangleSink,
+) -> Result<()> {
+    let doc =
+        gltf::Gltf::from_slice(bytes).map_err(|e| Error::format(path, "glTF", e.to_string()))?;
     let buffers = buffers(&doc, path)?;
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| Error::format(path, "glTF", "no scene"))?;
     let node_count = doc.nodes().len();
-    let mut pending: Vec<(gltf::Node, Mat4, usize)> = scene
-        .nodes()
-        .map(|n| (n, Mat4::from(*xf), 0))
-        .collect();
+    let mut pending: Vec<(gltf::Node, Mat4, usize)> =
+        scene.nodes().map(|n| (n, Mat4::from(*xf), 0)).collect();
     let mut positions = Vec::new();
     while let Some((node, parent, depth)) = pending.pop() {
         if depth > node_count {
-            return Err(Error::format(path, format!("node {}", node.index()), "node cycle"));
+            return Err(Error::format(
+                path,
+                format!("node {}", node.index()),
+                "node cycle",
+            ));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let world_xf = Affine3A::from_mat4(world);
@@ -67,7 +75,12 @@ pub(super) fn load(bytes: &[u8], path: &Path, xf: &Affine3A, sink: &mut Triangle
                 };
                 positions.clear();
                 for (i, p) in read.enumerate() {
-                    let v = checked_vertex(path, || format!("{} vertex {i}", at()), &world_xf, Vec3A::from(p))?;
+                    let v = checked_vertex(
+                        path,
+                        || format!("{} vertex {i}", at()),
+                        &world_xf,
+                        Vec3A::from(p),
+                    )?;
                     positions.push(v);
                 }
                 let indices: Vec<u32> = match reader.read_indices() {
@@ -84,8 +97,12 @@ pub(super) fn load(bytes: &[u8], path: &Path, xf: &Affine3A, sink: &mut Triangle
                 let v = |i: u32| positions[i as usize];
                 match prim.mode() {
                     Mode::Triangles => {
-                        if indices.len() % 3 != 0 {
-                            return Err(Error::format(path, at(), "index count is not a multiple of 3"));
+                        if !indices.len().is_multiple_of(3) {
+                            return Err(Error::format(
+                                path,
+                                at(),
+                                "index count is not a multiple of 3",
+                            ));
                         }
                         for t in indices.chunks_exact(3) {
                             sink.add(v(t[0]), v(t[1]), v(t[2]));
@@ -93,7 +110,11 @@ pub(super) fn load(bytes: &[u8], path: &Path, xf: &Affine3A, sink: &mut Triangle
                     }
                     Mode::TriangleStrip => {
                         for (k, w) in indices.windows(3).enumerate() {
-                            let (a, b) = if k % 2 == 0 { (w[0], w[1]) } else { (w[1], w[0]) };
+                            let (a, b) = if k % 2 == 0 {
+                                (w[0], w[1])
+                            } else {
+                                (w[1], w[0])
+                            };
                             sink.add(v(a), v(b), v(w[2]));
                         }
                     }

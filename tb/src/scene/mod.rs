@@ -185,7 +185,8 @@ impl SceneLibrary {
 
     /// Names of the described scenes (sorted), without the built-in ones.
     pub fn described(&self) -> Result<Vec<String>> {
-        let dir = std::fs::read_dir(&self.descriptions).map_err(|e| Error::io(&self.descriptions, e))?;
+        let dir =
+            std::fs::read_dir(&self.descriptions).map_err(|e| Error::io(&self.descriptions, e))?;
         let mut names = Vec::new();
         for entry in dir {
             let path = entry.map_err(|e| Error::io(&self.descriptions, e))?.path();
@@ -224,7 +225,9 @@ impl SceneLibrary {
     pub fn load_description(&self, name: &str, path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let desc: SceneDesc = toml::from_str(&text).map_err(|e| {
-            let line = e.span().map_or(1, |s| text[..s.start].matches('\n').count() + 1);
+            let line = e
+                .span()
+                .map_or(1, |s| text[..s.start].matches('\n').count() + 1);
             Error::format(path, format!("line {line}"), e.message().to_owned())
         })?;
         if desc.mesh.is_empty() {
@@ -240,7 +243,11 @@ impl SceneLibrary {
                 Some(rows) => {
                     let affine = Affine3A::from_mat4(Mat4::from_cols_array_2d(&rows).transpose());
                     if rows[3] != [0.0, 0.0, 0.0, 1.0] || !affine.is_finite() {
-                        return Err(Error::format(path, format!("mesh '{}'", m.file), "transform must be finite and affine (last row 0 0 0 1)"));
+                        return Err(Error::format(
+                            path,
+                            format!("mesh '{}'", m.file),
+                            "transform must be finite and affine (last row 0 0 0 1)",
+                        ));
                     }
                     affine
                 }
@@ -262,7 +269,13 @@ impl SceneLibrary {
                 let b = primitives.bounds();
                 Camera::framing(b.min, b.max, c.up.into(), c.vfov)
             }
-            _ => return Err(Error::format(path, "camera", "give both eye and look_at, or neither to frame the scene")),
+            _ => {
+                return Err(Error::format(
+                    path,
+                    "camera",
+                    "give both eye and look_at, or neither to frame the scene",
+                ))
+            }
         };
         Ok(Scene {
             name: name.to_owned(),

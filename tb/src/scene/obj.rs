@@ -33,8 +33,8 @@ pub(super) fn load(
         }
         line_no += 1;
         let at = || format!("line {line_no}");
-        let line = std::str::from_utf8(&buf)
-            .map_err(|_| Error::format(path, at(), "not valid UTF-8"))?;
+        let line =
+            std::str::from_utf8(&buf).map_err(|_| Error::format(path, at(), "not valid UTF-8"))?;
         let mut tokens = line.split_ascii_whitespace();
         match tokens.next() {
             Some("v") => {

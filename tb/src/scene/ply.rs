@@ -110,7 +110,11 @@ fn parse_header(reader: &mut impl BufRead, path: &Path) -> Result<(bool, Vec<Ele
     let mut line_no = 0;
     loop {
         let mut line = String::new();
-        if reader.read_line(&mut line).map_err(|e| Error::io(path, e))? == 0 {
+        if reader
+            .read_line(&mut line)
+            .map_err(|e| Error::io(path, e))?
+            == 0
+        {
             return Err(Error::format(path, "header", "no end_header"));
         }
         line_no += 1;
@@ -180,14 +184,22 @@ pub(super) fn load(
                     .iter()
                     .any(|p| matches!(p, Property::Scalar(n, _) if n == axis))
                 {
-                    return Err(Error::format(path, "header", format!("vertex has no '{axis}'")));
+                    return Err(Error::format(
+                        path,
+                        "header",
+                        format!("vertex has no '{axis}'"),
+                    ));
                 }
             }
             vertices.reserve(element.count.min(1 << 26));
             seen_vertex = true;
         }
         if is_face && !seen_vertex {
-            return Err(Error::format(path, "header", "face element before vertex element"));
+            return Err(Error::format(
+                path,
+                "header",
+                "face element before vertex element",
+            ));
         }
         for index in 0..element.count {
             let at = || format!("{} {index}", element.name);
