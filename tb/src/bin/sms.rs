@@ -12,6 +12,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// List the scenes with triangle counts, BVH node counts and build times.
+    Scenes(cli::scenes::Args),
+    /// Stack-depth statistics of a scene.
+    Depth(cli::depth::Args),
     /// Hardware cost of stack designs, bit by bit, from the RTL's width definitions.
     Cost(cli::cost::Args),
     /// Exhaustive bounded model checking of stack consistency on small configurations.
@@ -20,6 +24,8 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     let result = match Cli::parse().command {
+        Command::Scenes(args) => cli::scenes::run(args),
+        Command::Depth(args) => cli::depth::run(args),
         Command::Cost(args) => cli::cost::run(args),
         Command::Check(args) => cli::check::run(args),
     };

@@ -1,0 +1,119 @@
+//! `sms depth`: stack-depth statistics of one scene, BVH and child order, printed as a table and
+//! written as CSV, JSON, an SVG histogram and the rendered PNG.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+
+use crate::cli::SceneArgs;
+use crate::depth::{DepthHistogram, DepthReport};
+use crate::workload::{BvhKind, ChildOrder, Workload, WorkloadOpts};
+
+#[derive(Clone, Debug, clap::Args)]
+pub struct Args {
+    #[arg(long)]
+    pub scene: String,
+    #[arg(long, value_enum, default_value = "bvh6")]
+    pub bvh: BvhKind,
+    #[arg(long, value_enum, default_value = "nearest")]
+    pub order: ChildOrder,
+    /// Resolution as WIDTHxHEIGHT (default: the scene's).
+    #[arg(long, value_parser = parse_res)]
+    pub res: Option<(u32, u32)>,
+    /// Samples per pixel (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Diffuse bounces after the primary ray (default: the scene's).
+    #[arg(long)]
+    pub bounces: Option<u32>,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output folder (default: out/depth/<scene>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+}
+
+fn parse_res(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or("expected WIDTHxHEIGHT, e.g. 128x128")?;
+    let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("'{v}': {e}"));
+    Ok((parse(w)?, parse(h)?))
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let scene = args.scenes.library().load(&args.scene)?;
+    eprintln!(
+        "loaded {} ({} primitives, {} degenerate triangles dropped) in {:.2} s",
+        scene.name,
+        scene.primitives.len(),
+        scene.dropped_degenerate,
+        start.elapsed().as_secs_f64()
+    );
+    let mut opts = WorkloadOpts::for_scene(&scene);
+    opts.bvh = args.bvh;
+    opts.order = args.order;
+    if let Some((w, h)) = args.res {
+        (opts.width, opts.height) = (w, h);
+    }
+    opts.spp = args.spp.unwrap_or(opts.spp);
+    opts.max_bounces = args.bounces.unwrap_or(opts.max_bounces);
+    opts.seed = args.seed;
+
+    let start = Instant::now();
+    let workload = Workload::new(&scene, opts)?;
+    eprintln!(
+        "built {:?} ({} nodes) and rendered {} rays in {:.2} s",
+        opts.bvh,
+        workload.bvh().node_count(),
+        workload.num_rays(),
+        start.elapsed().as_secs_f64()
+    );
+
+    let start = Instant::now();
+    let mut histogram = DepthHistogram::default();
+    let warps = workload.num_warps();
+    for (i, jobs) in workload.warps().enumerate() {
+        for job in &jobs {
+            job.lanes
+                .iter()
+                .flatten()
+                .for_each(|t| histogram.add_trace(t));
+        }
+        let done = i as u32 + 1;
+        if done.is_multiple_of(warps.div_ceil(10)) || done == warps {
+            eprintln!("  traced {done}/{warps} warps");
+        }
+    }
+    eprintln!("recorded traces in {:.2} s", start.elapsed().as_secs_f64());
+
+    let report = DepthReport::new(&scene.name, opts, workload.num_rays(), histogram);
+    print!("{}", report.table());
+
+    let out = args
+        .out
+        .unwrap_or_else(|| PathBuf::from("out/depth").join(&scene.name));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let stem = format!("{:?}-{:?}", opts.bvh, opts.order).to_lowercase();
+    let write = |name: String, text: String| {
+        let path = out.join(name);
+        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
+    };
+    write(format!("{stem}.csv"), report.csv())?;
+    write(format!("{stem}.json"), report.json())?;
+    let title = format!(
+        "{} {stem}: max {} mean {:.2} median {}",
+        scene.name, report.max, report.mean, report.median
+    );
+    report.write_svg(&out.join(format!("{stem}.svg")), &title)?;
+    workload.image().write_png(&out.join("render.png"))?;
+    eprintln!(
+        "wrote {}/{stem}.{{csv,json,svg}} and render.png",
+        out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,45 @@
+//! `sms scenes`: every known scene with its triangle count, BVH node counts and build times.
+
+use std::time::Instant;
+
+use crate::bvh::{Bvh, BvhKind};
+use crate::cli::SceneArgs;
+
+#[derive(Clone, Debug, clap::Args)]
+pub struct Args {
+    /// Only these scenes (default: all built-in and described scenes).
+    pub names: Vec<String>,
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let library = args.scenes.library();
+    let names = if args.names.is_empty() {
+        library.names()?
+    } else {
+        args.names
+    };
+    println!(
+        "{:<20} {:>10} {:>10} {:>9} {:>10} {:>9} {:>10} {:>9} {:>9}",
+        "scene", "triangles", "bvh2", "ms", "bvh6", "ms", "cwbvh", "ms", "load ms"
+    );
+    for name in names {
+        eprintln!("loading {name} ...");
+        let start = Instant::now();
+        let scene = library.load(&name)?;
+        let load_ms = start.elapsed().as_millis();
+        let mut row = format!("{name:<20} {:>10}", scene.primitives.triangle_count());
+        for kind in [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh] {
+            let start = Instant::now();
+            let bvh = Bvh::build(&scene.primitives, kind)?;
+            row += &format!(
+                " {:>10} {:>9}",
+                bvh.node_count(),
+                start.elapsed().as_millis()
+            );
+        }
+        println!("{row} {load_ms:>9}");
+    }
+    Ok(())
+}

@@ -1,0 +1,121 @@
+//! Mesh files to triangles: format dispatch, gzip, and the checks every format shares.
+//!
+//! Only positions and faces are read. Every loader feeds one [`TriangleSink`], so the rules for
+//! non-finite vertices and degenerate triangles are written once: a non-finite vertex is an error
+//! naming where it is, a zero-area triangle is dropped and counted.
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+use flate2::read::GzDecoder;
+use glam::{Affine3A, Vec3A};
+use obvhs::triangle::Triangle;
+
+use super::{glb, obj, ply};
+use crate::error::{Error, Result};
+
+/// Collects the triangles of one or more meshes into the scene's triangle list.
+pub(crate) struct TriangleSink<'a> {
+    pub triangles: &'a mut Vec<Triangle>,
+    pub dropped: usize,
+}
+
+impl TriangleSink<'_> {
+    /// Adds a triangle, or counts it as dropped when its area is zero.
+    pub fn add(&mut self, v0: Vec3A, v1: Vec3A, v2: Vec3A) {
+        if (v1 - v0).cross(v2 - v0) == Vec3A::ZERO {
+            self.dropped += 1;
+        } else {
+            self.triangles.push(Triangle { v0, v1, v2 });
+        }
+    }
+
+    /// Adds the fan triangulation of a polygon given by vertex positions.
+    pub fn add_fan(&mut self, polygon: impl IntoIterator<Item = Vec3A>) {
+        let mut it = polygon.into_iter();
+        let (Some(first), Some(mut prev)) = (it.next(), it.next()) else {
+            self.dropped += 1;
+            return;
+        };
+        let mut any = false;
+        for next in it {
+            self.add(first, prev, next);
+            prev = next;
+            any = true;
+        }
+        if !any {
+            self.dropped += 1;
+        }
+    }
+}
+
+/// Transforms a vertex and rejects it if it (or its image) is not finite.
+pub(crate) fn checked_vertex(
+    path: &Path,
+    at: impl FnOnce() -> String,
+    xf: &Affine3A,
+    p: Vec3A,
+) -> Result<Vec3A> {
+    let q = xf.transform_point3a(p);
+    if p.is_finite() && q.is_finite() {
+        Ok(q)
+    } else {
+        Err(Error::format(
+            path,
+            at(),
+            format!("vertex {p} is not finite"),
+        ))
+    }
+}
+
+/// Opens `path` for buffered reading, decompressing it when its name ends in `.gz`.
+fn open(path: &Path) -> Result<Box<dyn BufRead>> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    Ok(if path.extension().is_some_and(|e| e == "gz") {
+        Box::new(BufReader::with_capacity(1 << 16, GzDecoder::new(file)))
+    } else {
+        Box::new(BufReader::with_capacity(1 << 16, file))
+    })
+}
+
+/// Loads the triangles of a mesh file (OBJ, PLY, glTF/GLB, optionally gzip-compressed) into
+/// `sink`, transformed by `xf`.
+pub(crate) fn load_mesh(path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> Result<()> {
+    let name = path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or_default();
+    let format = name.strip_suffix(".gz").unwrap_or(name);
+    let ext = format
+        .rsplit('.')
+        .next()
+        .unwrap_or_default()
+        .to_ascii_lowercase();
+    let before = sink.triangles.len();
+    match ext.as_str() {
+        "obj" => obj::load(open(path)?, path, xf, sink)?,
+        "ply" => ply::load(open(path)?, path, xf, sink)?,
+        "glb" | "gltf" => {
+            let mut bytes = Vec::new();
+            open(path)?
+                .read_to_end(&mut bytes)
+                .map_err(|e| Error::io(path, e))?;
+            glb::load(&bytes, path, xf, sink)?
+        }
+        _ => {
+            return Err(Error::format(
+                path,
+                "file name",
+                "unknown mesh format (expected .obj, .ply, .glb or .gltf, optionally .gz)",
+            ))
+        }
+    }
+    if sink.triangles.len() == before {
+        return Err(Error::EmptyMesh {
+            path: path.to_owned(),
+            dropped: sink.dropped,
+        });
+    }
+    Ok(())
+}

@@ -1,0 +1,76 @@
+//! Wavefront OBJ positions and faces.
+//!
+//! A hand-written reader rather than tobj: it reports the line of every error, never stores
+//! normals, texture coordinates or materials (so `mtllib` is never opened), and streams the
+//! 130 MB forest file line by line. Faces are fan-triangulated; indices may be negative (relative).
+
+use std::io::BufRead;
+use std::path::Path;
+
+use glam::{Affine3A, Vec3A};
+
+use super::mesh::{checked_vertex, TriangleSink};
+use crate::error::{Error, Result};
+
+pub(super) fn load(
+    mut reader: impl BufRead,
+    path: &Path,
+    xf: &Affine3A,
+    sink: &mut TriangleSink,
+) -> Result<()> {
+    let mut vertices: Vec<Vec3A> = Vec::new();
+    let mut face: Vec<Vec3A> = Vec::new();
+    let mut buf = Vec::new();
+    let mut line_no = 0usize;
+    loop {
+        buf.clear();
+        if reader
+            .read_until(b'\n', &mut buf)
+            .map_err(|e| Error::io(path, e))?
+            == 0
+        {
+            break;
+        }
+        line_no += 1;
+        let at = || format!("line {line_no}");
+        let line =
+            std::str::from_utf8(&buf).map_err(|_| Error::format(path, at(), "not valid UTF-8"))?;
+        let mut tokens = line.split_ascii_whitespace();
+        match tokens.next() {
+            Some("v") => {
+                let mut p = [0.0f32; 3];
+                for c in &mut p {
+                    let token = tokens
+                        .next()
+                        .ok_or_else(|| Error::format(path, at(), "vertex needs 3 coordinates"))?;
+                    *c = token.parse().map_err(|_| {
+                        Error::format(path, at(), format!("'{token}' is not a number"))
+                    })?;
+                }
+                vertices.push(checked_vertex(path, at, xf, Vec3A::from(p))?);
+            }
+            Some("f") => {
+                face.clear();
+                for token in tokens {
+                    let index = token.split('/').next().unwrap_or_default();
+                    let i: i64 = index.parse().map_err(|_| {
+                        Error::format(path, at(), format!("'{token}' is not a vertex index"))
+                    })?;
+                    let n = vertices.len() as i64;
+                    let resolved = if i > 0 { i - 1 } else { n + i };
+                    if i == 0 || !(0..n).contains(&resolved) {
+                        return Err(Error::format(
+                            path,
+                            at(),
+                            format!("vertex index {i} out of range ({n} vertices defined so far)"),
+                        ));
+                    }
+                    face.push(vertices[resolved as usize]);
+                }
+                sink.add_fan(face.iter().copied());
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}

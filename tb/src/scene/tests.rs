@@ -1,0 +1,342 @@
+//! Loader tests: every error names its file and place; degenerate triangles are counted.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use glam::{vec3a, Affine3A};
+
+use super::mesh::{load_mesh, TriangleSink};
+use super::*;
+
+/// A fresh folder for one test's files.
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tb-scene-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.join(name);
+    if name.ends_with(".gz") {
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        gz.write_all(bytes).expect("gzip");
+        std::fs::write(&path, gz.finish().expect("gzip")).expect("write");
+    } else {
+        std::fs::write(&path, bytes).expect("write");
+    }
+    path
+}
+
+/// Loads one file; returns (triangles, dropped) or the error message.
+fn load(path: &Path) -> Result<(Vec<obvhs::triangle::Triangle>, usize), String> {
+    let mut triangles = Vec::new();
+    let mut sink = TriangleSink {
+        triangles: &mut triangles,
+        dropped: 0,
+    };
+    load_mesh(path, &Affine3A::IDENTITY, &mut sink).map_err(|e| e.to_string())?;
+    let dropped = sink.dropped;
+    Ok((triangles, dropped))
+}
+
+fn load_err(dir: &Path, name: &str, text: &str) -> String {
+    let path = write(dir, name, text.as_bytes());
+    let err = load(&path).expect_err("should fail");
+    assert!(err.contains(name), "error names the file: {err}");
+    err
+}
+
+const QUAD: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+
+#[test]
+fn obj_fans_negative_indices_and_gzip() {
+    let dir = temp_dir("obj_ok");
+    for name in ["quad.obj", "quad.obj.gz"] {
+        let path = write(
+            &dir,
+            name,
+            format!("{QUAD}vn 0 0 1\nf -4/1/1 -3//1 -2 -1\n").as_bytes(),
+        );
+        let (tris, dropped) = load(&path).expect("loads");
+        assert_eq!((tris.len(), dropped), (2, 0));
+        assert_eq!(tris[1].v2, vec3a(0.0, 1.0, 0.0));
+    }
+}
+
+#[test]
+fn obj_errors_name_the_line() {
+    let dir = temp_dir("obj_err");
+    let e = load_err(&dir, "num.obj", "v 0 0 0\nv 1 x 0\n");
+    assert!(e.contains("line 2") && e.contains("'x'"), "{e}");
+    let e = load_err(&dir, "range.obj", &format!("{QUAD}f 1 2 5\n"));
+    assert!(e.contains("line 5") && e.contains("out of range"), "{e}");
+    let e = load_err(&dir, "zero.obj", &format!("{QUAD}f 0 1 2\n"));
+    assert!(e.contains("line 5"), "{e}");
+    let e = load_err(&dir, "nan.obj", "v 0 0 0\nv nan 0 0\n");
+    assert!(e.contains("line 2") && e.contains("not finite"), "{e}");
+    let e = load_err(&dir, "inf.obj", "v 0 inf 0\n");
+    assert!(e.contains("line 1") && e.contains("not finite"), "{e}");
+    let e = load_err(&dir, "short.obj", "v 0 0\n");
+    assert!(e.contains("line 1") && e.contains("3 coordinates"), "{e}");
+    let e = load_err(&dir, "empty.obj", "# nothing\n");
+    assert!(e.contains("no triangles"), "{e}");
+}
+
+#[test]
+fn degenerate_triangles_are_dropped_and_counted() {
+    let dir = temp_dir("degenerate");
+    // A good triangle, a repeated vertex, a zero-area (collinear) one and a 2-vertex face.
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\nf 1 2 4\nf 1 2\n";
+    let (tris, dropped) = load(&write(&dir, "d.obj", text.as_bytes())).expect("loads");
+    assert_eq!((tris.len(), dropped), (1, 3));
+    let e = load_err(&dir, "all.obj", "v 0 0 0\nv 1 0 0\nf 1 2 2\n");
+    assert!(e.contains("1 degenerate"), "{e}");
+}
+
+#[test]
+fn missing_file_is_an_io_error() {
+    let path = temp_dir("missing").join("nope.ply.gz");
+    let err = load(&path).expect_err("missing");
+    assert!(err.contains("nope.ply.gz"), "{err}");
+    let e = load_err(&temp_dir("unknown_ext"), "mesh.stl", "solid");
+    assert!(e.contains("unknown mesh format"), "{e}");
+}
+
+fn ply_header(format: &str, vertices: usize, faces: usize) -> String {
+    format!(
+        "ply\nformat {format} 1.0\ncomment test\nelement vertex {vertices}\nproperty float x\n\
+         property float y\nproperty float z\nproperty uchar red\nelement face {faces}\n\
+         property list uchar int vertex_indices\nend_header\n"
+    )
+}
+
+fn binary_ply(vertices: &[[f32; 3]], faces: &[&[i32]]) -> Vec<u8> {
+    let mut bytes = ply_header("binary_little_endian", vertices.len(), faces.len()).into_bytes();
+    for v in vertices {
+        v.iter().for_each(|c| bytes.extend(c.to_le_bytes()));
+        bytes.push(7);
+    }
+    for f in faces {
+        bytes.push(f.len() as u8);
+        f.iter().for_each(|i| bytes.extend(i.to_le_bytes()));
+    }
+    bytes
+}
+
+#[test]
+fn ply_ascii_and_binary() {
+    let dir = temp_dir("ply_ok");
+    let ascii = format!(
+        "{}0 0 0 1\n1 0 0 1\n1 1 0 1\n0 1 0 1\n4 0 1 2 3\n",
+        ply_header("ascii", 4, 1)
+    );
+    assert_eq!(
+        load(&write(&dir, "a.ply", ascii.as_bytes()))
+            .expect("ascii")
+            .0
+            .len(),
+        2
+    );
+    let quad = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    let bin = binary_ply(&quad, &[&[0, 1, 2, 3], &[0, 0, 1]]);
+    let (tris, dropped) = load(&write(&dir, "b.ply.gz", &bin)).expect("binary");
+    assert_eq!((tris.len(), dropped), (2, 1));
+}
+
+#[test]
+fn ply_errors_name_the_element() {
+    let dir = temp_dir("ply_err");
+    let quad = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]];
+    let path = write(
+        &dir,
+        "range.ply",
+        &binary_ply(&quad, &[&[0, 1, 2], &[0, 1, 9]]),
+    );
+    let e = load(&path).expect_err("range");
+    assert!(
+        e.contains("range.ply") && e.contains("face 1") && e.contains("out of range"),
+        "{e}"
+    );
+    let mut truncated = binary_ply(&quad, &[&[0, 1, 2]]);
+    truncated.truncate(truncated.len() - 20);
+    let e = load(&write(&dir, "short.ply", &truncated)).expect_err("short");
+    assert!(e.contains("unexpected end of file"), "{e}");
+    let nan = binary_ply(
+        &[[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        &[&[0, 1, 2]],
+    );
+    let e = load(&write(&dir, "nan.ply", &nan)).expect_err("nan");
+    assert!(e.contains("vertex 1") && e.contains("not finite"), "{e}");
+    let e = load_err(&dir, "magic.ply", "plx\n");
+    assert!(e.contains("header line 1"), "{e}");
+    let e = load_err(
+        &dir,
+        "be.ply",
+        "ply\nformat binary_big_endian 1.0\nend_header\n",
+    );
+    assert!(e.contains("binary_big_endian"), "{e}");
+    let text = format!("{}0 0 0 1\n0 zz 0 1\n", ply_header("ascii", 2, 0));
+    let e = load_err(&dir, "word.ply", &text);
+    assert!(e.contains("vertex 1") && e.contains("'zz'"), "{e}");
+}
+
+/// A GLB with one triangle mesh used by three nodes: a root, a translated root, and a scaled
+/// child of the translated one.
+fn glb(indices: [u32; 3]) -> Vec<u8> {
+    let mut bin: Vec<u8> = Vec::new();
+    for c in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        bin.extend(c.to_le_bytes());
+    }
+    indices.iter().for_each(|i| bin.extend(i.to_le_bytes()));
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1]}}],
+        "nodes":[{{"mesh":0}},{{"mesh":0,"translation":[5,0,0],"children":[2]}},{{"mesh":0,"scale":[2,2,2]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+        "buffers":[{{"byteLength":{}}}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":12}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+                     {{"bufferView":1,"componentType":5125,"count":3,"type":"SCALAR"}}]}}"#,
+        bin.len()
+    );
+    let mut json = json.into_bytes();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((12 + 8 + json.len() as u32 + 8 + bin.len() as u32).to_le_bytes());
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(json);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    out
+}
+
+#[test]
+fn glb_flattens_node_transforms() {
+    let dir = temp_dir("glb_ok");
+    let (tris, dropped) = load(&write(&dir, "m.glb", &glb([0, 1, 2]))).expect("glb");
+    assert_eq!((tris.len(), dropped), (3, 0));
+    let mut xs: Vec<f32> = tris.iter().map(|t| t.v1.x).collect();
+    xs.sort_by(f32::total_cmp);
+    // v1 = (1,0,0): as is, translated by 5, scaled by 2 then translated by 5.
+    assert_eq!(xs, [1.0, 6.0, 7.0]);
+}
+
+#[test]
+fn glb_errors() {
+    let dir = temp_dir("glb_err");
+    let e = load(&write(&dir, "range.glb", &glb([0, 1, 3]))).expect_err("range");
+    assert!(
+        e.contains("range.glb") && e.contains("mesh 0 primitive 0") && e.contains("out of range"),
+        "{e}"
+    );
+    let e = load_err(&dir, "junk.glb", "not a gltf file at all");
+    assert!(e.contains("glTF"), "{e}");
+}
+
+fn library(test: &str) -> SceneLibrary {
+    let dir = temp_dir(test);
+    SceneLibrary {
+        descriptions: dir.clone(),
+        data: dir,
+    }
+}
+
+#[test]
+fn descriptions_load_and_report_errors() {
+    let lib = library("desc");
+    write(
+        &lib.data,
+        "quad.obj",
+        format!("{QUAD}f 1 2 3 4\n").as_bytes(),
+    );
+    let shift = "transform = [[1,0,0,10],[0,1,0,0],[0,0,1,0],[0,0,0,1]]";
+    let toml = format!("[[mesh]]\nfile = \"quad.obj\"\n{shift}\n[render]\nwidth = 8\nheight = 4\n");
+    write(&lib.descriptions, "quad.toml", toml.as_bytes());
+    let scene = lib.load("quad").expect("loads");
+    assert_eq!(scene.primitives.triangle_count(), 2);
+    assert_eq!(scene.primitives.bounds().min.x, 10.0);
+    assert_eq!(
+        (scene.render.width, scene.render.height, scene.render.spp),
+        (8, 4, 2)
+    );
+
+    write(
+        &lib.descriptions,
+        "bad.toml",
+        b"[[mesh]]\nfile = \"quad.obj\"\ncolour = 3\n",
+    );
+    let e = lib.load("bad").expect_err("unknown field").to_string();
+    assert!(e.contains("bad.toml") && e.contains("line 3"), "{e}");
+    write(
+        &lib.descriptions,
+        "eye.toml",
+        b"[[mesh]]\nfile = \"quad.obj\"\n[camera]\neye = [0,0,1]\n",
+    );
+    assert!(lib
+        .load("eye")
+        .expect_err("eye only")
+        .to_string()
+        .contains("look_at"));
+    write(
+        &lib.descriptions,
+        "gone.toml",
+        b"[[mesh]]\nfile = \"gone.obj\"\n",
+    );
+    assert!(lib
+        .load("gone")
+        .expect_err("missing mesh")
+        .to_string()
+        .contains("gone.obj"));
+}
+
+#[test]
+fn unknown_scene_lists_known_names() {
+    let lib = library("unknown");
+    write(&lib.descriptions, "mine.toml", b"");
+    let e = lib.load("nonesuch").expect_err("unknown").to_string();
+    assert!(
+        e.contains("nonesuch") && e.contains("wknd") && e.contains("clutter") && e.contains("mine"),
+        "{e}"
+    );
+}
+
+#[test]
+fn every_shipped_description_parses() {
+    let lib = SceneLibrary::default();
+    let names = lib.described().expect("scenes folder");
+    assert!(names.len() >= 15, "{names:?}");
+    for name in names {
+        let path = lib.descriptions.join(format!("{name}.toml"));
+        let text = std::fs::read_to_string(&path).expect("read");
+        let desc: SceneDesc = toml::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        for m in desc.mesh {
+            assert!(
+                lib.data.join(&m.file).exists(),
+                "{name}: {} missing",
+                m.file
+            );
+        }
+    }
+}
+
+#[test]
+fn builtin_scenes_are_deterministic() {
+    for name in procedural::NAMES {
+        let (a, b) = (load_scene(name).expect(name), load_scene(name).expect(name));
+        assert_eq!(format!("{:?}", a.primitives), format!("{:?}", b.primitives));
+    }
+    let wknd = load_scene("wknd").expect("wknd");
+    assert_eq!(wknd.primitives.triangle_count(), 0);
+    assert!((470..=490).contains(&wknd.primitives.len()));
+}

@@ -1,0 +1,502 @@
+//! Ray-tracing workloads as an RT unit sees them: warps of 32 rays, each ray a recorded
+//! traversal (node visits, pushes, pops).
+//!
+//! Launch order follows a GPU: pixels are numbered row-major and 32 consecutive pixels form a
+//! warp. A warp's shader loops over samples and bounces, so for each warp, for sample `s`, for
+//! bounce `b`, it issues one traceRay per lane whose path is still alive: that is one
+//! [`WarpJob`]. A job whose lanes are all finished is not issued. Warps are traced lazily, one at
+//! a time, when [`Workload::warp_jobs`] is iterated, so no more than one warp's traces are held.
+//!
+//! Traces are packed one `u64` per operation: 2 bits of operation, 2 bits of node kind and a
+//! 60-bit address.
+
+use glam::Vec3A;
+use serde::Serialize;
+
+use crate::bvh::Bvh;
+pub use crate::bvh::BvhKind;
+use crate::error::{Error, Result};
+use crate::raygen::{Image, RayGen, ALBEDO};
+use crate::scene::Scene;
+use crate::traverse::{trace, Recorder};
+
+/// Threads per warp.
+pub const WARP_SIZE: usize = 32;
+
+/// What a node fetch is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub enum NodeKind {
+    Internal,
+    Leaf,
+    Triangle,
+    Procedural,
+}
+
+/// One operation of a traversal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TraceOp {
+    Visit { addr: u64, kind: NodeKind },
+    Push(u64),
+    Pop(u64),
+}
+
+const OP_SHIFT: u32 = 62;
+const KIND_SHIFT: u32 = 60;
+const ADDR_MASK: u64 = (1 << KIND_SHIFT) - 1;
+const KINDS: [NodeKind; 4] = [
+    NodeKind::Internal,
+    NodeKind::Leaf,
+    NodeKind::Triangle,
+    NodeKind::Procedural,
+];
+
+impl TraceOp {
+    fn pack(self) -> u64 {
+        let (op, kind, addr) = match self {
+            TraceOp::Visit { addr, kind } => (0, kind as u64, addr),
+            TraceOp::Push(addr) => (1, 0, addr),
+            TraceOp::Pop(addr) => (2, 0, addr),
+        };
+        debug_assert!(addr <= ADDR_MASK, "device addresses fit in 60 bits");
+        op << OP_SHIFT | kind << KIND_SHIFT | (addr & ADDR_MASK)
+    }
+
+    fn unpack(word: u64) -> Self {
+        let addr = word & ADDR_MASK;
+        match word >> OP_SHIFT {
+            0 => TraceOp::Visit {
+                addr,
+                kind: KINDS[(word >> KIND_SHIFT & 3) as usize],
+            },
+            1 => TraceOp::Push(addr),
+            _ => TraceOp::Pop(addr),
+        }
+    }
+}
+
+/// The recorded traversal of one ray: a valid stack history (every pop takes the most recent
+/// unpopped push, and the stack is empty at the end); the first operation visits the root.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RayTrace {
+    ops: Vec<u64>,
+    depth: u32,
+    max_depth: u32,
+}
+
+impl RayTrace {
+    pub fn ops(&self) -> impl Iterator<Item = TraceOp> + '_ {
+        self.ops.iter().map(|&w| TraceOp::unpack(w))
+    }
+
+    pub fn len(&self) -> usize {
+        self.ops.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.ops.is_empty()
+    }
+
+    /// Largest number of entries on the stack at any point.
+    pub fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+
+    /// Checks that the trace is a valid stack history: it starts by visiting a node, every pop
+    /// takes the most recent unpopped push, the stack ends empty, and `max_depth` is right.
+    pub fn check_stack_history(&self) -> Result<(), String> {
+        if !matches!(self.ops().next(), Some(TraceOp::Visit { .. })) {
+            return Err("does not start with a visit of the root".into());
+        }
+        let mut stack = Vec::new();
+        let mut max = 0;
+        for (i, op) in self.ops().enumerate() {
+            match op {
+                TraceOp::Push(addr) => {
+                    stack.push(addr);
+                    max = max.max(stack.len() as u32);
+                }
+                TraceOp::Pop(addr) => match stack.pop() {
+                    Some(top) if top == addr => {}
+                    top => return Err(format!("op {i}: pop of {addr:#x}, stack top {top:x?}")),
+                },
+                TraceOp::Visit { .. } => {}
+            }
+        }
+        if !stack.is_empty() {
+            return Err(format!("{} entries left on the stack", stack.len()));
+        }
+        if max != self.max_depth {
+            return Err(format!(
+                "max depth {} recorded, {max} replayed",
+                self.max_depth
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Recorder for RayTrace {
+    fn visit(&mut self, addr: u64, kind: NodeKind) {
+        self.ops.push(TraceOp::Visit { addr, kind }.pack());
+    }
+    fn push(&mut self, addr: u64) {
+        self.ops.push(TraceOp::Push(addr).pack());
+        self.depth += 1;
+        self.max_depth = self.max_depth.max(self.depth);
+    }
+    fn pop(&mut self, addr: u64) {
+        self.ops.push(TraceOp::Pop(addr).pack());
+        // Saturating so that a faulty traversal yields a trace `check_stack_history` rejects.
+        self.depth = self.depth.saturating_sub(1);
+    }
+}
+
+/// One traceRay call of a warp: exactly [`WARP_SIZE`] lanes, `None` for lanes whose path ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WarpJob {
+    pub lanes: Vec<Option<RayTrace>>,
+}
+
+/// How an internal node orders the children it descends into and pushes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ChildOrder {
+    /// Descend the nearest hit child, push the others far to near (nearest remaining on top).
+    #[default]
+    Nearest,
+    /// Descend the first hit child in index order, push the others in index order.
+    #[value(name = "vulkansim")]
+    VulkanSim,
+}
+
+/// What to trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct WorkloadOpts {
+    pub bvh: BvhKind,
+    pub order: ChildOrder,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Diffuse bounces after the primary ray.
+    pub max_bounces: u32,
+    pub seed: u64,
+}
+
+impl WorkloadOpts {
+    /// BVH6 (what Vulkan-Sim walks), nearest-first, and the scene's own render settings.
+    pub fn for_scene(scene: &Scene) -> Self {
+        let r = scene.render;
+        WorkloadOpts {
+            bvh: BvhKind::Bvh6,
+            order: ChildOrder::Nearest,
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            max_bounces: r.max_bounces,
+            seed: 0,
+        }
+    }
+}
+
+impl Default for WorkloadOpts {
+    /// The SPEC's evaluation settings (section 8) on a BVH6.
+    fn default() -> Self {
+        let r = crate::scene::RenderSettings::default();
+        WorkloadOpts {
+            bvh: BvhKind::Bvh6,
+            order: ChildOrder::Nearest,
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            max_bounces: r.max_bounces,
+            seed: 0,
+        }
+    }
+}
+
+/// A scene, its BVH and ray generator, and the rendered image.
+pub struct Workload<'s> {
+    scene: &'s Scene,
+    bvh: Bvh,
+    opts: WorkloadOpts,
+    raygen: RayGen,
+    image: Image,
+    num_rays: u64,
+}
+
+/// Traces of one warp (indexed `[job][lane]`) and each lane's summed radiance.
+struct WarpRun<R> {
+    jobs: Vec<Vec<Option<R>>>,
+    radiance: [Vec3A; WARP_SIZE],
+}
+
+impl<'s> Workload<'s> {
+    /// Builds the BVH and renders the image (without recording traces).
+    pub fn new(scene: &'s Scene, opts: WorkloadOpts) -> Result<Self> {
+        if opts.width == 0 || opts.height == 0 || opts.spp == 0 {
+            return Err(Error::Invalid(format!(
+                "resolution {}x{} with {} spp traces nothing",
+                opts.width, opts.height, opts.spp
+            )));
+        }
+        opts.width
+            .checked_mul(opts.height)
+            .ok_or_else(|| Error::Invalid("resolution too large".into()))?;
+        let bvh = Bvh::build(&scene.primitives, opts.bvh)?;
+        let size = scene.primitives.bounds().diagonal().length();
+        let raygen = RayGen::new(&scene.camera, opts.width, opts.height, opts.seed, size);
+        let mut w = Workload {
+            scene,
+            bvh,
+            opts,
+            raygen,
+            image: Image {
+                width: opts.width,
+                height: opts.height,
+                pixels: Vec::new(),
+            },
+            num_rays: 0,
+        };
+        let pixel_count = (opts.width * opts.height) as usize;
+        let mut pixels = Vec::with_capacity(pixel_count);
+        for warp in 0..w.num_warps() {
+            let run = w.run_warp::<()>(warp);
+            w.num_rays += run.jobs.iter().flatten().flatten().count() as u64;
+            pixels.extend(run.radiance.iter().map(|r| *r / opts.spp as f32));
+        }
+        pixels.truncate(pixel_count);
+        w.image.pixels = pixels;
+        Ok(w)
+    }
+
+    pub fn opts(&self) -> &WorkloadOpts {
+        &self.opts
+    }
+
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    pub fn num_warps(&self) -> u32 {
+        (self.opts.width * self.opts.height).div_ceil(WARP_SIZE as u32)
+    }
+
+    /// Number of traceRay calls (rays) in the workload.
+    pub fn num_rays(&self) -> u64 {
+        self.num_rays
+    }
+
+    /// The rendered image: average radiance per pixel.
+    pub fn image(&self) -> &Image {
+        &self.image
+    }
+
+    /// All warp jobs in launch order, traced on demand.
+    pub fn warp_jobs(&self) -> impl Iterator<Item = WarpJob> + '_ {
+        self.warps().flatten()
+    }
+
+    /// The jobs of each warp in launch order, one warp at a time, traced on demand.
+    pub fn warps(&self) -> impl Iterator<Item = Vec<WarpJob>> + '_ {
+        (0..self.num_warps()).map(move |warp| {
+            self.run_warp::<RayTrace>(warp)
+                .jobs
+                .into_iter()
+                .map(|lanes| WarpJob { lanes })
+                .collect()
+        })
+    }
+
+    fn run_warp<R: Recorder + Default>(&self, warp: u32) -> WarpRun<R> {
+        let o = &self.opts;
+        let prims = &self.scene.primitives;
+        let pixel_count = o.width * o.height;
+        let pixels: Vec<Option<u32>> = (0..WARP_SIZE as u32)
+            .map(|lane| Some(warp * WARP_SIZE as u32 + lane).filter(|&p| p < pixel_count))
+            .collect();
+        let mut run = WarpRun {
+            jobs: Vec::new(),
+            radiance: [Vec3A::ZERO; WARP_SIZE],
+        };
+        for sample in 0..o.spp {
+            // Each live lane's next ray and path throughput.
+            let mut paths: Vec<Option<_>> = pixels
+                .iter()
+                .map(|p| p.map(|p| (self.raygen.primary(p, sample), Vec3A::ONE)))
+                .collect();
+            for bounce in 0..=o.max_bounces {
+                if paths.iter().all(Option::is_none) {
+                    break;
+                }
+                let lanes = (0..WARP_SIZE)
+                    .map(|lane| {
+                        let (ray, throughput) = paths[lane]?;
+                        let mut rec = R::default();
+                        let hit = trace(&self.bvh, prims, &ray, f32::INFINITY, o.order, &mut rec);
+                        paths[lane] = match hit {
+                            None => {
+                                run.radiance[lane] += throughput * self.raygen.sky(ray.dir);
+                                None
+                            }
+                            Some(_) if bounce == o.max_bounces => None,
+                            Some(h) => {
+                                let point = ray.at(h.t);
+                                let normal = prims.normal(h.prim as usize, point, ray.dir);
+                                let pixel = pixels[lane]?;
+                                let next =
+                                    self.raygen.bounce(pixel, sample, bounce + 1, point, normal);
+                                Some((next, throughput * ALBEDO))
+                            }
+                        };
+                        Some(rec)
+                    })
+                    .collect();
+                run.jobs.push(lanes);
+            }
+        }
+        run
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::load_scene;
+
+    fn small(bvh: BvhKind, order: ChildOrder, seed: u64) -> WorkloadOpts {
+        WorkloadOpts {
+            bvh,
+            order,
+            width: 16,
+            height: 12,
+            spp: 1,
+            max_bounces: 2,
+            seed,
+        }
+    }
+
+    const KINDS: [BvhKind; 3] = [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh];
+    const ORDERS: [ChildOrder; 2] = [ChildOrder::Nearest, ChildOrder::VulkanSim];
+
+    #[test]
+    fn traces_are_valid_stack_histories() {
+        for name in ["wknd", "grid", "clutter"] {
+            let scene = load_scene(name).expect(name);
+            for bvh in KINDS {
+                for order in ORDERS {
+                    let w = Workload::new(&scene, small(bvh, order, 1)).expect("workload");
+                    let mut rays = 0;
+                    let mut deepest = 0;
+                    for job in w.warp_jobs() {
+                        assert_eq!(job.lanes.len(), WARP_SIZE);
+                        for trace in job.lanes.iter().flatten() {
+                            rays += 1;
+                            deepest = deepest.max(trace.max_depth());
+                            trace
+                                .check_stack_history()
+                                .unwrap_or_else(|e| panic!("{name} {bvh:?} {order:?}: {e}"));
+                            assert_eq!(
+                                trace.ops().next(),
+                                Some(TraceOp::Visit {
+                                    addr: crate::bvh::INTERNAL_BASE,
+                                    kind: NodeKind::Internal
+                                })
+                            );
+                            if bvh != BvhKind::Cwbvh {
+                                // A popped node is fetched next.
+                                let ops: Vec<_> = trace.ops().collect();
+                                for pair in ops.windows(2) {
+                                    if let TraceOp::Pop(a) = pair[0] {
+                                        assert!(
+                                            matches!(pair[1], TraceOp::Visit { addr, .. } if addr == a)
+                                        );
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    assert_eq!(rays, w.num_rays());
+                    assert!(deepest > 0, "{name} {bvh:?} {order:?} never pushed");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_wrong_pop_is_caught() {
+        let mut good = RayTrace::default();
+        good.visit(crate::bvh::INTERNAL_BASE, NodeKind::Internal);
+        good.push(0x40);
+        good.push(0x80);
+        good.pop(0x80);
+        good.pop(0x40);
+        assert_eq!(good.check_stack_history(), Ok(()));
+        assert_eq!(good.max_depth(), 2);
+        let mut swapped = good.clone();
+        swapped.ops.swap(3, 4);
+        assert!(swapped.check_stack_history().is_err());
+        let mut unbalanced = good.clone();
+        unbalanced.ops.pop();
+        assert!(unbalanced.check_stack_history().is_err());
+    }
+
+    #[test]
+    fn ops_round_trip_through_packing() {
+        let kinds = [
+            NodeKind::Internal,
+            NodeKind::Leaf,
+            NodeKind::Triangle,
+            NodeKind::Procedural,
+        ];
+        for (i, kind) in kinds.into_iter().enumerate() {
+            let addr = ADDR_MASK - i as u64;
+            for op in [
+                TraceOp::Visit { addr, kind },
+                TraceOp::Push(addr),
+                TraceOp::Pop(addr),
+            ] {
+                assert_eq!(TraceOp::unpack(op.pack()), op);
+            }
+        }
+    }
+
+    #[test]
+    fn same_seed_same_traces_other_seed_other_traces() {
+        let scene = load_scene("clutter").expect("clutter");
+        let jobs = |seed| {
+            let w = Workload::new(&scene, small(BvhKind::Bvh6, ChildOrder::VulkanSim, seed))
+                .expect("workload");
+            (w.warp_jobs().collect::<Vec<_>>(), w.image().clone())
+        };
+        let (a, image_a) = jobs(7);
+        let (b, image_b) = jobs(7);
+        assert_eq!(a, b);
+        assert_eq!(image_a, image_b);
+        assert_ne!(a, jobs(8).0);
+    }
+
+    #[test]
+    fn partial_last_warp_has_inactive_lanes() {
+        let scene = load_scene("grid").expect("grid");
+        let mut opts = small(BvhKind::Bvh2, ChildOrder::Nearest, 0);
+        (opts.width, opts.height, opts.spp) = (10, 5, 2);
+        let w = Workload::new(&scene, opts).expect("workload");
+        assert_eq!(w.num_warps(), 2);
+        assert_eq!(w.image().pixels.len(), 50);
+        let jobs: Vec<_> = w.warp_jobs().collect();
+        let last_warp_jobs = jobs
+            .iter()
+            .rev()
+            .take_while(|j| j.lanes[18..].iter().all(Option::is_none));
+        assert!(last_warp_jobs.count() >= opts.spp as usize);
+        assert!(jobs.iter().all(|j| j.lanes.iter().any(Option::is_some)));
+    }
+
+    #[test]
+    fn empty_resolution_is_an_error() {
+        let scene = load_scene("grid").expect("grid");
+        let mut opts = small(BvhKind::Bvh6, ChildOrder::Nearest, 0);
+        opts.width = 0;
+        assert!(Workload::new(&scene, opts).is_err());
+    }
+}
