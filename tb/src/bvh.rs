@@ -118,18 +118,14 @@ impl Bvh6 {
                 let first = bvh2.nodes[open[slot]].first_index as usize;
                 open.splice(slot..=slot, [first, first + 1]);
             }
-            out.nodes[index as usize] = Bvh6Node {
-                first: out.children.len() as u32,
-                count: open.len() as u32,
-            };
+            out.nodes[index as usize] =
+                Bvh6Node { first: out.children.len() as u32, count: open.len() as u32 };
             for &c in &open {
                 let child = &bvh2.nodes[c];
                 let node = if child.is_leaf() {
                     let start = out.prim_indices.len() as u32;
-                    let range =
-                        child.first_index as usize..(child.first_index + child.prim_count) as usize;
-                    out.prim_indices
-                        .extend_from_slice(&bvh2.primitive_indices[range]);
+                    let range = child.first_index as usize..(child.first_index + child.prim_count) as usize;
+                    out.prim_indices.extend_from_slice(&bvh2.primitive_indices[range]);
                     out.leaves.push(start..out.prim_indices.len() as u32);
                     NodeRef::Leaf(out.leaves.len() as u32 - 1)
                 } else {
@@ -137,10 +133,7 @@ impl Bvh6 {
                     queue.push_back((out.nodes.len() as u32 - 1, c));
                     NodeRef::Internal(out.nodes.len() as u32 - 1)
                 };
-                out.children.push(Bvh6Child {
-                    aabb: *child.aabb(),
-                    node,
-                });
+                out.children.push(Bvh6Child { aabb: *child.aabb(), node });
             }
         }
         out
@@ -173,9 +166,7 @@ fn params(kind: BvhKind) -> BvhBuildParams {
 impl Bvh {
     pub fn build(prims: &Primitives, kind: BvhKind) -> Result<Self> {
         if prims.is_empty() {
-            return Err(Error::Invalid(
-                "cannot build a BVH over no primitives".into(),
-            ));
+            return Err(Error::Invalid("cannot build a BVH over no primitives".into()));
         }
         let mut time = Duration::ZERO;
         let p = params(kind);
@@ -246,14 +237,10 @@ mod tests {
             let scene = load_scene(name).expect(name);
             let bvh = Bvh::build(&scene.primitives, BvhKind::Bvh6).expect("bvh");
             let Bvh::Bvh6(b) = &bvh else { unreachable!() };
-            let (mut internal_refs, mut leaf_refs) =
-                (vec![0; b.nodes.len()], vec![0; b.leaves.len()]);
+            let (mut internal_refs, mut leaf_refs) = (vec![0; b.nodes.len()], vec![0; b.leaves.len()]);
             // Collapsing removes most BVH2 internal nodes (leaf-heavy nodes near the bottom stay narrow).
             let mean_children = b.children.len() as f64 / b.nodes.len() as f64;
-            assert!(
-                mean_children > 3.5,
-                "{name}: {mean_children} children per node"
-            );
+            assert!(mean_children > 3.5, "{name}: {mean_children} children per node");
             for (i, node) in b.nodes.iter().enumerate() {
                 let children = b.node_children(i as u32);
                 assert!(
@@ -281,9 +268,7 @@ mod tests {
                         "{name} node {i}: children not contiguous"
                     );
                 }
-                internal
-                    .iter()
-                    .for_each(|&j| internal_refs[j as usize] += 1);
+                internal.iter().for_each(|&j| internal_refs[j as usize] += 1);
                 leaves.iter().for_each(|&j| leaf_refs[j as usize] += 1);
                 for c in children {
                     let inner: Vec<Aabb> = match c.node {
@@ -296,9 +281,7 @@ mod tests {
                                     crate::geometry::Primitives::Triangles(t) => {
                                         obvhs::Boundable::aabb(&t[p])
                                     }
-                                    crate::geometry::Primitives::Spheres(s) => {
-                                        obvhs::Boundable::aabb(&s[p])
-                                    }
+                                    crate::geometry::Primitives::Spheres(s) => obvhs::Boundable::aabb(&s[p]),
                                 }
                             })
                             .collect(),
@@ -311,18 +294,9 @@ mod tests {
                 assert!(node.count as usize == children.len());
             }
             assert_eq!(internal_refs[0], 0);
-            assert!(
-                internal_refs[1..].iter().all(|&r| r == 1),
-                "{name}: every internal node has one parent"
-            );
-            assert!(
-                leaf_refs.iter().all(|&r| r == 1),
-                "{name}: every leaf has one parent"
-            );
-            assert!(
-                b.leaves.iter().all(|l| l.len() == 1),
-                "{name}: one primitive per leaf"
-            );
+            assert!(internal_refs[1..].iter().all(|&r| r == 1), "{name}: every internal node has one parent");
+            assert!(leaf_refs.iter().all(|&r| r == 1), "{name}: every leaf has one parent");
+            assert!(b.leaves.iter().all(|l| l.len() == 1), "{name}: one primitive per leaf");
             let mut prims = b.prim_indices.clone();
             prims.sort_unstable();
             assert!(
@@ -333,16 +307,12 @@ mod tests {
             let mut addrs = HashSet::new();
             for i in 0..b.nodes.len() as u32 {
                 let a = bvh.node_addr(NodeRef::Internal(i));
-                assert!(
-                    a.is_multiple_of(BVH6_NODE_SIZE) && (INTERNAL_BASE..LEAF_BASE).contains(&a)
-                );
+                assert!(a.is_multiple_of(BVH6_NODE_SIZE) && (INTERNAL_BASE..LEAF_BASE).contains(&a));
                 assert!(addrs.insert(a));
             }
             for j in 0..b.leaves.len() as u32 {
                 let a = bvh.node_addr(NodeRef::Leaf(j));
-                assert!(
-                    a.is_multiple_of(BVH6_LEAF_DESC_SIZE) && (LEAF_BASE..PRIM_BASE).contains(&a)
-                );
+                assert!(a.is_multiple_of(BVH6_LEAF_DESC_SIZE) && (LEAF_BASE..PRIM_BASE).contains(&a));
                 assert!(addrs.insert(a));
                 let p = Bvh::prim_addr(j);
                 assert!(p.is_multiple_of(PRIM_SIZE) && p >= PRIM_BASE);

@@ -60,12 +60,7 @@ impl DepthHistogram {
         if total == 0 {
             return 0.0;
         }
-        let weighted: u128 = self
-            .counts
-            .iter()
-            .enumerate()
-            .map(|(d, &c)| d as u128 * c as u128)
-            .sum();
+        let weighted: u128 = self.counts.iter().enumerate().map(|(d, &c)| d as u128 * c as u128).sum();
         weighted as f64 / total as f64
     }
 
@@ -113,16 +108,8 @@ impl<Opts: Serialize> DepthReport<Opts> {
     /// Summary and distribution as a terminal table.
     pub fn table(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "scene {}: {} rays, {} pushes+pops",
-            self.scene, self.rays, self.pushes_and_pops
-        );
-        let _ = writeln!(
-            s,
-            "stack depth  max {}  mean {:.3}  median {}",
-            self.max, self.mean, self.median
-        );
+        let _ = writeln!(s, "scene {}: {} rays, {} pushes+pops", self.scene, self.rays, self.pushes_and_pops);
+        let _ = writeln!(s, "stack depth  max {}  mean {:.3}  median {}", self.max, self.mean, self.median);
         let _ = writeln!(s, "{:>5} {:>12} {:>8}", "depth", "count", "share");
         let total = self.pushes_and_pops.max(1) as f64;
         for (d, &c) in self.histogram.counts.iter().enumerate().skip(1) {
@@ -150,17 +137,10 @@ impl<Opts: Serialize> DepthReport<Opts> {
     /// Histogram of the depth distribution as an SVG file.
     pub fn write_svg(&self, path: &Path, title: &str) -> Result<()> {
         use plotters::prelude::*;
-        let to_err =
-            |e: &dyn std::fmt::Display| Error::io(path, std::io::Error::other(e.to_string()));
+        let to_err = |e: &dyn std::fmt::Display| Error::io(path, std::io::Error::other(e.to_string()));
         let total = self.pushes_and_pops.max(1) as f64;
         let max_depth = self.max.max(1);
-        let top = self
-            .histogram
-            .counts
-            .iter()
-            .map(|&c| c as f64 / total)
-            .fold(0.0, f64::max)
-            .max(1e-6);
+        let top = self.histogram.counts.iter().map(|&c| c as f64 / total).fold(0.0, f64::max).max(1e-6);
         let root = SVGBackend::new(path, (800, 480)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| to_err(&e))?;
         let mut chart = ChartBuilder::on(&root)
@@ -178,19 +158,9 @@ impl<Opts: Serialize> DepthReport<Opts> {
             .draw()
             .map_err(|e| to_err(&e))?;
         chart
-            .draw_series(
-                Histogram::vertical(&chart)
-                    .style(BLUE.filled())
-                    .margin(2)
-                    .data(
-                        self.histogram
-                            .counts
-                            .iter()
-                            .enumerate()
-                            .skip(1)
-                            .map(|(d, &c)| (d as u32, c as f64 / total)),
-                    ),
-            )
+            .draw_series(Histogram::vertical(&chart).style(BLUE.filled()).margin(2).data(
+                self.histogram.counts.iter().enumerate().skip(1).map(|(d, &c)| (d as u32, c as f64 / total)),
+            ))
             .map_err(|e| to_err(&e))?;
         root.present().map_err(|e| to_err(&e))
     }
@@ -234,16 +204,11 @@ mod tests {
         h.add_trace(&trace());
         let report = DepthReport::new("test", "opts", 1, h);
         assert!(report.table().contains("max 2"));
-        assert_eq!(
-            report.csv(),
-            "depth,count,fraction\n1,2,0.333333\n2,4,0.666667\n"
-        );
+        assert_eq!(report.csv(), "depth,count,fraction\n1,2,0.333333\n2,4,0.666667\n");
         let json: serde_json::Value = serde_json::from_str(&report.json()).expect("json");
         assert_eq!(json["median"], 2);
         let path = std::env::temp_dir().join(format!("tb-depth-{}.svg", std::process::id()));
         report.write_svg(&path, "test").expect("svg");
-        assert!(std::fs::read_to_string(&path)
-            .expect("svg")
-            .starts_with("<svg"));
+        assert!(std::fs::read_to_string(&path).expect("svg").starts_with("<svg"));
     }
 }

@@ -15,11 +15,7 @@ pub enum Error {
     },
     /// A file was read but its content is wrong; `at` names the line or element.
     #[error("{}: {at}: {what}", path.display())]
-    Format {
-        path: PathBuf,
-        at: String,
-        what: String,
-    },
+    Format { path: PathBuf, at: String, what: String },
     /// A mesh (or a whole scene) has no usable primitive.
     #[error("{}: no triangles left ({dropped} degenerate dropped)", path.display())]
     EmptyMesh { path: PathBuf, dropped: usize },
@@ -33,22 +29,11 @@ pub enum Error {
 
 impl Error {
     pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io {
-            path: path.into(),
-            source,
-        }
+        Error::Io { path: path.into(), source }
     }
 
-    pub(crate) fn format(
-        path: impl Into<PathBuf>,
-        at: impl Into<String>,
-        what: impl Into<String>,
-    ) -> Self {
-        Error::Format {
-            path: path.into(),
-            at: at.into(),
-            what: what.into(),
-        }
+    pub(crate) fn format(path: impl Into<PathBuf>, at: impl Into<String>, what: impl Into<String>) -> Self {
+        Error::Format { path: path.into(), at: at.into(), what: what.into() }
     }
 }
 

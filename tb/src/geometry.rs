@@ -23,12 +23,7 @@ pub struct Ray {
 
 impl Ray {
     pub fn new(origin: Vec3A, dir: Vec3A, tmin: f32) -> Self {
-        Ray {
-            origin,
-            dir,
-            inv_dir: dir.recip(),
-            tmin,
-        }
+        Ray { origin, dir, inv_dir: dir.recip(), tmin }
     }
 
     /// The same ray in obvhs's representation. obvhs takes the CWBVH traversal octant from the
@@ -45,8 +40,7 @@ impl Ray {
     /// Entry distance of the ray into `aabb` within `[tmin, tmax]`, or `None` on a miss.
     pub fn hit_box(&self, aabb: &Aabb, tmax: f32) -> Option<f32> {
         // 1 + 2 * gamma(3): the relative error bound of the far distance (Ize 2013).
-        const FAR_SCALE: f32 =
-            1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+        const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let mut near = self.tmin;
         let mut far = tmax;
         for axis in 0..3 {
@@ -82,11 +76,7 @@ pub fn hit_triangle(ray: &Ray, tri: &Triangle, tmax: f32) -> f32 {
         std::mem::swap(&mut kx, &mut ky);
     }
     let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-    let (a, b, c) = (
-        tri.v0 - ray.origin,
-        tri.v1 - ray.origin,
-        tri.v2 - ray.origin,
-    );
+    let (a, b, c) = (tri.v0 - ray.origin, tri.v1 - ray.origin, tri.v2 - ray.origin);
     let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
     let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
     let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
@@ -123,10 +113,7 @@ pub struct Sphere {
 
 impl Boundable for Sphere {
     fn aabb(&self) -> Aabb {
-        Aabb::new(
-            self.center - Vec3A::splat(self.radius),
-            self.center + Vec3A::splat(self.radius),
-        )
+        Aabb::new(self.center - Vec3A::splat(self.radius), self.center + Vec3A::splat(self.radius))
     }
 }
 

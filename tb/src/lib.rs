@@ -14,6 +14,7 @@ pub mod geometry;
 pub mod raygen;
 mod rng;
 pub mod scene;
+pub mod stack_tb;
 pub mod table;
 pub mod traverse;
 pub mod workload;

@@ -74,10 +74,9 @@ impl RayGen {
         let (phi, r) = (TAU * r1, r2.sqrt());
         let tangent = normal.any_orthonormal_vector();
         let bitangent = normal.cross(tangent);
-        let dir = (tangent * (r * phi.cos())
-            + bitangent * (r * phi.sin())
-            + normal * (1.0 - r2).max(0.0).sqrt())
-        .normalize_or(normal);
+        let dir =
+            (tangent * (r * phi.cos()) + bitangent * (r * phi.sin()) + normal * (1.0 - r2).max(0.0).sqrt())
+                .normalize_or(normal);
         Ray::new(point + normal * self.offset, dir, 0.0)
     }
 
@@ -111,9 +110,6 @@ impl Image {
             .map(|c| (c.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0 + 0.5) as u8)
             .collect();
         let to_io = |e: png::EncodingError| Error::io(path, std::io::Error::other(e));
-        encoder
-            .write_header()
-            .and_then(|mut w| w.write_image_data(&bytes))
-            .map_err(to_io)
+        encoder.write_header().and_then(|mut w| w.write_image_data(&bytes)).map_err(to_io)
     }
 }

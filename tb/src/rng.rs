@@ -15,9 +15,7 @@ pub struct Rng(u32);
 
 impl Rng {
     pub fn new(keys: &[u64]) -> Self {
-        let h = keys.iter().fold(0x9e37_79b9u32, |h, &k| {
-            pcg(pcg(h ^ k as u32) ^ (k >> 32) as u32)
-        });
+        let h = keys.iter().fold(0x9e37_79b9u32, |h, &k| pcg(pcg(h ^ k as u32) ^ (k >> 32) as u32));
         Rng(h)
     }
 

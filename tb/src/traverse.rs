@@ -59,20 +59,10 @@ fn for_each_child(bvh: &Bvh, node: u32, mut f: impl FnMut(&obvhs::aabb::Aabb, No
             let first = b.nodes[node as usize].first_index;
             for c in [first, first + 1] {
                 let child = &b.nodes[c as usize];
-                f(
-                    child.aabb(),
-                    if child.is_leaf() {
-                        NodeRef::Leaf(c)
-                    } else {
-                        NodeRef::Internal(c)
-                    },
-                );
+                f(child.aabb(), if child.is_leaf() { NodeRef::Leaf(c) } else { NodeRef::Internal(c) });
             }
         }
-        Bvh::Bvh6(b) => b
-            .node_children(node)
-            .iter()
-            .for_each(|c| f(&c.aabb, c.node)),
+        Bvh::Bvh6(b) => b.node_children(node).iter().for_each(|c| f(&c.aabb, c.node)),
         Bvh::Cwbvh(_) => unreachable!("CWBVH is traversed by trace_cwbvh"),
     }
 }
@@ -82,10 +72,7 @@ fn leaf_prims(bvh: &Bvh, leaf: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
     let (range, indices) = match bvh {
         Bvh::Bvh2(b) => {
             let n = &b.nodes[leaf as usize];
-            (
-                n.first_index..n.first_index + n.prim_count,
-                &b.primitive_indices,
-            )
+            (n.first_index..n.first_index + n.prim_count, &b.primitive_indices)
         }
         Bvh::Bvh6(b) => (b.leaves[leaf as usize].clone(), &b.prim_indices),
         Bvh::Cwbvh(_) => unreachable!("CWBVH is traversed by trace_cwbvh"),
@@ -210,10 +197,7 @@ fn trace_cwbvh<R: Recorder>(
     let mut oray = ray.to_obvhs(tmax);
     let seed = cw.new_traversal(oray.direction);
     let mut state = CwState {
-        stack: RecordingStack {
-            entries: Vec::new(),
-            rec,
-        },
+        stack: RecordingStack { entries: Vec::new(), rec },
         current_group: seed.current_group,
         primitive_group: seed.primitive_group,
         oct_inv4: seed.oct_inv4,
@@ -230,10 +214,7 @@ fn trace_cwbvh<R: Recorder>(
             // The macro hands us the node, not its index: recover it from the node's position.
             let index = (std::ptr::from_ref(node) as usize - cw.nodes.as_ptr() as usize)
                 / std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>();
-            state.stack.rec.visit(
-                INTERNAL_BASE + index as u64 * CWBVH_NODE_SIZE,
-                NodeKind::Internal,
-            );
+            state.stack.rec.visit(INTERNAL_BASE + index as u64 * CWBVH_NODE_SIZE, NodeKind::Internal);
             node.intersect_ray(&oray, state.oct_inv4)
         },
         {
@@ -276,16 +257,8 @@ mod tests {
         }
         // Axis-parallel directions, including negative zeros, through the middle of the scene.
         let center = bounds.center();
-        for dir in [
-            Vec3A::new(-0.0, -1.0, 0.0),
-            Vec3A::new(0.0, 0.0, -1.0),
-            Vec3A::new(1.0, -0.0, -0.0),
-        ] {
-            rays.push(Ray::new(
-                center - dir * bounds.diagonal().length(),
-                dir,
-                0.0,
-            ));
+        for dir in [Vec3A::new(-0.0, -1.0, 0.0), Vec3A::new(0.0, 0.0, -1.0), Vec3A::new(1.0, -0.0, -0.0)] {
+            rays.push(Ray::new(center - dir * bounds.diagonal().length(), dir, 0.0));
         }
         rays
     }
@@ -305,14 +278,8 @@ mod tests {
         let scene = load_scene(name).expect(name);
         let prims = &scene.primitives;
         let rays = sample_rays(&scene);
-        let oracle: Vec<_> = rays
-            .iter()
-            .map(|r| prims.brute_force_hit(r, f32::INFINITY))
-            .collect();
-        assert!(
-            oracle.iter().filter(|h| h.is_some()).count() > rays.len() / 10,
-            "{name}: rays should hit"
-        );
+        let oracle: Vec<_> = rays.iter().map(|r| prims.brute_force_hit(r, f32::INFINITY)).collect();
+        assert!(oracle.iter().filter(|h| h.is_some()).count() > rays.len() / 10, "{name}: rays should hit");
         for kind in [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh] {
             let bvh = Bvh::build(prims, kind).expect("bvh");
             for order in [ChildOrder::Nearest, ChildOrder::VulkanSim] {
@@ -340,10 +307,7 @@ mod tests {
                     }
                     Bvh::Bvh6(_) => continue,
                 };
-                let got = found.then(|| Hit {
-                    prim: indices[hit.primitive_id as usize],
-                    t: hit.t,
-                });
+                let got = found.then(|| Hit { prim: indices[hit.primitive_id as usize], t: hit.t });
                 assert_same(&format!("{name} obvhs {kind:?} ray {i}"), got, *want);
             }
         }
@@ -375,26 +339,9 @@ mod tests {
         let bvh = Bvh::build(&scene.primitives, BvhKind::Bvh6).expect("bvh");
         let mut differing = 0;
         for ray in sample_rays(&scene) {
-            let (mut a, mut b) = (
-                crate::workload::RayTrace::default(),
-                crate::workload::RayTrace::default(),
-            );
-            let ha = trace(
-                &bvh,
-                &scene.primitives,
-                &ray,
-                f32::INFINITY,
-                ChildOrder::Nearest,
-                &mut a,
-            );
-            let hb = trace(
-                &bvh,
-                &scene.primitives,
-                &ray,
-                f32::INFINITY,
-                ChildOrder::VulkanSim,
-                &mut b,
-            );
+            let (mut a, mut b) = (crate::workload::RayTrace::default(), crate::workload::RayTrace::default());
+            let ha = trace(&bvh, &scene.primitives, &ray, f32::INFINITY, ChildOrder::Nearest, &mut a);
+            let hb = trace(&bvh, &scene.primitives, &ray, f32::INFINITY, ChildOrder::VulkanSim, &mut b);
             assert_eq!(ha.map(|h| h.t), hb.map(|h| h.t));
             differing += usize::from(a != b);
         }
@@ -416,16 +363,8 @@ mod tests {
     #[test]
     fn triangle_test_is_watertight_on_a_shared_edge() {
         let (a, b) = (Vec3A::new(0.0, 0.0, 0.0), Vec3A::new(1.0, 1.0, 0.0));
-        let t1 = obvhs::triangle::Triangle {
-            v0: a,
-            v1: Vec3A::new(1.0, 0.0, 0.0),
-            v2: b,
-        };
-        let t2 = obvhs::triangle::Triangle {
-            v0: a,
-            v1: b,
-            v2: Vec3A::new(0.0, 1.0, 0.0),
-        };
+        let t1 = obvhs::triangle::Triangle { v0: a, v1: Vec3A::new(1.0, 0.0, 0.0), v2: b };
+        let t2 = obvhs::triangle::Triangle { v0: a, v1: b, v2: Vec3A::new(0.0, 1.0, 0.0) };
         for i in 0..1000 {
             let s = i as f32 / 1000.0;
             let ray = Ray::new(Vec3A::new(s, s, 1.0), Vec3A::new(0.0, 0.0, -1.0), 0.0);

@@ -43,12 +43,7 @@ pub enum TraceOp {
 const OP_SHIFT: u32 = 62;
 const KIND_SHIFT: u32 = 60;
 const ADDR_MASK: u64 = (1 << KIND_SHIFT) - 1;
-const KINDS: [NodeKind; 4] = [
-    NodeKind::Internal,
-    NodeKind::Leaf,
-    NodeKind::Triangle,
-    NodeKind::Procedural,
-];
+const KINDS: [NodeKind; 4] = [NodeKind::Internal, NodeKind::Leaf, NodeKind::Triangle, NodeKind::Procedural];
 
 impl TraceOp {
     fn pack(self) -> u64 {
@@ -64,10 +59,7 @@ impl TraceOp {
     fn unpack(word: u64) -> Self {
         let addr = word & ADDR_MASK;
         match word >> OP_SHIFT {
-            0 => TraceOp::Visit {
-                addr,
-                kind: KINDS[(word >> KIND_SHIFT & 3) as usize],
-            },
+            0 => TraceOp::Visit { addr, kind: KINDS[(word >> KIND_SHIFT & 3) as usize] },
             1 => TraceOp::Push(addr),
             _ => TraceOp::Pop(addr),
         }
@@ -126,10 +118,7 @@ impl RayTrace {
             return Err(format!("{} entries left on the stack", stack.len()));
         }
         if max != self.max_depth {
-            return Err(format!(
-                "max depth {} recorded, {max} replayed",
-                self.max_depth
-            ));
+            return Err(format!("max depth {} recorded, {max} replayed", self.max_depth));
         }
         Ok(())
     }
@@ -239,9 +228,7 @@ impl<'s> Workload<'s> {
                 opts.width, opts.height, opts.spp
             )));
         }
-        opts.width
-            .checked_mul(opts.height)
-            .ok_or_else(|| Error::Invalid("resolution too large".into()))?;
+        opts.width.checked_mul(opts.height).ok_or_else(|| Error::Invalid("resolution too large".into()))?;
         let bvh = Bvh::build(&scene.primitives, opts.bvh)?;
         let size = scene.primitives.bounds().diagonal().length();
         let raygen = RayGen::new(&scene.camera, opts.width, opts.height, opts.seed, size);
@@ -250,11 +237,7 @@ impl<'s> Workload<'s> {
             bvh,
             opts,
             raygen,
-            image: Image {
-                width: opts.width,
-                height: opts.height,
-                pixels: Vec::new(),
-            },
+            image: Image { width: opts.width, height: opts.height, pixels: Vec::new() },
             num_rays: 0,
         };
         let pixel_count = (opts.width * opts.height) as usize;
@@ -299,11 +282,7 @@ impl<'s> Workload<'s> {
     /// The jobs of each warp in launch order, one warp at a time, traced on demand.
     pub fn warps(&self) -> impl Iterator<Item = Vec<WarpJob>> + '_ {
         (0..self.num_warps()).map(move |warp| {
-            self.run_warp::<RayTrace>(warp)
-                .jobs
-                .into_iter()
-                .map(|lanes| WarpJob { lanes })
-                .collect()
+            self.run_warp::<RayTrace>(warp).jobs.into_iter().map(|lanes| WarpJob { lanes }).collect()
         })
     }
 
@@ -314,16 +293,11 @@ impl<'s> Workload<'s> {
         let pixels: Vec<Option<u32>> = (0..WARP_SIZE as u32)
             .map(|lane| Some(warp * WARP_SIZE as u32 + lane).filter(|&p| p < pixel_count))
             .collect();
-        let mut run = WarpRun {
-            jobs: Vec::new(),
-            radiance: [Vec3A::ZERO; WARP_SIZE],
-        };
+        let mut run = WarpRun { jobs: Vec::new(), radiance: [Vec3A::ZERO; WARP_SIZE] };
         for sample in 0..o.spp {
             // Each live lane's next ray and path throughput.
-            let mut paths: Vec<Option<_>> = pixels
-                .iter()
-                .map(|p| p.map(|p| (self.raygen.primary(p, sample), Vec3A::ONE)))
-                .collect();
+            let mut paths: Vec<Option<_>> =
+                pixels.iter().map(|p| p.map(|p| (self.raygen.primary(p, sample), Vec3A::ONE))).collect();
             for bounce in 0..=o.max_bounces {
                 if paths.iter().all(Option::is_none) {
                     break;
@@ -343,8 +317,7 @@ impl<'s> Workload<'s> {
                                 let point = ray.at(h.t);
                                 let normal = prims.normal(h.prim as usize, point, ray.dir);
                                 let pixel = pixels[lane]?;
-                                let next =
-                                    self.raygen.bounce(pixel, sample, bounce + 1, point, normal);
+                                let next = self.raygen.bounce(pixel, sample, bounce + 1, point, normal);
                                 Some((next, throughput * ALBEDO))
                             }
                         };
@@ -364,15 +337,7 @@ mod tests {
     use crate::scene::load_scene;
 
     fn small(bvh: BvhKind, order: ChildOrder, seed: u64) -> WorkloadOpts {
-        WorkloadOpts {
-            bvh,
-            order,
-            width: 16,
-            height: 12,
-            spp: 1,
-            max_bounces: 2,
-            seed,
-        }
+        WorkloadOpts { bvh, order, width: 16, height: 12, spp: 1, max_bounces: 2, seed }
     }
 
     const KINDS: [BvhKind; 3] = [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh];
@@ -407,9 +372,7 @@ mod tests {
                                 let ops: Vec<_> = trace.ops().collect();
                                 for pair in ops.windows(2) {
                                     if let TraceOp::Pop(a) = pair[0] {
-                                        assert!(
-                                            matches!(pair[1], TraceOp::Visit { addr, .. } if addr == a)
-                                        );
+                                        assert!(matches!(pair[1], TraceOp::Visit { addr, .. } if addr == a));
                                     }
                                 }
                             }
@@ -442,19 +405,10 @@ mod tests {
 
     #[test]
     fn ops_round_trip_through_packing() {
-        let kinds = [
-            NodeKind::Internal,
-            NodeKind::Leaf,
-            NodeKind::Triangle,
-            NodeKind::Procedural,
-        ];
+        let kinds = [NodeKind::Internal, NodeKind::Leaf, NodeKind::Triangle, NodeKind::Procedural];
         for (i, kind) in kinds.into_iter().enumerate() {
             let addr = ADDR_MASK - i as u64;
-            for op in [
-                TraceOp::Visit { addr, kind },
-                TraceOp::Push(addr),
-                TraceOp::Pop(addr),
-            ] {
+            for op in [TraceOp::Visit { addr, kind }, TraceOp::Push(addr), TraceOp::Pop(addr)] {
                 assert_eq!(TraceOp::unpack(op.pack()), op);
             }
         }
@@ -464,8 +418,8 @@ mod tests {
     fn same_seed_same_traces_other_seed_other_traces() {
         let scene = load_scene("clutter").expect("clutter");
         let jobs = |seed| {
-            let w = Workload::new(&scene, small(BvhKind::Bvh6, ChildOrder::VulkanSim, seed))
-                .expect("workload");
+            let w =
+                Workload::new(&scene, small(BvhKind::Bvh6, ChildOrder::VulkanSim, seed)).expect("workload");
             (w.warp_jobs().collect::<Vec<_>>(), w.image().clone())
         };
         let (a, image_a) = jobs(7);
@@ -484,10 +438,7 @@ mod tests {
         assert_eq!(w.num_warps(), 2);
         assert_eq!(w.image().pixels.len(), 50);
         let jobs: Vec<_> = w.warp_jobs().collect();
-        let last_warp_jobs = jobs
-            .iter()
-            .rev()
-            .take_while(|j| j.lanes[18..].iter().all(Option::is_none));
+        let last_warp_jobs = jobs.iter().rev().take_while(|j| j.lanes[18..].iter().all(Option::is_none));
         assert!(last_warp_jobs.count() >= opts.spp as usize);
         assert!(jobs.iter().all(|j| j.lanes.iter().any(Option::is_some)));
     }

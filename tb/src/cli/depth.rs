@@ -37,9 +37,7 @@ pub struct Args {
 }
 
 fn parse_res(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or("expected WIDTHxHEIGHT, e.g. 128x128")?;
+    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT, e.g. 128x128")?;
     let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("'{v}': {e}"));
     Ok((parse(w)?, parse(h)?))
 }
@@ -79,10 +77,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let warps = workload.num_warps();
     for (i, jobs) in workload.warps().enumerate() {
         for job in &jobs {
-            job.lanes
-                .iter()
-                .flatten()
-                .for_each(|t| histogram.add_trace(t));
+            job.lanes.iter().flatten().for_each(|t| histogram.add_trace(t));
         }
         let done = i as u32 + 1;
         if done.is_multiple_of(warps.div_ceil(10)) || done == warps {
@@ -94,9 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let report = DepthReport::new(&scene.name, opts, workload.num_rays(), histogram);
     print!("{}", report.table());
 
-    let out = args
-        .out
-        .unwrap_or_else(|| PathBuf::from("out/depth").join(&scene.name));
+    let out = args.out.unwrap_or_else(|| PathBuf::from("out/depth").join(&scene.name));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let stem = format!("{:?}-{:?}", opts.bvh, opts.order).to_lowercase();
     let write = |name: String, text: String| {
@@ -105,15 +98,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     write(format!("{stem}.csv"), report.csv())?;
     write(format!("{stem}.json"), report.json())?;
-    let title = format!(
-        "{} {stem}: max {} mean {:.2} median {}",
-        scene.name, report.max, report.mean, report.median
-    );
+    let title =
+        format!("{} {stem}: max {} mean {:.2} median {}", scene.name, report.max, report.mean, report.median);
     report.write_svg(&out.join(format!("{stem}.svg")), &title)?;
     workload.image().write_png(&out.join("render.png"))?;
-    eprintln!(
-        "wrote {}/{stem}.{{csv,json,svg}} and render.png",
-        out.display()
-    );
+    eprintln!("wrote {}/{stem}.{{csv,json,svg}} and render.png", out.display());
     Ok(())
 }

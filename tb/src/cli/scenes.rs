@@ -15,11 +15,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let library = args.scenes.library();
-    let names = if args.names.is_empty() {
-        library.names()?
-    } else {
-        args.names
-    };
+    let names = if args.names.is_empty() { library.names()? } else { args.names };
     println!(
         "{:<20} {:>10} {:>10} {:>9} {:>10} {:>9} {:>10} {:>9} {:>9}",
         "scene", "triangles", "bvh2", "ms", "bvh6", "ms", "cwbvh", "ms", "load ms"
@@ -33,11 +29,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         for kind in [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh] {
             let start = Instant::now();
             let bvh = Bvh::build(&scene.primitives, kind)?;
-            row += &format!(
-                " {:>10} {:>9}",
-                bvh.node_count(),
-                start.elapsed().as_millis()
-            );
+            row += &format!(" {:>10} {:>9}", bvh.node_count(), start.elapsed().as_millis());
         }
         println!("{row} {load_ms:>9}");
     }

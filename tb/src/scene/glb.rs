@@ -15,10 +15,9 @@ fn buffers(doc: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>> {
         .map(|buffer| {
             let at = format!("buffer {}", buffer.index());
             let data = match buffer.source() {
-                Source::Bin => doc
-                    .blob
-                    .clone()
-                    .ok_or_else(|| Error::format(path, &at, "GLB has no binary chunk"))?,
+                Source::Bin => {
+                    doc.blob.clone().ok_or_else(|| Error::format(path, &at, "GLB has no binary chunk"))?
+                }
                 Source::Uri(uri) if uri.starts_with("data:") => {
                     return Err(Error::format(path, &at, "data: URIs are not supported"))
                 }
@@ -39,14 +38,8 @@ fn buffers(doc: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>> {
         .collect()
 }
 
-pub(super) fn load(
-    bytes: &[u8],
-    path: &Path,
-    xf: &Affine3A,
-    sink: &mut TriangleSink,
-) -> Result<()> {
-    let doc =
-        gltf::Gltf::from_slice(bytes).map_err(|e| Error::format(path, "glTF", e.to_string()))?;
+pub(super) fn load(bytes: &[u8], path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> Result<()> {
+    let doc = gltf::Gltf::from_slice(bytes).map_err(|e| Error::format(path, "glTF", e.to_string()))?;
     let buffers = buffers(&doc, path)?;
     let scene = doc
         .default_scene()
@@ -58,11 +51,7 @@ pub(super) fn load(
     let mut positions = Vec::new();
     while let Some((node, parent, depth)) = pending.pop() {
         if depth > node_count {
-            return Err(Error::format(
-                path,
-                format!("node {}", node.index()),
-                "node cycle",
-            ));
+            return Err(Error::format(path, format!("node {}", node.index()), "node cycle"));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let world_xf = Affine3A::from_mat4(world);
@@ -75,12 +64,8 @@ pub(super) fn load(
                 };
                 positions.clear();
                 for (i, p) in read.enumerate() {
-                    let v = checked_vertex(
-                        path,
-                        || format!("{} vertex {i}", at()),
-                        &world_xf,
-                        Vec3A::from(p),
-                    )?;
+                    let v =
+                        checked_vertex(path, || format!("{} vertex {i}", at()), &world_xf, Vec3A::from(p))?;
                     positions.push(v);
                 }
                 let indices: Vec<u32> = match reader.read_indices() {
@@ -98,11 +83,7 @@ pub(super) fn load(
                 match prim.mode() {
                     Mode::Triangles => {
                         if !indices.len().is_multiple_of(3) {
-                            return Err(Error::format(
-                                path,
-                                at(),
-                                "index count is not a multiple of 3",
-                            ));
+                            return Err(Error::format(path, at(), "index count is not a multiple of 3"));
                         }
                         for t in indices.chunks_exact(3) {
                             sink.add(v(t[0]), v(t[1]), v(t[2]));
@@ -110,11 +91,7 @@ pub(super) fn load(
                     }
                     Mode::TriangleStrip => {
                         for (k, w) in indices.windows(3).enumerate() {
-                            let (a, b) = if k % 2 == 0 {
-                                (w[0], w[1])
-                            } else {
-                                (w[1], w[0])
-                            };
+                            let (a, b) = if k % 2 == 0 { (w[0], w[1]) } else { (w[1], w[0]) };
                             sink.add(v(a), v(b), v(w[2]));
                         }
                     }

@@ -61,11 +61,7 @@ pub(crate) fn checked_vertex(
     if p.is_finite() && q.is_finite() {
         Ok(q)
     } else {
-        Err(Error::format(
-            path,
-            at(),
-            format!("vertex {p} is not finite"),
-        ))
+        Err(Error::format(path, at(), format!("vertex {p} is not finite")))
     }
 }
 
@@ -82,25 +78,16 @@ fn open(path: &Path) -> Result<Box<dyn BufRead>> {
 /// Loads the triangles of a mesh file (OBJ, PLY, glTF/GLB, optionally gzip-compressed) into
 /// `sink`, transformed by `xf`.
 pub(crate) fn load_mesh(path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> Result<()> {
-    let name = path
-        .file_name()
-        .and_then(|n| n.to_str())
-        .unwrap_or_default();
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
     let format = name.strip_suffix(".gz").unwrap_or(name);
-    let ext = format
-        .rsplit('.')
-        .next()
-        .unwrap_or_default()
-        .to_ascii_lowercase();
+    let ext = format.rsplit('.').next().unwrap_or_default().to_ascii_lowercase();
     let before = sink.triangles.len();
     match ext.as_str() {
         "obj" => obj::load(open(path)?, path, xf, sink)?,
         "ply" => ply::load(open(path)?, path, xf, sink)?,
         "glb" | "gltf" => {
             let mut bytes = Vec::new();
-            open(path)?
-                .read_to_end(&mut bytes)
-                .map_err(|e| Error::io(path, e))?;
+            open(path)?.read_to_end(&mut bytes).map_err(|e| Error::io(path, e))?;
             glb::load(&bytes, path, xf, sink)?
         }
         _ => {
@@ -112,10 +99,7 @@ pub(crate) fn load_mesh(path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> 
         }
     }
     if sink.triangles.len() == before {
-        return Err(Error::EmptyMesh {
-            path: path.to_owned(),
-            dropped: sink.dropped,
-        });
+        return Err(Error::EmptyMesh { path: path.to_owned(), dropped: sink.dropped });
     }
     Ok(())
 }

@@ -47,12 +47,7 @@ pub struct Camera {
 
 impl Camera {
     pub fn look_at(eye: [f32; 3], look_at: [f32; 3], vfov: f32) -> Self {
-        Camera {
-            eye: eye.into(),
-            look_at: look_at.into(),
-            up: Vec3A::Y,
-            vfov,
-        }
+        Camera { eye: eye.into(), look_at: look_at.into(), up: Vec3A::Y, vfov }
     }
 
     /// A camera that sees the whole box `[min, max]` from above one corner.
@@ -64,12 +59,7 @@ impl Camera {
         let front = up.cross(side);
         let dir = (0.45 * up + 0.8 * side + 0.6 * front).normalize();
         let distance = radius / (0.5 * vfov.to_radians()).sin() * 1.05;
-        Camera {
-            eye: center + dir * distance,
-            look_at: center,
-            up,
-            vfov,
-        }
+        Camera { eye: center + dir * distance, look_at: center, up, vfov }
     }
 }
 
@@ -87,12 +77,7 @@ pub struct RenderSettings {
 impl Default for RenderSettings {
     /// SPEC section 8: 128 x 128 pixels, 2 samples per pixel.
     fn default() -> Self {
-        RenderSettings {
-            width: 128,
-            height: 128,
-            spp: 2,
-            max_bounces: 3,
-        }
+        RenderSettings { width: 128, height: 128, spp: 2, max_bounces: 3 }
     }
 }
 
@@ -135,12 +120,7 @@ fn default_vfov() -> f32 {
 
 impl Default for CameraDesc {
     fn default() -> Self {
-        CameraDesc {
-            eye: None,
-            look_at: None,
-            up: default_up(),
-            vfov: default_vfov(),
-        }
+        CameraDesc { eye: None, look_at: None, up: default_up(), vfov: default_vfov() }
     }
 }
 
@@ -167,26 +147,19 @@ impl Default for SceneLibrary {
     /// The project's `scenes/` and the shared scene folder beside the project.
     fn default() -> Self {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        SceneLibrary {
-            descriptions: root.join("scenes"),
-            data: root.join("../shared/scenes"),
-        }
+        SceneLibrary { descriptions: root.join("scenes"), data: root.join("../shared/scenes") }
     }
 }
 
 impl SceneLibrary {
     /// A library reading mesh files from `data` instead of the default shared folder.
     pub fn with_data_dir(data: impl Into<PathBuf>) -> Self {
-        SceneLibrary {
-            data: data.into(),
-            ..SceneLibrary::default()
-        }
+        SceneLibrary { data: data.into(), ..SceneLibrary::default() }
     }
 
     /// Names of the described scenes (sorted), without the built-in ones.
     pub fn described(&self) -> Result<Vec<String>> {
-        let dir =
-            std::fs::read_dir(&self.descriptions).map_err(|e| Error::io(&self.descriptions, e))?;
+        let dir = std::fs::read_dir(&self.descriptions).map_err(|e| Error::io(&self.descriptions, e))?;
         let mut names = Vec::new();
         for entry in dir {
             let path = entry.map_err(|e| Error::io(&self.descriptions, e))?.path();
@@ -213,10 +186,7 @@ impl SceneLibrary {
         }
         let path = self.descriptions.join(format!("{name}.toml"));
         if !self.described()?.iter().any(|n| n == name) {
-            return Err(Error::UnknownScene {
-                name: name.to_owned(),
-                known: self.names()?,
-            });
+            return Err(Error::UnknownScene { name: name.to_owned(), known: self.names()? });
         }
         self.load_description(name, &path)
     }
@@ -225,19 +195,14 @@ impl SceneLibrary {
     pub fn load_description(&self, name: &str, path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let desc: SceneDesc = toml::from_str(&text).map_err(|e| {
-            let line = e
-                .span()
-                .map_or(1, |s| text[..s.start].matches('\n').count() + 1);
+            let line = e.span().map_or(1, |s| text[..s.start].matches('\n').count() + 1);
             Error::format(path, format!("line {line}"), e.message().to_owned())
         })?;
         if desc.mesh.is_empty() {
             return Err(Error::format(path, "mesh", "no [[mesh]] entries"));
         }
         let mut triangles = Vec::new();
-        let mut sink = mesh::TriangleSink {
-            triangles: &mut triangles,
-            dropped: 0,
-        };
+        let mut sink = mesh::TriangleSink { triangles: &mut triangles, dropped: 0 };
         for m in &desc.mesh {
             let xf = match m.transform {
                 Some(rows) => {
@@ -259,12 +224,9 @@ impl SceneLibrary {
         let primitives = Primitives::Triangles(triangles);
         let c = desc.camera;
         let camera = match (c.eye, c.look_at) {
-            (Some(eye), Some(look_at)) => Camera {
-                eye: eye.into(),
-                look_at: look_at.into(),
-                up: c.up.into(),
-                vfov: c.vfov,
-            },
+            (Some(eye), Some(look_at)) => {
+                Camera { eye: eye.into(), look_at: look_at.into(), up: c.up.into(), vfov: c.vfov }
+            }
             (None, None) => {
                 let b = primitives.bounds();
                 Camera::framing(b.min, b.max, c.up.into(), c.vfov)
@@ -277,13 +239,7 @@ impl SceneLibrary {
                 ))
             }
         };
-        Ok(Scene {
-            name: name.to_owned(),
-            primitives,
-            camera,
-            render: desc.render,
-            dropped_degenerate,
-        })
+        Ok(Scene { name: name.to_owned(), primitives, camera, render: desc.render, dropped_degenerate })
     }
 }
 

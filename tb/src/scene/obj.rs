@@ -24,17 +24,12 @@ pub(super) fn load(
     let mut line_no = 0usize;
     loop {
         buf.clear();
-        if reader
-            .read_until(b'\n', &mut buf)
-            .map_err(|e| Error::io(path, e))?
-            == 0
-        {
+        if reader.read_until(b'\n', &mut buf).map_err(|e| Error::io(path, e))? == 0 {
             break;
         }
         line_no += 1;
         let at = || format!("line {line_no}");
-        let line =
-            std::str::from_utf8(&buf).map_err(|_| Error::format(path, at(), "not valid UTF-8"))?;
+        let line = std::str::from_utf8(&buf).map_err(|_| Error::format(path, at(), "not valid UTF-8"))?;
         let mut tokens = line.split_ascii_whitespace();
         match tokens.next() {
             Some("v") => {
@@ -43,9 +38,9 @@ pub(super) fn load(
                     let token = tokens
                         .next()
                         .ok_or_else(|| Error::format(path, at(), "vertex needs 3 coordinates"))?;
-                    *c = token.parse().map_err(|_| {
-                        Error::format(path, at(), format!("'{token}' is not a number"))
-                    })?;
+                    *c = token
+                        .parse()
+                        .map_err(|_| Error::format(path, at(), format!("'{token}' is not a number")))?;
                 }
                 vertices.push(checked_vertex(path, at, xf, Vec3A::from(p))?);
             }
@@ -53,9 +48,9 @@ pub(super) fn load(
                 face.clear();
                 for token in tokens {
                     let index = token.split('/').next().unwrap_or_default();
-                    let i: i64 = index.parse().map_err(|_| {
-                        Error::format(path, at(), format!("'{token}' is not a vertex index"))
-                    })?;
+                    let i: i64 = index
+                        .parse()
+                        .map_err(|_| Error::format(path, at(), format!("'{token}' is not a vertex index")))?;
                     let n = vertices.len() as i64;
                     let resolved = if i > 0 { i - 1 } else { n + i };
                     if i == 0 || !(0..n).contains(&resolved) {

@@ -71,10 +71,7 @@ impl<R: BufRead> Body<R> {
                 }
                 let token = pending.pop().unwrap_or_default();
                 token.parse().map(Some).map_err(|_| {
-                    std::io::Error::new(
-                        std::io::ErrorKind::InvalidData,
-                        format!("'{token}' is not a number"),
-                    )
+                    std::io::Error::new(std::io::ErrorKind::InvalidData, format!("'{token}' is not a number"))
                 })
             }
             Body::Binary(reader) => {
@@ -110,11 +107,7 @@ fn parse_header(reader: &mut impl BufRead, path: &Path) -> Result<(bool, Vec<Ele
     let mut line_no = 0;
     loop {
         let mut line = String::new();
-        if reader
-            .read_line(&mut line)
-            .map_err(|e| Error::io(path, e))?
-            == 0
-        {
+        if reader.read_line(&mut line).map_err(|e| Error::io(path, e))? == 0 {
             return Err(Error::format(path, "header", "no end_header"));
         }
         line_no += 1;
@@ -166,11 +159,7 @@ pub(super) fn load(
     sink: &mut TriangleSink,
 ) -> Result<()> {
     let (ascii, elements) = parse_header(&mut reader, path)?;
-    let mut body = if ascii {
-        Body::Ascii(reader, Vec::new())
-    } else {
-        Body::Binary(reader)
-    };
+    let mut body = if ascii { Body::Ascii(reader, Vec::new()) } else { Body::Binary(reader) };
     let mut vertices: Vec<Vec3A> = Vec::new();
     let mut seen_vertex = false;
     let mut polygon = Vec::new();
@@ -179,27 +168,15 @@ pub(super) fn load(
         let is_face = element.name == "face";
         if is_vertex {
             for axis in ["x", "y", "z"] {
-                if !element
-                    .properties
-                    .iter()
-                    .any(|p| matches!(p, Property::Scalar(n, _) if n == axis))
-                {
-                    return Err(Error::format(
-                        path,
-                        "header",
-                        format!("vertex has no '{axis}'"),
-                    ));
+                if !element.properties.iter().any(|p| matches!(p, Property::Scalar(n, _) if n == axis)) {
+                    return Err(Error::format(path, "header", format!("vertex has no '{axis}'")));
                 }
             }
             vertices.reserve(element.count.min(1 << 26));
             seen_vertex = true;
         }
         if is_face && !seen_vertex {
-            return Err(Error::format(
-                path,
-                "header",
-                "face element before vertex element",
-            ));
+            return Err(Error::format(path, "header", "face element before vertex element"));
         }
         for index in 0..element.count {
             let at = || format!("{} {index}", element.name);
@@ -220,8 +197,7 @@ pub(super) fn load(
                     }
                     Property::List(name, count_ty, item_ty) => {
                         let n = read(*count_ty)?;
-                        let wanted =
-                            is_face && (name == "vertex_indices" || name == "vertex_index");
+                        let wanted = is_face && (name == "vertex_indices" || name == "vertex_index");
                         for _ in 0..n as usize {
                             let i = read(*item_ty)?;
                             if wanted {

@@ -31,10 +31,7 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
 /// Loads one file; returns (triangles, dropped) or the error message.
 fn load(path: &Path) -> Result<(Vec<obvhs::triangle::Triangle>, usize), String> {
     let mut triangles = Vec::new();
-    let mut sink = TriangleSink {
-        triangles: &mut triangles,
-        dropped: 0,
-    };
+    let mut sink = TriangleSink { triangles: &mut triangles, dropped: 0 };
     load_mesh(path, &Affine3A::IDENTITY, &mut sink).map_err(|e| e.to_string())?;
     let dropped = sink.dropped;
     Ok((triangles, dropped))
@@ -53,11 +50,7 @@ const QUAD: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
 fn obj_fans_negative_indices_and_gzip() {
     let dir = temp_dir("obj_ok");
     for name in ["quad.obj", "quad.obj.gz"] {
-        let path = write(
-            &dir,
-            name,
-            format!("{QUAD}vn 0 0 1\nf -4/1/1 -3//1 -2 -1\n").as_bytes(),
-        );
+        let path = write(&dir, name, format!("{QUAD}vn 0 0 1\nf -4/1/1 -3//1 -2 -1\n").as_bytes());
         let (tris, dropped) = load(&path).expect("loads");
         assert_eq!((tris.len(), dropped), (2, 0));
         assert_eq!(tris[1].v2, vec3a(0.0, 1.0, 0.0));
@@ -127,23 +120,9 @@ fn binary_ply(vertices: &[[f32; 3]], faces: &[&[i32]]) -> Vec<u8> {
 #[test]
 fn ply_ascii_and_binary() {
     let dir = temp_dir("ply_ok");
-    let ascii = format!(
-        "{}0 0 0 1\n1 0 0 1\n1 1 0 1\n0 1 0 1\n4 0 1 2 3\n",
-        ply_header("ascii", 4, 1)
-    );
-    assert_eq!(
-        load(&write(&dir, "a.ply", ascii.as_bytes()))
-            .expect("ascii")
-            .0
-            .len(),
-        2
-    );
-    let quad = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [1.0, 1.0, 0.0],
-        [0.0, 1.0, 0.0],
-    ];
+    let ascii = format!("{}0 0 0 1\n1 0 0 1\n1 1 0 1\n0 1 0 1\n4 0 1 2 3\n", ply_header("ascii", 4, 1));
+    assert_eq!(load(&write(&dir, "a.ply", ascii.as_bytes())).expect("ascii").0.len(), 2);
+    let quad = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
     let bin = binary_ply(&quad, &[&[0, 1, 2, 3], &[0, 0, 1]]);
     let (tris, dropped) = load(&write(&dir, "b.ply.gz", &bin)).expect("binary");
     assert_eq!((tris.len(), dropped), (2, 1));
@@ -153,33 +132,19 @@ fn ply_ascii_and_binary() {
 fn ply_errors_name_the_element() {
     let dir = temp_dir("ply_err");
     let quad = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]];
-    let path = write(
-        &dir,
-        "range.ply",
-        &binary_ply(&quad, &[&[0, 1, 2], &[0, 1, 9]]),
-    );
+    let path = write(&dir, "range.ply", &binary_ply(&quad, &[&[0, 1, 2], &[0, 1, 9]]));
     let e = load(&path).expect_err("range");
-    assert!(
-        e.contains("range.ply") && e.contains("face 1") && e.contains("out of range"),
-        "{e}"
-    );
+    assert!(e.contains("range.ply") && e.contains("face 1") && e.contains("out of range"), "{e}");
     let mut truncated = binary_ply(&quad, &[&[0, 1, 2]]);
     truncated.truncate(truncated.len() - 20);
     let e = load(&write(&dir, "short.ply", &truncated)).expect_err("short");
     assert!(e.contains("unexpected end of file"), "{e}");
-    let nan = binary_ply(
-        &[[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        &[&[0, 1, 2]],
-    );
+    let nan = binary_ply(&[[0.0, 0.0, 0.0], [f32::NAN, 0.0, 0.0], [0.0, 1.0, 0.0]], &[&[0, 1, 2]]);
     let e = load(&write(&dir, "nan.ply", &nan)).expect_err("nan");
     assert!(e.contains("vertex 1") && e.contains("not finite"), "{e}");
     let e = load_err(&dir, "magic.ply", "plx\n");
     assert!(e.contains("header line 1"), "{e}");
-    let e = load_err(
-        &dir,
-        "be.ply",
-        "ply\nformat binary_big_endian 1.0\nend_header\n",
-    );
+    let e = load_err(&dir, "be.ply", "ply\nformat binary_big_endian 1.0\nend_header\n");
     assert!(e.contains("binary_big_endian"), "{e}");
     let text = format!("{}0 0 0 1\n0 zz 0 1\n", ply_header("ascii", 2, 0));
     let e = load_err(&dir, "word.ply", &text);
@@ -236,68 +201,35 @@ fn glb_flattens_node_transforms() {
 fn glb_errors() {
     let dir = temp_dir("glb_err");
     let e = load(&write(&dir, "range.glb", &glb([0, 1, 3]))).expect_err("range");
-    assert!(
-        e.contains("range.glb") && e.contains("mesh 0 primitive 0") && e.contains("out of range"),
-        "{e}"
-    );
+    assert!(e.contains("range.glb") && e.contains("mesh 0 primitive 0") && e.contains("out of range"), "{e}");
     let e = load_err(&dir, "junk.glb", "not a gltf file at all");
     assert!(e.contains("glTF"), "{e}");
 }
 
 fn library(test: &str) -> SceneLibrary {
     let dir = temp_dir(test);
-    SceneLibrary {
-        descriptions: dir.clone(),
-        data: dir,
-    }
+    SceneLibrary { descriptions: dir.clone(), data: dir }
 }
 
 #[test]
 fn descriptions_load_and_report_errors() {
     let lib = library("desc");
-    write(
-        &lib.data,
-        "quad.obj",
-        format!("{QUAD}f 1 2 3 4\n").as_bytes(),
-    );
+    write(&lib.data, "quad.obj", format!("{QUAD}f 1 2 3 4\n").as_bytes());
     let shift = "transform = [[1,0,0,10],[0,1,0,0],[0,0,1,0],[0,0,0,1]]";
     let toml = format!("[[mesh]]\nfile = \"quad.obj\"\n{shift}\n[render]\nwidth = 8\nheight = 4\n");
     write(&lib.descriptions, "quad.toml", toml.as_bytes());
     let scene = lib.load("quad").expect("loads");
     assert_eq!(scene.primitives.triangle_count(), 2);
     assert_eq!(scene.primitives.bounds().min.x, 10.0);
-    assert_eq!(
-        (scene.render.width, scene.render.height, scene.render.spp),
-        (8, 4, 2)
-    );
+    assert_eq!((scene.render.width, scene.render.height, scene.render.spp), (8, 4, 2));
 
-    write(
-        &lib.descriptions,
-        "bad.toml",
-        b"[[mesh]]\nfile = \"quad.obj\"\ncolour = 3\n",
-    );
+    write(&lib.descriptions, "bad.toml", b"[[mesh]]\nfile = \"quad.obj\"\ncolour = 3\n");
     let e = lib.load("bad").expect_err("unknown field").to_string();
     assert!(e.contains("bad.toml") && e.contains("line 3"), "{e}");
-    write(
-        &lib.descriptions,
-        "eye.toml",
-        b"[[mesh]]\nfile = \"quad.obj\"\n[camera]\neye = [0,0,1]\n",
-    );
-    assert!(lib
-        .load("eye")
-        .expect_err("eye only")
-        .to_string()
-        .contains("look_at"));
-    write(
-        &lib.descriptions,
-        "gone.toml",
-        b"[[mesh]]\nfile = \"gone.obj\"\n",
-    );
-    assert!(lib
-        .load("gone")
-        .expect_err("missing mesh")
-        .to_string()
-        .contains("gone.obj"));
+    write(&lib.descriptions, "eye.toml", b"[[mesh]]\nfile = \"quad.obj\"\n[camera]\neye = [0,0,1]\n");
+    assert!(lib.load("eye").expect_err("eye only").to_string().contains("look_at"));
+    write(&lib.descriptions, "gone.toml", b"[[mesh]]\nfile = \"gone.obj\"\n");
+    assert!(lib.load("gone").expect_err("missing mesh").to_string().contains("gone.obj"));
 }
 
 #[test]
@@ -321,11 +253,7 @@ fn every_shipped_description_parses() {
         let text = std::fs::read_to_string(&path).expect("read");
         let desc: SceneDesc = toml::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
         for m in desc.mesh {
-            assert!(
-                lib.data.join(&m.file).exists(),
-                "{name}: {} missing",
-                m.file
-            );
+            assert!(lib.data.join(&m.file).exists(), "{name}: {} missing", m.file);
         }
     }
 }

@@ -1,0 +1,45 @@
+//! Real traversals drive the stack: each lane's pushes and pops of a recorded ray, 32 lanes to a
+//! warp in launch order, run through the cycle-level stack unit with the scoreboard on (every pop
+//! checked against the reference stack, every warp checked when it leaves).
+
+use proofs::harness::{run_cycle, CycleOpts, Op, RunError, RunSummary, WarpWork};
+use rtl::stack_unit::StackUnit;
+use rtl::trace::Sink;
+
+use crate::workload::{TraceOp, WarpJob};
+
+/// A warp job's stack operations per lane. Node visits carry no stack work; they become the
+/// driver's gaps between commands.
+pub fn warp_work(job: &WarpJob) -> WarpWork {
+    WarpWork {
+        lanes: job
+            .lanes
+            .iter()
+            .map(|lane| {
+                lane.as_ref().map(|t| {
+                    t.ops()
+                        .filter_map(|op| match op {
+                            TraceOp::Push(a) => Some(Op::Push(a)),
+                            TraceOp::Pop(_) => Some(Op::Pop),
+                            TraceOp::Visit { .. } => None,
+                        })
+                        .collect()
+                })
+            })
+            .collect(),
+    }
+}
+
+/// Runs `jobs` through `unit` with the scoreboard on.
+pub fn run_jobs<I, S>(
+    unit: &mut StackUnit,
+    jobs: I,
+    opts: CycleOpts,
+    sink: &mut S,
+) -> Result<RunSummary, RunError>
+where
+    I: IntoIterator<Item = WarpJob>,
+    S: Sink,
+{
+    run_cycle(unit, jobs.into_iter().map(|j| warp_work(&j)), opts, sink)
+}

@@ -1,0 +1,52 @@
+//! Real traversals of real scenes drive the RTL under every configuration of SPEC section 8,
+//! scoreboard on: zero mismatches.
+
+use proofs::harness::CycleOpts;
+use rtl::config::Config;
+use rtl::stack_unit::StackUnit;
+use rtl::trace::NullSink;
+use tb::load_scene;
+use tb::stack_tb::run_jobs;
+use tb::workload::{ChildOrder, Workload, WorkloadOpts};
+
+fn check_scene(name: &str, res: u32, order: ChildOrder) {
+    let scene = load_scene(name).unwrap();
+    let opts = WorkloadOpts {
+        width: res,
+        height: res,
+        spp: 1,
+        max_bounces: 1,
+        order,
+        ..WorkloadOpts::for_scene(&scene)
+    };
+    let w = Workload::new(&scene, opts).unwrap();
+    let jobs: Vec<_> = w.warp_jobs().collect();
+    let deepest = jobs.iter().flat_map(|j| j.lanes.iter().flatten()).map(|t| t.max_depth()).max().unwrap();
+    let mut traffic = Vec::new();
+    for cfg in Config::paper_set() {
+        let mut unit = StackUnit::new(cfg, 100).unwrap();
+        let o = CycleOpts { max_gap: 8, seed: 1, ..CycleOpts::default() };
+        let s = run_jobs(&mut unit, jobs.clone(), o, &mut NullSink)
+            .unwrap_or_else(|e| panic!("{name} {}: {e}", cfg.name()));
+        assert!(s.pops_checked > 500, "{name}: {} pops", s.pops_checked);
+        traffic.push((cfg.name(), s.stats.stack.global_accesses()));
+    }
+    println!("{name} ({order:?}): deepest stack {deepest}; off-chip stack accesses {traffic:?}");
+    if deepest > 8 {
+        assert!(
+            traffic.iter().find(|t| t.0 == "RB_8").unwrap().1 > 0,
+            "{name}: depth {deepest} must spill RB_8"
+        );
+    }
+}
+
+#[test]
+fn ship_under_every_configuration() {
+    check_scene("ship", 24, ChildOrder::Nearest);
+}
+
+#[test]
+fn builtin_scenes_under_every_configuration() {
+    check_scene("wknd", 16, ChildOrder::VulkanSim);
+    check_scene("clutter", 16, ChildOrder::Nearest);
+}
