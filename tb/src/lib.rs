@@ -13,6 +13,7 @@ pub mod error;
 pub mod geometry;
 pub mod raygen;
 mod rng;
+pub mod sampling;
 pub mod scene;
 pub mod stack_tb;
 pub mod table;
