@@ -6,7 +6,7 @@
 //! the rounding bound of Ize ("Robust BVH Ray Traversal", JCGT 2013), and the triangle test is the
 //! watertight test of Woop, Benthin and Wald (JCGT 2013): no NaN can reach a comparison.
 
-use glam::Vec3A;
+use glam::{DVec3, Vec3, Vec3A};
 use obvhs::{aabb::Aabb, triangle::Triangle, Boundable};
 
 use crate::workload::NodeKind;
@@ -68,35 +68,34 @@ impl Ray {
 }
 
 /// Watertight ray-triangle distance in `(ray.tmin, tmax)`, or `f32::INFINITY` on a miss.
+///
+/// Woop, Benthin and Wald's test, evaluated in `f64`: the products of the `f32` inputs are exact
+/// there, so neighbouring triangles agree on every shared edge (no ray slips between them), and
+/// nothing overflows or underflows for coordinates from 1e-30 to 1e30 (in `f32` the edge
+/// functions overflow at about 1e19 and every ray would leak).
 pub fn hit_triangle(ray: &Ray, tri: &Triangle, tmax: f32) -> f32 {
-    let d = ray.dir;
+    let d = DVec3::from(Vec3::from(ray.dir));
     let kz = d.abs().max_position();
     let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
     if d[kz] < 0.0 {
         std::mem::swap(&mut kx, &mut ky);
     }
     let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-    let (a, b, c) = (tri.v0 - ray.origin, tri.v1 - ray.origin, tri.v2 - ray.origin);
+    let o = DVec3::from(Vec3::from(ray.origin));
+    let rel = |v: Vec3A| DVec3::from(Vec3::from(v)) - o;
+    let (a, b, c) = (rel(tri.v0), rel(tri.v1), rel(tri.v2));
     let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
     let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
     let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
-    let (mut u, mut v, mut w) = (cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
-    if u == 0.0 || v == 0.0 || w == 0.0 {
-        // Edge hit: redo the edge functions in double precision so neighbours agree.
-        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
-        u = f(cx, by, cy, bx);
-        v = f(ax, cy, ay, cx);
-        w = f(bx, ay, by, ax);
-    }
+    let (u, v, w) = (cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return f32::INFINITY;
     }
     let det = u + v + w;
-    if det == 0.0 {
+    if det == 0.0 || !det.is_finite() {
         return f32::INFINITY;
     }
-    let t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
-    let t = t_scaled / det;
+    let t = ((u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz])) / det) as f32;
     if t > ray.tmin && t < tmax {
         t
     } else {
