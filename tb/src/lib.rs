@@ -10,6 +10,7 @@ pub mod cli;
 pub mod cost;
 pub mod depth;
 pub mod error;
+pub mod functional;
 pub mod geometry;
 pub mod raygen;
 mod rng;
