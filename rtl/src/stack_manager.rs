@@ -194,6 +194,23 @@ pub struct StackStats {
 }
 
 impl StackStats {
+    /// Adds `o`'s counts to these (totals over RT units).
+    pub fn add(&mut self, o: &StackStats) {
+        self.pushes += o.pushes;
+        self.pops += o.pops;
+        self.rb_to_sh += o.rb_to_sh;
+        self.sh_to_rb += o.sh_to_rb;
+        self.sh_to_global += o.sh_to_global;
+        self.global_to_sh += o.global_to_sh;
+        self.rb_to_global += o.rb_to_global;
+        self.global_to_rb += o.global_to_rb;
+        self.borrows += o.borrows;
+        self.releases += o.releases;
+        self.flushes += o.flushes;
+        self.flushes_saturated += o.flushes_saturated;
+        self.demotions += o.demotions;
+    }
+
     pub fn sh_loads(&self) -> u64 {
         self.sh_to_rb + self.sh_to_global
     }
@@ -343,6 +360,12 @@ impl StackManager {
     pub fn ready(&self, t: u32) -> bool {
         let q = &self.seq[t as usize];
         q.uops.is_empty() && q.inflight.is_none()
+    }
+    /// Some thread will issue a micro-op in the next `step` without waiting for a completion
+    /// (it has micro-ops queued and none in flight). When false, every busy thread waits on the
+    /// bank arbiter or on global memory.
+    pub fn can_issue(&self) -> bool {
+        self.seq.iter().any(|q| q.inflight.is_none() && !q.uops.is_empty())
     }
     /// No thread has work in flight.
     pub fn quiescent(&self) -> bool {
