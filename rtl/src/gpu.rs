@@ -36,6 +36,9 @@ pub fn shared_bytes(cfg: &Config) -> u32 {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GpuReport {
     pub cycles: u64,
+    /// Cycles actually evaluated (the rest were skipped as idle); equals `cycles` without
+    /// skipping.
+    pub evaluated_cycles: u64,
     pub warps: u64,
     pub rays: u64,
     /// Visit operations of all rays, before merging.
@@ -125,11 +128,13 @@ impl Gpu {
         let n = self.units.len();
         let mut dispatched = 0u64;
         let mut next_report = every;
+        let mut evaluated = 0;
         loop {
             let now = self.mem.cycle();
             // Dispatch (reads the slots' registers).
+            let start = self.rr;
             for k in 0..n {
-                let sm = (self.rr + k) % n;
+                let sm = (start + k) % n;
                 if self.units[sm].free_slot().is_none() {
                     continue;
                 }
@@ -147,6 +152,7 @@ impl Gpu {
                 self.reqs[sm] = u.offer(self.mem.ready(sm));
             }
             let out = self.mem.eval(&self.reqs);
+            evaluated += 1;
             for (sm, u) in self.units.iter_mut().enumerate() {
                 u.step(now, out[sm].ready && self.reqs[sm].is_some(), &out[sm].resp, self.jobs_in[sm].take())?;
             }
@@ -175,7 +181,7 @@ impl Gpu {
                 next_report = self.mem.cycle().saturating_add(every);
             }
         }
-        Ok(self.report())
+        Ok(GpuReport { evaluated_cycles: evaluated, ..self.report() })
     }
 
     fn report(&self) -> GpuReport {
@@ -187,6 +193,7 @@ impl Gpu {
         let sum = |f: fn(&RtUnit) -> u64| self.units.iter().map(f).sum::<u64>();
         GpuReport {
             cycles: self.mem.cycle(),
+            evaluated_cycles: 0,
             warps: sum(|u| u.stats.warps),
             rays: sum(|u| u.stats.rays),
             visits: sum(|u| u.stats.visits),
