@@ -178,6 +178,60 @@ struct Thread {
     pos: u32,
 }
 
+/// Per warp, which lanes are in which state: derived registers kept in step with the thread
+/// states, so a cycle visits only the lanes that can act (woken by a response, due to leave an
+/// operation unit, scheduled, or holding a stack command) instead of all of them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Lanes {
+    fetch: u32,
+    wait: u32,
+    busy: u32,
+    stack: u32,
+    /// Earliest `until` among the busy lanes (`u64::MAX` when none).
+    busy_until: u64,
+    /// Lanes not Done.
+    live: u32,
+}
+
+impl Lanes {
+    const EMPTY: Lanes = Lanes { fetch: 0, wait: 0, busy: 0, stack: 0, busy_until: u64::MAX, live: 0 };
+
+    fn mask(&mut self, state: ThreadState) -> Option<&mut u32> {
+        match state {
+            ThreadState::Done => None,
+            ThreadState::Busy { .. } => Some(&mut self.busy),
+            ThreadState::Fetch => Some(&mut self.fetch),
+            ThreadState::WaitMem { .. } => Some(&mut self.wait),
+            ThreadState::Stack => Some(&mut self.stack),
+        }
+    }
+
+    /// Lane `l` moves from `old` to `new`.
+    fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
+        if let Some(m) = self.mask(old) {
+            *m &= !(1 << l);
+        }
+        if let Some(m) = self.mask(new) {
+            *m |= 1 << l;
+        }
+        if let ThreadState::Busy { until } = new {
+            self.busy_until = self.busy_until.min(until);
+        }
+        self.live = (self.fetch | self.wait | self.busy | self.stack).count_ones();
+    }
+}
+
+/// Iterates the set bits of `m`, lowest first.
+fn lanes_of(mut m: u32) -> impl Iterator<Item = u32> {
+    std::iter::from_fn(move || {
+        (m != 0).then(|| {
+            let l = m.trailing_zeros();
+            m &= m - 1;
+            l
+        })
+    })
+}
+
 /// A resident warp.
 #[derive(Clone, Debug)]
 struct Slot {
@@ -224,10 +278,7 @@ pub struct RtUnit {
     pub fetch: NodeFetch,
     slots: Vec<Option<Slot>>,
     threads: Vec<Thread>,
-    /// Per warp: lanes in Fetch.
-    fetch_mask: Vec<u32>,
-    /// Per warp: lanes not Done.
-    live: Vec<u32>,
+    lanes: Vec<Lanes>,
     /// GTO: the warp issued last.
     greedy: Option<u32>,
     next_age: u64,
@@ -239,10 +290,11 @@ pub struct RtUnit {
     next_event: Option<u64>,
     /// Scratch, reused every cycle.
     arrived: Vec<u32>,
+    /// Per warp: lanes that got a node response this cycle.
+    woken: Vec<u32>,
     completions: Vec<u32>,
     cmds: Vec<(u32, Cmd)>,
     expected_pops: Vec<(u32, u64)>,
-    stack_wait: Vec<u32>,
     pub stats: RtStats,
 }
 
@@ -263,8 +315,7 @@ impl RtUnit {
             fetch: NodeFetch::new(sector_bytes),
             slots: vec![None; warps],
             threads: vec![Thread::default(); threads],
-            fetch_mask: vec![0; warps],
-            live: vec![0; warps],
+            lanes: vec![Lanes::EMPTY; warps],
             greedy: None,
             next_age: 0,
             store_seq: 0,
@@ -272,10 +323,10 @@ impl RtUnit {
             scheduled: None,
             next_event: None,
             arrived: vec![0; threads],
+            woken: vec![0; warps],
             completions: Vec::new(),
             cmds: Vec::new(),
             expected_pops: Vec::new(),
-            stack_wait: Vec::new(),
             stats: RtStats::default(),
         })
     }
@@ -333,7 +384,7 @@ impl RtUnit {
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves.
         for w in 0..self.cfg.warps {
-            if self.slots[w as usize].is_some() && self.live[w as usize] == 0 && self.stack.warp_done(w) {
+            if self.slots[w as usize].is_some() && self.lanes[w as usize].live == 0 && self.stack.warp_done(w) {
                 self.slots[w as usize] = None;
                 if self.greedy == Some(w) {
                     self.greedy = None;
@@ -345,7 +396,7 @@ impl RtUnit {
         // Fetch, else the oldest warp that has.
         self.scheduled = None;
         if self.fetch.queue_empty() {
-            let ready = |w: u32| self.fetch_mask[w as usize] != 0;
+            let ready = |w: u32| self.lanes[w as usize].fetch != 0;
             let pick = self.greedy.filter(|&w| ready(w)).or_else(|| {
                 (0..self.cfg.warps)
                     .filter(|&w| ready(w))
@@ -354,11 +405,11 @@ impl RtUnit {
             if let Some(w) = pick {
                 self.greedy = Some(w);
                 self.scheduled = Some(w);
-                let (slot, threads, mask) = (&self.slots[w as usize], &self.threads, self.fetch_mask[w as usize]);
+                let (slot, threads, mask) = (&self.slots[w as usize], &self.threads, self.lanes[w as usize].fetch);
                 let lanes = slot.as_ref().map_or(&[][..], |s| &s.lanes[..]);
                 self.fetch.coalesce(
                     w,
-                    (0..ws).filter(|l| mask & (1 << l) != 0).filter_map(|l| {
+                    lanes_of(mask).filter_map(|l| {
                         let th = threads[(w * ws + l) as usize];
                         match lanes[l as usize].as_ref()?.get(th.pos as usize)? {
                             RayOp::Visit { addr, bytes, .. } => Some((l, *addr, *bytes)),
@@ -376,27 +427,29 @@ impl RtUnit {
             match r.id & 3 {
                 TAG_NODE => {
                     let (w, lanes) = self.fetch.complete(r.id);
-                    for l in 0..ws {
-                        if lanes & (1 << l) != 0 {
-                            self.arrived[(w * ws + l) as usize] += 1;
-                        }
+                    for l in lanes_of(lanes) {
+                        self.arrived[(w * ws + l) as usize] += 1;
                     }
+                    self.woken[w as usize] |= lanes;
                 }
                 TAG_LOAD => self.completions.push((r.id >> 2) as u32),
                 _ => debug_assert_eq!(r.id & 3, TAG_STORE),
             }
         }
 
-        // Threads.
+        // Threads: only the lanes that can act this cycle.
         self.cmds.clear();
         self.expected_pops.clear();
-        self.stack_wait.clear();
-        let mut event = u64::MAX;
         let sector = self.fetch.sector_bytes();
         for w in 0..self.cfg.warps {
             let Some(slot) = &self.slots[w as usize] else { continue };
-            let (mut fetch_d, mut live_d) = (0u32, 0u32);
-            for l in 0..ws {
+            let q = self.lanes[w as usize];
+            let due = now >= q.busy_until;
+            let todo = q.stack
+                | std::mem::take(&mut self.woken[w as usize])
+                | if self.scheduled == Some(w) { q.fetch } else { 0 }
+                | if due { q.busy } else { 0 };
+            for l in lanes_of(todo) {
                 let t = w * ws + l;
                 let th = self.threads[t as usize];
                 let ops = slot.lanes[l as usize].as_deref().unwrap_or(&[]);
@@ -409,15 +462,13 @@ impl RtUnit {
                         }
                     }
                     ThreadState::Fetch => {
-                        if self.scheduled == Some(w) {
-                            if let Some(RayOp::Visit { addr, kind, bytes }) = ops.get(th.pos as usize) {
-                                d.state = ThreadState::WaitMem {
-                                    left: pieces(*addr, *bytes, sector),
-                                    lat: self.rt.latency(*kind),
-                                };
-                                d.pos += 1;
-                                self.stats.visits += 1;
-                            }
+                        if let Some(RayOp::Visit { addr, kind, bytes }) = ops.get(th.pos as usize) {
+                            d.state = ThreadState::WaitMem {
+                                left: pieces(*addr, *bytes, sector),
+                                lat: self.rt.latency(*kind),
+                            };
+                            d.pos += 1;
+                            self.stats.visits += 1;
                         }
                     }
                     ThreadState::WaitMem { left, lat } => {
@@ -448,17 +499,20 @@ impl RtUnit {
                         }
                     }
                 }
-                match d.state {
-                    ThreadState::Fetch => fetch_d |= 1 << l,
-                    ThreadState::Stack => self.stack_wait.push(t),
-                    ThreadState::Busy { until } => event = event.min(until),
-                    _ => {}
-                }
-                live_d += u32::from(d.state != ThreadState::Done);
+                self.lanes[w as usize].set(l, th.state, d.state);
                 self.threads[t as usize] = d;
             }
-            self.fetch_mask[w as usize] = fetch_d;
-            self.live[w as usize] = live_d;
+            if due {
+                let threads = &self.threads[(w * ws) as usize..((w + 1) * ws) as usize];
+                let lanes = &mut self.lanes[w as usize];
+                lanes.busy_until = lanes_of(lanes.busy)
+                    .map(|l| match threads[l as usize].state {
+                        ThreadState::Busy { until } => until,
+                        _ => u64::MAX,
+                    })
+                    .min()
+                    .unwrap_or(u64::MAX);
+            }
         }
 
         // Stack subsystem.
@@ -477,18 +531,20 @@ impl RtUnit {
 
         if let (Some(job), Some(w)) = (job, load_slot) {
             self.load(w, job, now);
-            event = event.min(now + u64::from(self.rt.bvh_header));
         }
 
         // Next event: anything that acts next cycle without a memory response, else the first
         // operation unit to finish.
         let acts_next = !self.fetch.queue_empty()
-            || self.fetch_mask.iter().any(|&m| m != 0)
-            || self.stack_wait.iter().any(|&t| self.stack.ready(t))
             || !self.arb.is_idle()
             || !self.sched.is_idle()
-            || self.stack.can_issue()
-            || self.slots.iter().zip(&self.live).any(|(s, &n)| s.is_some() && n == 0);
+            || (0..self.cfg.warps).any(|w| {
+                let m = &self.lanes[w as usize];
+                self.slots[w as usize].is_some()
+                    && (m.fetch != 0 || m.live == 0 || lanes_of(m.stack).any(|l| self.stack.ready(w * ws + l)))
+            })
+            || self.stack.can_issue();
+        let event = self.lanes.iter().map(|m| m.busy_until).min().unwrap_or(u64::MAX);
         self.next_event = if acts_next { Some(now + 1) } else { (event != u64::MAX).then_some(event) };
         Ok(())
     }
@@ -508,8 +564,12 @@ impl RtUnit {
                 pos: 0,
             };
         }
-        self.fetch_mask[w as usize] = 0;
-        self.live[w as usize] = active.count_ones();
+        self.lanes[w as usize] = Lanes {
+            busy: active,
+            busy_until: now + u64::from(self.rt.bvh_header),
+            live: active.count_ones(),
+            ..Lanes::EMPTY
+        };
         self.slots[w as usize] = Some(Slot { lanes: job.lanes, age: self.next_age });
         self.next_age += 1;
         self.stats.warps += 1;
@@ -531,8 +591,12 @@ impl Probe for RtUnit {
             s.push_scope(&format!("slot[{w}]"));
             s.signal("valid", 1, u64::from(slot.is_some()));
             s.signal("age", 32, slot.map_or(0, |x| x.age));
-            s.signal("live", 6, u64::from(self.live[w as usize]));
-            s.signal("fetch_mask", ws, u64::from(self.fetch_mask[w as usize]));
+            let m = self.lanes[w as usize];
+            s.signal("live", 6, u64::from(m.live));
+            s.signal("fetch_mask", ws, u64::from(m.fetch));
+            s.signal("wait_mask", ws, u64::from(m.wait));
+            s.signal("busy_mask", ws, u64::from(m.busy));
+            s.signal("stack_mask", ws, u64::from(m.stack));
             for l in 0..ws {
                 let th = self.threads[(w * ws + l) as usize];
                 s.signal(&format!("state[{l}]"), 3, th.state.code());

@@ -264,7 +264,8 @@ fn idle_skipping_equals_stepping_every_cycle() {
 #[test]
 #[ignore]
 fn speed() {
-    let work = jobs(9, 1024, 40);
+    let warps = std::env::var("SPEED_WARPS").map_or(1024, |v| v.parse().unwrap());
+    let work = jobs(9, warps, 40);
     let ops: usize = work.iter().flat_map(|j| j.lanes.iter().flatten()).map(Vec::len).sum();
     for cfg in ["RB_8", "SMS"] {
         let t = std::time::Instant::now();
