@@ -112,7 +112,11 @@ impl Gpu {
 
     /// Runs every job to completion. Every pop is checked against its trace; the first problem
     /// stops the run.
-    pub fn run<S: Sink>(self, jobs: impl IntoIterator<Item = WarpJob>, sink: &mut S) -> Result<GpuReport, RunError> {
+    pub fn run<S: Sink>(
+        self,
+        jobs: impl IntoIterator<Item = WarpJob>,
+        sink: &mut S,
+    ) -> Result<GpuReport, RunError> {
         self.run_with_progress(jobs, sink, u64::MAX, |_| {})
     }
 
@@ -139,13 +143,15 @@ impl Gpu {
                     continue;
                 }
                 let Some(job) = jobs.next() else { break };
-                job.validate(self.cfg.warp_size).map_err(|reason| RunError::BadJob { job: dispatched, reason })?;
+                job.validate(self.cfg.warp_size)
+                    .map_err(|reason| RunError::BadJob { job: dispatched, reason })?;
                 self.jobs_in[sm] = Some(job);
                 dispatched += 1;
                 self.rr = (sm + 1) % n;
             }
             let more_jobs = jobs.peek().is_some();
-            if !more_jobs && self.jobs_in.iter().all(Option::is_none) && self.units.iter().all(RtUnit::empty) {
+            if !more_jobs && self.jobs_in.iter().all(Option::is_none) && self.units.iter().all(RtUnit::empty)
+            {
                 break;
             }
             for (sm, u) in self.units.iter_mut().enumerate() {
@@ -154,7 +160,12 @@ impl Gpu {
             let out = self.mem.eval(&self.reqs);
             evaluated += 1;
             for (sm, u) in self.units.iter_mut().enumerate() {
-                u.step(now, out[sm].ready && self.reqs[sm].is_some(), &out[sm].resp, self.jobs_in[sm].take())?;
+                u.step(
+                    now,
+                    out[sm].ready && self.reqs[sm].is_some(),
+                    &out[sm].resp,
+                    self.jobs_in[sm].take(),
+                )?;
             }
             if sink.enabled() {
                 sink.begin_cycle(now);
@@ -173,7 +184,9 @@ impl Gpu {
                 None if more_jobs || !self.units.iter().all(RtUnit::empty) => {
                     return Err(RunError::Stalled { cycle: now });
                 }
-                Some(at) if self.rt.idle_skip && !sink.enabled() && at > self.mem.cycle() => self.mem.skip_to(at),
+                Some(at) if self.rt.idle_skip && !sink.enabled() && at > self.mem.cycle() => {
+                    self.mem.skip_to(at)
+                }
                 _ => {}
             }
             if self.mem.cycle() >= next_report {

@@ -82,9 +82,9 @@ impl NodeFetch {
 
     /// The request offered to memory this cycle; its id is `slot << 2 | tag`.
     pub fn head(&self, tag: u64) -> Option<MemReq> {
-        self.queue.front().map(|p| {
-            MemReq::read(u64::from(p.slot) << 2 | tag, p.addr, p.bytes, ReqKind::NodeFetch)
-        })
+        self.queue
+            .front()
+            .map(|p| MemReq::read(u64::from(p.slot) << 2 | tag, p.addr, p.bytes, ReqKind::NodeFetch))
     }
 
     /// The port took the head.

@@ -56,10 +56,7 @@ pub struct WarpJob {
 impl WarpJob {
     /// Bit `l` set: lane `l` is active.
     pub fn active_mask(&self) -> u32 {
-        self.lanes
-            .iter()
-            .enumerate()
-            .fold(0, |m, (l, ops)| m | u32::from(ops.is_some()) << l)
+        self.lanes.iter().enumerate().fold(0, |m, (l, ops)| m | u32::from(ops.is_some()) << l)
     }
 
     /// Checks what the RT unit cannot run: a lane count other than `warp_size`, a node of zero

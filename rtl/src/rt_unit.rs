@@ -371,7 +371,13 @@ impl RtUnit {
     /// One clock cycle at `now`. `accepted`: the L1D took the request [`RtUnit::offer`] drove;
     /// `resp`: responses the L1D shows this cycle; `job`: a warp job for the slot that
     /// [`RtUnit::free_slot`] named before this step (the dispatcher checked it).
-    pub fn step(&mut self, now: u64, accepted: bool, resp: &[MemResp], job: Option<WarpJob>) -> Result<(), RunError> {
+    pub fn step(
+        &mut self,
+        now: u64,
+        accepted: bool,
+        resp: &[MemResp],
+        job: Option<WarpJob>,
+    ) -> Result<(), RunError> {
         let ws = self.cfg.warp_size;
         let load_slot = self.free_slot();
         let took_stack = accepted && self.port == Port::Stack;
@@ -384,7 +390,8 @@ impl RtUnit {
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves.
         for w in 0..self.cfg.warps {
-            if self.slots[w as usize].is_some() && self.lanes[w as usize].live == 0 && self.stack.warp_done(w) {
+            if self.slots[w as usize].is_some() && self.lanes[w as usize].live == 0 && self.stack.warp_done(w)
+            {
                 self.slots[w as usize] = None;
                 if self.greedy == Some(w) {
                     self.greedy = None;
@@ -405,7 +412,8 @@ impl RtUnit {
             if let Some(w) = pick {
                 self.greedy = Some(w);
                 self.scheduled = Some(w);
-                let (slot, threads, mask) = (&self.slots[w as usize], &self.threads, self.lanes[w as usize].fetch);
+                let (slot, threads, mask) =
+                    (&self.slots[w as usize], &self.threads, self.lanes[w as usize].fetch);
                 let lanes = slot.as_ref().map_or(&[][..], |s| &s.lanes[..]);
                 self.fetch.coalesce(
                     w,
@@ -541,7 +549,9 @@ impl RtUnit {
             || (0..self.cfg.warps).any(|w| {
                 let m = &self.lanes[w as usize];
                 self.slots[w as usize].is_some()
-                    && (m.fetch != 0 || m.live == 0 || lanes_of(m.stack).any(|l| self.stack.ready(w * ws + l)))
+                    && (m.fetch != 0
+                        || m.live == 0
+                        || lanes_of(m.stack).any(|l| self.stack.ready(w * ws + l)))
             })
             || self.stack.can_issue();
         let event = self.lanes.iter().map(|m| m.busy_until).min().unwrap_or(u64::MAX);

@@ -42,8 +42,16 @@ fn ray(rng: &mut Rng, hit: u64) -> Vec<RayOp> {
     let mut cur = Some(0u64);
     while let Some(i) = cur {
         if i >= first_leaf {
-            ops.push(RayOp::Visit { addr: LEAF_DESCS + (i - first_leaf) * 8, kind: NodeKind::LeafDescriptor, bytes: 8 });
-            ops.push(RayOp::Visit { addr: TRIANGLES + (i - first_leaf) * 64, kind: NodeKind::Triangle, bytes: 64 });
+            ops.push(RayOp::Visit {
+                addr: LEAF_DESCS + (i - first_leaf) * 8,
+                kind: NodeKind::LeafDescriptor,
+                bytes: 8,
+            });
+            ops.push(RayOp::Visit {
+                addr: TRIANGLES + (i - first_leaf) * 64,
+                kind: NodeKind::Triangle,
+                bytes: 64,
+            });
             cur = None;
         } else {
             ops.push(RayOp::Visit { addr: NODES + i * 64, kind: NodeKind::Internal, bytes: 64 });
@@ -189,7 +197,8 @@ fn one_memory_request_per_cycle() {
 fn larger_stacks_never_add_stack_traffic() {
     let work = jobs(1, 48, 45);
     let rb: Vec<GpuReport> = ["RB_2", "RB_4", "RB_8", "RB_16"].iter().map(|c| run(c, work.clone())).collect();
-    let sh: Vec<GpuReport> = ["RB_8", "RB_8+SH_4", "RB_8+SH_8", "RB_8+SH_16"].iter().map(|c| run(c, work.clone())).collect();
+    let sh: Vec<GpuReport> =
+        ["RB_8", "RB_8+SH_4", "RB_8+SH_8", "RB_8+SH_16"].iter().map(|c| run(c, work.clone())).collect();
     assert!(rb[0].stack.global_accesses() > 0 && rb[0].dram_stack > 0, "the workload spills");
     for runs in [&rb, &sh] {
         for p in runs.windows(2) {
@@ -205,7 +214,15 @@ fn larger_stacks_never_add_stack_traffic() {
     let full = run("RB_FULL", work.clone());
     let s = full.stack;
     assert_eq!(
-        (s.rb_to_sh, s.sh_to_rb, s.sh_to_global, s.global_to_sh, s.rb_to_global, s.global_to_rb, full.dram_stack),
+        (
+            s.rb_to_sh,
+            s.sh_to_rb,
+            s.sh_to_global,
+            s.global_to_sh,
+            s.rb_to_global,
+            s.global_to_rb,
+            full.dram_stack
+        ),
         (0, 0, 0, 0, 0, 0, 0)
     );
     assert_eq!(full.bank_conflict_cycles, 0);
@@ -226,11 +243,20 @@ fn identical_inputs_give_identical_reports() {
 #[test]
 fn every_pop_is_checked_and_a_wrong_pop_is_caught() {
     let work = jobs(4, 16, 45);
-    let pops = work.iter().flat_map(|j| j.lanes.iter().flatten().flatten()).filter(|o| matches!(o, RayOp::Pop(_))).count();
+    let pops = work
+        .iter()
+        .flat_map(|j| j.lanes.iter().flatten().flatten())
+        .filter(|o| matches!(o, RayOp::Pop(_)))
+        .count();
     assert_eq!(run("RB_2+SH_8+SK+RA", work.clone()).pops_checked, pops as u64);
     // Plant a bug: one pop in the middle of some lane names the wrong node.
     let mut bad = work;
-    let lane = bad[7].lanes.iter_mut().flatten().find(|ops| ops.iter().filter(|o| matches!(o, RayOp::Pop(_))).count() > 2).unwrap();
+    let lane = bad[7]
+        .lanes
+        .iter_mut()
+        .flatten()
+        .find(|ops| ops.iter().filter(|o| matches!(o, RayOp::Pop(_))).count() > 2)
+        .unwrap();
     let p = lane.iter_mut().filter(|o| matches!(o, RayOp::Pop(_))).nth(1).unwrap();
     *p = RayOp::Pop(0xBAD0);
     let e = run_with("RB_2+SH_8+SK+RA", small_l2(), RtParams::default(), bad).unwrap_err();
@@ -240,22 +266,35 @@ fn every_pop_is_checked_and_a_wrong_pop_is_caught() {
 #[test]
 fn bad_jobs_are_errors() {
     let short = WarpJob { lanes: vec![None; 8] };
-    assert!(matches!(run_with("RB_8", one_sm(), RtParams::default(), vec![short]), Err(RunError::BadJob { job: 0, .. })));
+    assert!(matches!(
+        run_with("RB_8", one_sm(), RtParams::default(), vec![short]),
+        Err(RunError::BadJob { job: 0, .. })
+    ));
     let unbalanced = single_warp(vec![RayOp::Push(8)]);
-    assert!(matches!(run_with("RB_8", one_sm(), RtParams::default(), vec![unbalanced]), Err(RunError::Stack { .. })));
+    assert!(matches!(
+        run_with("RB_8", one_sm(), RtParams::default(), vec![unbalanced]),
+        Err(RunError::Stack { .. })
+    ));
     let e = RtParams { triangle: 0, ..RtParams::default() }.validate().unwrap_err();
     assert_eq!(e.parameter, "triangle");
 }
 
 #[test]
 fn idle_skipping_equals_stepping_every_cycle() {
-    let work = jobs(5, 24, 45);
-    for cfg in ["RB_2", "RB_8+SH_8+SK+RA"] {
-        let stepped = run_with(cfg, small_l2(), RtParams { idle_skip: false, ..RtParams::default() }, work.clone()).unwrap();
-        let skipped = run_with(cfg, small_l2(), RtParams::default(), work.clone()).unwrap();
+    // Dense (every SM full: little to skip) and sparse (one warp per SM: mostly waiting).
+    for (cfg, work, min_skipped_percent) in [
+        ("RB_2", jobs(5, 24, 45), 5),
+        ("RB_8+SH_8+SK+RA", jobs(5, 24, 45), 5),
+        ("RB_2+SH_4", jobs(6, 6, 45), 50),
+    ] {
+        let stepped =
+            run_with(cfg, small_l2(), RtParams { idle_skip: false, ..RtParams::default() }, work.clone())
+                .unwrap();
+        let skipped = run_with(cfg, small_l2(), RtParams::default(), work).unwrap();
         assert_eq!(stepped, GpuReport { evaluated_cycles: stepped.evaluated_cycles, ..skipped }, "{cfg}");
         assert_eq!(stepped.evaluated_cycles, stepped.cycles);
-        assert!(skipped.evaluated_cycles * 2 < stepped.evaluated_cycles, "{} of {}", skipped.evaluated_cycles, stepped.cycles);
+        let skipped_percent = 100 - 100 * skipped.evaluated_cycles / stepped.cycles;
+        assert!(skipped_percent >= min_skipped_percent, "{cfg}: skipped only {skipped_percent}%");
     }
 }
 
