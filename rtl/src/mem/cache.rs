@@ -34,7 +34,12 @@ impl Geometry {
             Assoc::Full => lines,
             Assoc::Ways(w) => w,
         };
-        Geometry { sets: lines / ways, ways, line_bytes, sector_bytes }
+        Geometry {
+            sets: lines / ways,
+            ways,
+            line_bytes,
+            sector_bytes,
+        }
     }
 
     pub fn lines(&self) -> u32 {
@@ -134,7 +139,9 @@ impl TagStore {
         match self.find(addr) {
             None => Lookup::LineMiss,
             Some(slot) => {
-                let way = self.slots[slot].as_ref().expect("indexed slot holds a line");
+                let way = self.slots[slot]
+                    .as_ref()
+                    .expect("indexed slot holds a line");
                 if way.valid & self.geom.sector_bit(addr) != 0 {
                     Lookup::Hit
                 } else {
@@ -154,7 +161,9 @@ impl TagStore {
             return None;
         }
         let (_, &way) = self.lru[set].first_key_value()?;
-        let w = self.slots[self.slot(set, way)].as_ref().expect("ordered way holds a line");
+        let w = self.slots[self.slot(set, way)]
+            .as_ref()
+            .expect("ordered way holds a line");
         Some(Victim {
             addr: w.line * u64::from(self.geom.line_bytes),
             valid: w.valid,
@@ -191,8 +200,13 @@ impl TagStore {
                     }
                 };
                 let slot = self.slot(set, way);
-                self.slots[slot] =
-                    Some(Way { line, valid: 0, dirty: 0, dirty_kind: ReqKind::NodeFetch, stamp: 0 });
+                self.slots[slot] = Some(Way {
+                    line,
+                    valid: 0,
+                    dirty: 0,
+                    dirty_kind: ReqKind::NodeFetch,
+                    stamp: 0,
+                });
                 self.index[set].insert(line, way);
                 slot
             }
@@ -211,7 +225,9 @@ impl TagStore {
     /// Slot holding the line of `addr`, if present.
     fn find(&self, addr: u64) -> Option<usize> {
         let set = self.geom.set_of(addr);
-        self.index[set].get(&self.geom.line_of(addr)).map(|&way| self.slot(set, way))
+        self.index[set]
+            .get(&self.geom.line_of(addr))
+            .map(|&way| self.slot(set, way))
     }
 
     fn slot(&self, set: usize, way: u32) -> usize {
@@ -244,12 +260,19 @@ pub(crate) mod reference {
 
     impl RefLru {
         pub fn new(geom: Geometry) -> RefLru {
-            RefLru { geom, sets: vec![Vec::new(); geom.sets as usize], fifo: false }
+            RefLru {
+                geom,
+                sets: vec![Vec::new(); geom.sets as usize],
+                fifo: false,
+            }
         }
 
         pub fn lookup(&self, addr: u64) -> Lookup {
             let line = self.geom.line_of(addr);
-            match self.sets[self.geom.set_of(addr)].iter().find(|(l, _)| *l == line) {
+            match self.sets[self.geom.set_of(addr)]
+                .iter()
+                .find(|(l, _)| *l == line)
+            {
                 None => Lookup::LineMiss,
                 Some((_, v)) if v & self.geom.sector_bit(addr) != 0 => Lookup::Hit,
                 Some(_) => Lookup::SectorMiss,
@@ -270,8 +293,11 @@ pub(crate) mod reference {
 
         /// Returns the evicted line's byte address.
         pub fn fill(&mut self, addr: u64) -> Option<u64> {
-            let (line, bit, ways) =
-                (self.geom.line_of(addr), self.geom.sector_bit(addr), self.geom.ways as usize);
+            let (line, bit, ways) = (
+                self.geom.line_of(addr),
+                self.geom.sector_bit(addr),
+                self.geom.ways as usize,
+            );
             let line_bytes = u64::from(self.geom.line_bytes);
             let set = &mut self.sets[self.geom.set_of(addr)];
             if let Some(i) = set.iter().position(|(l, _)| *l == line) {
@@ -279,7 +305,11 @@ pub(crate) mod reference {
                 self.touch(addr);
                 return None;
             }
-            let victim = if set.len() == ways { Some(set.remove(0).0 * line_bytes) } else { None };
+            let victim = if set.len() == ways {
+                Some(set.remove(0).0 * line_bytes)
+            } else {
+                None
+            };
             set.push((line, bit));
             victim
         }
@@ -293,13 +323,22 @@ mod tests {
     use crate::mem::testutil::XorShift;
 
     fn geom(sets: u32, ways: u32) -> Geometry {
-        Geometry { sets, ways, line_bytes: 128, sector_bytes: 32 }
+        Geometry {
+            sets,
+            ways,
+            line_bytes: 128,
+            sector_bytes: 32,
+        }
     }
 
     /// Drives the tag store and the reference with one address stream (hit: touch; miss: fill,
     /// as a read-allocate cache does) and returns the first disagreement in lookup result or
     /// evicted line.
-    fn compare(g: Geometry, addrs: impl IntoIterator<Item = u64>, fifo_ref: bool) -> Result<(), String> {
+    fn compare(
+        g: Geometry,
+        addrs: impl IntoIterator<Item = u64>,
+        fifo_ref: bool,
+    ) -> Result<(), String> {
         let mut dut = TagStore::new(g);
         let mut r = RefLru::new(g);
         r.fifo = fifo_ref;
@@ -394,7 +433,15 @@ mod tests {
         t.touch(0x100);
         // Line 0 is LRU: filling a third line evicts it with its dirty sector 1.
         let v = t.fill(0x200, None).unwrap();
-        assert_eq!(v, Victim { addr: 0, valid: 0b10, dirty: 0b10, dirty_kind: ReqKind::StackSpill });
+        assert_eq!(
+            v,
+            Victim {
+                addr: 0,
+                valid: 0b10,
+                dirty: 0b10,
+                dirty_kind: ReqKind::StackSpill
+            }
+        );
         assert_eq!(t.lines_held(), 2);
         assert_eq!(t.lookup(0x20), Lookup::LineMiss);
     }

@@ -136,7 +136,11 @@ impl Probe for Dram {
         sink.signal("req_ready", 1, u64::from(self.ready()));
         sink.signal("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr));
         sink.signal("req_write", 1, u64::from(req.is_some_and(|r| r.write)));
-        sink.signal("queue_depth", bits_for(self.queue_cap as u64), self.waiting.len() as u64);
+        sink.signal(
+            "queue_depth",
+            bits_for(self.queue_cap as u64),
+            self.waiting.len() as u64,
+        );
         sink.signal("resp_valid", 1, u64::from(!self.out.is_empty()));
         sink.signal("resp_id", ID_BITS, self.out.first().map_or(0, |r| r.id));
     }
@@ -185,7 +189,12 @@ mod tests {
     }
 
     /// The documented timing, written directly from the accept cycles.
-    fn reference(p: &MemParams, reqs: &[MemReq], accepts: &[(u64, u64)], ignore_bandwidth: bool) -> Times {
+    fn reference(
+        p: &MemParams,
+        reqs: &[MemReq],
+        accepts: &[(u64, u64)],
+        ignore_bandwidth: bool,
+    ) -> Times {
         let mut bus_free = 0;
         let mut out = Vec::new();
         for &(id, a) in accepts {

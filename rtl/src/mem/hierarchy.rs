@@ -78,7 +78,8 @@ impl MemSystem {
         for (d, l1) in self.down.iter_mut().zip(&self.l1d) {
             *d = l1.down_req();
         }
-        self.l2.eval(&self.down, self.dram.ready(), self.dram.resp());
+        self.l2
+            .eval(&self.down, self.dram.ready(), self.dram.resp());
         for (sm, l1) in self.l1d.iter_mut().enumerate() {
             let out = &mut self.out[sm];
             out.ready = l1.ready();
@@ -115,7 +116,10 @@ impl MemSystem {
     pub fn skip_to(&mut self, cycle: u64) {
         assert!(cycle >= self.now, "cannot go back to cycle {cycle}");
         if let Some(event) = self.next_event_cycle() {
-            assert!(cycle <= event, "skipping to {cycle} would miss the event at {event}");
+            assert!(
+                cycle <= event,
+                "skipping to {cycle} would miss the event at {event}"
+            );
         }
         self.set_now(cycle);
     }
@@ -192,14 +196,20 @@ mod tests {
 
     /// Offers each SM's requests in order, each no earlier than its cycle, until all are answered.
     /// Returns the responses and the number of cycles evaluated.
-    fn drive(sys: &mut MemSystem, mut traffic: Vec<VecDeque<(u64, MemReq)>>, skip: Skip) -> (Log, u64) {
+    fn drive(
+        sys: &mut MemSystem,
+        mut traffic: Vec<VecDeque<(u64, MemReq)>>,
+        skip: Skip,
+    ) -> (Log, u64) {
         let mut log = Log::new();
         let mut evals = 0;
         loop {
             evals += 1;
             let c = sys.cycle();
-            let offers: Vec<Option<MemReq>> =
-                traffic.iter().map(|q| q.front().filter(|(t, _)| *t <= c).map(|x| x.1)).collect();
+            let offers: Vec<Option<MemReq>> = traffic
+                .iter()
+                .map(|q| q.front().filter(|(t, _)| *t <= c).map(|x| x.1))
+                .collect();
             let out = sys.eval(&offers);
             for (sm, o) in out.iter().enumerate() {
                 log.extend(o.resp.iter().map(|r| (c, sm, *r)));
@@ -259,7 +269,11 @@ mod tests {
                 let mut t = 0;
                 (0..n as u64)
                     .map(|i| {
-                        t += if rng.below(40) == 0 { 300 } else { rng.below(3) };
+                        t += if rng.below(40) == 0 {
+                            300
+                        } else {
+                            rng.below(3)
+                        };
                         let kind = ReqKind::ALL[rng.below(3) as usize];
                         let addr = if rng.below(2) == 0 {
                             rng.below(64) * 8
@@ -301,13 +315,20 @@ mod tests {
         let spill = MemReq::write(2, 0x8000, 8, ReqKind::StackSpill);
         assert_eq!(latency(0, spill), 160, "store acknowledged by L2");
         let reload = MemReq::read(3, 0x8000, 8, ReqKind::StackReload);
-        assert_eq!(latency(0, reload), 160, "reload: L1D did not allocate, L2 did");
+        assert_eq!(
+            latency(0, reload),
+            160,
+            "reload: L1D did not allocate, L2 did"
+        );
         assert_eq!(sys.dram().counters().accesses, 1);
     }
 
     #[test]
     fn dram_bandwidth_adds_transfer_cycles() {
-        let p = MemParams { dram_bytes_per_cycle: 8, ..MemParams::default() };
+        let p = MemParams {
+            dram_bytes_per_cycle: 8,
+            ..MemParams::default()
+        };
         let mut sys = MemSystem::new(p).unwrap();
         let mut t: Vec<VecDeque<(u64, MemReq)>> = vec![VecDeque::new(); 8];
         t[0].push_back((0, MemReq::read(1, 0, 8, ReqKind::NodeFetch)));
@@ -321,11 +342,15 @@ mod tests {
         let mut sys = MemSystem::new(p).unwrap();
         let sms = p.sms as usize;
         let t = traffic(seed, sms, n);
-        let all: Vec<(usize, MemReq)> =
-            t.iter().enumerate().flat_map(|(sm, q)| q.iter().map(move |x| (sm, x.1))).collect();
+        let all: Vec<(usize, MemReq)> = t
+            .iter()
+            .enumerate()
+            .flat_map(|(sm, q)| q.iter().map(move |x| (sm, x.1)))
+            .collect();
         let (log, _) = drive(&mut sys, t, Skip::Never);
         let mut got: Vec<(usize, MemResp)> = log.iter().map(|x| (x.1, x.2)).collect();
-        let mut want: Vec<(usize, MemResp)> = all.iter().map(|(sm, r)| (*sm, r.response())).collect();
+        let mut want: Vec<(usize, MemResp)> =
+            all.iter().map(|(sm, r)| (*sm, r.response())).collect();
         got.sort_by_key(|x| (x.0, x.1.id));
         want.sort_by_key(|x| (x.0, x.1.id));
         assert_eq!(got, want, "every request answered exactly once");
@@ -335,11 +360,19 @@ mod tests {
         assert_eq!(l1.accesses, (sms * n) as u64);
         assert_eq!(l1.hits + l1.misses, l1.accesses);
         let l1_read_misses = l1.misses - l1.by_kind[ReqKind::StackSpill.index()].misses;
-        assert_eq!(l2.reads, l1_read_misses - l1.merged, "one L2 read per L1D fill");
+        assert_eq!(
+            l2.reads,
+            l1_read_misses - l1.merged,
+            "one L2 read per L1D fill"
+        );
         assert_eq!(l2.writes, l1.writes, "write-through");
         assert_eq!(l2.hits + l2.misses, l2.accesses);
         let l2_write_misses = l2.kind(ReqKind::StackSpill).misses;
-        assert_eq!(dram.reads, l2.misses - l2_write_misses - l2.merged, "one read per L2 fill");
+        assert_eq!(
+            dram.reads,
+            l2.misses - l2_write_misses - l2.merged,
+            "one read per L2 fill"
+        );
         assert_eq!(dram.writes, l2.write_backs);
         let by_kind: u64 = dram.by_kind.iter().map(|k| k.accesses).sum();
         assert_eq!(by_kind, dram.accesses);
@@ -378,11 +411,28 @@ mod tests {
                 .into_iter()
                 .map(|q| q.into_iter().map(|(t, r)| (t * 20, r)).collect())
                 .collect();
-            let stepped = drive(&mut MemSystem::new(small()).unwrap(), t.clone(), Skip::Never);
-            let skipped = drive(&mut MemSystem::new(small()).unwrap(), t.clone(), Skip::ToNextEvent);
+            let stepped = drive(
+                &mut MemSystem::new(small()).unwrap(),
+                t.clone(),
+                Skip::Never,
+            );
+            let skipped = drive(
+                &mut MemSystem::new(small()).unwrap(),
+                t.clone(),
+                Skip::ToNextEvent,
+            );
             assert_eq!(stepped.0, skipped.0, "seed {seed}");
-            assert!(skipped.1 * 2 < stepped.1, "idle cycles were skipped: {} of {}", skipped.1, stepped.1);
-            let planted = drive(&mut MemSystem::new(small()).unwrap(), t, Skip::PastNextEvent);
+            assert!(
+                skipped.1 * 2 < stepped.1,
+                "idle cycles were skipped: {} of {}",
+                skipped.1,
+                stepped.1
+            );
+            let planted = drive(
+                &mut MemSystem::new(small()).unwrap(),
+                t,
+                Skip::PastNextEvent,
+            );
             assert_ne!(stepped.0, planted.0, "skipping past an event must show");
         }
     }
@@ -418,7 +468,11 @@ mod tests {
         let mut rng = XorShift(11);
         for i in 0..3000 {
             // Half the accesses within three L1Ds' worth, half within three L2s' worth.
-            let span = if rng.below(2) == 0 { 3 * 2048 } else { 3 * 8192 };
+            let span = if rng.below(2) == 0 {
+                3 * 2048
+            } else {
+                3 * 8192
+            };
             let addr = rng.below(span / 8) * 8;
             let req = if rng.below(4) == 0 {
                 MemReq::write(i, addr, 8, ReqKind::StackSpill)
@@ -427,10 +481,17 @@ mod tests {
             };
             let want1 = r1.lookup(addr).is_hit();
             let want2 = (req.write || !want1).then(|| r2.lookup(addr).is_hit());
-            let (h1, a2, h2) =
-                (sys.l1d(0).counters().hits, sys.l2().counters().accesses, sys.l2().counters().hits);
+            let (h1, a2, h2) = (
+                sys.l1d(0).counters().hits,
+                sys.l2().counters().accesses,
+                sys.l2().counters().hits,
+            );
             let start = sys.cycle();
-            let (log, _) = drive(&mut sys, vec![VecDeque::from([(start, req)])], Skip::ToNextEvent);
+            let (log, _) = drive(
+                &mut sys,
+                vec![VecDeque::from([(start, req)])],
+                Skip::ToNextEvent,
+            );
             let got1 = sys.l1d(0).counters().hits > h1;
             let got2 = (sys.l2().counters().accesses > a2).then(|| sys.l2().counters().hits > h2);
             if (got1, got2) != (want1, want2) {
@@ -446,7 +507,9 @@ mod tests {
                 (false, false, _) => 260,
             };
             if latency != expected {
-                return Err(format!("request {i} {req:?}: latency {latency}, expected {expected}"));
+                return Err(format!(
+                    "request {i} {req:?}: latency {latency}, expected {expected}"
+                ));
             }
             // Update the references as the caches do.
             if want1 {
@@ -478,7 +541,11 @@ mod tests {
 
     #[test]
     fn probe_names_every_unit() {
-        let mut sys = MemSystem::new(MemParams { sms: 2, ..MemParams::default() }).unwrap();
+        let mut sys = MemSystem::new(MemParams {
+            sms: 2,
+            ..MemParams::default()
+        })
+        .unwrap();
         sys.eval(&[Some(MemReq::read(1, 0x40, 8, ReqKind::NodeFetch)), None]);
         let mut s = Snapshot::default();
         sys.probe(&mut s);
@@ -491,7 +558,11 @@ mod tests {
 
     #[test]
     fn bad_parameters_are_rejected() {
-        let e = MemSystem::new(MemParams { l1d_bytes: 0, ..MemParams::default() }).unwrap_err();
+        let e = MemSystem::new(MemParams {
+            l1d_bytes: 0,
+            ..MemParams::default()
+        })
+        .unwrap_err();
         assert_eq!(e.parameter, "l1d_bytes");
     }
 }

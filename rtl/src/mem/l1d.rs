@@ -80,7 +80,12 @@ impl L1d {
     pub fn new(p: &MemParams) -> L1d {
         L1d {
             params: *p,
-            tags: TagStore::new(Geometry::new(p.l1d_bytes, p.l1d_assoc, p.line_bytes, p.sector_bytes)),
+            tags: TagStore::new(Geometry::new(
+                p.l1d_bytes,
+                p.l1d_assoc,
+                p.line_bytes,
+                p.sector_bytes,
+            )),
             mshr: Mshr::new(p.l1d_mshrs, p.l1d_mshr_merge),
             hit_pipe: VecDeque::new(),
             miss_queue: VecDeque::new(),
@@ -133,15 +138,23 @@ impl L1d {
             None => req,
         }
         .map(|r| (r, self.classify(&r)));
-        self.d =
-            Step { req, work, down_fire: down_ready && !self.miss_queue.is_empty(), fills: fills.to_vec() };
+        self.d = Step {
+            req,
+            work,
+            down_fire: down_ready && !self.miss_queue.is_empty(),
+            fills: fills.to_vec(),
+        };
         ready && req.is_some()
     }
 
     fn classify(&self, r: &MemReq) -> Action {
         let room = self.miss_queue.len() < self.params.l1d_miss_queue as usize;
         if r.write {
-            return if room { Action::WriteThrough } else { Action::Park };
+            return if room {
+                Action::WriteThrough
+            } else {
+                Action::Park
+            };
         }
         if self.tags.lookup(r.addr).is_hit() {
             return Action::Hit;
@@ -170,7 +183,11 @@ impl L1d {
         if let Some((r, action)) = step.work {
             self.parked = None;
             let key = self.params.sector_of(r.addr);
-            let waiter = Waiter { port: 0, id: r.id, addr: r.addr };
+            let waiter = Waiter {
+                port: 0,
+                id: r.id,
+                addr: r.addr,
+            };
             match action {
                 Action::Park => {
                     self.parked = Some(r);
@@ -217,7 +234,10 @@ impl L1d {
                     // Write-through: L1D lines are never dirty, so a victim needs no write-back.
                     self.tags.fill(key, None);
                     self.out
-                        .extend(self.mshr.release(key).iter().map(|w| MemResp { id: w.id, addr: w.addr }));
+                        .extend(self.mshr.release(key).iter().map(|w| MemResp {
+                            id: w.id,
+                            addr: w.addr,
+                        }));
                 }
                 Some(Pending::Write(ack)) => self.out.push(ack),
                 None => panic!("L1D got a response for unknown down id {}", f.id),
@@ -255,7 +275,11 @@ impl Probe for L1d {
         sink.signal("hit", 1, u64::from(action == Some(Action::Hit)));
         sink.signal("merge", 1, u64::from(action == Some(Action::Merge)));
         sink.signal("park", 1, u64::from(action == Some(Action::Park)));
-        sink.signal("mshr_occupancy", bits_for(u64::from(self.params.l1d_mshrs)), self.mshr.len() as u64);
+        sink.signal(
+            "mshr_occupancy",
+            bits_for(u64::from(self.params.l1d_mshrs)),
+            self.mshr.len() as u64,
+        );
         sink.signal(
             "miss_queue_depth",
             bits_for(u64::from(self.params.l1d_miss_queue)),
@@ -341,7 +365,16 @@ mod tests {
         let t = b.cycle;
         assert!(b.step(read(2, 0x1008)));
         b.run_until_quiet();
-        assert_eq!(b.resp_log.last(), Some(&(t + 20, MemResp { id: 2, addr: 0x1008 })));
+        assert_eq!(
+            b.resp_log.last(),
+            Some(&(
+                t + 20,
+                MemResp {
+                    id: 2,
+                    addr: 0x1008
+                }
+            ))
+        );
         assert_eq!(b.l1.counters().hits, 1);
         assert_eq!(b.l1.counters().misses, 1);
     }
@@ -354,7 +387,10 @@ mod tests {
         // Another sector of the same line is another fill.
         assert!(b.step(read(3, 0x2020)));
         b.run_until_quiet();
-        assert_eq!(b.down_log.iter().map(|r| r.addr).collect::<Vec<_>>(), vec![0x2000, 0x2020]);
+        assert_eq!(
+            b.down_log.iter().map(|r| r.addr).collect::<Vec<_>>(),
+            vec![0x2000, 0x2020]
+        );
         let mut ids: Vec<u64> = b.resp_log.iter().map(|(_, r)| r.id).collect();
         ids.sort();
         assert_eq!(ids, vec![1, 2, 3]);
@@ -365,7 +401,10 @@ mod tests {
 
     #[test]
     fn line_granular_configuration_merges_same_line_misses() {
-        let p = MemParams { sector_bytes: 128, ..MemParams::default() };
+        let p = MemParams {
+            sector_bytes: 128,
+            ..MemParams::default()
+        };
         let mut b = Bench::new(p, 50);
         assert!(b.step(read(1, 0x2000)));
         assert!(b.step(read(2, 0x2060)));
@@ -376,7 +415,10 @@ mod tests {
 
     #[test]
     fn full_mshr_stalls_until_a_fill() {
-        let p = MemParams { l1d_miss_queue: 64, ..MemParams::default() };
+        let p = MemParams {
+            l1d_miss_queue: 64,
+            ..MemParams::default()
+        };
         let mut b = Bench::new(p, 100);
         for i in 0..32 {
             assert!(b.step(read(i, i * 32)), "miss {i}");
@@ -397,7 +439,10 @@ mod tests {
 
     #[test]
     fn a_full_mshr_entry_parks_the_next_merge() {
-        let p = MemParams { l1d_mshr_merge: 2, ..MemParams::default() };
+        let p = MemParams {
+            l1d_mshr_merge: 2,
+            ..MemParams::default()
+        };
         let mut b = Bench::new(p, 40);
         assert!(b.step(read(1, 0x100)));
         assert!(b.step(read(2, 0x104)));

@@ -81,7 +81,12 @@ impl L2 {
         let sms = p.sms as usize;
         L2 {
             params: *p,
-            tags: TagStore::new(Geometry::new(p.l2_bytes, p.l2_assoc, p.line_bytes, p.sector_bytes)),
+            tags: TagStore::new(Geometry::new(
+                p.l2_bytes,
+                p.l2_assoc,
+                p.line_bytes,
+                p.sector_bytes,
+            )),
             mshr: Mshr::new(p.l2_mshrs, p.l2_mshr_merge),
             banks: vec![VecDeque::new(); p.l2_banks as usize],
             rr: vec![0; p.l2_banks as usize],
@@ -91,7 +96,10 @@ impl L2 {
             out: vec![Vec::new(); sms],
             now: 0,
             counters: Counters::default(),
-            d: Step { granted: vec![false; sms], ..Step::default() },
+            d: Step {
+                granted: vec![false; sms],
+                ..Step::default()
+            },
         }
     }
 
@@ -137,21 +145,28 @@ impl L2 {
             fills: fills.to_vec(),
             ..Step::default()
         };
-        let bank_of: Vec<Option<usize>> = reqs.iter().map(|r| r.map(|r| self.bank_of(r.addr))).collect();
+        let bank_of: Vec<Option<usize>> = reqs
+            .iter()
+            .map(|r| r.map(|r| self.bank_of(r.addr)))
+            .collect();
         for (b, bank) in self.banks.iter().enumerate() {
             if bank.len() >= self.params.l2_bank_queue as usize {
                 continue;
             }
             let first = self.rr[b] as usize;
-            let pick = (0..sms).map(|k| (first + k) % sms).find(|&sm| bank_of[sm] == Some(b));
+            let pick = (0..sms)
+                .map(|k| (first + k) % sms)
+                .find(|&sm| bank_of[sm] == Some(b));
             if let Some(sm) = pick {
                 step.granted[sm] = true;
-                step.accepted.push((b, sm as u32, reqs[sm].expect("picked")));
+                step.accepted
+                    .push((b, sm as u32, reqs[sm].expect("picked")));
             }
         }
         // Allocations this cycle share the MSHR and the DRAM queue, in bank order.
         let mut mshr_free = self.mshr.capacity() - self.mshr.len();
-        let mut dram_room = (self.params.l2_dram_queue as usize).saturating_sub(self.dram_queue.len());
+        let mut dram_room =
+            (self.params.l2_dram_queue as usize).saturating_sub(self.dram_queue.len());
         for (b, bank) in self.banks.iter().enumerate() {
             let Some(head) = bank.front().filter(|l| l.due <= self.now) else {
                 continue;
@@ -187,7 +202,8 @@ impl L2 {
     fn write_back(&mut self, victim: Option<Victim>) {
         if let Some(v) = victim.filter(|v| v.dirty != 0) {
             let bytes = v.dirty.count_ones() * self.params.sector_bytes;
-            self.dram_queue.push_back(MemReq::write(0, v.addr, bytes, v.dirty_kind));
+            self.dram_queue
+                .push_back(MemReq::write(0, v.addr, bytes, v.dirty_kind));
             self.counters.write_backs += 1;
         }
     }
@@ -203,7 +219,11 @@ impl L2 {
             out.clear();
         }
         for &(b, sm, req) in &step.accepted {
-            self.banks[b].push_back(Lane { due: self.now + delay, sm, req });
+            self.banks[b].push_back(Lane {
+                due: self.now + delay,
+                sm,
+                req,
+            });
             self.rr[b] = (sm + 1) % self.params.sms;
         }
         for &(b, check) in &step.checks {
@@ -220,7 +240,11 @@ impl L2 {
                     self.counters.lookup(&r, true);
                 }
                 Check::Merge | Check::Allocate => {
-                    let waiter = Waiter { port: sm, id: r.id, addr: r.addr };
+                    let waiter = Waiter {
+                        port: sm,
+                        id: r.id,
+                        addr: r.addr,
+                    };
                     self.mshr.insert(key, waiter);
                     self.counters.lookup(&r, false);
                     if check == Check::Merge {
@@ -228,7 +252,12 @@ impl L2 {
                     } else {
                         let id = self.next_dram_id;
                         self.next_dram_id += 1;
-                        self.dram_queue.push_back(MemReq::read(id, key, self.params.sector_bytes, r.kind));
+                        self.dram_queue.push_back(MemReq::read(
+                            id,
+                            key,
+                            self.params.sector_bytes,
+                            r.kind,
+                        ));
                         self.pending.insert(id, key);
                     }
                 }
@@ -249,7 +278,10 @@ impl L2 {
             let victim = self.tags.fill(key, None);
             self.write_back(victim);
             for w in self.mshr.release(key) {
-                self.out[w.port as usize].push(MemResp { id: w.id, addr: w.addr });
+                self.out[w.port as usize].push(MemResp {
+                    id: w.id,
+                    addr: w.addr,
+                });
             }
         }
         self.now += 1;
@@ -261,7 +293,10 @@ impl L2 {
         if self.out.iter().any(|o| !o.is_empty()) || !self.dram_queue.is_empty() {
             return Some(self.now);
         }
-        self.banks.iter().filter_map(|b| b.front().map(|l| l.due.max(self.now))).min()
+        self.banks
+            .iter()
+            .filter_map(|b| b.front().map(|l| l.due.max(self.now)))
+            .min()
     }
 
     pub(crate) fn skip_to(&mut self, cycle: u64) {
@@ -278,11 +313,23 @@ impl Probe for L2 {
         let count = |c: Check| self.d.checks.iter().filter(|x| x.1 == c).count() as u64;
         let bank_bits = bits_for(u64::from(p.l2_banks));
         sink.signal("accept_count", bank_bits, self.d.accepted.len() as u64);
-        sink.signal("accept_addr", ADDR_BITS, self.d.accepted.first().map_or(0, |a| a.2.addr));
+        sink.signal(
+            "accept_addr",
+            ADDR_BITS,
+            self.d.accepted.first().map_or(0, |a| a.2.addr),
+        );
         sink.signal("hit_count", bank_bits, count(Check::Hit));
-        sink.signal("miss_count", bank_bits, count(Check::Merge) + count(Check::Allocate));
+        sink.signal(
+            "miss_count",
+            bank_bits,
+            count(Check::Merge) + count(Check::Allocate),
+        );
         sink.signal("stall_count", bank_bits, count(Check::Stall));
-        sink.signal("mshr_occupancy", bits_for(u64::from(p.l2_mshrs)), self.mshr.len() as u64);
+        sink.signal(
+            "mshr_occupancy",
+            bits_for(u64::from(p.l2_mshrs)),
+            self.mshr.len() as u64,
+        );
         sink.signal(
             "pipeline_depth_max",
             bits_for(u64::from(p.l2_bank_queue)),
@@ -341,10 +388,15 @@ mod tests {
             if let Some(r) = to_dram {
                 self.dram_log.push(r);
                 if !r.write {
-                    self.in_dram.push_back((self.cycle + self.dram, r.response()));
+                    self.in_dram
+                        .push_back((self.cycle + self.dram, r.response()));
                 }
             }
-            while self.in_dram.front().is_some_and(|&(c, _)| c <= self.cycle + 1) {
+            while self
+                .in_dram
+                .front()
+                .is_some_and(|&(c, _)| c <= self.cycle + 1)
+            {
                 self.dram_out.push(self.in_dram.pop_front().unwrap().1);
             }
             self.cycle += 1;
@@ -353,7 +405,10 @@ mod tests {
 
         fn settle(&mut self, sms: usize) {
             for _ in 0..10_000 {
-                if self.l2.next_event().is_none() && self.in_dram.is_empty() && self.dram_out.is_empty() {
+                if self.l2.next_event().is_none()
+                    && self.in_dram.is_empty()
+                    && self.dram_out.is_empty()
+                {
                     return;
                 }
                 self.step(&vec![None; sms]);
@@ -363,7 +418,10 @@ mod tests {
     }
 
     fn p(sms: u32) -> MemParams {
-        MemParams { sms, ..MemParams::default() }
+        MemParams {
+            sms,
+            ..MemParams::default()
+        }
     }
 
     fn read(id: u64, addr: u64) -> Option<MemReq> {
@@ -391,7 +449,10 @@ mod tests {
         // Lines 0 and 8 share bank 0; line 1 is in bank 1.
         let reqs = [read(1, 0), read(2, 8 * 128), read(3, 128)];
         assert_eq!(b.step(&reqs), vec![true, false, true]);
-        assert_eq!(b.step(&[read(4, 0), read(2, 8 * 128), None]), vec![false, true, false]);
+        assert_eq!(
+            b.step(&[read(4, 0), read(2, 8 * 128), None]),
+            vec![false, true, false]
+        );
         assert_eq!(b.step(&[read(4, 0), None, None]), vec![true, false, false]);
         b.settle(3);
         // SM 0's two reads of one sector: one DRAM read.
@@ -402,7 +463,11 @@ mod tests {
 
     #[test]
     fn a_full_mshr_stalls_the_bank_until_a_fill() {
-        let mp = MemParams { l2_mshrs: 2, l2_banks: 1, ..p(1) };
+        let mp = MemParams {
+            l2_mshrs: 2,
+            l2_banks: 1,
+            ..p(1)
+        };
         let mut b = Bench::new(mp, 40);
         for (i, addr) in [0x000, 0x020, 0x040, 0x040].into_iter().enumerate() {
             b.step(&[read(i as u64, addr)]);
@@ -420,7 +485,12 @@ mod tests {
     #[test]
     fn dirty_lines_are_written_back_on_eviction() {
         // 2 sets of 2 ways: lines 0, 2, 4 share set 0.
-        let mp = MemParams { l2_bytes: 4 * 128, l2_assoc: Assoc::Ways(2), l2_banks: 1, ..p(1) };
+        let mp = MemParams {
+            l2_bytes: 4 * 128,
+            l2_assoc: Assoc::Ways(2),
+            l2_banks: 1,
+            ..p(1)
+        };
         let mut b = Bench::new(mp, 10);
         b.step(&[Some(MemReq::write(1, 0x20, 8, ReqKind::StackSpill))]);
         b.step(&[Some(MemReq::write(2, 0x40, 8, ReqKind::StackSpill))]);
@@ -431,7 +501,10 @@ mod tests {
         b.settle(1);
         let wb: Vec<&MemReq> = b.dram_log.iter().filter(|r| r.write).collect();
         assert_eq!(wb.len(), 1);
-        assert_eq!((wb[0].addr, wb[0].bytes, wb[0].kind), (0, 64, ReqKind::StackSpill));
+        assert_eq!(
+            (wb[0].addr, wb[0].bytes, wb[0].kind),
+            (0, 64, ReqKind::StackSpill)
+        );
         assert_eq!(b.l2.counters().write_backs, 1);
         // The stores allocated without a DRAM read and were acknowledged.
         assert_eq!(b.resp_log.len(), 4);

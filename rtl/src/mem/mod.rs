@@ -64,8 +64,11 @@ pub enum ReqKind {
 
 impl ReqKind {
     pub const COUNT: usize = 3;
-    pub const ALL: [ReqKind; ReqKind::COUNT] =
-        [ReqKind::NodeFetch, ReqKind::StackSpill, ReqKind::StackReload];
+    pub const ALL: [ReqKind; ReqKind::COUNT] = [
+        ReqKind::NodeFetch,
+        ReqKind::StackSpill,
+        ReqKind::StackReload,
+    ];
 
     /// Index into per-kind counter arrays.
     pub fn index(self) -> usize {
@@ -93,16 +96,31 @@ pub struct MemReq {
 
 impl MemReq {
     pub fn read(id: u64, addr: u64, bytes: u32, kind: ReqKind) -> MemReq {
-        MemReq { id, addr, write: false, bytes, kind }
+        MemReq {
+            id,
+            addr,
+            write: false,
+            bytes,
+            kind,
+        }
     }
 
     pub fn write(id: u64, addr: u64, bytes: u32, kind: ReqKind) -> MemReq {
-        MemReq { id, addr, write: true, bytes, kind }
+        MemReq {
+            id,
+            addr,
+            write: true,
+            bytes,
+            kind,
+        }
     }
 
     /// The response that completes this request.
     pub fn response(&self) -> MemResp {
-        MemResp { id: self.id, addr: self.addr }
+        MemResp {
+            id: self.id,
+            addr: self.addr,
+        }
     }
 }
 
@@ -268,8 +286,16 @@ impl Default for MemParams {
     }
 }
 
-fn reject(parameter: &'static str, value: impl fmt::Display, reason: impl Into<String>) -> ConfigError {
-    ConfigError { parameter, value: value.to_string(), reason: reason.into() }
+fn reject(
+    parameter: &'static str,
+    value: impl fmt::Display,
+    reason: impl Into<String>,
+) -> ConfigError {
+    ConfigError {
+        parameter,
+        value: value.to_string(),
+        reason: reason.into(),
+    }
 }
 
 fn check_cache(
@@ -313,7 +339,10 @@ impl MemParams {
     /// The defaults with `shared_bytes` of the L1D array given to shared memory.
     pub fn with_shared_carveout(shared_bytes: u32) -> MemParams {
         let d = MemParams::default();
-        MemParams { l1d_bytes: d.l1d_bytes.saturating_sub(shared_bytes), ..d }
+        MemParams {
+            l1d_bytes: d.l1d_bytes.saturating_sub(shared_bytes),
+            ..d
+        }
     }
 
     /// Checks every parameter; the error names the first bad one.
@@ -321,7 +350,11 @@ impl MemParams {
         at_least("sms", self.sms, 1, "")?;
         let s = self.sector_bytes;
         if s < 4 || !s.is_power_of_two() {
-            return Err(reject("sector_bytes", s, "must be a power of two, at least 4"));
+            return Err(reject(
+                "sector_bytes",
+                s,
+                "must be a power of two, at least 4",
+            ));
         }
         let l = self.line_bytes;
         if !l.is_power_of_two() || l < s || l / s > 32 {
@@ -348,7 +381,12 @@ impl MemParams {
         at_least("l2_mshrs", self.l2_mshrs, 1, "")?;
         at_least("l2_mshr_merge", self.l2_mshr_merge, 1, "")?;
         at_least("l2_dram_queue", self.l2_dram_queue, 1, "")?;
-        at_least("dram_latency", self.dram_latency, 2, " (the request port and the response register)")?;
+        at_least(
+            "dram_latency",
+            self.dram_latency,
+            2,
+            " (the request port and the response register)",
+        )?;
         at_least("dram_bytes_per_cycle", self.dram_bytes_per_cycle, 1, "")?;
         at_least("dram_queue", self.dram_queue, 1, "")?;
         Ok(())
@@ -408,15 +446,63 @@ mod tests {
         let d = MemParams::default();
         let cases: Vec<(MemParams, &str)> = vec![
             (MemParams { sms: 0, ..d }, "sms"),
-            (MemParams { sector_bytes: 24, ..d }, "sector_bytes"),
-            (MemParams { line_bytes: 16, ..d }, "line_bytes"),
-            (MemParams { l1d_bytes: 1000, ..d }, "l1d_bytes"),
-            (MemParams { l2_bytes: 3 * 1024 * 1024 + 128, ..d }, "l2_bytes"),
-            (MemParams { l2_assoc: Assoc::Ways(0), ..d }, "l2_assoc"),
-            (MemParams { l1d_hit_latency: 0, ..d }, "l1d_hit_latency"),
+            (
+                MemParams {
+                    sector_bytes: 24,
+                    ..d
+                },
+                "sector_bytes",
+            ),
+            (
+                MemParams {
+                    line_bytes: 16,
+                    ..d
+                },
+                "line_bytes",
+            ),
+            (
+                MemParams {
+                    l1d_bytes: 1000,
+                    ..d
+                },
+                "l1d_bytes",
+            ),
+            (
+                MemParams {
+                    l2_bytes: 3 * 1024 * 1024 + 128,
+                    ..d
+                },
+                "l2_bytes",
+            ),
+            (
+                MemParams {
+                    l2_assoc: Assoc::Ways(0),
+                    ..d
+                },
+                "l2_assoc",
+            ),
+            (
+                MemParams {
+                    l1d_hit_latency: 0,
+                    ..d
+                },
+                "l1d_hit_latency",
+            ),
             (MemParams { l2_latency: 3, ..d }, "l2_latency"),
-            (MemParams { dram_latency: 0, ..d }, "dram_latency"),
-            (MemParams { dram_bytes_per_cycle: 0, ..d }, "dram_bytes_per_cycle"),
+            (
+                MemParams {
+                    dram_latency: 0,
+                    ..d
+                },
+                "dram_latency",
+            ),
+            (
+                MemParams {
+                    dram_bytes_per_cycle: 0,
+                    ..d
+                },
+                "dram_bytes_per_cycle",
+            ),
             (MemParams { l1d_mshrs: 0, ..d }, "l1d_mshrs"),
         ];
         for (p, name) in cases {

@@ -41,7 +41,11 @@ pub struct Mshr {
 impl Mshr {
     /// `capacity` entries of up to `max_merge` waiters each.
     pub fn new(capacity: u32, max_merge: u32) -> Mshr {
-        Mshr { entries: BTreeMap::new(), capacity: capacity as usize, max_merge: max_merge as usize }
+        Mshr {
+            entries: BTreeMap::new(),
+            capacity: capacity as usize,
+            max_merge: max_merge as usize,
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -95,7 +99,11 @@ mod tests {
     use crate::mem::testutil::XorShift;
 
     fn w(id: u64) -> Waiter {
-        Waiter { port: 0, id, addr: id * 4 }
+        Waiter {
+            port: 0,
+            id,
+            addr: id * 4,
+        }
     }
 
     #[test]
@@ -133,7 +141,11 @@ mod tests {
             let key = rng.below(8) * 32;
             if rng.below(3) == 0 {
                 let got: Vec<u64> = m.release(key).iter().map(|w| w.id).collect();
-                let want = r.iter().position(|(k, _)| *k == key).map(|i| r.remove(i).1).unwrap_or_default();
+                let want = r
+                    .iter()
+                    .position(|(k, _)| *k == key)
+                    .map(|i| r.remove(i).1)
+                    .unwrap_or_default();
                 if got != want {
                     return Err(format!("step {step}: released {got:?} vs {want:?}"));
                 }
