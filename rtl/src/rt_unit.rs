@@ -32,6 +32,19 @@
 //! responses the L1D shows this cycle). Each thread's next state is a function of its own
 //! state and those inputs, so the order in which threads are visited does not matter. A warp
 //! that finished leaves at the start of a cycle; a new job lands in a slot at the end.
+//!
+//! Simplified, and why:
+//! - Threads of a warp advance independently (no SIMT reconvergence): the RT unit works per ray,
+//!   and the scheduler merges whatever lanes of the picked warp are waiting to fetch.
+//! - The fetch unit handles one warp at a time: the scheduler picks the next warp only when the
+//!   sector queue has drained. The port takes one request per cycle anyway, so a deeper queue
+//!   would only reorder requests.
+//! - Operation units are unlimited (every ray in an operation unit counts down its own latency):
+//!   the traces carry no contention for them and the stack is what is under study.
+//! - The triangle-hit latency (8) is not applied: a trace's Visit does not say whether its
+//!   triangle was hit. The BVH header costs its latency but no fetch.
+//! - Node data is not modelled, only addresses; stack entries are (the stack manager moves real
+//!   values, which is how every pop is checked).
 
 use crate::bank_arbiter::BankArbiter;
 use crate::config::{Config, ConfigError};

@@ -320,3 +320,27 @@ fn speed() {
         );
     }
 }
+
+#[test]
+fn probes_name_every_unit_and_progress_is_reported() {
+    use rtl::trace::{Probe, Snapshot};
+    let gpu = Gpu::paper(Config::sms()).unwrap();
+    let mut s = Snapshot::default();
+    gpu.probe(&mut s);
+    for path in [
+        "sm0.rt_unit.warp_buffer.slot[0].valid",
+        "sm0.rt_unit.warp_buffer.slot[3].state[31]",
+        "sm7.rt_unit.scheduler.greedy",
+        "sm0.rt_unit.port.node",
+        "sm0.rt_unit.node_fetch.queue",
+        "sm0.rt_unit.stack_manager.warp[0].thread[0].top",
+        "sm0.rt_unit.bank_arbiter.conflict",
+        "sm0.rt_unit.mem_sched.queue",
+        "mem.l2.mshr_occupancy",
+    ] {
+        assert!(s.get(path).is_some(), "{path}");
+    }
+    let mut calls = Vec::new();
+    let r = gpu.run_with_progress(jobs(7, 4, 45), &mut NullSink, 1000, |p| calls.push(p.cycle)).unwrap();
+    assert!(calls.len() as u64 >= r.cycles / 1000 / 2 && calls.windows(2).all(|w| w[0] < w[1]));
+}
