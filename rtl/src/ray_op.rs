@@ -60,15 +60,20 @@ impl WarpJob {
     }
 
     /// Checks what the RT unit cannot run: a lane count other than `warp_size`, a node of zero
-    /// bytes. (Pops and pushes are checked against the stack as the job runs.)
+    /// bytes or one that runs past the end of the address space. (Pushes and pops are checked
+    /// against the stack as the job runs.)
     pub fn validate(&self, warp_size: u32) -> Result<(), String> {
         if self.lanes.len() != warp_size as usize {
             return Err(format!("{} lanes, the warp size is {warp_size}", self.lanes.len()));
         }
         for (l, ops) in self.lanes.iter().enumerate() {
             for (i, op) in ops.iter().flatten().enumerate() {
-                if let RayOp::Visit { bytes: 0, addr, .. } = op {
-                    return Err(format!("lane {l}, operation {i}: visit of {addr:#x} fetches 0 bytes"));
+                if let RayOp::Visit { bytes, addr, .. } = *op {
+                    if bytes == 0 || addr.checked_add(u64::from(bytes)).is_none() {
+                        return Err(format!(
+                            "lane {l}, operation {i}: visit of {bytes} bytes at {addr:#x} is not a node"
+                        ));
+                    }
                 }
             }
         }

@@ -272,6 +272,16 @@ pub struct RtStats {
     pub pops_checked: u64,
 }
 
+/// Greedy-then-oldest: the warp issued last if it is `ready`, else the ready warp of lowest `age`.
+fn gto(
+    greedy: Option<u32>,
+    warps: u32,
+    ready: impl Fn(u32) -> bool,
+    age: impl Fn(u32) -> u64,
+) -> Option<u32> {
+    greedy.filter(|&w| ready(w)).or_else(|| (0..warps).filter(|&w| ready(w)).min_by_key(|&w| age(w)))
+}
+
 /// The state a thread enters to perform operation `pos`.
 fn decode(ops: &[RayOp], pos: u32) -> ThreadState {
     match ops.get(pos as usize) {
@@ -412,17 +422,13 @@ impl RtUnit {
             }
         }
 
-        // GTO scheduler: when the fetch queue has drained, the greedy warp if it has lanes in
-        // Fetch, else the oldest warp that has.
+        // Scheduler: picks a warp in the cycle the fetch queue drains (the port taking the last
+        // piece is the queue's ready signal).
         self.scheduled = None;
         if self.fetch.queue_empty() {
             let ready = |w: u32| self.lanes[w as usize].fetch != 0;
-            let pick = self.greedy.filter(|&w| ready(w)).or_else(|| {
-                (0..self.cfg.warps)
-                    .filter(|&w| ready(w))
-                    .min_by_key(|&w| self.slots[w as usize].as_ref().map_or(u64::MAX, |s| s.age))
-            });
-            if let Some(w) = pick {
+            let age = |w: u32| self.slots[w as usize].as_ref().map_or(u64::MAX, |s| s.age);
+            if let Some(w) = gto(self.greedy, self.cfg.warps, ready, age) {
                 self.greedy = Some(w);
                 self.scheduled = Some(w);
                 let (slot, threads, mask) =
@@ -644,5 +650,36 @@ impl Probe for RtUnit {
         self.arb.probe(s);
         self.sched.probe(s);
         s.pop_scope();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gto_keeps_the_greedy_warp_then_takes_the_oldest() {
+        let ages = [7, 3, 9, 5];
+        let age = |w: u32| ages[w as usize];
+        let ready_mask = |m: u32| move |w: u32| m & (1 << w) != 0;
+        assert_eq!(gto(Some(2), 4, ready_mask(0b1111), age), Some(2), "greedy while ready");
+        assert_eq!(gto(Some(2), 4, ready_mask(0b1011), age), Some(1), "stalled: oldest ready");
+        assert_eq!(gto(None, 4, ready_mask(0b1001), age), Some(3));
+        assert_eq!(gto(Some(0), 4, ready_mask(0), age), None);
+    }
+
+    #[test]
+    fn latencies_follow_the_spec_defaults() {
+        let p = RtParams::default();
+        let kinds = [
+            NodeKind::Internal,
+            NodeKind::InstanceLeaf,
+            NodeKind::LeafDescriptor,
+            NodeKind::Triangle,
+            NodeKind::Procedural,
+        ];
+        assert_eq!(kinds.map(|k| p.latency(k)), [8, 8, 4, 8, 8]);
+        assert_eq!(p.bvh_header, 4);
+        p.validate().unwrap();
     }
 }
