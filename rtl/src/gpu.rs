@@ -102,6 +102,15 @@ impl Gpu {
         Gpu::new(cfg, RtParams::default(), MemParams::with_shared_carveout(shared_bytes(&cfg)))
     }
 
+    /// Every stack manager gets a deliberately broken variant (test builds).
+    #[cfg(feature = "mutants")]
+    pub fn with_mutant(mut self, m: crate::stack_manager::Mutant) -> Self {
+        for u in &mut self.units {
+            u.stack.mutant = Some(m);
+        }
+        self
+    }
+
     pub fn units(&self) -> &[RtUnit] {
         &self.units
     }

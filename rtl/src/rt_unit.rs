@@ -130,6 +130,9 @@ pub enum RunError {
     Stack { cycle: u64, sm: u32, error: StackError },
     /// A pop returned another address than the trace says was popped.
     PopMismatch { cycle: u64, sm: u32, thread: u32, expected: u64, got: u64 },
+    /// A warp left with stack state behind (RB, SH or global entries, or with reallocation a
+    /// stack not back with its finished owner): a stack-manager bug.
+    ExitNotEmpty { cycle: u64, sm: u32, thread: u32 },
     /// Work remains but nothing can ever happen again (a model bug).
     Stalled { cycle: u64 },
 }
@@ -143,6 +146,9 @@ impl std::fmt::Display for RunError {
                 f,
                 "cycle {cycle}, SM {sm}, thread {thread}: pop returned {got:#x}, trace popped {expected:#x}"
             ),
+            RunError::ExitNotEmpty { cycle, sm, thread } => {
+                write!(f, "cycle {cycle}, SM {sm}, thread {thread}: warp left with stack entries behind")
+            }
             RunError::Stalled { cycle } => write!(f, "cycle {cycle}: work remains but nothing can happen"),
         }
     }
@@ -411,10 +417,14 @@ impl RtUnit {
             self.store_seq += 1;
         }
 
-        // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves.
+        // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
+        // must leave nothing behind.
         for w in 0..self.cfg.warps {
             if self.slots[w as usize].is_some() && self.lanes[w as usize].live == 0 && self.stack.warp_done(w)
             {
+                if let Some(thread) = self.stack.warp_threads(w).find(|&t| !self.stack_clear(t)) {
+                    return Err(RunError::ExitNotEmpty { cycle: now, sm: self.id, thread });
+                }
                 self.slots[w as usize] = None;
                 if self.greedy == Some(w) {
                     self.greedy = None;
@@ -576,6 +586,16 @@ impl RtUnit {
         let event = self.lanes.iter().map(|m| m.busy_until).min().unwrap_or(u64::MAX);
         self.next_event = if acts_next { Some(now + 1) } else { (event != u64::MAX).then_some(event) };
         Ok(())
+    }
+
+    /// Thread `t` holds no stack entry anywhere, and with reallocation its own SH stack is idle
+    /// (back from any borrower).
+    fn stack_clear(&self, t: u32) -> bool {
+        let st = self.stack.stack(t);
+        self.stack.rb(t).is_empty()
+            && (self.cfg.sh_entries == 0 || st.empty)
+            && self.stack.thread(t).spill_ptr == 0
+            && (self.cfg.realloc.is_none() || st.idle)
     }
 
     /// Puts `job` in slot `w` (clock edge): its rays start with the BVH-header latency.

@@ -621,7 +621,7 @@ impl StackManager {
     fn claim_spill_slots(&mut self, t: u32, n: u32) -> Result<u32, StackError> {
         let limit = (1u32 << self.cfg.spill_ptr_bits.min(31)) - 1;
         let th = &mut self.threads[t as usize];
-        if th.spill_ptr + n > limit {
+        if th.spill_ptr.saturating_add(n) > limit {
             return Err(StackError::SpillRegionFull { thread: t, entries: limit });
         }
         let slot = th.spill_ptr;

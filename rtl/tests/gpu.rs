@@ -350,3 +350,35 @@ fn probes_name_every_unit_and_progress_is_reported() {
     let r = gpu.run_with_progress(jobs(7, 4, 45), &mut NullSink, 1000, |p| calls.push(p.cycle)).unwrap();
     assert!(calls.len() as u64 >= r.cycles / 1000 / 2 && calls.windows(2).all(|w| w[0] < w[1]));
 }
+
+/// Planted stack-manager bugs, run through whole GPUs: each must stop the run with an error
+/// (a wrong pop, a refused command or a warp leaving entries behind), never pass or panic.
+/// (`FlushKeepsCount` is left out: it changes only the Flush counter, which no pop can see; the
+/// proofs crate's invariants catch it.)
+#[cfg(feature = "mutants")]
+#[test]
+fn planted_stack_bugs_stop_the_run() {
+    use rtl::stack_manager::Mutant;
+    let work = jobs(8, 8, 45);
+    let cases = [
+        (Mutant::QueueWrapOffByOne, "RB_2+SH_4"),
+        (Mutant::ReloadWrongEntry, "RB_2+SH_4"),
+        (Mutant::SpillDropsEntry, "RB_2+SH_4"),
+        (Mutant::MissingGlobalReload, "RB_2+SH_4"),
+        (Mutant::SkipOverflowClear, "RB_2+SH_4"),
+        (Mutant::EarlyRelease, "RB_2+SH_4+SK+RA"),
+    ];
+    for (m, cfg) in cases {
+        let c: Config = cfg.parse().unwrap();
+        let clean = Gpu::paper(c).unwrap().run(work.clone(), &mut NullSink);
+        assert!(clean.is_ok(), "{cfg}: {clean:?}");
+        let r = Gpu::paper(c).unwrap().with_mutant(m).run(work.clone(), &mut NullSink);
+        assert!(
+            matches!(
+                r,
+                Err(RunError::PopMismatch { .. } | RunError::Stack { .. } | RunError::ExitNotEmpty { .. })
+            ),
+            "{m:?} on {cfg}: {r:?}"
+        );
+    }
+}
