@@ -32,6 +32,13 @@ pub fn shared_bytes(cfg: &Config) -> u32 {
     cfg.threads() * cfg.sh_entries * cfg.entry_bytes
 }
 
+/// `base` with its unified L1D/shared array of `base.l1d_bytes` split: the SH stacks' shared
+/// memory is carved out, the rest is L1D (SPEC 8: "shared memory is sized to exactly what the SH
+/// stacks need"). E.g. the L1D sweep: `carve_out(&cfg, MemParams { l1d_bytes: 16 << 10, ..d })`.
+pub fn carve_out(cfg: &Config, base: MemParams) -> MemParams {
+    MemParams { l1d_bytes: base.l1d_bytes.saturating_sub(shared_bytes(cfg)), ..base }
+}
+
 /// What a run cost. Plain data: identical inputs give an identical report.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GpuReport {
@@ -99,7 +106,7 @@ impl Gpu {
 
     /// SPEC 7 defaults: 8 SMs, the L1D is 64 KB less the SH stacks' shared memory.
     pub fn paper(cfg: Config) -> Result<Gpu, ConfigError> {
-        Gpu::new(cfg, RtParams::default(), MemParams::with_shared_carveout(shared_bytes(&cfg)))
+        Gpu::new(cfg, RtParams::default(), carve_out(&cfg, MemParams::default()))
     }
 
     /// Every stack manager gets a deliberately broken variant (test builds).

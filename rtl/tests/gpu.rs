@@ -3,7 +3,7 @@
 //! checked, a planted wrong pop caught, idle skipping equal to stepping).
 
 use rtl::config::Config;
-use rtl::gpu::{shared_bytes, Gpu, GpuReport};
+use rtl::gpu::{carve_out, Gpu, GpuReport};
 use rtl::mem::MemParams;
 use rtl::ray_op::{NodeKind, RayOp, WarpJob};
 use rtl::rt_unit::{RtParams, RunError};
@@ -83,8 +83,7 @@ fn jobs(seed: u64, warps: usize, hit: u64) -> Vec<WarpJob> {
 
 fn run_with(cfg: &str, mem: MemParams, rt: RtParams, work: Vec<WarpJob>) -> Result<GpuReport, RunError> {
     let cfg: Config = cfg.parse().unwrap();
-    let mem = MemParams { l1d_bytes: mem.l1d_bytes - shared_bytes(&cfg), ..mem };
-    Gpu::new(cfg, rt, mem).unwrap().run(work, &mut NullSink)
+    Gpu::new(cfg, rt, carve_out(&cfg, mem)).unwrap().run(work, &mut NullSink)
 }
 
 /// The paper's memory system with a small L2, so spilled lines do reach DRAM.
@@ -357,6 +356,7 @@ fn probes_name_every_unit_and_progress_is_reported() {
     let gpu = Gpu::paper(Config::sms()).unwrap();
     let mut s = Snapshot::default();
     gpu.probe(&mut s);
+    assert_eq!(gpu.memory().params().l1d_bytes, 56 << 10, "SMS carves 8 KB out of 64 KB");
     for path in [
         "sm0.rt_unit.warp_buffer.slot[0].valid",
         "sm0.rt_unit.warp_buffer.slot[3].state[31]",
