@@ -406,3 +406,28 @@ fn planted_stack_bugs_stop_the_run() {
         );
     }
 }
+
+/// The port gives the stack's requests priority over queued node pieces. RB_2, no SH: lane 0
+/// pushes three entries (the third spills the oldest to global memory) and pops them, while
+/// lanes 1–31 each fetch their own sector. Derivation: header until 4; cycle 5 the warp is
+/// scheduled (31 pieces, sent from 6) and lane 0 pushes 1; 6 pushes 2; 7 pushes 3, which plans
+/// a global store; 8 the sequencer issues it to the memory scheduler; 9 the port sends it
+/// instead of a node piece, and the sequencer is free again, so lane 0 pops 3, planning a
+/// reload of 1; 10 the reload is issued; 11 the port sends it. The 31 node pieces take cycles
+/// 6–8, 10 and 12–38.
+#[test]
+fn stack_requests_go_before_node_pieces() {
+    let mut lanes: Vec<Option<Vec<RayOp>>> = (0..32)
+        .map(|l| Some(vec![RayOp::Visit { addr: 0x8000 + 32 * l, kind: NodeKind::Triangle, bytes: 32 }]))
+        .collect();
+    lanes[0] = Some([1, 2, 3].map(RayOp::Push).into_iter().chain([3, 2, 1].map(RayOp::Pop)).collect());
+    let cfg: Config = "RB_2".parse().unwrap();
+    let run = |path| {
+        let mut watch = Watch::new(path);
+        let job = WarpJob { lanes: lanes.clone() };
+        Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![job], &mut watch).unwrap();
+        watch.changes
+    };
+    assert_eq!(run("sm0.rt_unit.port.stack"), [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)]);
+    assert_eq!(run("sm0.rt_unit.port.node"), [(0, 0), (6, 1), (9, 0), (10, 1), (11, 0), (12, 1), (39, 0)]);
+}
