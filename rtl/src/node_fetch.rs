@@ -71,10 +71,6 @@ impl NodeFetch {
         self.queue.is_empty()
     }
 
-    pub fn queue_len(&self) -> usize {
-        self.queue.len()
-    }
-
     /// Requests in flight in memory or queued.
     pub fn outstanding(&self) -> usize {
         self.waiters.len() - self.free.len()

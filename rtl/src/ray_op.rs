@@ -28,13 +28,6 @@ pub enum NodeKind {
     Procedural,
 }
 
-impl NodeKind {
-    /// Waveform encoding (3 bits).
-    pub fn code(self) -> u64 {
-        self as u64
-    }
-}
-
 /// One step of a ray's traversal, in RT-unit order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RayOp {
