@@ -13,8 +13,12 @@
 
 pub mod bank_arbiter;
 pub mod config;
+pub mod gpu;
 pub mod mem;
 pub mod mem_sched;
+pub mod node_fetch;
+pub mod ray_op;
+pub mod rt_unit;
 pub mod stack_manager;
 pub mod stack_unit;
 pub mod trace;

@@ -194,6 +194,23 @@ pub struct StackStats {
 }
 
 impl StackStats {
+    /// Adds `o`'s counts to these (totals over RT units).
+    pub fn add(&mut self, o: &StackStats) {
+        self.pushes += o.pushes;
+        self.pops += o.pops;
+        self.rb_to_sh += o.rb_to_sh;
+        self.sh_to_rb += o.sh_to_rb;
+        self.sh_to_global += o.sh_to_global;
+        self.global_to_sh += o.global_to_sh;
+        self.rb_to_global += o.rb_to_global;
+        self.global_to_rb += o.global_to_rb;
+        self.borrows += o.borrows;
+        self.releases += o.releases;
+        self.flushes += o.flushes;
+        self.flushes_saturated += o.flushes_saturated;
+        self.demotions += o.demotions;
+    }
+
     pub fn sh_loads(&self) -> u64 {
         self.sh_to_rb + self.sh_to_global
     }
@@ -265,6 +282,8 @@ pub struct StackManager {
     stacks: Vec<StackRegs>,
     rb: Vec<VecDeque<Entry>>,
     seq: Vec<Sequencer>,
+    /// Bit t: thread t has micro-ops queued (derived from `seq`, so a cycle visits only those).
+    queued: Vec<u64>,
     sh_data: Vec<Entry>,
     global: Vec<Vec<Entry>>,
     /// Per-cycle outputs of the last `step`.
@@ -290,6 +309,7 @@ impl StackManager {
             stacks: vec![StackRegs::default(); n],
             rb: vec![VecDeque::new(); n],
             seq: vec![Sequencer::default(); n],
+            queued: vec![0; n.div_ceil(64)],
             sh_data: vec![0; n * cfg.sh_entries as usize],
             global: vec![Vec::new(); n],
             sh_out: Vec::new(),
@@ -345,6 +365,14 @@ impl StackManager {
     pub fn ready(&self, t: u32) -> bool {
         let q = &self.seq[t as usize];
         q.uops.is_empty() && q.inflight.is_none()
+    }
+    /// Some thread will issue a micro-op in the next `step` without waiting for a completion
+    /// (it has micro-ops queued and none in flight). When false, every busy thread waits on the
+    /// bank arbiter or on global memory.
+    pub fn can_issue(&self) -> bool {
+        self.queued.iter().enumerate().any(|(word, &bits)| {
+            (0..64).any(|b| bits & (1 << b) != 0 && self.seq[word * 64 + b].inflight.is_none())
+        })
     }
     /// No thread has work in flight.
     pub fn quiescent(&self) -> bool {
@@ -415,6 +443,7 @@ impl StackManager {
             };
             self.rb[t].clear();
             self.seq[t] = Sequencer::default();
+            self.sync_queued(t as u32);
             self.global[t].clear();
         }
     }
@@ -579,12 +608,22 @@ impl StackManager {
 
     fn emit(&mut self, t: u32, u: Uop) {
         self.seq[t as usize].uops.push_back(u);
+        self.sync_queued(t);
+    }
+
+    fn sync_queued(&mut self, t: u32) {
+        let (word, bit) = ((t / 64) as usize, 1u64 << (t % 64));
+        if self.seq[t as usize].uops.is_empty() {
+            self.queued[word] &= !bit;
+        } else {
+            self.queued[word] |= bit;
+        }
     }
 
     fn claim_spill_slots(&mut self, t: u32, n: u32) -> Result<u32, StackError> {
         let limit = (1u32 << self.cfg.spill_ptr_bits.min(31)) - 1;
         let th = &mut self.threads[t as usize];
-        if th.spill_ptr + n > limit {
+        if th.spill_ptr.saturating_add(n) > limit {
             return Err(StackError::SpillRegionFull { thread: t, entries: limit });
         }
         let slot = th.spill_ptr;
@@ -833,6 +872,7 @@ impl StackManager {
     pub fn complete_next(&mut self, t: u32) -> bool {
         match self.seq[t as usize].uops.pop_front() {
             Some(u) => {
+                self.sync_queued(t);
                 self.complete(t, u);
                 true
             }
@@ -858,6 +898,7 @@ impl StackManager {
         while let Some(u) = self.seq[t as usize].uops.pop_front() {
             self.complete(t, u);
         }
+        self.sync_queued(t);
         Ok(r)
     }
 
@@ -879,6 +920,7 @@ impl StackManager {
         let Some(u) = self.seq[t as usize].uops.pop_front() else {
             return;
         };
+        self.sync_queued(t);
         match u {
             Uop::ShLoad { stack, entry } => {
                 let r = self.sh_request(t, stack, entry, false);
@@ -920,8 +962,13 @@ impl StackManager {
                 self.complete(t, u);
             }
         }
-        for t in 0..self.cfg.threads() {
-            self.issue(t);
+        for word in 0..self.queued.len() {
+            let mut bits = self.queued[word];
+            while bits != 0 {
+                let t = word as u32 * 64 + bits.trailing_zeros();
+                bits &= bits - 1;
+                self.issue(t);
+            }
         }
         for &(t, cmd) in cmds {
             self.cmds_seen.push((t, cmd));

@@ -1,0 +1,255 @@
+//! The GPU: `sms` SMs, one RT unit each, sharing one memory system (per-SM L1D, one L2, DRAM).
+//!
+//! ```text
+//!  warp jobs ──► dispatcher (round-robin over SMs with a free warp slot, ≤ 1 job per SM per cycle)
+//!                   │
+//!        ┌──────────┼──────────────┐
+//!        ▼          ▼              ▼
+//!     RT unit 0  RT unit 1  …  RT unit n-1      each: offer ≤ 1 request, then step on responses
+//!        │          │              │
+//!        └──────────┴── MemSystem ─┘  (eval: ready + responses per SM; commit: clock edge)
+//! ```
+//!
+//! Dispatch is a kernel launch's: job i goes to the next SM after the one that took job i-1 that
+//! has a free warp slot, so at launch SM k gets jobs k, k + n, k + 2n, … and later jobs go wherever
+//! a warp left. Every decision reads registers: a slot freed in cycle c takes a job in c + 1.
+//!
+//! Idle skipping: after each cycle every RT unit reports the next cycle in which it acts without
+//! a memory response, and the memory system its next event; the run jumps to the earliest. The
+//! skipped cycles would have changed nothing, so the report is identical to stepping every cycle
+//! (tested). Skipping is off while a waveform sink is enabled, so the dump has every cycle.
+
+use crate::config::{Config, ConfigError};
+use crate::mem::hierarchy::MemSystem;
+use crate::mem::{Counters, MemParams, MemReq, ReqKind};
+use crate::ray_op::WarpJob;
+use crate::rt_unit::{RtParams, RtUnit, RunError};
+use crate::stack_manager::StackStats;
+use crate::trace::{Probe, Sink};
+
+/// Shared memory the SH stacks of one RT unit need: threads × M × entry bytes.
+pub fn shared_bytes(cfg: &Config) -> u32 {
+    cfg.threads() * cfg.sh_entries * cfg.entry_bytes
+}
+
+/// `base` with its unified L1D/shared array of `base.l1d_bytes` split: the SH stacks' shared
+/// memory is carved out, the rest is L1D (SPEC 8: "shared memory is sized to exactly what the SH
+/// stacks need"). E.g. the L1D sweep: `carve_out(&cfg, MemParams { l1d_bytes: 16 << 10, ..d })`.
+pub fn carve_out(cfg: &Config, base: MemParams) -> MemParams {
+    MemParams { l1d_bytes: base.l1d_bytes.saturating_sub(shared_bytes(cfg)), ..base }
+}
+
+/// What a run cost. Plain data: identical inputs give an identical report.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GpuReport {
+    pub cycles: u64,
+    /// Cycles actually evaluated (the rest were skipped as idle); equals `cycles` without
+    /// skipping.
+    pub evaluated_cycles: u64,
+    pub warps: u64,
+    pub rays: u64,
+    /// Visit operations of all rays, before merging.
+    pub visits: u64,
+    /// Node sector requests sent to the L1Ds (after merging within warps).
+    pub node_fetches: u64,
+    /// Off-chip (DRAM) accesses caused by node fetches.
+    pub dram_node: u64,
+    /// Off-chip accesses caused by stack spills and reloads (including write-backs of spilled
+    /// lines).
+    pub dram_stack: u64,
+    pub l1d_hit_rate: f64,
+    pub l2_hit_rate: f64,
+    /// Stack manager counters summed over SMs.
+    pub stack: StackStats,
+    /// Bank-conflict delay cycles summed over SMs.
+    pub bank_conflict_cycles: u64,
+    pub pops_checked: u64,
+}
+
+/// Passed to the progress callback.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    pub cycle: u64,
+    pub warps_dispatched: u64,
+}
+
+fn hit_rate(c: &Counters) -> f64 {
+    if c.accesses == 0 {
+        0.0
+    } else {
+        c.hits as f64 / c.accesses as f64
+    }
+}
+
+pub struct Gpu {
+    cfg: Config,
+    rt: RtParams,
+    units: Vec<RtUnit>,
+    mem: MemSystem,
+    /// Next SM the dispatcher tries.
+    rr: usize,
+    /// Scratch, reused every cycle.
+    reqs: Vec<Option<MemReq>>,
+    jobs_in: Vec<Option<WarpJob>>,
+}
+
+impl Gpu {
+    /// `mem.sms` SMs with stack configuration `cfg`.
+    pub fn new(cfg: Config, rt: RtParams, mem: MemParams) -> Result<Gpu, ConfigError> {
+        let sys = MemSystem::new(mem)?;
+        let units = (0..mem.sms)
+            .map(|sm| RtUnit::new(sm, cfg, rt, mem.sector_bytes))
+            .collect::<Result<Vec<_>, _>>()?;
+        let n = units.len();
+        Ok(Gpu { cfg, rt, units, mem: sys, rr: 0, reqs: vec![None; n], jobs_in: vec![None; n] })
+    }
+
+    /// SPEC 7 defaults: 8 SMs, the L1D is 64 KB less the SH stacks' shared memory.
+    pub fn paper(cfg: Config) -> Result<Gpu, ConfigError> {
+        Gpu::new(cfg, RtParams::default(), carve_out(&cfg, MemParams::default()))
+    }
+
+    /// Every stack manager gets a deliberately broken variant (test builds).
+    #[cfg(feature = "mutants")]
+    pub fn with_mutant(mut self, m: crate::stack_manager::Mutant) -> Self {
+        for u in &mut self.units {
+            u.stack.mutant = Some(m);
+        }
+        self
+    }
+
+    pub fn units(&self) -> &[RtUnit] {
+        &self.units
+    }
+
+    pub fn memory(&self) -> &MemSystem {
+        &self.mem
+    }
+
+    /// Runs every job to completion. Every pop is checked against its trace; the first problem
+    /// stops the run.
+    pub fn run<S: Sink>(
+        self,
+        jobs: impl IntoIterator<Item = WarpJob>,
+        sink: &mut S,
+    ) -> Result<GpuReport, RunError> {
+        self.run_with_progress(jobs, sink, u64::MAX, |_| {})
+    }
+
+    /// As [`Gpu::run`], calling `progress` about every `every` cycles.
+    pub fn run_with_progress<S: Sink>(
+        mut self,
+        jobs: impl IntoIterator<Item = WarpJob>,
+        sink: &mut S,
+        every: u64,
+        mut progress: impl FnMut(Progress),
+    ) -> Result<GpuReport, RunError> {
+        let mut jobs = jobs.into_iter().peekable();
+        let n = self.units.len();
+        let mut dispatched = 0u64;
+        let mut next_report = every;
+        let mut evaluated = 0;
+        loop {
+            let now = self.mem.cycle();
+            // Dispatch (reads the slots' registers).
+            let start = self.rr;
+            for k in 0..n {
+                let sm = (start + k) % n;
+                if self.units[sm].free_slot().is_none() {
+                    continue;
+                }
+                let Some(job) = jobs.next() else { break };
+                job.validate(self.cfg.warp_size)
+                    .map_err(|reason| RunError::BadJob { job: dispatched, reason })?;
+                self.jobs_in[sm] = Some(job);
+                dispatched += 1;
+                self.rr = (sm + 1) % n;
+            }
+            let more_jobs = jobs.peek().is_some();
+            if !more_jobs && self.jobs_in.iter().all(Option::is_none) && self.units.iter().all(RtUnit::empty)
+            {
+                break;
+            }
+            for (sm, u) in self.units.iter_mut().enumerate() {
+                self.reqs[sm] = u.offer(self.mem.ready(sm));
+            }
+            let out = self.mem.eval(&self.reqs);
+            evaluated += 1;
+            for (sm, u) in self.units.iter_mut().enumerate() {
+                u.step(
+                    now,
+                    out[sm].ready && self.reqs[sm].is_some(),
+                    &out[sm].resp,
+                    self.jobs_in[sm].take(),
+                )?;
+            }
+            if sink.enabled() {
+                sink.begin_cycle(now);
+                self.probe(sink);
+            }
+            self.mem.commit();
+            let dispatch_next = more_jobs && self.units.iter().any(|u| u.free_slot().is_some());
+            let next = self
+                .units
+                .iter()
+                .filter_map(RtUnit::next_event)
+                .chain(self.mem.next_event_cycle())
+                .chain(dispatch_next.then_some(now + 1))
+                .min();
+            match next {
+                None if more_jobs || !self.units.iter().all(RtUnit::empty) => {
+                    return Err(RunError::Stalled { cycle: now });
+                }
+                Some(at) if self.rt.idle_skip && !sink.enabled() && at > self.mem.cycle() => {
+                    self.mem.skip_to(at)
+                }
+                _ => {}
+            }
+            if self.mem.cycle() >= next_report {
+                progress(Progress { cycle: self.mem.cycle(), warps_dispatched: dispatched });
+                next_report = self.mem.cycle().saturating_add(every);
+            }
+        }
+        Ok(GpuReport { evaluated_cycles: evaluated, ..self.report() })
+    }
+
+    fn report(&self) -> GpuReport {
+        let dram = self.mem.dram().counters();
+        let mut stack = StackStats::default();
+        for u in &self.units {
+            stack.add(&u.stack.stats);
+        }
+        let sum = |f: fn(&RtUnit) -> u64| self.units.iter().map(f).sum::<u64>();
+        GpuReport {
+            cycles: self.mem.cycle(),
+            evaluated_cycles: 0,
+            warps: sum(|u| u.stats.warps),
+            rays: sum(|u| u.stats.rays),
+            visits: sum(|u| u.stats.visits),
+            node_fetches: sum(|u| u.fetch.requests),
+            dram_node: dram.kind(ReqKind::NodeFetch).accesses,
+            dram_stack: dram.kind(ReqKind::StackSpill).accesses + dram.kind(ReqKind::StackReload).accesses,
+            l1d_hit_rate: hit_rate(&self.mem.l1d_counters()),
+            l2_hit_rate: hit_rate(self.mem.l2().counters()),
+            stack,
+            bank_conflict_cycles: sum(|u| u.arb.conflict_cycles),
+            pops_checked: sum(|u| u.stats.pops_checked),
+        }
+    }
+}
+
+impl Probe for Gpu {
+    fn probe<S: Sink>(&self, s: &mut S) {
+        if !s.enabled() {
+            return;
+        }
+        for (sm, u) in self.units.iter().enumerate() {
+            s.push_scope(&format!("sm{sm}"));
+            u.probe(s);
+            s.pop_scope();
+        }
+        s.push_scope("mem");
+        self.mem.probe(s);
+        s.pop_scope();
+    }
+}

@@ -1,0 +1,176 @@
+//! Node fetch unit: turns one scheduled warp's node visits into sector requests.
+//!
+//! ```text
+//!  scheduled warp ──► coalesce: split each lane's node into sector pieces, merge identical
+//!  (lanes, addr,        pieces across lanes (one request, a lane mask of waiters)
+//!   bytes)                 │
+//!                          ▼
+//!                    request queue ──(head, when the port takes it)──► memory (id = slot)
+//!                                                                          │
+//!  lanes to wake ◄── waiter table [slot] = (warp, lane mask) ◄── response ─┘
+//! ```
+//!
+//! Why: Vulkan-Sim merges identical node addresses within a warp and fetches in 32-byte sectors;
+//! a node spanning two sectors costs two requests. Every lane waits for one response per piece
+//! of its node, so a lane's node is complete when it has counted all its pieces. The waiter table
+//! is a slab with a free list: slots are reused, nothing is allocated once it has grown to the
+//! largest number of pieces in flight.
+
+use std::collections::VecDeque;
+
+use crate::mem::{MemReq, ReqKind};
+use crate::trace::{Probe, Sink};
+
+/// One queued sector request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Piece {
+    addr: u64,
+    bytes: u32,
+    slot: u32,
+}
+
+/// Who waits for a piece.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Waiters {
+    warp: u32,
+    lanes: u32,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct NodeFetch {
+    sector_bytes: u64,
+    queue: VecDeque<Piece>,
+    waiters: Vec<Waiters>,
+    free: Vec<u32>,
+    /// Scratch for coalescing: (addr, bytes, lanes).
+    merge: Vec<(u64, u32, u32)>,
+    /// Sector requests handed to memory.
+    pub requests: u64,
+    /// Lane pieces that joined another lane's request.
+    pub merged: u64,
+}
+
+/// Number of sector pieces of a node of `bytes` bytes at `addr`.
+pub fn pieces(addr: u64, bytes: u32, sector_bytes: u64) -> u32 {
+    let first = addr / sector_bytes;
+    let last = (addr + u64::from(bytes.max(1)) - 1) / sector_bytes;
+    (last - first + 1) as u32
+}
+
+impl NodeFetch {
+    pub fn new(sector_bytes: u32) -> Self {
+        NodeFetch { sector_bytes: u64::from(sector_bytes), ..Default::default() }
+    }
+
+    pub fn sector_bytes(&self) -> u64 {
+        self.sector_bytes
+    }
+
+    /// No request waiting for the port.
+    pub fn queue_empty(&self) -> bool {
+        self.queue.is_empty()
+    }
+
+    /// Requests in flight in memory or queued.
+    pub fn outstanding(&self) -> usize {
+        self.waiters.len() - self.free.len()
+    }
+
+    /// The request offered to memory this cycle; its id is `slot << 2 | tag`.
+    pub fn head(&self, tag: u64) -> Option<MemReq> {
+        self.queue
+            .front()
+            .map(|p| MemReq::read(u64::from(p.slot) << 2 | tag, p.addr, p.bytes, ReqKind::NodeFetch))
+    }
+
+    /// The port took the head.
+    pub fn taken(&mut self) {
+        self.queue.pop_front();
+        self.requests += 1;
+    }
+
+    /// Queues the pieces of `warp`'s visits `(lane, addr, bytes)`, merged, in order of first
+    /// appearance (lane order, then address order within a node).
+    pub fn coalesce(&mut self, warp: u32, visits: impl Iterator<Item = (u32, u64, u32)>) {
+        self.merge.clear();
+        let s = self.sector_bytes;
+        for (lane, addr, bytes) in visits {
+            let end = addr + u64::from(bytes.max(1));
+            let mut a = addr;
+            while a < end {
+                let piece_end = end.min((a / s + 1) * s);
+                let n = (piece_end - a) as u32;
+                match self.merge.iter_mut().find(|m| m.0 == a && m.1 == n) {
+                    Some(m) => {
+                        m.2 |= 1 << lane;
+                        self.merged += 1;
+                    }
+                    None => self.merge.push((a, n, 1 << lane)),
+                }
+                a = piece_end;
+            }
+        }
+        for i in 0..self.merge.len() {
+            let (addr, bytes, lanes) = self.merge[i];
+            let w = Waiters { warp, lanes };
+            let slot = match self.free.pop() {
+                Some(slot) => {
+                    self.waiters[slot as usize] = w;
+                    slot
+                }
+                None => {
+                    self.waiters.push(w);
+                    (self.waiters.len() - 1) as u32
+                }
+            };
+            self.queue.push_back(Piece { addr, bytes, slot });
+        }
+    }
+
+    /// A response for request id `id`: frees its slot, returns (warp, lanes) to wake.
+    pub fn complete(&mut self, id: u64) -> (u32, u32) {
+        let slot = (id >> 2) as u32;
+        self.free.push(slot);
+        let w = self.waiters[slot as usize];
+        (w.warp, w.lanes)
+    }
+}
+
+impl Probe for NodeFetch {
+    fn probe<S: Sink>(&self, s: &mut S) {
+        if !s.enabled() {
+            return;
+        }
+        s.push_scope("node_fetch");
+        s.signal("queue", 16, self.queue.len() as u64);
+        s.signal("head_addr", crate::mem::ADDR_BITS, self.queue.front().map_or(0, |p| p.addr));
+        s.signal("outstanding", 16, self.outstanding() as u64);
+        s.pop_scope();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nodes_split_into_sector_pieces_and_identical_pieces_merge() {
+        assert_eq!(pieces(0x40, 64, 32), 2);
+        assert_eq!(pieces(0x48, 8, 32), 1);
+        assert_eq!(pieces(0x30, 32, 32), 2, "straddles a sector boundary");
+        let mut f = NodeFetch::new(32);
+        // Lanes 0 and 1 visit the same 64-byte node, lane 2 one straddling two sectors.
+        f.coalesce(3, [(0, 0x100, 64), (1, 0x100, 64), (2, 0x210, 32)].into_iter());
+        let reqs: Vec<(u64, u32)> = std::iter::from_fn(|| {
+            let r = f.head(0)?;
+            f.taken();
+            Some((r.addr, r.bytes))
+        })
+        .collect();
+        assert_eq!(reqs, [(0x100, 32), (0x120, 32), (0x210, 16), (0x220, 16)]);
+        assert_eq!((f.requests, f.merged), (4, 2));
+        assert_eq!(f.complete(0), (3, 0b011));
+        assert_eq!(f.complete(2 << 2), (3, 0b100));
+        assert_eq!(f.outstanding(), 2);
+    }
+}

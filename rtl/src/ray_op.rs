@@ -1,0 +1,75 @@
+//! The RT unit's stimulus: one ray's traversal as the RT unit performs it.
+//!
+//! ```text
+//!   BVH traversal trace ──(testbench)──► WarpJob { lanes: [Option<[RayOp]>; warp_size] }
+//!                                              │
+//!        Visit ─► node fetch (sectors) ─► operation unit latency of its kind
+//!        Push  ─► stack manager push
+//!        Pop   ─► stack manager pop; the answer must equal the address given here
+//!        (end) ─► Finish
+//! ```
+//!
+//! A trace says *what* a ray does; the RT unit decides *when*. Keeping the popped address in the
+//! trace lets the unit check every pop of the stack design under test against the traversal
+//! that produced the trace.
+
+/// Which operation unit a visited node goes to (SPEC section 7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum NodeKind {
+    /// Internal node: ray-box tests of its children.
+    Internal,
+    /// Instance leaf: transform the ray into the instance's space.
+    InstanceLeaf,
+    /// Leaf descriptor, fetched before the primitive it describes.
+    LeafDescriptor,
+    /// Ray-triangle test.
+    Triangle,
+    /// Procedural primitive (custom intersection).
+    Procedural,
+}
+
+/// One step of a ray's traversal, in RT-unit order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RayOp {
+    /// Fetch `bytes` bytes at `addr`, then spend the operation latency of `kind`.
+    Visit { addr: u64, kind: NodeKind, bytes: u32 },
+    /// Push a node address on the ray's stack.
+    Push(u64),
+    /// Pop the ray's stack; the stack must return this address.
+    Pop(u64),
+}
+
+/// One warp's rays: exactly `warp_size` lanes, `None` for an inactive lane. After its last
+/// operation a lane sends Finish (its stack must then be empty).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct WarpJob {
+    pub lanes: Vec<Option<Vec<RayOp>>>,
+}
+
+impl WarpJob {
+    /// Bit `l` set: lane `l` is active.
+    pub fn active_mask(&self) -> u32 {
+        self.lanes.iter().enumerate().fold(0, |m, (l, ops)| m | u32::from(ops.is_some()) << l)
+    }
+
+    /// Checks what the RT unit cannot run: a lane count other than `warp_size`, a node of zero
+    /// bytes or one that runs past the end of the address space. (Pushes and pops are checked
+    /// against the stack as the job runs.)
+    pub fn validate(&self, warp_size: u32) -> Result<(), String> {
+        if self.lanes.len() != warp_size as usize {
+            return Err(format!("{} lanes, the warp size is {warp_size}", self.lanes.len()));
+        }
+        for (l, ops) in self.lanes.iter().enumerate() {
+            for (i, op) in ops.iter().flatten().enumerate() {
+                if let RayOp::Visit { bytes, addr, .. } = *op {
+                    if bytes == 0 || addr.checked_add(u64::from(bytes)).is_none() {
+                        return Err(format!(
+                            "lane {l}, operation {i}: visit of {bytes} bytes at {addr:#x} is not a node"
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}

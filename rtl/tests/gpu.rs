@@ -1,0 +1,433 @@
+//! Cycle-level RT unit and GPU: hand-worked timing, merging, the one-request port, and sanity of
+//! whole runs on synthetic traversals (monotonicity in stack size, determinism, every pop
+//! checked, a planted wrong pop caught, idle skipping equal to stepping).
+
+use rtl::config::Config;
+use rtl::gpu::{carve_out, Gpu, GpuReport};
+use rtl::mem::MemParams;
+use rtl::ray_op::{NodeKind, RayOp, WarpJob};
+use rtl::rt_unit::{RtParams, RunError};
+use rtl::trace::{NullSink, Sink};
+
+/// Tiny deterministic generator (SplitMix64).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut x = self.0;
+        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        x ^ (x >> 31)
+    }
+    fn chance(&mut self, percent: u64) -> bool {
+        self.next() % 100 < percent
+    }
+}
+
+const ARITY: u64 = 4;
+const DEPTH: u32 = 6;
+const NODES: u64 = 0x1000_0000;
+const LEAF_DESCS: u64 = 0x4000_0000;
+const TRIANGLES: u64 = 0x5000_0000;
+
+/// A random depth-first walk of a complete 4-ary tree of depth 6, as the RT unit would perform
+/// it: internal nodes hit each child with `hit` percent chance, the nearest hit child is visited
+/// next and the others pushed; a leaf fetches its descriptor and triangle; then the stack is
+/// popped until empty. Node `i` (heap order) lives at `NODES + 64 i`.
+fn ray(rng: &mut Rng, hit: u64) -> Vec<RayOp> {
+    let mut ops = Vec::new();
+    let mut stack = Vec::new();
+    let first_leaf = (ARITY.pow(DEPTH) - 1) / (ARITY - 1);
+    let mut cur = Some(0u64);
+    while let Some(i) = cur {
+        if i >= first_leaf {
+            ops.push(RayOp::Visit {
+                addr: LEAF_DESCS + (i - first_leaf) * 8,
+                kind: NodeKind::LeafDescriptor,
+                bytes: 8,
+            });
+            ops.push(RayOp::Visit {
+                addr: TRIANGLES + (i - first_leaf) * 64,
+                kind: NodeKind::Triangle,
+                bytes: 64,
+            });
+            cur = None;
+        } else {
+            ops.push(RayOp::Visit { addr: NODES + i * 64, kind: NodeKind::Internal, bytes: 64 });
+            let hits: Vec<u64> = (1..=ARITY).map(|c| ARITY * i + c).filter(|_| rng.chance(hit)).collect();
+            cur = hits.first().copied();
+            for &c in hits.iter().skip(1).rev() {
+                ops.push(RayOp::Push(NODES + c * 64));
+                stack.push(c);
+            }
+        }
+        if cur.is_none() {
+            cur = stack.pop();
+            if let Some(c) = cur {
+                ops.push(RayOp::Pop(NODES + c * 64));
+            }
+        }
+    }
+    ops
+}
+
+fn jobs(seed: u64, warps: usize, hit: u64) -> Vec<WarpJob> {
+    let mut rng = Rng(seed);
+    (0..warps)
+        .map(|w| WarpJob {
+            lanes: (0..32).map(|l| (w % 5 != 4 || l % 3 != 0).then(|| ray(&mut rng, hit))).collect(),
+        })
+        .collect()
+}
+
+fn run_with(cfg: &str, mem: MemParams, rt: RtParams, work: Vec<WarpJob>) -> Result<GpuReport, RunError> {
+    let cfg: Config = cfg.parse().unwrap();
+    Gpu::new(cfg, rt, carve_out(&cfg, mem)).unwrap().run(work, &mut NullSink)
+}
+
+/// The paper's memory system with a small L2, so spilled lines do reach DRAM.
+fn small_l2() -> MemParams {
+    MemParams { l2_bytes: 64 * 1024, ..MemParams::default() }
+}
+
+fn run(cfg: &str, work: Vec<WarpJob>) -> GpuReport {
+    run_with(cfg, small_l2(), RtParams::default(), work).unwrap()
+}
+
+fn one_sm() -> MemParams {
+    MemParams { sms: 1, ..MemParams::default() }
+}
+
+fn single_warp(lane0: Vec<RayOp>) -> WarpJob {
+    let mut lanes = vec![None; 32];
+    lanes[0] = Some(lane0);
+    WarpJob { lanes }
+}
+
+/// One ray, one SM, RB_8, default latencies. Derivation (cycle c: what happens in it; a state
+/// set in cycle c is seen from c + 1):
+///
+/// -    0: the job is dispatched; the lane is Busy with the BVH header (4) until cycle 4.
+/// -    4: header done, next op Visit root → Fetch.
+/// -    5: GTO picks warp 0; the 64-byte root is two sector requests, queued.
+/// -  6, 7: the port sends sector 0, then sector 1 (one request per cycle).
+/// - 266, 267: their responses (L1D miss, L2 miss: 260 cycles each).
+/// -  267: last piece in → Busy with the internal-node latency (8) until 275.
+/// -  275: → Stack (Push a). 276: push accepted (RB not full: no request) → Fetch (Visit b).
+/// -  277: scheduled; 278, 279: sent; 538, 539: back (new lines: DRAM); Busy until 547.
+/// -  547: → Stack (Pop a). 548: pop answered from RB, checked against the trace → Fetch.
+/// -  549: scheduled; 550, 551: sent; 810, 811: back (a was never fetched); triangle Busy
+///    until 819.
+/// -  819: no ops left → Stack (Finish). 820: finish accepted → Done.
+/// -  821: warp done and its stacks quiet: the slot frees. 822: nothing left: the run ends.
+#[test]
+fn single_ray_cycle_count_derived_by_hand() {
+    let (root, a, b) = (0x1_0000, 0x2_0000, 0x3_0000);
+    let ops = vec![
+        RayOp::Visit { addr: root, kind: NodeKind::Internal, bytes: 64 },
+        RayOp::Push(a),
+        RayOp::Visit { addr: b, kind: NodeKind::Internal, bytes: 64 },
+        RayOp::Pop(a),
+        RayOp::Visit { addr: a, kind: NodeKind::Triangle, bytes: 64 },
+    ];
+    let r = run_with("RB_8", one_sm(), RtParams::default(), vec![single_warp(ops.clone())]).unwrap();
+    assert_eq!(r.cycles, 822);
+    assert_eq!((r.rays, r.visits, r.node_fetches, r.pops_checked), (1, 3, 6, 1));
+    assert_eq!(r.dram_node, 6);
+    assert_eq!(r.l1d_hit_rate, 0.0);
+    assert!(r.evaluated_cycles < 100, "the waits on memory are skipped: {}", r.evaluated_cycles);
+
+    // Step by step: the lane's state as the probe shows it after each cycle's step (the state it
+    // has from the next cycle on), recorded when it changes. 0 Done, 1 Busy, 2 Fetch,
+    // 3 WaitMem, 4 Stack.
+    let mut watch = Watch::new("sm0.rt_unit.warp_buffer.slot[0].state[0]");
+    let cfg: Config = "RB_8".parse().unwrap();
+    Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
+    let (done, busy, fetch, wait, stack) = (0, 1, 2, 3, 4);
+    #[rustfmt::skip]
+    let derived = [
+        (0, busy), (4, fetch), (5, wait), (267, busy), (275, stack), (276, fetch), (277, wait),
+        (539, busy), (547, stack), (548, fetch), (549, wait), (811, busy), (819, stack), (820, done),
+    ];
+    assert_eq!(watch.changes, derived);
+}
+
+/// Records when one signal changes value: (cycle, new value).
+struct Watch {
+    path: &'static str,
+    scope: Vec<String>,
+    cycle: u64,
+    changes: Vec<(u64, u64)>,
+}
+
+impl Watch {
+    fn new(path: &'static str) -> Self {
+        Watch { path, scope: Vec::new(), cycle: 0, changes: Vec::new() }
+    }
+}
+
+impl Sink for Watch {
+    fn enabled(&self) -> bool {
+        true
+    }
+    fn begin_cycle(&mut self, cycle: u64) {
+        self.cycle = cycle;
+    }
+    fn push_scope(&mut self, name: &str) {
+        self.scope.push(name.to_string());
+    }
+    fn pop_scope(&mut self) {
+        self.scope.pop();
+    }
+    fn signal(&mut self, name: &str, _: u32, value: u64) {
+        let (scope, signal) = self.path.rsplit_once('.').unwrap();
+        if name == signal && self.scope.join(".") == scope && self.changes.last().map(|c| c.1) != Some(value)
+        {
+            self.changes.push((self.cycle, value));
+        }
+    }
+}
+
+#[test]
+fn identical_nodes_in_a_warp_make_one_fetch() {
+    let visit = RayOp::Visit { addr: 0x4000, kind: NodeKind::Internal, bytes: 32 };
+    let job = WarpJob { lanes: vec![Some(vec![visit]); 32] };
+    let r = run_with("RB_8", one_sm(), RtParams::default(), vec![job]).unwrap();
+    assert_eq!((r.rays, r.visits, r.node_fetches, r.dram_node), (32, 32, 1, 1));
+    // Header until 4, scheduled at 5, sent at 6, back at 266, Busy (8) until 274, Finish at 275,
+    // the slot frees at 276, the run ends at 277.
+    assert_eq!(r.cycles, 277);
+}
+
+#[test]
+fn one_memory_request_per_cycle() {
+    // 32 lanes visit 32 different sectors: 32 requests leave on 32 consecutive cycles.
+    let job = WarpJob {
+        lanes: (0..32)
+            .map(|l| Some(vec![RayOp::Visit { addr: 0x8000 + 32 * l, kind: NodeKind::Triangle, bytes: 32 }]))
+            .collect(),
+    };
+    let cfg: Config = "RB_8".parse().unwrap();
+    let mut watch = Watch::new("sm0.rt_unit.port.node");
+    let r = Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![job], &mut watch).unwrap();
+    assert_eq!(r.node_fetches, 32);
+    // The port drives a node request in cycles 6 to 37 and in no other.
+    assert_eq!(watch.changes, [(0, 0), (6, 1), (38, 0)]);
+}
+
+/// Runs `cfgs` (stack sizes ascending) on the same traces; checks off-chip stack traffic never
+/// grows with the size.
+fn never_more_traffic(cfgs: &[&str]) -> Vec<GpuReport> {
+    let work = jobs(1, 16, 45);
+    let runs: Vec<GpuReport> = cfgs.iter().map(|c| run(c, work.clone())).collect();
+    for (p, names) in runs.windows(2).zip(cfgs.windows(2)) {
+        let (small, large) = (&p[0], &p[1]);
+        let (a, b) = (small.stack, large.stack);
+        assert!(b.global_stores() <= a.global_stores(), "{names:?}");
+        assert!(b.global_loads() <= a.global_loads(), "{names:?}");
+        assert!(
+            large.dram_stack <= small.dram_stack,
+            "{names:?}: {} > {}",
+            large.dram_stack,
+            small.dram_stack
+        );
+        assert_eq!(large.pops_checked, small.pops_checked);
+    }
+    runs
+}
+
+#[test]
+fn larger_rb_never_adds_stack_traffic_and_full_has_none() {
+    let rb = never_more_traffic(&["RB_2", "RB_4", "RB_8", "RB_16", "RB_FULL"]);
+    assert!(rb[0].stack.global_accesses() > 0 && rb[0].dram_stack > 0, "the workload spills");
+    assert!(rb[2].stack.global_accesses() > 0, "even RB_8 spills");
+    let full = rb[4];
+    let s = full.stack;
+    assert_eq!(
+        (s.rb_to_sh, s.sh_to_rb, s.sh_to_global, s.global_to_sh, s.rb_to_global, s.global_to_rb),
+        (0, 0, 0, 0, 0, 0)
+    );
+    assert_eq!((full.dram_stack, full.bank_conflict_cycles), (0, 0));
+}
+
+#[test]
+fn larger_sh_never_adds_stack_traffic() {
+    let sh = never_more_traffic(&["RB_8", "RB_8+SH_4", "RB_8+SH_8", "RB_8+SH_16"]);
+    assert!(sh[1].stack.rb_to_sh > 0 && sh[1].stack.sh_to_global > 0, "SH_4 overflows to global");
+    let sms = run("SMS", jobs(1, 16, 45));
+    assert_eq!(sms.pops_checked, sh[2].pops_checked);
+    assert!(sms.stack.global_accesses() <= sh[2].stack.global_accesses(), "reallocation only saves");
+}
+
+#[test]
+fn identical_inputs_give_identical_reports() {
+    let work = jobs(2, 12, 45);
+    for cfg in ["RB_2", "SMS"] {
+        assert_eq!(run(cfg, work.clone()), run(cfg, work.clone()), "{cfg}");
+    }
+    assert_ne!(run("RB_2", work), run("RB_2", jobs(3, 12, 45)));
+}
+
+#[test]
+fn every_pop_is_checked_and_a_wrong_pop_is_caught() {
+    let work = jobs(4, 16, 45);
+    let pops = work
+        .iter()
+        .flat_map(|j| j.lanes.iter().flatten().flatten())
+        .filter(|o| matches!(o, RayOp::Pop(_)))
+        .count();
+    assert_eq!(run("RB_2+SH_8+SK+RA", work.clone()).pops_checked, pops as u64);
+    // Plant a bug: one pop in the middle of some lane names the wrong node.
+    let mut bad = work;
+    let lane = bad[7]
+        .lanes
+        .iter_mut()
+        .flatten()
+        .find(|ops| ops.iter().filter(|o| matches!(o, RayOp::Pop(_))).count() > 2)
+        .unwrap();
+    let p = lane.iter_mut().filter(|o| matches!(o, RayOp::Pop(_))).nth(1).unwrap();
+    *p = RayOp::Pop(0xBAD0);
+    let e = run_with("RB_2+SH_8+SK+RA", small_l2(), RtParams::default(), bad).unwrap_err();
+    assert!(matches!(e, RunError::PopMismatch { expected: 0xBAD0, .. }), "{e}");
+}
+
+#[test]
+fn bad_jobs_are_errors() {
+    let short = WarpJob { lanes: vec![None; 8] };
+    assert!(matches!(
+        run_with("RB_8", one_sm(), RtParams::default(), vec![short]),
+        Err(RunError::BadJob { job: 0, .. })
+    ));
+    let unbalanced = single_warp(vec![RayOp::Push(8)]);
+    assert!(matches!(
+        run_with("RB_8", one_sm(), RtParams::default(), vec![unbalanced]),
+        Err(RunError::Stack { .. })
+    ));
+    let e = RtParams { triangle: 0, ..RtParams::default() }.validate().unwrap_err();
+    assert_eq!(e.parameter, "triangle");
+}
+
+#[test]
+fn idle_skipping_equals_stepping_every_cycle() {
+    // Dense (every SM full: little to skip) and sparse (one warp per SM: mostly waiting).
+    for (cfg, work, min_skipped_percent) in [
+        ("RB_2", jobs(5, 24, 45), 5),
+        ("RB_8+SH_8+SK+RA", jobs(5, 24, 45), 5),
+        ("RB_2+SH_4", jobs(6, 6, 45), 50),
+    ] {
+        let stepped =
+            run_with(cfg, small_l2(), RtParams { idle_skip: false, ..RtParams::default() }, work.clone())
+                .unwrap();
+        let skipped = run_with(cfg, small_l2(), RtParams::default(), work).unwrap();
+        assert_eq!(stepped, GpuReport { evaluated_cycles: stepped.evaluated_cycles, ..skipped }, "{cfg}");
+        assert_eq!(stepped.evaluated_cycles, stepped.cycles);
+        let skipped_percent = 100 - 100 * skipped.evaluated_cycles / stepped.cycles;
+        assert!(skipped_percent >= min_skipped_percent, "{cfg}: skipped only {skipped_percent}%");
+    }
+}
+
+/// Release-build speed on ~1000 warps: `cargo test --release -p rtl --test gpu -- --ignored
+/// --nocapture speed`.
+#[test]
+#[ignore]
+fn speed() {
+    let warps = std::env::var("SPEED_WARPS").map_or(1024, |v| v.parse().unwrap());
+    let work = jobs(9, warps, 40);
+    let ops: usize = work.iter().flat_map(|j| j.lanes.iter().flatten()).map(Vec::len).sum();
+    for cfg in ["RB_8", "SMS"] {
+        let t = std::time::Instant::now();
+        let r = run(cfg, work.clone());
+        let s = t.elapsed().as_secs_f64();
+        eprintln!(
+            "{cfg}: {ops} ops, {} cycles ({} evaluated) in {s:.2} s: {:.0} cycles/s, {:.0} evaluated/s, {:.0} ops/s",
+            r.cycles,
+            r.evaluated_cycles,
+            r.cycles as f64 / s,
+            r.evaluated_cycles as f64 / s,
+            ops as f64 / s
+        );
+    }
+}
+
+#[test]
+fn probes_name_every_unit_and_progress_is_reported() {
+    use rtl::trace::{Probe, Snapshot};
+    let gpu = Gpu::paper(Config::sms()).unwrap();
+    let mut s = Snapshot::default();
+    gpu.probe(&mut s);
+    assert_eq!(gpu.memory().params().l1d_bytes, 56 << 10, "SMS carves 8 KB out of 64 KB");
+    for path in [
+        "sm0.rt_unit.warp_buffer.slot[0].valid",
+        "sm0.rt_unit.warp_buffer.slot[3].state[31]",
+        "sm7.rt_unit.scheduler.greedy",
+        "sm0.rt_unit.port.node",
+        "sm0.rt_unit.node_fetch.queue",
+        "sm0.rt_unit.stack_manager.warp[0].thread[0].top",
+        "sm0.rt_unit.bank_arbiter.conflict",
+        "sm0.rt_unit.mem_sched.queue",
+        "mem.l2.mshr_occupancy",
+    ] {
+        assert!(s.get(path).is_some(), "{path}");
+    }
+    let mut calls = Vec::new();
+    let r = gpu.run_with_progress(jobs(7, 4, 45), &mut NullSink, 1000, |p| calls.push(p.cycle)).unwrap();
+    assert!(calls.len() as u64 >= r.cycles / 1000 / 2 && calls.windows(2).all(|w| w[0] < w[1]));
+}
+
+/// Planted stack-manager bugs, run through whole GPUs: each must stop the run with an error
+/// (a wrong pop, a refused command or a warp leaving entries behind), never pass or panic.
+/// (`FlushKeepsCount` is left out: it changes only the Flush counter, which no pop can see; the
+/// proofs crate's invariants catch it.)
+#[cfg(feature = "mutants")]
+#[test]
+fn planted_stack_bugs_stop_the_run() {
+    use rtl::stack_manager::Mutant;
+    let work = jobs(8, 8, 45);
+    let cases = [
+        (Mutant::QueueWrapOffByOne, "RB_2+SH_4"),
+        (Mutant::ReloadWrongEntry, "RB_2+SH_4"),
+        (Mutant::SpillDropsEntry, "RB_2+SH_4"),
+        (Mutant::MissingGlobalReload, "RB_2+SH_4"),
+        (Mutant::SkipOverflowClear, "RB_2+SH_4"),
+        (Mutant::EarlyRelease, "RB_2+SH_4+SK+RA"),
+    ];
+    for (m, cfg) in cases {
+        let c: Config = cfg.parse().unwrap();
+        let clean = Gpu::paper(c).unwrap().run(work.clone(), &mut NullSink);
+        assert!(clean.is_ok(), "{cfg}: {clean:?}");
+        let r = Gpu::paper(c).unwrap().with_mutant(m).run(work.clone(), &mut NullSink);
+        assert!(
+            matches!(
+                r,
+                Err(RunError::PopMismatch { .. } | RunError::Stack { .. } | RunError::ExitNotEmpty { .. })
+            ),
+            "{m:?} on {cfg}: {r:?}"
+        );
+    }
+}
+
+/// The port gives the stack's requests priority over queued node pieces. RB_2, no SH: lane 0
+/// pushes three entries (the third spills the oldest to global memory) and pops them, while
+/// lanes 1–31 each fetch their own sector. Derivation: header until 4; cycle 5 the warp is
+/// scheduled (31 pieces, sent from 6) and lane 0 pushes 1; 6 pushes 2; 7 pushes 3, which plans
+/// a global store; 8 the sequencer issues it to the memory scheduler; 9 the port sends it
+/// instead of a node piece, and the sequencer is free again, so lane 0 pops 3, planning a
+/// reload of 1; 10 the reload is issued; 11 the port sends it. The 31 node pieces take cycles
+/// 6–8, 10 and 12–38.
+#[test]
+fn stack_requests_go_before_node_pieces() {
+    let mut lanes: Vec<Option<Vec<RayOp>>> = (0..32)
+        .map(|l| Some(vec![RayOp::Visit { addr: 0x8000 + 32 * l, kind: NodeKind::Triangle, bytes: 32 }]))
+        .collect();
+    lanes[0] = Some([1, 2, 3].map(RayOp::Push).into_iter().chain([3, 2, 1].map(RayOp::Pop)).collect());
+    let cfg: Config = "RB_2".parse().unwrap();
+    let run = |path| {
+        let mut watch = Watch::new(path);
+        let job = WarpJob { lanes: lanes.clone() };
+        Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![job], &mut watch).unwrap();
+        watch.changes
+    };
+    assert_eq!(run("sm0.rt_unit.port.stack"), [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)]);
+    assert_eq!(run("sm0.rt_unit.port.node"), [(0, 0), (6, 1), (9, 0), (10, 1), (11, 0), (12, 1), (39, 0)]);
+}
