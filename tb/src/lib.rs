@@ -1,1 +1,3 @@
 //! Testbenches, workloads and reports for the SMS model.
+
+pub mod vcd;
