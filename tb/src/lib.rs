@@ -19,6 +19,7 @@ pub mod scene;
 pub mod stack_tb;
 pub mod table;
 pub mod traverse;
+pub mod vcd;
 pub mod workload;
 
 pub use error::{Error, Result};

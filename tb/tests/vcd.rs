@@ -1,0 +1,330 @@
+//! Issue 5: VCD dumps of the stack unit are well formed and show exactly the RTL's values.
+//!
+//! Every dump is read back by the strict checker and replayed cycle by cycle against the values
+//! the RTL reported in the same run (a [`Recorder`] beside the [`VcdSink`]). Planted bugs show
+//! the checker can fail; GTKWave's own converters must round-trip the values.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use proofs::harness::RunSummary;
+use rtl::config::Config;
+use tb::vcd::check::{compare, read, Mode, Recorder, Waves};
+use tb::vcd::examples::{examples, write_examples, Example};
+use tb::vcd::{Selection, Tee, VcdError, VcdOptions, VcdSink};
+
+/// The first example's configuration (SMS on RB_2 + SH_4, 2 warp slots of 8 lanes) with a
+/// bigger workload: 3 warps, so a slot is reused, deep enough to borrow and flush.
+fn sms_small() -> Example {
+    Example {
+        warps: 3,
+        max_peak: 16,
+        ..examples().remove(0)
+    }
+}
+
+/// A scratch directory removed when the test ends.
+struct TmpDir(PathBuf);
+
+impl TmpDir {
+    fn new(test: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("sms-vcd-{}-{test}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        TmpDir(dir)
+    }
+    fn join(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+}
+
+impl Drop for TmpDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Runs `ex` with a VCD sink (to memory) and a recorder side by side.
+fn dump(ex: &Example, select: Selection) -> (String, Recorder, RunSummary) {
+    let mut vcd = VcdSink::new(Vec::new(), select, &ex.config).unwrap();
+    let mut rec = Recorder::default();
+    let summary = ex.run(&mut Tee(&mut vcd, &mut rec)).unwrap();
+    let text = String::from_utf8(vcd.finish().unwrap()).unwrap();
+    (text, rec, summary)
+}
+
+fn strict(text: &str) -> Waves {
+    read(text.as_bytes(), Mode::Strict).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn dump_is_strictly_valid_and_replays_every_rtl_value() {
+    let ex = sms_small();
+    let (text, rec, summary) = dump(&ex, Selection::default());
+    let st = summary.stats.stack;
+    assert!(
+        st.borrows > 0 && st.flushes > 0,
+        "workload too tame: {st:?}"
+    );
+    let waves = strict(&text);
+    // Every RTL signal with a width is dumped, none invented.
+    let expected: Vec<_> = rec.signals().filter(|s| s.1 > 0).collect();
+    let got: Vec<_> = waves.signals.iter().map(|s| (s.0.as_str(), s.1)).collect();
+    assert_eq!(got, expected);
+    let compared = compare(&waves, &rec, 0..=u64::MAX).unwrap();
+    assert_eq!(compared, rec.cycles().len() * expected.len());
+    // Timestamps only where something changed: never more than the cycles (plus the end).
+    assert!(waves.times().count() <= rec.cycles().len() + 1);
+}
+
+/// Returns `text` with its first line matching `pick` replaced by `edit(line)`.
+fn plant(text: &str, pick: impl Fn(&str) -> bool, edit: impl Fn(&str) -> String) -> String {
+    let mut done = false;
+    text.lines()
+        .map(|l| {
+            if !done && pick(l) {
+                done = true;
+                edit(l)
+            } else {
+                l.to_string()
+            }
+        })
+        .map(|l| l + "\n")
+        .collect()
+}
+
+#[test]
+fn planted_bugs_are_caught() {
+    let ex = sms_small();
+    let (text, rec, _) = dump(&ex, Selection::default());
+    let body = text.find("$enddefinitions").unwrap();
+    let (head, tail) = text.split_at(body);
+    // A vector change late in the run, at a time after the first timestamp.
+    let late = |l: &str| l.starts_with('b') && l.contains(" ");
+    let flip = |l: &str| {
+        let (bits, id) = l[1..].split_once(' ').unwrap();
+        let flipped: String = bits
+            .chars()
+            .enumerate()
+            .map(|(i, c)| match (i + 1 == bits.len(), c) {
+                (true, '0') => '1',
+                (true, _) => '0',
+                _ => c,
+            })
+            .collect();
+        format!("b{flipped} {id}")
+    };
+    let second_stamp = tail.match_indices("\n#").nth(1).unwrap().0;
+    let (early, rest) = tail.split_at(second_stamp);
+    let corrupted = format!("{head}{early}{}", plant(rest, late, flip));
+    let waves = strict(&corrupted);
+    let err = compare(&waves, &rec, 0..=u64::MAX).unwrap_err();
+    assert!(err.contains("in the dump"), "{err}");
+
+    let undeclared = plant(&text, |l| l.starts_with("$var"), |_| String::new());
+    let err = read(undeclared.as_bytes(), Mode::Strict).unwrap_err();
+    assert!(err.message.contains("is not declared"), "{err}");
+
+    let stamp = |l: &str| l.starts_with('#') && l != "#0";
+    let backwards = format!("{head}{}", plant(tail, stamp, |_| "#0".into()));
+    let err = read(backwards.as_bytes(), Mode::Strict).unwrap_err();
+    assert!(err.message.contains("does not follow"), "{err}");
+
+    let short = format!("{head}{}", plant(tail, late, |l| format!("b{}", &l[2..])));
+    let err = read(short.as_bytes(), Mode::Strict).unwrap_err();
+    assert!(err.message.contains("bits written to"), "{err}");
+    // The lenient reader accepts it: a shortened vector is legal VCD.
+    read(short.as_bytes(), Mode::Lenient).unwrap();
+
+    let missing = format!(
+        "{head}{}",
+        plant(tail, |l| l.starts_with('b'), |_| String::new())
+    );
+    let err = read(missing.as_bytes(), Mode::Strict).unwrap_err();
+    assert!(err.message.contains("has no value at time 0"), "{err}");
+}
+
+#[test]
+fn window_and_filters_dump_only_the_selection() {
+    let ex = sms_small();
+    let select = Selection {
+        from: Some(40),
+        to: Some(160),
+        warps: Some(vec![0]),
+        lanes: Some(vec![0, 3]),
+    };
+    let (full, rec, _) = dump(&ex, Selection::default());
+    let (part, _, _) = dump(&ex, select.clone());
+    assert!(
+        part.len() * 5 < full.len(),
+        "{} vs {}",
+        part.len(),
+        full.len()
+    );
+    let waves = strict(&part);
+    let expected: Vec<&str> = rec
+        .signals()
+        .filter(|s| s.1 > 0)
+        .map(|s| s.0)
+        .filter(|p| {
+            !p.contains("warp[")
+                || p.contains("warp[0].thread[0].")
+                || p.contains("warp[0].thread[3].")
+        })
+        .collect();
+    let got: Vec<&str> = waves.signals.iter().map(|s| s.0.as_str()).collect();
+    assert_eq!(got, expected);
+    assert!(got.iter().any(|p| p.contains("bank_arbiter")));
+    let times: Vec<u64> = waves.times().collect();
+    assert_eq!(times.first(), Some(&40));
+    assert_eq!(times.last(), Some(&161));
+    compare(&waves, &rec, 40..=160).unwrap();
+}
+
+fn expect_err(select: Selection, cfg: &Config, path: &Path) -> String {
+    let opts = VcdOptions {
+        path: path.to_path_buf(),
+        select,
+    };
+    match VcdSink::create(&opts, cfg) {
+        Ok(_) => panic!("{opts:?} accepted"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_options_are_errors_naming_the_value() {
+    let ex = sms_small();
+    let tmp = TmpDir::new("errors");
+    let path = tmp.join("errors.vcd");
+    let window = Selection {
+        from: Some(9),
+        to: Some(3),
+        ..Selection::default()
+    };
+    assert_eq!(
+        expect_err(window, &ex.config, &path),
+        "VCD window: from 9 is after to 3"
+    );
+    let warp = Selection {
+        warps: Some(vec![0, 2]),
+        ..Selection::default()
+    };
+    let msg = expect_err(warp, &ex.config, &path);
+    assert!(
+        msg.contains("warp 2 does not exist") && msg.contains("2 warps"),
+        "{msg}"
+    );
+    let lane = Selection {
+        lanes: Some(vec![8]),
+        ..Selection::default()
+    };
+    let msg = expect_err(lane, &ex.config, &path);
+    assert!(
+        msg.contains("lane 8 does not exist") && msg.contains("8 lanes"),
+        "{msg}"
+    );
+    let nowhere = Path::new("/nonexistent-dir/x.vcd");
+    let msg = expect_err(Selection::default(), &ex.config, nowhere);
+    assert!(
+        msg.starts_with("cannot write /nonexistent-dir/x.vcd: "),
+        "{msg}"
+    );
+
+    let late = Selection {
+        from: Some(1_000_000),
+        ..Selection::default()
+    };
+    let opts = VcdOptions { path, select: late };
+    let mut sink = VcdSink::create(&opts, &ex.config).unwrap();
+    let cycles = ex.run(&mut sink).unwrap().stats.cycles;
+    let err = sink.finish().unwrap_err();
+    assert!(matches!(err, VcdError::OutsideRun { .. }));
+    assert_eq!(
+        err.to_string(),
+        format!("VCD window [1000000,end] is outside the run (0..{cycles} cycles)")
+    );
+}
+
+#[test]
+fn save_file_opens_the_dump_with_grouped_signals() {
+    let ex = sms_small();
+    let tmp = TmpDir::new("gtkw");
+    let opts = VcdOptions {
+        path: tmp.join("grouped.vcd"),
+        select: Selection::default(),
+    };
+    let mut sink = VcdSink::create(&opts, &ex.config).unwrap();
+    ex.run(&mut sink).unwrap();
+    sink.finish().unwrap();
+    let dump = std::fs::canonicalize(&opts.path).unwrap();
+    let save = std::fs::read_to_string(opts.path.with_extension("gtkw")).unwrap();
+    assert!(save.contains(&format!("[dumpfile] \"{}\"\n", dump.display())));
+    let waves = strict(&std::fs::read_to_string(&opts.path).unwrap());
+    for (path, width) in &waves.signals {
+        let trace = match width {
+            1 => path.clone(),
+            w => format!("{path}[{}:0]", w - 1),
+        };
+        assert!(save.lines().any(|l| l == trace), "{trace} missing");
+    }
+    let labels: Vec<&str> = save.lines().filter_map(|l| l.strip_prefix('-')).collect();
+    assert_eq!(labels.len() % 2, 0, "groups open and close");
+    assert_eq!(labels[0], "bank_arbiter");
+    assert!(labels.contains(&"warp[1].thread[7]"));
+    // Thread fields in display order.
+    let thread0: Vec<&str> = save
+        .lines()
+        .filter_map(|l| l.strip_prefix("rt_unit.warp[0].thread[0]."))
+        .map(|l| l.split('[').next().unwrap())
+        .collect();
+    assert_eq!(
+        &thread0[..4],
+        ["cmd_valid", "cmd_kind", "cmd_data", "rb_count"]
+    );
+    assert_eq!(thread0.last(), Some(&"done"));
+}
+
+fn have(tool: &str) -> bool {
+    Command::new(tool).arg("--help").output().is_ok()
+}
+
+#[test]
+fn gtkwave_round_trip_keeps_every_value() {
+    if !(have("vcd2fst") && have("fst2vcd")) {
+        println!("NOTICE: vcd2fst/fst2vcd not on PATH (apt-get install gtkwave); skipped");
+        return;
+    }
+    let ex = sms_small();
+    let (text, rec, _) = dump(&ex, Selection::default());
+    let tmp = TmpDir::new("round");
+    let (vcd, fst) = (tmp.join("round.vcd"), tmp.join("round.fst"));
+    std::fs::write(&vcd, &text).unwrap();
+    let status = Command::new("vcd2fst")
+        .arg(&vcd)
+        .arg(&fst)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = Command::new("fst2vcd").arg(&fst).output().unwrap();
+    assert!(out.status.success());
+    let back = read(out.stdout.as_slice(), Mode::Lenient).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(back.signals, strict(&text).signals);
+    let compared = compare(&back, &rec, 0..=u64::MAX).unwrap();
+    assert_eq!(compared, rec.cycles().len() * back.signals.len());
+}
+
+#[test]
+fn examples_are_valid_and_small() {
+    let tmp = TmpDir::new("examples");
+    let paths = write_examples(&tmp.0).unwrap();
+    assert_eq!(paths.len(), examples().len());
+    let mut sizes = Vec::new();
+    for p in &paths {
+        let text = std::fs::read_to_string(p).unwrap();
+        let save = std::fs::metadata(p.with_extension("gtkw")).unwrap().len() as usize;
+        sizes.push((p.file_name().unwrap().to_owned(), text.len() + save));
+        assert!(strict(&text).change_count() > 0);
+    }
+    let total: usize = sizes.iter().map(|s| s.1).sum();
+    assert!(total < 200_000, "{total} bytes: {sizes:?}");
+}
