@@ -16,6 +16,7 @@ pub mod raygen;
 mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod sim;
 pub mod stack_tb;
 pub mod table;
 pub mod traverse;

@@ -281,9 +281,12 @@ impl<'s> Workload<'s> {
 
     /// The jobs of each warp in launch order, one warp at a time, traced on demand.
     pub fn warps(&self) -> impl Iterator<Item = Vec<WarpJob>> + '_ {
-        (0..self.num_warps()).map(move |warp| {
-            self.run_warp::<RayTrace>(warp).jobs.into_iter().map(|lanes| WarpJob { lanes }).collect()
-        })
+        (0..self.num_warps()).map(move |warp| self.warp(warp))
+    }
+
+    /// The jobs of pixel warp `warp` (one per sample and bounce with a live lane), traced now.
+    pub fn warp(&self, warp: u32) -> Vec<WarpJob> {
+        self.run_warp::<RayTrace>(warp).jobs.into_iter().map(|lanes| WarpJob { lanes }).collect()
     }
 
     fn run_warp<R: Recorder + Default>(&self, warp: u32) -> WarpRun<R> {

@@ -6,40 +6,21 @@ use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::cli::SceneArgs;
+use crate::cli::{SceneArgs, WorkloadArgs};
 use crate::depth::{DepthHistogram, DepthReport};
-use crate::workload::{BvhKind, ChildOrder, Workload, WorkloadOpts};
+use crate::workload::Workload;
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
     #[arg(long)]
     pub scene: String,
-    #[arg(long, value_enum, default_value = "bvh6")]
-    pub bvh: BvhKind,
-    #[arg(long, value_enum, default_value = "nearest")]
-    pub order: ChildOrder,
-    /// Resolution as WIDTHxHEIGHT (default: the scene's).
-    #[arg(long, value_parser = parse_res)]
-    pub res: Option<(u32, u32)>,
-    /// Samples per pixel (default: the scene's).
-    #[arg(long)]
-    pub spp: Option<u32>,
-    /// Diffuse bounces after the primary ray (default: the scene's).
-    #[arg(long)]
-    pub bounces: Option<u32>,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub workload: WorkloadArgs,
     /// Output folder (default: out/depth/<scene>).
     #[arg(long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]
     pub scenes: SceneArgs,
-}
-
-fn parse_res(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT, e.g. 128x128")?;
-    let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("'{v}': {e}"));
-    Ok((parse(w)?, parse(h)?))
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -52,15 +33,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         scene.dropped_degenerate,
         start.elapsed().as_secs_f64()
     );
-    let mut opts = WorkloadOpts::for_scene(&scene);
-    opts.bvh = args.bvh;
-    opts.order = args.order;
-    if let Some((w, h)) = args.res {
-        (opts.width, opts.height) = (w, h);
-    }
-    opts.spp = args.spp.unwrap_or(opts.spp);
-    opts.max_bounces = args.bounces.unwrap_or(opts.max_bounces);
-    opts.seed = args.seed;
+    let opts = args.workload.opts(&scene);
 
     let start = Instant::now();
     let workload = Workload::new(&scene, opts)?;

@@ -27,3 +27,142 @@ impl SceneArgs {
         }
     }
 }
+
+/// What to trace: scene, hierarchy, child order, resolution, samples, bounces, seed. Shared by
+/// the subcommands that simulate a workload.
+#[derive(Clone, Debug, clap::Args)]
+pub struct WorkloadArgs {
+    #[arg(long, value_enum, default_value = "bvh6")]
+    pub bvh: crate::workload::BvhKind,
+    #[arg(long, value_enum, default_value = "nearest")]
+    pub order: crate::workload::ChildOrder,
+    /// Resolution as WIDTHxHEIGHT (default: the scene's).
+    #[arg(long, value_parser = parse_res)]
+    pub res: Option<(u32, u32)>,
+    /// Samples per pixel (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Diffuse bounces after the primary ray (default: the scene's).
+    #[arg(long)]
+    pub bounces: Option<u32>,
+    /// Seed of the ray generator: the same seed gives bit-identical results.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+impl WorkloadArgs {
+    /// `scene`'s own render settings with these arguments applied.
+    pub fn opts(&self, scene: &crate::scene::Scene) -> crate::workload::WorkloadOpts {
+        let mut opts = crate::workload::WorkloadOpts::for_scene(scene);
+        opts.bvh = self.bvh;
+        opts.order = self.order;
+        if let Some((w, h)) = self.res {
+            (opts.width, opts.height) = (w, h);
+        }
+        opts.spp = self.spp.unwrap_or(opts.spp);
+        opts.max_bounces = self.bounces.unwrap_or(opts.max_bounces);
+        opts.seed = self.seed;
+        opts
+    }
+}
+
+pub fn parse_res(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT, e.g. 128x128")?;
+    let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("'{v}': {e}"));
+    Ok((parse(w)?, parse(h)?))
+}
+
+/// The hardware around the stack: SPEC section 7 defaults, then a TOML file, then flags.
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct HardwareArgs {
+    /// TOML file overriding RT-unit and memory parameters: `[rt]` keys bvh_header, internal,
+    /// instance_leaf, leaf_descriptor, triangle, procedural, idle_skip; `[mem]` keys sms,
+    /// sector_bytes, line_bytes, l1d_bytes, l1d_ways (0 = fully associative), l1d_hit_latency,
+    /// l1d_mshrs, l1d_mshr_merge, l1d_miss_queue, l2_bytes, l2_ways, l2_latency, l2_banks,
+    /// l2_bank_queue, l2_mshrs, l2_mshr_merge, l2_dram_queue, dram_latency,
+    /// dram_bytes_per_cycle, dram_queue.
+    #[arg(long, value_name = "FILE")]
+    pub hw: Option<PathBuf>,
+    /// Unified L1D/shared-memory size per SM in KB (default 64); the SH stacks are carved out.
+    #[arg(long)]
+    pub l1d_kb: Option<u32>,
+    /// SMs, one RT unit each (default 8).
+    #[arg(long)]
+    pub sms: Option<u32>,
+    /// DRAM latency in cycles beyond the L2's (default 100).
+    #[arg(long)]
+    pub dram_latency: Option<u32>,
+}
+
+impl HardwareArgs {
+    pub fn hardware(&self) -> anyhow::Result<crate::sim::Hardware> {
+        let mut hw = crate::sim::Hardware::default();
+        if let Some(path) = &self.hw {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| anyhow::anyhow!("cannot read hardware file {}: {e}", path.display()))?;
+            apply_hardware_toml(&mut hw, &text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        }
+        if let Some(kb) = self.l1d_kb {
+            hw.mem.l1d_bytes = kb
+                .checked_mul(1024)
+                .ok_or_else(|| anyhow::anyhow!("--l1d-kb {kb}: too large"))?;
+        }
+        hw.mem.sms = self.sms.unwrap_or(hw.mem.sms);
+        hw.mem.dram_latency = self.dram_latency.unwrap_or(hw.mem.dram_latency);
+        // The memory system checks every value; report its reason before any work starts.
+        rtl::mem::hierarchy::MemSystem::new(hw.mem).map_err(|e| anyhow::anyhow!("hardware: {e}"))?;
+        Ok(hw)
+    }
+}
+
+/// Applies `[rt]` and `[mem]` tables of `text` to `hw`; unknown keys and wrong types are errors.
+pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<(), String> {
+    use rtl::mem::Assoc;
+    let doc: toml::Table = text.parse().map_err(|e| format!("not valid TOML: {e}"))?;
+    for (section, value) in &doc {
+        let table = value.as_table().ok_or_else(|| format!("'{section}' must be a table ([{section}])"))?;
+        for (key, v) in table {
+            let name = format!("{section}.{key}");
+            let uint = || -> Result<u32, String> {
+                v.as_integer()
+                    .and_then(|i| u32::try_from(i).ok())
+                    .ok_or_else(|| format!("{name} = {v}: expected a whole number ≥ 0"))
+            };
+            let ways = |w: u32| if w == 0 { Assoc::Full } else { Assoc::Ways(w) };
+            let (rt, m) = (&mut hw.rt, &mut hw.mem);
+            match (section.as_str(), key.as_str()) {
+                ("rt", "bvh_header") => rt.bvh_header = uint()?,
+                ("rt", "internal") => rt.internal = uint()?,
+                ("rt", "instance_leaf") => rt.instance_leaf = uint()?,
+                ("rt", "leaf_descriptor") => rt.leaf_descriptor = uint()?,
+                ("rt", "triangle") => rt.triangle = uint()?,
+                ("rt", "procedural") => rt.procedural = uint()?,
+                ("rt", "idle_skip") => {
+                    rt.idle_skip = v.as_bool().ok_or_else(|| format!("{name} = {v}: expected true or false"))?
+                }
+                ("mem", "sms") => m.sms = uint()?,
+                ("mem", "sector_bytes") => m.sector_bytes = uint()?,
+                ("mem", "line_bytes") => m.line_bytes = uint()?,
+                ("mem", "l1d_bytes") => m.l1d_bytes = uint()?,
+                ("mem", "l1d_ways") => m.l1d_assoc = ways(uint()?),
+                ("mem", "l1d_hit_latency") => m.l1d_hit_latency = uint()?,
+                ("mem", "l1d_mshrs") => m.l1d_mshrs = uint()?,
+                ("mem", "l1d_mshr_merge") => m.l1d_mshr_merge = uint()?,
+                ("mem", "l1d_miss_queue") => m.l1d_miss_queue = uint()?,
+                ("mem", "l2_bytes") => m.l2_bytes = uint()?,
+                ("mem", "l2_ways") => m.l2_assoc = ways(uint()?),
+                ("mem", "l2_latency") => m.l2_latency = uint()?,
+                ("mem", "l2_banks") => m.l2_banks = uint()?,
+                ("mem", "l2_bank_queue") => m.l2_bank_queue = uint()?,
+                ("mem", "l2_mshrs") => m.l2_mshrs = uint()?,
+                ("mem", "l2_mshr_merge") => m.l2_mshr_merge = uint()?,
+                ("mem", "l2_dram_queue") => m.l2_dram_queue = uint()?,
+                ("mem", "dram_latency") => m.dram_latency = uint()?,
+                ("mem", "dram_bytes_per_cycle") => m.dram_bytes_per_cycle = uint()?,
+                ("mem", "dram_queue") => m.dram_queue = uint()?,
+                _ => return Err(format!("unknown parameter {name}")),
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,460 @@
+//! One simulation of a workload under one stack configuration, at a chosen fidelity, optionally
+//! on a sample of its warps: the engine behind `sms run`, `sms sweep` and `sms bench`.
+//!
+//! ```text
+//!   Workload (scene, BVH, rays) ──► pixel warps, traced on demand, one at a time
+//!        │                                   │
+//!        │ Fidelity::Functional              │ Fidelity::Cycle
+//!        ▼                                   ▼
+//!   one stack manager, micro-ops       rtl_job(): trace ops → RayOps (node bytes by BVH layout)
+//!   at once, pops checked              Gpu: 8 SMs × RT unit, L1D/L2/DRAM, pops checked
+//!        └──────────────► Outcome { stack counts, GPU report? } ◄──────┘
+//!                              │ with a SamplePlan: one Outcome per batch
+//!                              ▼
+//!                        Estimate of each additive metric, 95 % interval
+//! ```
+//!
+//! The GPU is fed job by job in launch order; each traceRay call of a pixel warp (sample ×
+//! bounce) is one warp job. Simplification: a warp's next bounce does not wait for its previous
+//! one (the shader between traceRay calls is not modelled), so jobs of one pixel warp may run on
+//! several SMs at once.
+
+use std::cell::Cell;
+use std::time::{Duration, Instant};
+
+use rtl::config::Config;
+use rtl::gpu::{carve_out, Gpu, GpuReport, Progress};
+use rtl::mem::MemParams;
+use rtl::ray_op::{self, NodeKind as RtlKind, RayOp};
+use rtl::rt_unit::RtParams;
+use rtl::stack_manager::StackStats;
+use rtl::trace::{NullSink, Sink};
+use serde::Serialize;
+
+use crate::bvh::{BvhKind, BVH2_NODE_SIZE, BVH6_LEAF_DESC_SIZE, BVH6_NODE_SIZE, CWBVH_NODE_SIZE, PRIM_SIZE};
+use crate::error::{Error, Result};
+use crate::sampling::{choose, estimate, Estimate, SamplePlan};
+use crate::workload::{NodeKind, TraceOp, WarpJob, Workload, WARP_SIZE};
+
+/// How much of the machine a run models.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Fidelity {
+    /// Stack traffic counted per ray from the traces, no timing (fastest).
+    Functional,
+    /// The clocked RT units, stack managers and memory hierarchy.
+    #[default]
+    Cycle,
+}
+
+/// Hardware parameters around the stack: operation latencies and the memory system. `mem` is the
+/// whole unified L1D/shared array; each configuration's SH stacks are carved out of it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Hardware {
+    pub rt: RtParams,
+    pub mem: MemParams,
+}
+
+/// Bytes the RT unit fetches for a node of `kind` in hierarchy `bvh` (SPEC section 7 layouts).
+pub fn node_bytes(bvh: BvhKind, kind: NodeKind) -> u32 {
+    let bytes = match (kind, bvh) {
+        (NodeKind::Internal, BvhKind::Bvh2) | (NodeKind::Leaf, BvhKind::Bvh2) => BVH2_NODE_SIZE,
+        (NodeKind::Internal, BvhKind::Bvh6) => BVH6_NODE_SIZE,
+        (NodeKind::Leaf, _) => BVH6_LEAF_DESC_SIZE,
+        (NodeKind::Internal, BvhKind::Cwbvh) => CWBVH_NODE_SIZE,
+        (NodeKind::Triangle | NodeKind::Procedural, _) => PRIM_SIZE,
+    };
+    bytes as u32
+}
+
+fn rtl_kind(kind: NodeKind) -> RtlKind {
+    match kind {
+        NodeKind::Internal => RtlKind::Internal,
+        NodeKind::Leaf => RtlKind::LeafDescriptor,
+        NodeKind::Triangle => RtlKind::Triangle,
+        NodeKind::Procedural => RtlKind::Procedural,
+    }
+}
+
+/// A traceRay call of a warp as the RT unit's stimulus.
+pub fn rtl_job(job: &WarpJob, bvh: BvhKind) -> ray_op::WarpJob {
+    let lane = |t: &crate::workload::RayTrace| {
+        t.ops()
+            .map(|op| match op {
+                TraceOp::Visit { addr, kind } => {
+                    RayOp::Visit { addr, kind: rtl_kind(kind), bytes: node_bytes(bvh, kind) }
+                }
+                TraceOp::Push(a) => RayOp::Push(a),
+                TraceOp::Pop(a) => RayOp::Pop(a),
+            })
+            .collect()
+    };
+    ray_op::WarpJob { lanes: job.lanes.iter().map(|l| l.as_ref().map(lane)).collect() }
+}
+
+/// What one simulation (of all warps or of one batch) measured.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Outcome {
+    pub fidelity: Fidelity,
+    /// Pixel warps simulated.
+    pub pixel_warps: u32,
+    pub stack: Counts,
+    /// Cycle level only.
+    pub gpu: Option<GpuCounts>,
+    pub pops_checked: u64,
+    #[serde(serialize_with = "secs")]
+    pub wall: Duration,
+}
+
+fn secs<S: serde::Serializer>(d: &Duration, s: S) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_f64(d.as_secs_f64())
+}
+
+/// Stack-manager counters, serialisable.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Counts {
+    pub pushes: u64,
+    pub pops: u64,
+    pub rb_to_sh: u64,
+    pub sh_to_rb: u64,
+    pub sh_to_global: u64,
+    pub global_to_sh: u64,
+    pub rb_to_global: u64,
+    pub global_to_rb: u64,
+    pub borrows: u64,
+    pub releases: u64,
+    pub flushes: u64,
+    pub flushes_saturated: u64,
+    pub demotions: u64,
+}
+
+impl Counts {
+    /// Stack entries moved to or from global (local) memory: the stack's off-chip requests
+    /// before any cache filters them.
+    pub fn global(&self) -> u64 {
+        self.sh_to_global + self.global_to_sh + self.rb_to_global + self.global_to_rb
+    }
+}
+
+impl From<StackStats> for Counts {
+    fn from(s: StackStats) -> Self {
+        Counts {
+            pushes: s.pushes,
+            pops: s.pops,
+            rb_to_sh: s.rb_to_sh,
+            sh_to_rb: s.sh_to_rb,
+            sh_to_global: s.sh_to_global,
+            global_to_sh: s.global_to_sh,
+            rb_to_global: s.rb_to_global,
+            global_to_rb: s.global_to_rb,
+            borrows: s.borrows,
+            releases: s.releases,
+            flushes: s.flushes,
+            flushes_saturated: s.flushes_saturated,
+            demotions: s.demotions,
+        }
+    }
+}
+
+/// The cycle level's GPU-wide measurements.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct GpuCounts {
+    pub cycles: u64,
+    pub evaluated_cycles: u64,
+    pub warp_jobs: u64,
+    pub rays: u64,
+    pub visits: u64,
+    pub node_fetches: u64,
+    pub dram_node: u64,
+    pub dram_stack: u64,
+    pub l1d_hit_rate: f64,
+    pub l2_hit_rate: f64,
+    pub bank_conflict_cycles: u64,
+}
+
+impl From<&GpuReport> for GpuCounts {
+    fn from(r: &GpuReport) -> Self {
+        GpuCounts {
+            cycles: r.cycles,
+            evaluated_cycles: r.evaluated_cycles,
+            warp_jobs: r.warps,
+            rays: r.rays,
+            visits: r.visits,
+            node_fetches: r.node_fetches,
+            dram_node: r.dram_node,
+            dram_stack: r.dram_stack,
+            l1d_hit_rate: r.l1d_hit_rate,
+            l2_hit_rate: r.l2_hit_rate,
+            bank_conflict_cycles: r.bank_conflict_cycles,
+        }
+    }
+}
+
+/// The headline metrics every fidelity and sample reports, by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Metric {
+    /// Total GPU cycles (cycle level).
+    Cycles,
+    /// Stack entries moved to or from global memory.
+    StackGlobal,
+    /// DRAM accesses of stack traffic (cycle level).
+    DramStack,
+    /// DRAM accesses of node fetches (cycle level).
+    DramNode,
+    /// RB → SH spills.
+    ShSpills,
+    Borrows,
+    Flushes,
+    /// Shared-memory bank-conflict delay cycles (cycle level).
+    ConflictCycles,
+}
+
+impl Metric {
+    pub const ALL: [Metric; 8] = [
+        Metric::Cycles,
+        Metric::StackGlobal,
+        Metric::DramStack,
+        Metric::DramNode,
+        Metric::ShSpills,
+        Metric::Borrows,
+        Metric::Flushes,
+        Metric::ConflictCycles,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Metric::Cycles => "cycles",
+            Metric::StackGlobal => "stack_global",
+            Metric::DramStack => "dram_stack",
+            Metric::DramNode => "dram_node",
+            Metric::ShSpills => "sh_spills",
+            Metric::Borrows => "borrows",
+            Metric::Flushes => "flushes",
+            Metric::ConflictCycles => "conflict_cycles",
+        }
+    }
+
+    /// The metric's value in `o`, if `o`'s fidelity measures it.
+    pub fn of(self, o: &Outcome) -> Option<f64> {
+        let g = o.gpu.as_ref();
+        Some(match self {
+            Metric::Cycles => g?.cycles as f64,
+            Metric::StackGlobal => o.stack.global() as f64,
+            Metric::DramStack => g?.dram_stack as f64,
+            Metric::DramNode => g?.dram_node as f64,
+            Metric::ShSpills => o.stack.rb_to_sh as f64,
+            Metric::Borrows => o.stack.borrows as f64,
+            Metric::Flushes => o.stack.flushes as f64,
+            Metric::ConflictCycles => g?.bank_conflict_cycles as f64,
+        })
+    }
+}
+
+/// Everything a run needs besides the workload.
+#[derive(Clone, Copy, Debug)]
+pub struct RunSpec {
+    pub config: Config,
+    pub hw: Hardware,
+    pub fidelity: Fidelity,
+}
+
+impl RunSpec {
+    /// Checks what the workload side cannot vary: traces come 32 lanes to a warp.
+    pub fn validate(&self) -> Result<()> {
+        if self.config.warp_size as usize != WARP_SIZE {
+            return Err(Error::Invalid(format!(
+                "warp size {}: traces are packed {WARP_SIZE} rays to a warp",
+                self.config.warp_size
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Progress of a long run, as the callback sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Tick {
+    pub pixel_warps_done: u32,
+    pub pixel_warps: u32,
+    /// GPU cycle reached (cycle level).
+    pub cycle: u64,
+}
+
+/// Simulates the pixel warps `warps` (all when `None`) of `w`. The sink sees every cycle of a
+/// cycle-level run; `progress` is called now and then.
+pub fn simulate<S: Sink>(
+    spec: &RunSpec,
+    w: &Workload,
+    warps: Option<&[u32]>,
+    sink: &mut S,
+    mut progress: impl FnMut(Tick),
+) -> Result<Outcome> {
+    spec.validate()?;
+    let start = Instant::now();
+    let all: Vec<u32>;
+    let warps = match warps {
+        Some(ws) => ws,
+        None => {
+            all = (0..w.num_warps()).collect();
+            &all
+        }
+    };
+    let total = warps.len() as u32;
+    let done = Cell::new(0u32);
+    let pixel_warps = warps.iter().map(|&i| {
+        let jobs = w.warp(i);
+        done.set(done.get() + 1);
+        jobs
+    });
+    let bvh = w.opts().bvh;
+    let (stack, gpu, pops_checked) = match spec.fidelity {
+        Fidelity::Functional => {
+            let mut last = Instant::now();
+            let run = crate::functional::run(
+                spec.config,
+                pixel_warps.inspect(|_| {
+                    if last.elapsed() > Duration::from_millis(500) {
+                        last = Instant::now();
+                        progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: 0 });
+                    }
+                }),
+            )
+            .map_err(|e| Error::Invalid(format!("{}: {e}", spec.config.name())))?;
+            (run.total, None, run.pops_checked)
+        }
+        Fidelity::Cycle => {
+            let gpu = Gpu::new(spec.config, spec.hw.rt, carve_out(&spec.config, spec.hw.mem))
+                .map_err(|e| Error::Invalid(e.to_string()))?;
+            let jobs = pixel_warps.flat_map(|jobs| jobs.into_iter().map(|j| rtl_job(&j, bvh)));
+            let report = gpu
+                .run_with_progress(jobs, sink, 100_000, |p: Progress| {
+                    progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle })
+                })
+                .map_err(|e| Error::Invalid(format!("{} failed its checks: {e}", spec.config.name())))?;
+            (report.stack, Some(GpuCounts::from(&report)), report.pops_checked)
+        }
+    };
+    Ok(Outcome {
+        fidelity: spec.fidelity,
+        pixel_warps: total,
+        stack: stack.into(),
+        gpu,
+        pops_checked,
+        wall: start.elapsed(),
+    })
+}
+
+/// Simulates every pixel warp, without waveforms.
+pub fn simulate_all(spec: &RunSpec, w: &Workload) -> Result<Outcome> {
+    simulate(spec, w, None, &mut NullSink, |_| {})
+}
+
+/// A sampled run: one outcome per batch and the estimate of each metric the fidelity measures.
+#[derive(Clone, Debug, Serialize)]
+pub struct Sampled {
+    pub fraction: f64,
+    pub batches: Vec<Outcome>,
+    pub estimates: Vec<(Metric, Estimate)>,
+    #[serde(serialize_with = "secs")]
+    pub wall: Duration,
+}
+
+impl Sampled {
+    pub fn get(&self, m: Metric) -> Option<Estimate> {
+        self.estimates.iter().find(|(k, _)| *k == m).map(|(_, e)| *e)
+    }
+}
+
+/// Screen tile of pixel warp `warp`: 8 × 8-pixel-row tiles of whole warps. A warp is 32
+/// consecutive pixels of a row-major image, so tiles are bands of rows split into column groups.
+pub fn tile_of(width: u32, warp: u32) -> u32 {
+    let first = warp * WARP_SIZE as u32;
+    let (row, col) = (first / width.max(1), first % width.max(1));
+    let cols = width.div_ceil(64).max(1);
+    (row / 8) * cols + col / 64
+}
+
+/// Simulates the batches of `plan` and estimates each metric's workload total.
+pub fn simulate_sampled(
+    spec: &RunSpec,
+    w: &Workload,
+    plan: &SamplePlan,
+    mut progress: impl FnMut(Tick),
+) -> Result<Sampled> {
+    plan.validate().map_err(Error::Invalid)?;
+    let start = Instant::now();
+    let width = w.opts().width;
+    let batches = choose(w.num_warps(), plan, |warp| tile_of(width, warp));
+    let total: u32 = batches.iter().map(|b| b.len() as u32).sum();
+    let mut done = 0;
+    let mut outcomes = Vec::with_capacity(batches.len());
+    for b in &batches {
+        let o = simulate(spec, w, Some(b), &mut NullSink, |t| {
+            progress(Tick { pixel_warps_done: done + t.pixel_warps_done, pixel_warps: total, cycle: t.cycle })
+        })?;
+        done += b.len() as u32;
+        outcomes.push(o);
+    }
+    let estimates = Metric::ALL
+        .into_iter()
+        .filter_map(|m| {
+            let obs: Option<Vec<(f64, u32)>> =
+                outcomes.iter().map(|o| Some((m.of(o)?, o.pixel_warps))).collect();
+            Some((m, estimate(&obs?, w.num_warps())))
+        })
+        .collect();
+    Ok(Sampled { fraction: plan.fraction, batches: outcomes, estimates, wall: start.elapsed() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::workload::WorkloadOpts;
+
+    fn workload(scene: &crate::scene::Scene, res: u32) -> Workload<'_> {
+        let opts = WorkloadOpts { width: res, height: res, spp: 1, max_bounces: 1, ..WorkloadOpts::for_scene(scene) };
+        Workload::new(scene, opts).unwrap()
+    }
+
+    fn spec(name: &str, fidelity: Fidelity) -> RunSpec {
+        RunSpec { config: name.parse().unwrap(), hw: Hardware::default(), fidelity }
+    }
+
+    #[test]
+    fn node_bytes_follow_the_layouts() {
+        assert_eq!(node_bytes(BvhKind::Bvh6, NodeKind::Internal), 64);
+        assert_eq!(node_bytes(BvhKind::Bvh6, NodeKind::Leaf), 8);
+        assert_eq!(node_bytes(BvhKind::Bvh2, NodeKind::Leaf), 48);
+        assert_eq!(node_bytes(BvhKind::Cwbvh, NodeKind::Internal), 80);
+        assert_eq!(node_bytes(BvhKind::Cwbvh, NodeKind::Triangle), 64);
+    }
+
+    #[test]
+    fn functional_equals_cycle_without_reallocation() {
+        let scene = crate::load_scene("clutter").unwrap();
+        let w = workload(&scene, 24);
+        for name in ["RB_8", "RB_4+SH_4", "RB_8+SH_8+SK"] {
+            let f = simulate_all(&spec(name, Fidelity::Functional), &w).unwrap();
+            let c = simulate_all(&spec(name, Fidelity::Cycle), &w).unwrap();
+            assert_eq!(f.stack, c.stack, "{name}");
+            assert!(f.stack.rb_to_sh + f.stack.global() > 0, "{name}: clutter goes deeper than 4 + 4 entries");
+            assert_eq!(f.pops_checked, c.pops_checked);
+            assert!(c.gpu.unwrap().cycles > 0);
+        }
+    }
+
+    #[test]
+    fn sampling_a_fraction_of_one_is_the_full_run_split() {
+        let scene = crate::load_scene("clutter").unwrap();
+        let w = workload(&scene, 24);
+        let s = spec("RB_4+SH_4", Fidelity::Functional);
+        let full = simulate_all(&s, &w).unwrap();
+        let plan = SamplePlan { fraction: 1.0, mode: crate::sampling::SampleMode::Random, batches: 4, seed: 1 };
+        let sampled = simulate_sampled(&s, &w, &plan, |_| {}).unwrap();
+        let sum: u64 = sampled.batches.iter().map(|b| b.stack.global()).sum();
+        assert_eq!(sum, full.stack.global(), "the batches partition the warps");
+        assert!(sampled.get(Metric::StackGlobal).unwrap().contains(full.stack.global() as f64));
+        assert!(sampled.get(Metric::Cycles).is_none(), "functional level has no cycles");
+    }
+}
