@@ -96,6 +96,7 @@ pub fn examples() -> Vec<Example> {
                 to: Some(200),
                 warps: Some(vec![0]),
                 lanes: Some(vec![0, 1, 2, 3]),
+                sms: None,
             },
         },
     ]

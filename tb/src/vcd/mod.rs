@@ -38,6 +38,9 @@ pub struct Selection {
     pub warps: Option<Vec<u32>>,
     /// Lanes (thread index within the warp) to dump (default all).
     pub lanes: Option<Vec<u32>>,
+    /// SMs to dump in a whole-GPU run (scopes `sm<k>`; default all). The memory system's
+    /// signals are always dumped.
+    pub sms: Option<Vec<u32>>,
 }
 
 impl Selection {
@@ -75,7 +78,11 @@ impl Selection {
                 .filter_map(|seg| seg.strip_prefix(scope)?.strip_suffix(']')?.parse().ok())
                 .all(|i: u32| filter.as_ref().is_none_or(|f| f.contains(&i)))
         };
-        keep(&self.warps, "warp[") && keep(&self.lanes, "thread[")
+        let sm_kept = path
+            .split('.')
+            .filter_map(|seg| seg.strip_prefix("sm")?.parse::<u32>().ok())
+            .all(|k| self.sms.as_ref().is_none_or(|f| f.contains(&k)));
+        keep(&self.warps, "warp[") && keep(&self.lanes, "thread[") && sm_kept
     }
 
     fn describe_window(&self) -> String {
