@@ -151,6 +151,7 @@ fn window_and_filters_dump_only_the_selection() {
         to: Some(160),
         warps: Some(vec![0]),
         lanes: Some(vec![0, 3]),
+        sms: None,
     };
     let (full, rec, _) = dump(&ex, Selection::default());
     let (part, _, _) = dump(&ex, select.clone());
