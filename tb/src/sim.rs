@@ -268,6 +268,15 @@ impl RunSpec {
                 self.config.warp_size
             )));
         }
+        let shared = rtl::gpu::shared_bytes(&self.config);
+        if shared >= self.hw.mem.l1d_bytes {
+            return Err(Error::Invalid(format!(
+                "{}: the SH stacks need {} KB of shared memory, the unified L1D/shared array has only {} KB",
+                self.config.name(),
+                f64::from(shared) / 1024.0,
+                f64::from(self.hw.mem.l1d_bytes) / 1024.0
+            )));
+        }
         Ok(())
     }
 }

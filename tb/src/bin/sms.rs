@@ -18,6 +18,8 @@ enum Command {
     Depth(cli::depth::Args),
     /// Hardware cost of stack designs, bit by bit, from the RTL's width definitions.
     Cost(cli::cost::Args),
+    /// Simulate a scene under stack configurations: cycles, off-chip traffic, conflicts.
+    Run(cli::run::Args),
     /// Exhaustive bounded model checking of stack consistency on small configurations.
     Check(cli::check::Args),
 }
@@ -28,6 +30,7 @@ fn main() -> std::process::ExitCode {
         Command::Depth(args) => cli::depth::run(args),
         Command::Cost(args) => cli::cost::run(args),
         Command::Check(args) => cli::check::run(args),
+        Command::Run(args) => cli::run::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -4,6 +4,7 @@
 pub mod check;
 pub mod cost;
 pub mod depth;
+pub mod run;
 pub mod scenes;
 pub mod stack_config;
 

@@ -1,0 +1,350 @@
+//! `sms run`: one scene under one or more stack configurations, at the cycle or functional level,
+//! optionally sampled, optionally dumping waveforms. Prints one column per configuration (the
+//! first is the baseline the speed-ups refer to), or JSON with `--json`.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use rtl::config::Config;
+use rtl::trace::NullSink;
+use serde::Serialize;
+
+use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
+use crate::sampling::{SampleMode, SamplePlan};
+use crate::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
+use crate::table::Table;
+use crate::vcd::{Selection, VcdOptions, VcdSink};
+use crate::workload::{Workload, WorkloadOpts};
+
+#[derive(Clone, Debug, clap::Args)]
+pub struct Args {
+    /// Scene name (`sms scenes` lists them).
+    #[arg(long, default_value = "clutter")]
+    pub scene: String,
+    /// Stack configurations in the paper's notation, comma-separated or repeated, e.g.
+    /// RB_8,RB_8+SH_8+SK+RA (SMS), RB_16, RB_FULL. The first is the baseline of the speed-ups.
+    #[arg(long, short, value_delimiter = ',', default_value = "RB_8,RB_8+SH_8+SK+RA")]
+    pub config: Vec<String>,
+    #[command(flatten)]
+    pub workload: WorkloadArgs,
+    #[command(flatten)]
+    pub hardware: HardwareArgs,
+    /// cycle: clocked RT units, stack managers and memory hierarchy; functional: stack traffic
+    /// counted from the traces, no timing (fastest).
+    #[arg(long, value_enum, default_value = "cycle")]
+    pub fidelity: Fidelity,
+    /// Simulate this fraction of the warps (0 < f ≤ 1) and estimate every metric with a 95 %
+    /// confidence interval.
+    #[arg(long, value_name = "FRACTION")]
+    pub sample: Option<f64>,
+    /// How sampled warps are drawn.
+    #[arg(long, value_enum, default_value = "tile")]
+    pub sample_mode: SampleMode,
+    /// Independent batches of a sampled run (at least 2).
+    #[arg(long, default_value_t = 8)]
+    pub batches: u32,
+    /// Print the results as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Also write the rendered image here (PNG).
+    #[arg(long, value_name = "FILE")]
+    pub png: Option<PathBuf>,
+    /// No progress output.
+    #[arg(long, short)]
+    pub quiet: bool,
+    #[command(flatten)]
+    pub vcd: VcdArgs,
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+}
+
+/// Waveform dump of a cycle-level run (one configuration, no sampling).
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct VcdArgs {
+    /// Dump every selected register and per-cycle signal to this VCD file (a GTKWave save file
+    /// is written next to it). Idle-cycle skipping is off while dumping.
+    #[arg(long, value_name = "FILE")]
+    pub vcd: Option<PathBuf>,
+    /// First cycle dumped.
+    #[arg(long, value_name = "CYCLE", requires = "vcd")]
+    pub vcd_from: Option<u64>,
+    /// Last cycle dumped (inclusive).
+    #[arg(long, value_name = "CYCLE", requires = "vcd")]
+    pub vcd_to: Option<u64>,
+    /// SMs dumped, e.g. 0 or 0,3 (default all).
+    #[arg(long, value_delimiter = ',', requires = "vcd")]
+    pub vcd_sms: Option<Vec<u32>>,
+    /// Warp slots dumped (default all).
+    #[arg(long, value_delimiter = ',', requires = "vcd")]
+    pub vcd_warps: Option<Vec<u32>>,
+    /// Lanes dumped (default all).
+    #[arg(long, value_delimiter = ',', requires = "vcd")]
+    pub vcd_lanes: Option<Vec<u32>>,
+}
+
+impl VcdArgs {
+    fn options(&self) -> Option<VcdOptions> {
+        Some(VcdOptions {
+            path: self.vcd.clone()?,
+            select: Selection {
+                from: self.vcd_from,
+                to: self.vcd_to,
+                warps: self.vcd_warps.clone(),
+                lanes: self.vcd_lanes.clone(),
+                sms: self.vcd_sms.clone(),
+            },
+        })
+    }
+}
+
+/// One configuration's result.
+#[derive(Serialize)]
+struct ConfigResult {
+    config: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    full: Option<Outcome>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sampled: Option<Sampled>,
+}
+
+#[derive(Serialize)]
+struct RunReport<'a> {
+    scene: &'a str,
+    workload: WorkloadOpts,
+    pixel_warps: u32,
+    rays: u64,
+    fidelity: Fidelity,
+    results: Vec<ConfigResult>,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let configs = args
+        .config
+        .iter()
+        .map(|c| c.parse::<Config>().with_context(|| format!("--config {c}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    if configs.is_empty() {
+        bail!("--config names no configuration");
+    }
+    let hw = args.hardware.hardware()?;
+    let plan = args.sample.map(|fraction| SamplePlan {
+        fraction,
+        mode: args.sample_mode,
+        batches: args.batches,
+        seed: args.workload.seed,
+    });
+    if let Some(p) = &plan {
+        p.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
+    }
+    let vcd = args.vcd.options();
+    if let Some(v) = &vcd {
+        if configs.len() != 1 {
+            bail!("--vcd dumps one configuration; {} were given", configs.len());
+        }
+        if args.fidelity != Fidelity::Cycle || plan.is_some() {
+            bail!("--vcd needs a full cycle-level run (no --sample, --fidelity cycle)");
+        }
+        if let Some(&sm) = v.select.sms.iter().flatten().find(|&&s| s >= hw.mem.sms) {
+            bail!("--vcd-sms {sm}: the GPU has {} SMs (0..{})", hw.mem.sms, hw.mem.sms);
+        }
+        v.select.validate(&configs[0])?;
+    }
+    let specs: Vec<RunSpec> =
+        configs.iter().map(|&config| RunSpec { config, hw, fidelity: args.fidelity }).collect();
+    for s in &specs {
+        s.validate()?;
+    }
+
+    let start = Instant::now();
+    let scene = args.scenes.library().load(&args.scene)?;
+    let opts = args.workload.opts(&scene);
+    let log = |msg: String| {
+        if !args.quiet {
+            eprintln!("{msg}");
+        }
+    };
+    log(format!("loaded {} ({} primitives) in {:.2} s", scene.name, scene.primitives.len(), secs(start)));
+    let start = Instant::now();
+    let w = Workload::new(&scene, opts)?;
+    log(format!(
+        "built {:?} ({} nodes) and path-traced {}x{} x {} spp, ≤ {} bounces: {} rays in {} pixel warps, {:.2} s",
+        opts.bvh,
+        w.bvh().node_count(),
+        opts.width,
+        opts.height,
+        opts.spp,
+        opts.max_bounces,
+        w.num_rays(),
+        w.num_warps(),
+        secs(start)
+    ));
+    if let Some(png) = &args.png {
+        w.image().write_png(png)?;
+        log(format!("wrote {}", png.display()));
+    }
+
+    let mut results = Vec::new();
+    for spec in &specs {
+        let name = spec.config.name();
+        let mut bar = ProgressLine::new(&name, args.quiet);
+        let result = match (&plan, &vcd) {
+            (Some(p), _) => ConfigResult {
+                config: name.clone(),
+                full: None,
+                sampled: Some(simulate_sampled(spec, &w, p, |t| bar.tick(t))?),
+            },
+            (None, Some(v)) => {
+                let mut sink = VcdSink::create(v, &spec.config)?;
+                let o = simulate(spec, &w, None, &mut sink, |t| bar.tick(t))?;
+                sink.finish()?;
+                log(format!("wrote {} and {}", v.path.display(), v.path.with_extension("gtkw").display()));
+                ConfigResult { config: name.clone(), full: Some(o), sampled: None }
+            }
+            (None, None) => ConfigResult {
+                config: name.clone(),
+                full: Some(simulate(spec, &w, None, &mut NullSink, |t| bar.tick(t))?),
+                sampled: None,
+            },
+        };
+        bar.done();
+        results.push(result);
+    }
+
+    let report = RunReport {
+        scene: &scene.name,
+        workload: opts,
+        pixel_warps: w.num_warps(),
+        rays: w.num_rays(),
+        fidelity: args.fidelity,
+        results,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", table(&report).to_text());
+    }
+    Ok(())
+}
+
+fn secs(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64()
+}
+
+/// One value per configuration: the full run's, or the estimate with its 95 % half width.
+fn cell(r: &ConfigResult, m: Metric) -> Option<(f64, Option<f64>)> {
+    match (&r.full, &r.sampled) {
+        (Some(o), _) => Some((m.of(o)?, None)),
+        (None, Some(s)) => s.get(m).map(|e| (e.value, Some(e.half_width))),
+        (None, None) => None,
+    }
+}
+
+fn fmt_value(v: Option<(f64, Option<f64>)>) -> String {
+    match v {
+        None => "-".into(),
+        Some((x, None)) => format!("{x:.0}"),
+        Some((x, Some(h))) => format!("{x:.0} ± {h:.0}"),
+    }
+}
+
+fn table(report: &RunReport) -> Table {
+    let rs = &report.results;
+    let mut t = Table::new(std::iter::once("metric".to_string()).chain(rs.iter().map(|r| r.config.clone())));
+    let mut row = |label: &str, cells: Vec<String>| t.row(std::iter::once(label.to_string()).chain(cells));
+    let metric_row = |m: Metric| rs.iter().map(|r| fmt_value(cell(r, m))).collect::<Vec<_>>();
+    if rs.iter().any(|r| cell(r, Metric::Cycles).is_some()) {
+        row("cycles", metric_row(Metric::Cycles));
+        let base = cell(&rs[0], Metric::Cycles).map(|c| c.0);
+        row(
+            &format!("speed-up over {}", rs[0].config),
+            rs.iter()
+                .map(|r| match (base, cell(r, Metric::Cycles)) {
+                    (Some(b), Some((c, _))) if c > 0.0 => format!("{:.3}", b / c),
+                    _ => "-".into(),
+                })
+                .collect(),
+        );
+    }
+    let labelled = [
+        (Metric::DramNode, "off-chip accesses: node fetches"),
+        (Metric::DramStack, "off-chip accesses: stack traffic"),
+        (Metric::StackGlobal, "stack entries to/from global memory"),
+        (Metric::ShSpills, "RB → SH spills"),
+        (Metric::Borrows, "SH stacks borrowed"),
+        (Metric::Flushes, "flushes"),
+        (Metric::ConflictCycles, "bank-conflict delay cycles"),
+    ];
+    for (m, label) in labelled {
+        if rs.iter().any(|r| cell(r, m).is_some()) {
+            row(label, metric_row(m));
+        }
+    }
+    let full = |f: &dyn Fn(&Outcome) -> String| rs.iter().map(|r| r.full.as_ref().map_or("-".into(), f)).collect();
+    if rs.iter().any(|r| r.full.as_ref().is_some_and(|o| o.gpu.is_some())) {
+        let rate = |x: f64| format!("{:.1} %", 100.0 * x);
+        row("L1D hit rate", full(&|o| o.gpu.map_or("-".into(), |g| rate(g.l1d_hit_rate))));
+        row("L2 hit rate", full(&|o| o.gpu.map_or("-".into(), |g| rate(g.l2_hit_rate))));
+        row("warp jobs (traceRay calls)", full(&|o| o.gpu.map_or("-".into(), |g| g.warp_jobs.to_string())));
+    }
+    row("pops checked against the trace", full(&|o| o.pops_checked.to_string()));
+    row(
+        "wall time",
+        rs.iter()
+            .map(|r| {
+                let wall = r.full.as_ref().map(|o| o.wall).or(r.sampled.as_ref().map(|s| s.wall));
+                wall.map_or("-".into(), |d| format!("{:.2} s", d.as_secs_f64()))
+            })
+            .collect(),
+    );
+    t
+}
+
+/// A progress line on stderr: rewritten in place on a terminal, a line every few seconds
+/// otherwise.
+struct ProgressLine<'a> {
+    name: &'a str,
+    quiet: bool,
+    tty: bool,
+    start: Instant,
+    last: Instant,
+}
+
+impl<'a> ProgressLine<'a> {
+    fn new(name: &'a str, quiet: bool) -> Self {
+        let now = Instant::now();
+        ProgressLine { name, quiet, tty: std::io::stderr().is_terminal(), start: now, last: now }
+    }
+
+    fn tick(&mut self, t: Tick) {
+        let every = if self.tty { Duration::from_millis(200) } else { Duration::from_secs(5) };
+        if self.quiet || self.last.elapsed() < every {
+            return;
+        }
+        self.last = Instant::now();
+        let line = format!(
+            "{}: pixel warps {}/{}, cycle {}, {:.1} s",
+            self.name,
+            t.pixel_warps_done,
+            t.pixel_warps,
+            t.cycle,
+            secs(self.start)
+        );
+        if self.tty {
+            eprint!("\r{line}\x1b[K");
+        } else {
+            eprintln!("{line}");
+        }
+    }
+
+    fn done(&self) {
+        if self.quiet {
+            return;
+        }
+        if self.tty {
+            eprint!("\r\x1b[K");
+        }
+        eprintln!("{}: done in {:.2} s", self.name, secs(self.start));
+    }
+}
