@@ -17,7 +17,8 @@
 //! Idle skipping: after each cycle every RT unit reports the next cycle in which it acts without
 //! a memory response, and the memory system its next event; the run jumps to the earliest. The
 //! skipped cycles would have changed nothing, so the report is identical to stepping every cycle
-//! (tested). Skipping is off while a waveform sink is enabled, so the dump has every cycle.
+//! (tested). A sink sees every cycle it wants ([`Sink::next_wanted`]): skipping never jumps over one, so a
+//! dump has every cycle of its window, and cycles outside the window are skipped as usual.
 
 use crate::config::{Config, ConfigError};
 use crate::mem::hierarchy::MemSystem;
@@ -183,7 +184,7 @@ impl Gpu {
                     self.jobs_in[sm].take(),
                 )?;
             }
-            if sink.enabled() {
+            if sink.next_wanted(now) == Some(now) {
                 sink.begin_cycle(now);
                 self.probe(sink);
             }
@@ -200,8 +201,12 @@ impl Gpu {
                 None if more_jobs || !self.units.iter().all(RtUnit::empty) => {
                     return Err(RunError::Stalled { cycle: now });
                 }
-                Some(at) if self.rt.idle_skip && !sink.enabled() && at > self.mem.cycle() => {
-                    self.mem.skip_to(at)
+                Some(at) if self.rt.idle_skip && at > self.mem.cycle() => {
+                    // Never skip a cycle the sink wants to see.
+                    let at = sink.next_wanted(self.mem.cycle()).map_or(at, |w| w.min(at));
+                    if at > self.mem.cycle() {
+                        self.mem.skip_to(at)
+                    }
                 }
                 _ => {}
             }

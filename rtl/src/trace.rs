@@ -9,6 +9,12 @@
 /// nothing: `enabled()` is a constant `false` and every probe returns before walking.
 pub trait Sink {
     fn enabled(&self) -> bool;
+    /// The first cycle at or after `cycle` whose walk this sink wants, `None` for none. A driver
+    /// may leave out the walks of other cycles and skip idle cycles up to the next wanted one
+    /// (a VCD window): a dump outside its window then costs almost nothing.
+    fn next_wanted(&self, cycle: u64) -> Option<u64> {
+        self.enabled().then_some(cycle)
+    }
     /// Marks the start of a new cycle's walk (a VCD timestamp).
     fn begin_cycle(&mut self, _cycle: u64) {}
     fn push_scope(&mut self, name: &str);

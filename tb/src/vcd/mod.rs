@@ -395,6 +395,18 @@ impl<W: Write> Sink for VcdSink<W> {
         self.error.is_none()
     }
 
+    /// Every cycle until the declarations are made (first walk), then only the window's.
+    fn next_wanted(&self, cycle: u64) -> Option<u64> {
+        if !self.enabled() {
+            return None;
+        }
+        if self.first.is_some() {
+            return Some(cycle);
+        }
+        let from = cycle.max(self.select.from.unwrap_or(0));
+        self.select.to.is_none_or(|to| from <= to).then_some(from)
+    }
+
     fn begin_cycle(&mut self, cycle: u64) {
         self.end_walk();
         self.cycle = Some(cycle);
@@ -437,6 +449,12 @@ pub struct Tee<'a, A: Sink, B: Sink>(pub &'a mut A, pub &'a mut B);
 impl<A: Sink, B: Sink> Sink for Tee<'_, A, B> {
     fn enabled(&self) -> bool {
         self.0.enabled() || self.1.enabled()
+    }
+    fn next_wanted(&self, cycle: u64) -> Option<u64> {
+        match (self.0.next_wanted(cycle), self.1.next_wanted(cycle)) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
     }
     fn begin_cycle(&mut self, cycle: u64) {
         self.0.begin_cycle(cycle);
