@@ -637,7 +637,7 @@ impl Probe for RtUnit {
         s.push_scope("warp_buffer");
         for w in 0..self.cfg.warps {
             let slot = self.slots[w as usize].as_ref();
-            s.push_scope(&format!("slot[{w}]"));
+            s.push_scope(&format!("warp[{w}]"));
             s.signal("valid", 1, u64::from(slot.is_some()));
             s.signal("age", 32, slot.map_or(0, |x| x.age));
             let m = self.lanes[w as usize];
@@ -648,7 +648,9 @@ impl Probe for RtUnit {
             s.signal("stack_mask", ws, u64::from(m.stack));
             for l in 0..ws {
                 let th = self.threads[(w * ws + l) as usize];
-                s.signal(&format!("state[{l}]"), 3, th.state.code());
+                s.push_scope(&format!("thread[{l}]"));
+                s.signal("state", 3, th.state.code());
+                s.pop_scope();
             }
             s.pop_scope();
         }

@@ -141,7 +141,7 @@ fn single_ray_cycle_count_derived_by_hand() {
     // Step by step: the lane's state as the probe shows it after each cycle's step (the state it
     // has from the next cycle on), recorded when it changes. 0 Done, 1 Busy, 2 Fetch,
     // 3 WaitMem, 4 Stack.
-    let mut watch = Watch::new("sm0.rt_unit.warp_buffer.slot[0].state[0]");
+    let mut watch = Watch::new("sm0.rt_unit.warp_buffer.warp[0].thread[0].state");
     let cfg: Config = "RB_8".parse().unwrap();
     Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
     let (done, busy, fetch, wait, stack) = (0, 1, 2, 3, 4);
@@ -358,8 +358,8 @@ fn probes_name_every_unit_and_progress_is_reported() {
     gpu.probe(&mut s);
     assert_eq!(gpu.memory().params().l1d_bytes, 56 << 10, "SMS carves 8 KB out of 64 KB");
     for path in [
-        "sm0.rt_unit.warp_buffer.slot[0].valid",
-        "sm0.rt_unit.warp_buffer.slot[3].state[31]",
+        "sm0.rt_unit.warp_buffer.warp[0].valid",
+        "sm0.rt_unit.warp_buffer.warp[3].thread[31].state",
         "sm7.rt_unit.scheduler.greedy",
         "sm0.rt_unit.port.node",
         "sm0.rt_unit.node_fetch.queue",

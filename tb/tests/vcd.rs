@@ -270,7 +270,8 @@ fn save_file_opens_the_dump_with_grouped_signals() {
     }
     let labels: Vec<&str> = save.lines().filter_map(|l| l.strip_prefix('-')).collect();
     assert_eq!(labels.len() % 2, 0, "groups open and close");
-    assert_eq!(labels[0], "bank_arbiter");
+    assert_eq!(labels[0], "warp[0].thread[0]", "the first stack thread leads");
+    assert!(labels.contains(&"bank_arbiter"));
     assert!(labels.contains(&"warp[1].thread[7]"));
     // Thread fields in display order.
     let thread0: Vec<&str> = save

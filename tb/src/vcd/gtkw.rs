@@ -6,9 +6,10 @@
 //! signal name per trace line. GTKWave's VCD loader names a vector `path[msb:0]`, a scalar just
 //! `path`, and keeps brackets in scope names (`warp[3]`), which we checked with GTKWave 3.3.118.
 //!
-//! Layout: the unit-level scopes (bank arbiter, memory scheduler, response FIFO) first, then one
-//! group per thread with the stack fields in [`FIELD_ORDER`]; the first thread's group is open,
-//! the others closed. The zoom shows the whole written window.
+//! Layout: one group per stack thread with the stack fields in [`FIELD_ORDER`] (the first
+//! thread's group open, the others closed), then the unit-level scopes (bank arbiter, memory
+//! scheduler, response FIFO, and in a GPU dump the RT unit's and memory system's), then the RT
+//! unit's per-lane traversal states. The zoom shows the whole written window.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -67,7 +68,7 @@ pub fn write(
     end: u64,
 ) -> io::Result<()> {
     let mut f = BufWriter::new(File::create(save)?);
-    writeln!(f, "[*] sms stack-unit waves, written by tb::vcd")?;
+    writeln!(f, "[*] sms waves, written by tb::vcd")?;
     writeln!(f, "[dumpfile] \"{}\"", dump.display())?;
     writeln!(f, "[savefile] \"{}\"", save.display())?;
     writeln!(f, "[timestart] {from}")?;
@@ -113,8 +114,8 @@ pub fn write(
     f.flush()
 }
 
-/// Signals grouped by their scope: unit-level scopes first, then threads, each in walk order;
-/// thread fields sorted by [`FIELD_ORDER`].
+/// Signals grouped by their scope: stack threads, unit-level scopes, lane states, each in walk
+/// order; thread fields sorted by [`FIELD_ORDER`].
 fn groups(signals: &[(String, u32)]) -> Vec<(String, Vec<&(String, u32)>)> {
     let mut groups: Vec<(String, Vec<&(String, u32)>)> = Vec::new();
     for s in signals {
@@ -134,6 +135,12 @@ fn groups(signals: &[(String, u32)]) -> Vec<(String, Vec<&(String, u32)>)> {
     for g in &mut groups {
         g.1.sort_by_key(|s| rank(&s.0));
     }
-    groups.sort_by_key(|g| g.0.contains("thread["));
+    // Stack threads first (what a stack designer looks at), then unit-level scopes, then the
+    // RT unit's per-lane traversal states; walk order within each.
+    groups.sort_by_key(|g| match (g.0.contains("thread["), g.0.contains("warp_buffer")) {
+        (true, false) => 0,
+        (false, _) => 1,
+        (true, true) => 2,
+    });
     groups
 }

@@ -38,8 +38,8 @@ pub struct Selection {
     pub warps: Option<Vec<u32>>,
     /// Lanes (thread index within the warp) to dump (default all).
     pub lanes: Option<Vec<u32>>,
-    /// SMs to dump in a whole-GPU run (scopes `sm<k>`; default all). The memory system's
-    /// signals are always dumped.
+    /// SMs to dump in a whole-GPU run (scopes `sm<k>` and their L1Ds `mem.l1d<k>`; default
+    /// all). The L2 and DRAM are always dumped.
     pub sms: Option<Vec<u32>>,
 }
 
@@ -80,7 +80,7 @@ impl Selection {
         };
         let sm_kept = path
             .split('.')
-            .filter_map(|seg| seg.strip_prefix("sm")?.parse::<u32>().ok())
+            .filter_map(|seg| seg.strip_prefix("sm").or(seg.strip_prefix("l1d"))?.parse::<u32>().ok())
             .all(|k| self.sms.as_ref().is_none_or(|f| f.contains(&k)));
         keep(&self.warps, "warp[") && keep(&self.lanes, "thread[") && sm_kept
     }
