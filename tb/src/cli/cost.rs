@@ -27,7 +27,7 @@ pub fn run(args: Args) -> Result<()> {
     if args.sms == 0 {
         bail!("--sms must be at least 1");
     }
-    let mut configs = args.stack.resolve()?;
+    let mut configs = args.stack.resolve(&["SMS"])?;
     if args.baselines {
         for name in ["RB_8", "RB_16", "RB_FULL"] {
             let c = name.parse()?;

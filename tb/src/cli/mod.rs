@@ -33,8 +33,11 @@ impl SceneArgs {
 /// the subcommands that simulate a workload.
 #[derive(Clone, Debug, clap::Args)]
 pub struct WorkloadArgs {
+    /// Hierarchy: bvh6 (Vulkan-Sim's 6-wide layout, 64-byte nodes), bvh2 or cwbvh (obvhs).
     #[arg(long, value_enum, default_value = "bvh6")]
     pub bvh: crate::workload::BvhKind,
+    /// Child order: nearest hit child first, others pushed far to near; or vulkansim (index
+    /// order).
     #[arg(long, value_enum, default_value = "nearest")]
     pub order: crate::workload::ChildOrder,
     /// Resolution as WIDTHxHEIGHT (default: the scene's).

@@ -6,11 +6,11 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context};
-use rtl::config::Config;
+use anyhow::bail;
 use rtl::trace::NullSink;
 use serde::Serialize;
 
+use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
 use crate::sampling::{SampleMode, SamplePlan};
 use crate::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
@@ -23,10 +23,8 @@ pub struct Args {
     /// Scene name (`sms scenes` lists them).
     #[arg(long, default_value = "clutter")]
     pub scene: String,
-    /// Stack configurations in the paper's notation, comma-separated or repeated, e.g.
-    /// RB_8,RB_8+SH_8+SK+RA (SMS), RB_16, RB_FULL. The first is the baseline of the speed-ups.
-    #[arg(long, short, value_delimiter = ',', default_value = "RB_8,RB_8+SH_8+SK+RA")]
-    pub config: Vec<String>,
+    #[command(flatten)]
+    pub stack: StackConfigArgs,
     #[command(flatten)]
     pub workload: WorkloadArgs,
     #[command(flatten)]
@@ -120,14 +118,7 @@ struct RunReport<'a> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let configs = args
-        .config
-        .iter()
-        .map(|c| c.parse::<Config>().with_context(|| format!("--config {c}")))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    if configs.is_empty() {
-        bail!("--config names no configuration");
-    }
+    let configs = args.stack.resolve(&["RB_8", "RB_16", "SMS"])?;
     let hw = args.hardware.hardware()?;
     let plan = args.sample.map(|fraction| SamplePlan {
         fraction,

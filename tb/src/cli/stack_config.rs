@@ -8,7 +8,8 @@ use rtl::config::{Config, Realloc};
 pub struct StackConfigArgs {
     /// Stack configurations, comma-separated: RB_N, RB_FULL, RB_N+SH_M, +SK, +RA, or SMS
     /// (= RB_8+SH_8+SK+RA); `paper` = every configuration of the paper's evaluation.
-    #[arg(long, short = 'c', default_value = "SMS", value_delimiter = ',')]
+    /// Default: `sms run` RB_8,RB_16,SMS (the first is the speed-ups' baseline); otherwise SMS.
+    #[arg(long, short = 'c', value_delimiter = ',')]
     pub config: Vec<String>,
     /// Warps per RT unit.
     #[arg(long)]
@@ -25,10 +26,16 @@ pub struct StackConfigArgs {
 }
 
 impl StackConfigArgs {
-    /// The configurations asked for, each validated after the overrides.
-    pub fn resolve(&self) -> Result<Vec<Config>> {
+    /// The configurations asked for (`default` when none is), each validated after the
+    /// overrides.
+    pub fn resolve(&self, default: &[&str]) -> Result<Vec<Config>> {
         let mut out = Vec::new();
-        for name in &self.config {
+        let names: Vec<String> = if self.config.is_empty() {
+            default.iter().map(|s| s.to_string()).collect()
+        } else {
+            self.config.clone()
+        };
+        for name in &names {
             let base: Vec<Config> = if name.eq_ignore_ascii_case("paper") {
                 Config::paper_set()
             } else {
