@@ -86,14 +86,17 @@ fn selection() -> Selection {
 }
 
 /// Whether `path` is in [`selection`], decided from the path's scopes independently of
-/// [`Selection::selects`].
+/// [`Selection::selects`]. A warp slot is `warp[w]` in the stack manager and `slot[w]` in the RT
+/// unit's warp buffer, whose per-lane signals are `state[l]`.
 fn expected(path: &str) -> bool {
     let index = |prefix: &str, suffix: &str| -> Vec<u32> {
         path.split('.').filter_map(|s| s.strip_prefix(prefix)?.strip_suffix(suffix)?.parse().ok()).collect()
     };
+    let warps = [index("warp[", "]"), index("slot[", "]")].concat();
+    let lanes = [index("thread[", "]"), index("state[", "]")].concat();
     index("sm", "").iter().all(|&k| k == 0 || k == 5)
-        && index("warp[", "]").iter().all(|&w| w == 1)
-        && index("thread[", "]").iter().all(|l| [0, 7, 31].contains(l))
+        && warps.iter().all(|&w| w == 1)
+        && lanes.iter().all(|l| [0, 7, 31].contains(l))
 }
 
 fn strict(text: &str) -> Waves {
@@ -115,8 +118,13 @@ fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
     assert_eq!(got, want);
     let all = rec.signals().count();
     assert!(got.len() * 10 < all, "{} of {all} signals dumped: the filters did not apply", got.len());
-    for scope in ["sm0.rt_unit.", "sm5.rt_unit.", "mem.", ".stack_manager.warp[1].thread[31]."] {
+    for scope in
+        ["sm0.rt_unit.", "sm5.rt_unit.", "mem.", ".stack_manager.warp[1].thread[31].", ".slot[1].state[7]"]
+    {
         assert!(got.iter().any(|s| s.0.contains(scope)), "nothing under {scope}");
+    }
+    for other in ["sm1.", ".warp[0].", ".slot[0].", ".thread[1].", ".state[1]"] {
+        assert!(!got.iter().any(|s| s.0.contains(other)), "{other} is not selected");
     }
 
     let times: Vec<u64> = waves.times().collect();

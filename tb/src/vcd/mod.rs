@@ -71,7 +71,8 @@ impl Selection {
     }
 
     /// Whether the signal at `path` (scopes joined by '.') is dumped: anything under a
-    /// `warp[w]` or `thread[l]` scope outside the filters is not.
+    /// `warp[w]` or `thread[l]` scope outside the filters is not, nor the RT unit's warp-buffer
+    /// signals of other warp slots (`slot[w]`) and lanes (`state[l]`).
     pub fn selects(&self, path: &str) -> bool {
         let keep = |filter: &Option<Vec<u32>>, scope: &str| {
             path.split('.')
@@ -82,7 +83,11 @@ impl Selection {
             .split('.')
             .filter_map(|seg| seg.strip_prefix("sm")?.parse::<u32>().ok())
             .all(|k| self.sms.as_ref().is_none_or(|f| f.contains(&k)));
-        keep(&self.warps, "warp[") && keep(&self.lanes, "thread[") && sm_kept
+        keep(&self.warps, "warp[")
+            && keep(&self.warps, "slot[")
+            && keep(&self.lanes, "thread[")
+            && keep(&self.lanes, "state[")
+            && sm_kept
     }
 
     fn describe_window(&self) -> String {
