@@ -220,9 +220,19 @@ fn bad_gpu_dump_requests_are_clear_errors() {
     let msg = create_err(Selection::default(), &tmp.0);
     assert!(msg.starts_with(&format!("cannot write {}: ", tmp.0.display())), "a directory: {msg}");
 
-    // A window after the end of a (small) run is reported when the dump is finished.
+    // The SM count is the hardware's, not the configuration's: an unknown SM is found on the
+    // first probe walk and reported when the dump is finished, as is a window after the end of
+    // the run (a small one here).
     let ship = tb::load_scene("ship").unwrap();
     let w = ship_workload(&ship, 8);
+    let opts = VcdOptions {
+        path: path.clone(),
+        select: Selection { sms: Some(vec![3, 8]), ..Selection::default() },
+    };
+    let mut sink = VcdSink::create(&opts, &spec().config).unwrap();
+    simulate(&spec(), &w, None, &mut sink, |_| {}).unwrap();
+    let err = sink.finish().unwrap_err();
+    assert_eq!(err.to_string(), "VCD SM 8 does not exist: the run has 8 SMs (0..8)");
     let late = Selection { from: Some(10_000_000), to: Some(10_000_100), ..Selection::default() };
     let opts = VcdOptions { path: path.clone(), select: late };
     let mut sink = VcdSink::create(&opts, &spec().config).unwrap();

@@ -39,7 +39,8 @@ pub struct Selection {
     /// Lanes (thread index within the warp) to dump (default all).
     pub lanes: Option<Vec<u32>>,
     /// SMs to dump in a whole-GPU run (scopes `sm<k>`; default all). The memory system's
-    /// signals are always dumped.
+    /// signals are always dumped. An SM the run does not have is reported by
+    /// [`VcdSink::finish`].
     pub sms: Option<Vec<u32>>,
 }
 
@@ -123,6 +124,11 @@ pub enum VcdError {
         lane: u32,
         warp_size: u32,
     },
+    /// Found on the first probe walk: the SM count is the hardware's, not the configuration's.
+    NoSuchSm {
+        sm: u32,
+        sms: u32,
+    },
     Io {
         path: String,
         error: io::Error,
@@ -161,6 +167,10 @@ impl fmt::Display for VcdError {
             VcdError::NoSuchLane { lane, warp_size } => write!(
                 f,
                 "VCD lane {lane} does not exist: warps have {warp_size} lanes (0..{warp_size})"
+            ),
+            VcdError::NoSuchSm { sm, sms } => write!(
+                f,
+                "VCD SM {sm} does not exist: the run has {sms} SMs (0..{sms})"
             ),
             VcdError::Io { path, error } => write!(f, "cannot write {path}: {error}"),
             VcdError::Walk {
@@ -299,6 +309,7 @@ impl<W: Write> VcdSink<W> {
     fn end_walk(&mut self) {
         let Some(cycle) = self.cycle else { return };
         if let Some(first) = self.first.take() {
+            self.check_sms(&first);
             let r = self.declare(&first);
             self.io(r);
             for (i, &(_, _, value)) in first.signals.iter().enumerate() {
@@ -313,6 +324,20 @@ impl<W: Write> VcdSink<W> {
         }
         if self.select.in_window(cycle) {
             self.dumped = true;
+        }
+    }
+
+    /// Every SM the selection names has an `sm<k>` scope in the walk.
+    fn check_sms(&mut self, first: &Snapshot) {
+        let Some(sms) = &self.select.sms else { return };
+        let present = first
+            .signals
+            .iter()
+            .filter_map(|(p, _, _)| p.split('.').next()?.strip_prefix("sm")?.parse::<u32>().ok())
+            .max()
+            .map_or(0, |k| k + 1);
+        if let Some(&sm) = sms.iter().find(|&&k| k >= present) {
+            self.fail(VcdError::NoSuchSm { sm, sms: present });
         }
     }
 
