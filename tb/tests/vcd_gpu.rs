@@ -63,16 +63,18 @@ fn ship_workload(scene: &tb::Scene, res: u32) -> Workload<'_> {
     Workload::new(scene, opts).unwrap()
 }
 
-/// Runs ship through the GPU with a VCD sink to memory and a windowed recorder side by side.
-fn dump(select: &Selection) -> (String, Recorder, Outcome) {
+/// Runs ship through the GPU with a VCD sink writing `path` (and its save file) and a windowed
+/// recorder side by side; returns the dump's text.
+fn dump(path: &Path) -> (String, Recorder, Outcome) {
     let ship = tb::load_scene("ship").unwrap();
     let w = ship_workload(&ship, 16);
     let spec = spec();
-    let mut vcd = VcdSink::new(Vec::new(), select.clone(), &spec.config).unwrap();
+    let opts = VcdOptions { path: path.to_path_buf(), select: selection() };
+    let mut vcd = VcdSink::create(&opts, &spec.config).unwrap();
     let mut rec = Windowed { window: WINDOW, on: false, rec: Recorder::default() };
     let out = simulate(&spec, &w, None, &mut Tee(&mut vcd, &mut rec), |_| {}).unwrap();
-    let text = String::from_utf8(vcd.finish().unwrap()).unwrap();
-    (text, rec.rec, out)
+    vcd.finish().unwrap();
+    (std::fs::read_to_string(path).unwrap(), rec.rec, out)
 }
 
 fn selection() -> Selection {
@@ -105,7 +107,8 @@ fn strict(text: &str) -> Waves {
 
 #[test]
 fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
-    let (text, rec, out) = dump(&selection());
+    let tmp = TmpDir::new("dump");
+    let (text, rec, out) = dump(&tmp.join("gpu.vcd"));
     let g = out.gpu.unwrap();
     assert!(g.cycles > *WINDOW.end() + 1_000, "window must lie inside the run ({} cycles)", g.cycles);
     assert_eq!(g.warp_jobs, 16);
@@ -132,16 +135,35 @@ fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
     assert_eq!(times.last(), Some(&(WINDOW.end() + 1)), "closing timestamp");
     let compared = compare(&waves, &rec, WINDOW).unwrap();
     assert_eq!(compared, rec.cycles().len() * got.len());
-    // The window shows traversal, not a quiet machine: selected threads' stacks move.
-    let busy = text.lines().filter(|l| l.starts_with('#')).count();
-    assert!(busy > 100, "only {busy} timestamps with changes");
+    // The window shows traversal, not a quiet machine: the selected threads' stacks move.
+    let paths: Vec<&str> = rec.signals().map(|s| s.0).collect();
+    let changes = |path: &str| {
+        let i = paths.iter().position(|p| *p == path).unwrap();
+        (1..rec.cycles().len()).filter(|&k| rec.walk(k)[i] != rec.walk(k - 1)[i]).count()
+    };
+    let moves: usize = got
+        .iter()
+        .filter(|s| s.0.contains(".stack_manager.warp[1].") && s.0.ends_with(".rb_count"))
+        .map(|s| changes(s.0))
+        .sum();
+    assert!(moves > 10, "the selected stacks changed depth only {moves} times in the window");
     println!(
-        "{} cycles; window {WINDOW:?}: {} of {all} signals, {} changes, {} bytes, {compared} values compared",
+        "{} cycles; window {WINDOW:?}: {} of {all} signals, {} changes, {} bytes, {compared} values compared, {moves} RB depth changes of the selected threads",
         g.cycles,
         got.len(),
         waves.change_count(),
         text.len()
     );
+
+    // The save file opens this dump and lists every dumped signal, in balanced groups.
+    let save = std::fs::read_to_string(tmp.join("gpu.gtkw")).unwrap();
+    let abs = std::fs::canonicalize(tmp.join("gpu.vcd")).unwrap();
+    assert!(save.contains(&format!("[dumpfile] \"{}\"\n", abs.display())), "{save:.300}");
+    for (path, width) in &got {
+        let trace = if *width == 1 { path.to_string() } else { format!("{path}[{}:0]", width - 1) };
+        assert!(save.lines().any(|l| l == trace), "{trace} missing from the save file");
+    }
+    assert_eq!(save.lines().filter(|l| l.starts_with('-')).count() % 2, 0, "groups open and close");
 
     // The comparison can fail: one value flipped after the first timestamp is found.
     let second = text.match_indices("\n#").nth(1).unwrap().0;
@@ -184,10 +206,9 @@ fn gtkwave_round_trip_keeps_the_gpu_values() {
         println!("NOTICE: SKIPPED: vcd2fst/fst2vcd not on PATH (apt-get install gtkwave; .ci/run does)");
         return;
     }
-    let (text, rec, _) = dump(&selection());
     let tmp = TmpDir::new("round");
     let (vcd, fst) = (tmp.join("gpu.vcd"), tmp.join("gpu.fst"));
-    std::fs::write(&vcd, &text).unwrap();
+    let (text, rec, _) = dump(&vcd);
     let status = Command::new("vcd2fst").arg(&vcd).arg(&fst).output().unwrap();
     assert!(status.status.success(), "vcd2fst: {}", String::from_utf8_lossy(&status.stderr));
     let out = Command::new("fst2vcd").arg(&fst).output().unwrap();
