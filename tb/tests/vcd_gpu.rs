@@ -10,7 +10,7 @@ use std::process::Command;
 
 use rtl::config::Config;
 use rtl::trace::Sink;
-use tb::sim::{simulate, Fidelity, Hardware, Outcome, RunSpec};
+use tb::sim::{simulate, simulate_all, Fidelity, GpuCounts, Hardware, Outcome, RunSpec};
 use tb::vcd::check::{compare, read, Mode, Recorder, Waves};
 use tb::vcd::{Selection, Tee, VcdError, VcdOptions, VcdSink};
 use tb::workload::{Workload, WorkloadOpts};
@@ -114,6 +114,16 @@ fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
     assert!(g.cycles > *WINDOW.end() + 1_000, "window must lie inside the run ({} cycles)", g.cycles);
     assert_eq!(g.warp_jobs, 16);
     assert_eq!(rec.cycles().len() as u64, WINDOW.end() - WINDOW.start() + 1, "every cycle is walked");
+    // Probing changes nothing but the idle skipping it turns off: the same report as a run
+    // without waves, every cycle evaluated.
+    let ship = tb::load_scene("ship").unwrap();
+    let quiet = simulate_all(&spec(), &ship_workload(&ship, 16)).unwrap();
+    let q = quiet.gpu.unwrap();
+    assert_eq!(g.evaluated_cycles, g.cycles);
+    assert!(q.evaluated_cycles < q.cycles, "idle cycles are skipped without a sink");
+    assert_eq!(GpuCounts { evaluated_cycles: 0, ..g }, GpuCounts { evaluated_cycles: 0, ..q });
+    assert_eq!((out.stack, out.pops_checked), (quiet.stack, quiet.pops_checked));
+
     let waves = strict(&text);
 
     // Exactly the selected signals with a width, in walk order.
