@@ -215,6 +215,7 @@ impl Gpu {
                 next_report = self.mem.cycle().saturating_add(every);
             }
         }
+        sink.end_run(self.mem.cycle());
         Ok(GpuReport { evaluated_cycles: evaluated, ..self.report() })
     }
 

@@ -15,6 +15,9 @@ pub trait Sink {
     fn next_wanted(&self, cycle: u64) -> Option<u64> {
         self.enabled().then_some(cycle)
     }
+    /// The run ended after `cycles` cycles (drivers that skip cycles call this, so a sink knows
+    /// the run's length even when it saw none of the last cycles).
+    fn end_run(&mut self, _cycles: u64) {}
     /// Marks the start of a new cycle's walk (a VCD timestamp).
     fn begin_cycle(&mut self, _cycle: u64) {}
     fn push_scope(&mut self, name: &str);

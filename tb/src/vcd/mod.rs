@@ -40,6 +40,7 @@ pub struct Selection {
     pub lanes: Option<Vec<u32>>,
     /// SMs to dump in a whole-GPU run (scopes `sm<k>` and their L1Ds `mem.l1d<k>`; default
     /// all). The L2 and DRAM are always dumped.
+    /// An SM the run does not have is reported by [`VcdSink::finish`].
     pub sms: Option<Vec<u32>>,
 }
 
@@ -71,7 +72,7 @@ impl Selection {
     }
 
     /// Whether the signal at `path` (scopes joined by '.') is dumped: anything under a
-    /// `warp[w]` or `thread[l]` scope outside the filters is not.
+    /// `warp[w]`, `thread[l]`, `sm<k>` or `l1d<k>` scope outside the filters is not.
     pub fn selects(&self, path: &str) -> bool {
         let keep = |filter: &Option<Vec<u32>>, scope: &str| {
             path.split('.')
@@ -118,6 +119,11 @@ pub enum VcdError {
         lane: u32,
         warp_size: u32,
     },
+    /// Found on the first probe walk: the SM count is the hardware's, not the configuration's.
+    NoSuchSm {
+        sm: u32,
+        sms: u32,
+    },
     Io {
         path: String,
         error: io::Error,
@@ -156,6 +162,10 @@ impl fmt::Display for VcdError {
             VcdError::NoSuchLane { lane, warp_size } => write!(
                 f,
                 "VCD lane {lane} does not exist: warps have {warp_size} lanes (0..{warp_size})"
+            ),
+            VcdError::NoSuchSm { sm, sms } => write!(
+                f,
+                "VCD SM {sm} does not exist: the run has {sms} SMs (0..{sms})"
             ),
             VcdError::Io { path, error } => write!(f, "cannot write {path}: {error}"),
             VcdError::Walk {
@@ -209,6 +219,8 @@ pub struct VcdSink<W: Write> {
     /// Save file to write at the end, and the dump it opens (both absolute).
     gtkw: Option<(PathBuf, PathBuf)>,
     error: Option<VcdError>,
+    /// The run's length, when the driver says ([`Sink::end_run`]).
+    run_cycles: Option<u64>,
 }
 
 impl VcdSink<BufWriter<File>> {
@@ -245,6 +257,7 @@ impl<W: Write> VcdSink<W> {
             dumped: false,
             gtkw: None,
             error: None,
+            run_cycles: None,
         })
     }
 
@@ -257,7 +270,7 @@ impl<W: Write> VcdSink<W> {
     /// writes the save file if [`VcdSink::create`] made this sink, and returns the writer.
     pub fn finish(mut self) -> Result<W, VcdError> {
         self.end_walk();
-        let cycles = self.cycle.map_or(0, |c| c + 1);
+        let cycles = self.run_cycles.unwrap_or(self.cycle.map_or(0, |c| c + 1));
         if !self.dumped {
             self.fail(VcdError::OutsideRun {
                 window: self.select.describe_window(),
@@ -294,6 +307,7 @@ impl<W: Write> VcdSink<W> {
     fn end_walk(&mut self) {
         let Some(cycle) = self.cycle else { return };
         if let Some(first) = self.first.take() {
+            self.check_sms(&first);
             let r = self.declare(&first);
             self.io(r);
             for (i, &(_, _, value)) in first.signals.iter().enumerate() {
@@ -308,6 +322,20 @@ impl<W: Write> VcdSink<W> {
         }
         if self.select.in_window(cycle) {
             self.dumped = true;
+        }
+    }
+
+    /// Every SM the selection names has an `sm<k>` scope in the walk.
+    fn check_sms(&mut self, first: &Snapshot) {
+        let Some(sms) = &self.select.sms else { return };
+        let present = first
+            .signals
+            .iter()
+            .filter_map(|(p, _, _)| p.split('.').next()?.strip_prefix("sm")?.parse::<u32>().ok())
+            .max()
+            .map_or(0, |k| k + 1);
+        if let Some(&sm) = sms.iter().find(|&&k| k >= present) {
+            self.fail(VcdError::NoSuchSm { sm, sms: present });
         }
     }
 
@@ -407,6 +435,10 @@ impl<W: Write> Sink for VcdSink<W> {
         self.select.to.is_none_or(|to| from <= to).then_some(from)
     }
 
+    fn end_run(&mut self, cycles: u64) {
+        self.run_cycles = Some(cycles);
+    }
+
     fn begin_cycle(&mut self, cycle: u64) {
         self.end_walk();
         self.cycle = Some(cycle);
@@ -459,6 +491,10 @@ impl<A: Sink, B: Sink> Sink for Tee<'_, A, B> {
     fn begin_cycle(&mut self, cycle: u64) {
         self.0.begin_cycle(cycle);
         self.1.begin_cycle(cycle);
+    }
+    fn end_run(&mut self, cycles: u64) {
+        self.0.end_run(cycles);
+        self.1.end_run(cycles);
     }
     fn push_scope(&mut self, name: &str) {
         self.0.push_scope(name);
