@@ -20,6 +20,8 @@ enum Command {
     Cost(cli::cost::Args),
     /// Exhaustive bounded model checking of stack consistency on small configurations.
     Check(cli::check::Args),
+    /// Run the paper's experiments over a scene set and write the report.
+    Sweep(cli::sweep::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -28,6 +30,7 @@ fn main() -> std::process::ExitCode {
         Command::Depth(args) => cli::depth::run(args),
         Command::Cost(args) => cli::cost::run(args),
         Command::Check(args) => cli::check::run(args),
+        Command::Sweep(args) => cli::sweep::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -6,6 +6,7 @@ pub mod cost;
 pub mod depth;
 pub mod scenes;
 pub mod stack_config;
+pub mod sweep;
 
 use std::path::PathBuf;
 
