@@ -116,6 +116,7 @@ pub fn performance(s: &Sweep) -> Figure {
             bars: vec![Bars { name: "geomean".into(), values: means }],
             dots,
             rule: Some(1.0),
+            zoom: true,
         },
     }
 }
@@ -186,6 +187,7 @@ pub fn offchip(s: &Sweep) -> Figure {
             bars: vec![Bars { name: "stack".into(), values: stacked }, Bars { name: "node".into(), values: node_bars }],
             dots: Vec::new(),
             rule: Some(1.0),
+            zoom: false,
         },
     }
 }
@@ -240,6 +242,7 @@ pub fn bank_conflicts(s: &Sweep) -> Figure {
             bars: vec![Bars { name: "total".into(), values: totals.iter().map(|t| t.map(|t| t as f64)).collect() }],
             dots: per,
             rule: None,
+            zoom: false,
         },
     }
 }

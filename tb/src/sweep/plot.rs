@@ -48,7 +48,9 @@ pub struct Bars {
 /// Horizontal bars, one row per label. Bar sets are drawn over each other in order, so for a
 /// stacked look pass cumulative values with the largest first. `dots` are extra points drawn
 /// as small circles over the bars (e.g. per-scene values behind a mean), `rule` a vertical line
-/// (e.g. the baseline's 1.0).
+/// (e.g. the baseline's 1.0). With `zoom` the axis spans only the values (speed-ups near 1),
+/// otherwise it starts at zero.
+#[allow(clippy::too_many_arguments)]
 pub fn hbars(
     path: &Path,
     title: &str,
@@ -57,9 +59,15 @@ pub fn hbars(
     bars: &[Bars],
     dots: &[(usize, f64)],
     rule: Option<f64>,
+    zoom: bool,
 ) -> Result<()> {
-    let values = bars.iter().flat_map(|b| b.values.iter().flatten()).chain(dots.iter().map(|d| &d.1));
-    let top = values.copied().fold(rule.unwrap_or(0.0), f64::max).max(1e-9) * 1.08;
+    let values = || {
+        bars.iter().flat_map(|b| b.values.iter().flatten()).chain(dots.iter().map(|d| &d.1)).chain(rule.as_ref())
+    };
+    let hi = values().copied().fold(0.0, f64::max).max(1e-9);
+    let lo = if zoom { values().copied().fold(hi, f64::min) } else { 0.0 };
+    let pad = (hi - lo).max(hi * 1e-3) * 0.08;
+    let (left, top) = (if zoom { (lo - pad).max(0.0) } else { 0.0 }, hi + pad);
     let n = labels.len().max(1);
     let height = (SIZE.1).max(90 + 28 * n as u32);
     let root = SVGBackend::new(path, (SIZE.0, height)).into_drawing_area();
@@ -69,7 +77,7 @@ pub fn hbars(
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(170)
-        .build_cartesian_2d(0.0..top, -0.5..n as f64 - 0.5)
+        .build_cartesian_2d(left..top, -0.5..n as f64 - 0.5)
         .map_err(|e| to_err(path, e))?;
     let label = |v: &f64| row_label(labels, *v);
     chart
@@ -84,7 +92,7 @@ pub fn hbars(
         let style = color(s).filled();
         let rects = b.values.iter().enumerate().filter_map(|(i, v)| {
             let y = i as f64;
-            v.map(|v| Rectangle::new([(0.0, y - 0.35), (v, y + 0.35)], style))
+            v.map(|v| Rectangle::new([(left, y - 0.35), (v, y + 0.35)], style))
         });
         chart
             .draw_series(rects)
@@ -237,7 +245,14 @@ pub fn scatter(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[P
 /// A chart as data, drawn by [`Chart::write_svg`].
 #[derive(Clone, Debug)]
 pub enum Chart {
-    HBars { x_desc: String, labels: Vec<String>, bars: Vec<Bars>, dots: Vec<(usize, f64)>, rule: Option<f64> },
+    HBars {
+        x_desc: String,
+        labels: Vec<String>,
+        bars: Vec<Bars>,
+        dots: Vec<(usize, f64)>,
+        rule: Option<f64>,
+        zoom: bool,
+    },
     Lines { x_desc: String, y_desc: String, log2_x: bool, series: Vec<Line> },
     Scatter { x_desc: String, y_desc: String, points: Vec<Point> },
 }
@@ -245,7 +260,9 @@ pub enum Chart {
 impl Chart {
     pub fn write_svg(&self, path: &Path, title: &str) -> Result<()> {
         match self {
-            Chart::HBars { x_desc, labels, bars, dots, rule } => hbars(path, title, x_desc, labels, bars, dots, *rule),
+            Chart::HBars { x_desc, labels, bars, dots, rule, zoom } => {
+                hbars(path, title, x_desc, labels, bars, dots, *rule, *zoom)
+            }
             Chart::Lines { x_desc, y_desc, log2_x, series } => lines(path, title, x_desc, y_desc, *log2_x, series),
             Chart::Scatter { x_desc, y_desc, points } => scatter(path, title, x_desc, y_desc, points),
         }
