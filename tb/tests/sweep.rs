@@ -7,7 +7,8 @@ use std::process::{Command, Output};
 
 use serde_json::Value;
 
-const FIGURES: [&str; 7] = ["performance", "offchip", "bank_conflicts", "rb_sweep", "l1d_sweep", "depth", "cost"];
+const FIGURES: [&str; 7] =
+    ["performance", "offchip", "bank_conflicts", "rb_sweep", "l1d_sweep", "depth", "cost"];
 const SCENES: [&str; 2] = ["wknd", "clutter"];
 
 fn out_dir(name: &str) -> PathBuf {
@@ -89,7 +90,11 @@ fn a_sweep_writes_every_file_and_does_not_depend_on_thread_count() {
     let report = json(&one.join("report.json"));
     let runs = report["runs"].as_array().unwrap();
     let per_scene = report["plan"]["runs_per_scene"].as_array().unwrap().len();
-    assert_eq!(per_scene, 14 + 3 + 8, "14 paper configurations, RB_1, RB_1 and RB_32 with SMS, 4 L1D sizes × 2");
+    assert_eq!(
+        per_scene,
+        14 + 3 + 8,
+        "14 paper configurations, RB_1, RB_1 and RB_32 with SMS, 4 L1D sizes × 2"
+    );
     assert_eq!(runs.len(), SCENES.len() * per_scene);
     assert!(runs.iter().all(|r| r["outcome"]["gpu"]["cycles"].as_u64().unwrap() > 0));
     assert!(json(&one.join("timing.json"))["runs"].as_array().unwrap().len() == runs.len());
@@ -102,7 +107,11 @@ fn a_sweep_writes_every_file_and_does_not_depend_on_thread_count() {
         if x.extension().is_some_and(|e| e == "svg") {
             continue; // drawn from the same JSON numbers; plotters' float text is not our contract
         }
-        assert!(std::fs::read(x).unwrap() == std::fs::read(y).unwrap(), "{} differs between --jobs 1 and 2", x.display());
+        assert!(
+            std::fs::read(x).unwrap() == std::fs::read(y).unwrap(),
+            "{} differs between --jobs 1 and 2",
+            x.display()
+        );
     }
 
     check_performance(&one, &report);
@@ -127,7 +136,8 @@ fn check_performance(dir: &Path, report: &Value) {
     assert_eq!(rows[0]["config"], "RB_8");
     for row in rows {
         let config = row["config"].as_str().unwrap();
-        let per: Vec<f64> = row["per_scene"].as_array().unwrap().iter().map(|p| p["speedup"].as_f64().unwrap()).collect();
+        let per: Vec<f64> =
+            row["per_scene"].as_array().unwrap().iter().map(|p| p["speedup"].as_f64().unwrap()).collect();
         assert_eq!(per.len(), SCENES.len());
         let expected: Vec<f64> = SCENES.iter().map(|s| cycles(s, "RB_8") / cycles(s, config)).collect();
         let geomean = row["geomean"].as_f64().unwrap();
@@ -152,7 +162,11 @@ fn check_pareto(dir: &Path) {
     let pts: Vec<(f64, f64, bool)> = rows
         .iter()
         .map(|r| {
-            (r["added_bytes_per_sm"].as_f64().unwrap(), r["speedup"].as_f64().unwrap(), r["pareto_optimal"].as_bool().unwrap())
+            (
+                r["added_bytes_per_sm"].as_f64().unwrap(),
+                r["speedup"].as_f64().unwrap(),
+                r["pareto_optimal"].as_bool().unwrap(),
+            )
         })
         .collect();
     assert!(pts.iter().any(|p| p.2));
@@ -161,7 +175,10 @@ fn check_pareto(dir: &Path) {
         assert_eq!(optimal, !dominated, "({c}, {s})");
     }
     let sms = rows.iter().find(|r| r["config"] == "RB_8+SH_8+SK+RA").unwrap();
-    assert!(sms["field_bytes_per_sm"].as_u64().unwrap() > 272, "the paper's 272 bytes plus the RTL's extra bits");
+    assert!(
+        sms["field_bytes_per_sm"].as_u64().unwrap() > 272,
+        "the paper's 272 bytes plus the RTL's extra bits"
+    );
     assert_eq!(sms["sh_bytes_per_sm"], 8192);
 }
 
@@ -174,7 +191,10 @@ fn bad_input_is_an_error_not_a_panic() {
         (&["sweep", "--quick", "--configs", "RB_8+SH_6", "--out", out_s], "--configs RB_8+SH_6"),
         (&["sweep", "--quick", "--jobs", "0", "--out", out_s], "--jobs"),
         (&["sweep", "--quick", "--l1d-sizes", "8", "--out", out_s], "8 KB"),
-        (&["sweep", "--quick", "--out", "/proc/sms-sweep-cannot-write-here"], "/proc/sms-sweep-cannot-write-here"),
+        (
+            &["sweep", "--quick", "--out", "/proc/sms-sweep-cannot-write-here"],
+            "/proc/sms-sweep-cannot-write-here",
+        ),
     ];
     for (args, expected) in cases {
         let o = sms(args);

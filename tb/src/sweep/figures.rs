@@ -51,7 +51,8 @@ impl Sweep {
 
     /// Geometric mean of the speed-ups over the scene set.
     pub fn geomean_speedup(&self, config: &str, l1d_kb: u32) -> Option<f64> {
-        let v: Option<Vec<f64>> = self.scenes.iter().map(|sc| self.speedup(&sc.name, config, l1d_kb)).collect();
+        let v: Option<Vec<f64>> =
+            self.scenes.iter().map(|sc| self.speedup(&sc.name, config, l1d_kb)).collect();
         geomean(v?)
     }
 
@@ -87,7 +88,8 @@ pub fn performance(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let scenes = s.scene_names();
     let configs: Vec<String> = s.base_variants().iter().map(|v| v.config.name()).collect();
-    let mut table = Table::new(std::iter::once("config".to_string()).chain(scenes.clone()).chain(["geomean".into()]));
+    let mut table =
+        Table::new(std::iter::once("config".to_string()).chain(scenes.clone()).chain(["geomean".into()]));
     let mut rows = Vec::new();
     let mut dots = Vec::new();
     let mut means = Vec::new();
@@ -184,7 +186,10 @@ pub fn offchip(s: &Sweep) -> Figure {
         chart: Chart::HBars {
             x_desc: format!("DRAM accesses relative to {BASELINE}'s total"),
             labels: configs,
-            bars: vec![Bars { name: "stack".into(), values: stacked }, Bars { name: "node".into(), values: node_bars }],
+            bars: vec![
+                Bars { name: "stack".into(), values: stacked },
+                Bars { name: "node".into(), values: node_bars },
+            ],
             dots: Vec::new(),
             rule: Some(1.0),
             zoom: false,
@@ -199,11 +204,16 @@ pub fn bank_conflicts(s: &Sweep) -> Figure {
         s.base_variants().iter().filter(|v| v.config.sh_entries > 0).map(|v| v.config.name()).collect();
     let mut table = Table::new(std::iter::once("scene".to_string()).chain(configs.clone()));
     for sc in &s.scenes {
-        let cells = configs.iter().map(|c| s.run(&sc.name, c, kb).map_or(String::new(), |r| conflicts(&r.outcome).to_string()));
+        let cells = configs
+            .iter()
+            .map(|c| s.run(&sc.name, c, kb).map_or(String::new(), |r| conflicts(&r.outcome).to_string()));
         table.row(std::iter::once(sc.name.clone()).chain(cells));
     }
     let totals: Vec<Option<u64>> = configs.iter().map(|c| s.sum(c, kb, conflicts)).collect();
-    table.row(std::iter::once("total".to_string()).chain(totals.iter().map(|t| t.map_or(String::new(), |t| t.to_string()))));
+    table.row(
+        std::iter::once("total".to_string())
+            .chain(totals.iter().map(|t| t.map_or(String::new(), |t| t.to_string()))),
+    );
     let (plain, skewed) = ("RB_8+SH_8", "RB_8+SH_8+SK");
     let note = match (s.sum(plain, kb, conflicts), s.sum(skewed, kb, conflicts)) {
         (Some(p), Some(k)) if p > 0 => format!(
@@ -215,7 +225,12 @@ pub fn bank_conflicts(s: &Sweep) -> Figure {
     let per: Vec<(usize, f64)> = configs
         .iter()
         .enumerate()
-        .flat_map(|(i, c)| s.scenes.iter().filter_map(move |sc| s.run(&sc.name, c, kb)).map(move |r| (i, conflicts(&r.outcome) as f64)))
+        .flat_map(|(i, c)| {
+            s.scenes
+                .iter()
+                .filter_map(move |sc| s.run(&sc.name, c, kb))
+                .map(move |r| (i, conflicts(&r.outcome) as f64))
+        })
         .collect();
     let rows: Vec<Value> = configs
         .iter()
@@ -239,7 +254,10 @@ pub fn bank_conflicts(s: &Sweep) -> Figure {
         chart: Chart::HBars {
             x_desc: "bank-conflict delay cycles (bars: sum over scenes, dots: scenes)".into(),
             labels: configs,
-            bars: vec![Bars { name: "total".into(), values: totals.iter().map(|t| t.map(|t| t as f64)).collect() }],
+            bars: vec![Bars {
+                name: "total".into(),
+                values: totals.iter().map(|t| t.map(|t| t as f64)).collect(),
+            }],
             dots: per,
             rule: None,
             zoom: false,
@@ -266,7 +284,15 @@ pub fn rb_sweep(s: &Sweep) -> Figure {
         let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
         let glob = |c: &str| s.sum(c, kb, |o| o.stack.global());
         let dram = |c: &str| s.sum(c, kb, dram_stack);
-        table.row([n.to_string(), f4(ga), f4(gb), cell(glob(&a)), cell(glob(&b)), cell(dram(&a)), cell(dram(&b))]);
+        table.row([
+            n.to_string(),
+            f4(ga),
+            f4(gb),
+            cell(glob(&a)),
+            cell(glob(&b)),
+            cell(dram(&a)),
+            cell(dram(&b)),
+        ]);
         plain.extend(ga.map(|g| (n as f64, g)));
         sms.extend(gb.map(|g| (n as f64, g)));
         rows.push(json!({
@@ -307,8 +333,11 @@ pub fn l1d_sweep(s: &Sweep) -> Figure {
         "SMS L1D KB",
     ]);
     let mean_hit = |c: &str, kb: u32| {
-        let rates: Option<Vec<f64>> =
-            s.scenes.iter().map(|sc| s.run(&sc.name, c, kb).and_then(|r| r.outcome.gpu).map(|g| g.l1d_hit_rate)).collect();
+        let rates: Option<Vec<f64>> = s
+            .scenes
+            .iter()
+            .map(|sc| s.run(&sc.name, c, kb).and_then(|r| r.outcome.gpu).map(|g| g.l1d_hit_rate))
+            .collect();
         rates.filter(|r| !r.is_empty()).map(|r| r.iter().sum::<f64>() / r.len() as f64)
     };
     let sms_cfg = sms_name.parse().ok();
@@ -321,7 +350,15 @@ pub fn l1d_sweep(s: &Sweep) -> Figure {
         };
         let sms_l1d = sms_cfg.map(|c| (kb * 1024).saturating_sub(rtl::gpu::shared_bytes(&c)) as f64 / 1024.0);
         let (ha, hb) = (mean_hit(BASELINE, kb), mean_hit(&sms_name, kb));
-        table.row([kb.to_string(), f4(ga), f4(gb), f4(over), f4(ha), f4(hb), sms_l1d.map_or(String::new(), |v| v.to_string())]);
+        table.row([
+            kb.to_string(),
+            f4(ga),
+            f4(gb),
+            f4(over),
+            f4(ha),
+            f4(hb),
+            sms_l1d.map_or(String::new(), |v| v.to_string()),
+        ]);
         plain.extend(ga.map(|g| (kb as f64, g)));
         sms.extend(gb.map(|g| (kb as f64, g)));
         rows.push(json!({
@@ -345,7 +382,10 @@ pub fn l1d_sweep(s: &Sweep) -> Figure {
             x_desc: "unified L1D/shared array per SM (KB)".into(),
             y_desc: format!("speed-up over {BASELINE} at {} KB (geomean)", s.base_kb()),
             log2_x: true,
-            series: vec![Line { name: BASELINE.into(), points: plain }, Line { name: sms_name.clone(), points: sms }],
+            series: vec![
+                Line { name: BASELINE.into(), points: plain },
+                Line { name: sms_name.clone(), points: sms },
+            ],
         },
     }
 }
@@ -363,7 +403,8 @@ fn deeper_than(counts: &[u64], n: usize) -> f64 {
 
 /// 6. The stack-depth distribution per scene.
 pub fn depth(s: &Sweep) -> Figure {
-    let mut table = Table::new(["scene", "triangles", "rays", "pushes+pops", "max", "mean", "median", "deeper than 8"]);
+    let mut table =
+        Table::new(["scene", "triangles", "rays", "pushes+pops", "max", "mean", "median", "deeper than 8"]);
     let mut series = Vec::new();
     for sc in &s.scenes {
         let d = &sc.depth;
@@ -378,7 +419,14 @@ pub fn depth(s: &Sweep) -> Figure {
             d.median.to_string(),
             format!("{:.4}", deeper_than(&d.histogram.counts, 8)),
         ]);
-        let points = d.histogram.counts.iter().enumerate().skip(1).map(|(k, &c)| (k as f64, c as f64 / total)).collect();
+        let points = d
+            .histogram
+            .counts
+            .iter()
+            .enumerate()
+            .skip(1)
+            .map(|(k, &c)| (k as f64, c as f64 / total))
+            .collect();
         series.push(Line { name: sc.name.clone(), points });
     }
     let reports: Vec<Value> = s.scenes.iter().map(|sc| json!(sc.depth)).collect();

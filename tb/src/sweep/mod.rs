@@ -95,7 +95,8 @@ impl Plan {
             at_base.push(parse(&format!("RB_{n}"))?);
             at_base.push(parse(&with_sms(n))?);
         }
-        let mut all: Vec<Variant> = at_base.into_iter().map(|config| Variant { config, l1d_kb: base_kb }).collect();
+        let mut all: Vec<Variant> =
+            at_base.into_iter().map(|config| Variant { config, l1d_kb: base_kb }).collect();
         for &kb in &self.l1d_kb {
             for name in [BASELINE.to_string(), with_sms(8)] {
                 all.push(Variant { config: parse(&name)?, l1d_kb: kb });
@@ -334,7 +335,8 @@ fn run_scene(
     if let Some(e) = error.into_inner().expect("error lock") {
         return Err(e);
     }
-    let outcomes = slots.into_inner().expect("slots lock").into_iter().map(|o| o.expect("every run finished")).collect();
+    let outcomes =
+        slots.into_inner().expect("slots lock").into_iter().map(|o| o.expect("every run finished")).collect();
     Ok((outcomes, depth.into_inner().expect("depth lock")))
 }
 

@@ -62,7 +62,10 @@ pub fn hbars(
     zoom: bool,
 ) -> Result<()> {
     let values = || {
-        bars.iter().flat_map(|b| b.values.iter().flatten()).chain(dots.iter().map(|d| &d.1)).chain(rule.as_ref())
+        bars.iter()
+            .flat_map(|b| b.values.iter().flatten())
+            .chain(dots.iter().map(|d| &d.1))
+            .chain(rule.as_ref())
     };
     let hi = values().copied().fold(0.0, f64::max).max(1e-9);
     let lo = if zoom { values().copied().fold(hi, f64::min) } else { 0.0 };
@@ -130,10 +133,18 @@ pub struct Line {
 }
 
 /// Lines over `x`; with `log2_x` the axis is logarithmic and labelled with the powers of two.
-pub fn lines(path: &Path, title: &str, x_desc: &str, y_desc: &str, log2_x: bool, series: &[Line]) -> Result<()> {
+pub fn lines(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    log2_x: bool,
+    series: &[Line],
+) -> Result<()> {
     let tx = |x: f64| if log2_x { x.log2() } else { x };
     let all = || series.iter().flat_map(|s| s.points.iter());
-    let (x0, x1) = all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(tx(p.0)), b.max(tx(p.0))));
+    let (x0, x1) =
+        all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(tx(p.0)), b.max(tx(p.0))));
     let (x0, x1) = if x0.is_finite() { (x0, x1.max(x0 + 1.0)) } else { (0.0, 1.0) };
     let pad = (x1 - x0) * 0.04;
     let y1 = all().map(|p| p.1).fold(0.0, f64::max).max(1e-9) * 1.08;
@@ -173,9 +184,7 @@ pub fn lines(path: &Path, title: &str, x_desc: &str, y_desc: &str, log2_x: bool,
             .map_err(|e| to_err(path, e))?
             .label(s.name.as_str())
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c.stroke_width(2)));
-        chart
-            .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))
-            .map_err(|e| to_err(path, e))?;
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| to_err(path, e))?;
     }
     chart
         .configure_series_labels()
@@ -253,8 +262,17 @@ pub enum Chart {
         rule: Option<f64>,
         zoom: bool,
     },
-    Lines { x_desc: String, y_desc: String, log2_x: bool, series: Vec<Line> },
-    Scatter { x_desc: String, y_desc: String, points: Vec<Point> },
+    Lines {
+        x_desc: String,
+        y_desc: String,
+        log2_x: bool,
+        series: Vec<Line>,
+    },
+    Scatter {
+        x_desc: String,
+        y_desc: String,
+        points: Vec<Point>,
+    },
 }
 
 impl Chart {
@@ -263,7 +281,9 @@ impl Chart {
             Chart::HBars { x_desc, labels, bars, dots, rule, zoom } => {
                 hbars(path, title, x_desc, labels, bars, dots, *rule, *zoom)
             }
-            Chart::Lines { x_desc, y_desc, log2_x, series } => lines(path, title, x_desc, y_desc, *log2_x, series),
+            Chart::Lines { x_desc, y_desc, log2_x, series } => {
+                lines(path, title, x_desc, y_desc, *log2_x, series)
+            }
             Chart::Scatter { x_desc, y_desc, points } => scatter(path, title, x_desc, y_desc, points),
         }
     }

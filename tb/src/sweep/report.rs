@@ -35,7 +35,14 @@ fn pretty(v: &Value) -> String {
 }
 
 fn figure_markdown(f: &Figure, heading: &str) -> String {
-    format!("{heading} {}\n\n{}\n\n![{}]({}.svg)\n\n{}", f.title, f.note, f.title, f.name, f.table.to_markdown())
+    format!(
+        "{heading} {}\n\n{}\n\n![{}]({}.svg)\n\n{}",
+        f.title,
+        f.note,
+        f.title,
+        f.name,
+        f.table.to_markdown()
+    )
 }
 
 /// Writes the whole report into `dir` and returns the files written.
