@@ -45,8 +45,10 @@ pub struct Args {
     /// Diffuse bounces after the primary ray [default: 2].
     #[arg(long)]
     pub bounces: Option<u32>,
+    /// Hierarchy the RT unit walks.
     #[arg(long, value_enum, default_value = "bvh6")]
     pub bvh: BvhKind,
+    /// Order in which an internal node's hit children are descended and pushed.
     #[arg(long, value_enum, default_value = "nearest")]
     pub order: ChildOrder,
     /// Seed of the ray generator: the same seed gives bit-identical results.

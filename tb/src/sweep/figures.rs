@@ -315,6 +315,7 @@ pub fn rb_sweep(s: &Sweep) -> Figure {
             x_desc: "RB entries per thread (N)".into(),
             y_desc: format!("speed-up over {BASELINE} (geomean)"),
             log2_x: true,
+            zoom: true,
             series: vec![Line { name: "RB_N".into(), points: plain }, Line { name: "RB_N+SMS".into(), points: sms }],
         },
     }
@@ -382,6 +383,7 @@ pub fn l1d_sweep(s: &Sweep) -> Figure {
             x_desc: "unified L1D/shared array per SM (KB)".into(),
             y_desc: format!("speed-up over {BASELINE} at {} KB (geomean)", s.base_kb()),
             log2_x: true,
+            zoom: true,
             series: vec![
                 Line { name: BASELINE.into(), points: plain },
                 Line { name: sms_name.clone(), points: sms },
@@ -442,6 +444,7 @@ pub fn depth(s: &Sweep) -> Figure {
             x_desc: "stack depth at push/pop".into(),
             y_desc: "fraction of pushes and pops".into(),
             log2_x: false,
+            zoom: false,
             series,
         },
     }

@@ -133,12 +133,14 @@ pub struct Line {
 }
 
 /// Lines over `x`; with `log2_x` the axis is logarithmic and labelled with the powers of two.
+/// With `zoom` the y axis spans only the values (speed-ups near 1), otherwise it starts at zero.
 pub fn lines(
     path: &Path,
     title: &str,
     x_desc: &str,
     y_desc: &str,
     log2_x: bool,
+    zoom: bool,
     series: &[Line],
 ) -> Result<()> {
     let tx = |x: f64| if log2_x { x.log2() } else { x };
@@ -147,7 +149,10 @@ pub fn lines(
         all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(tx(p.0)), b.max(tx(p.0))));
     let (x0, x1) = if x0.is_finite() { (x0, x1.max(x0 + 1.0)) } else { (0.0, 1.0) };
     let pad = (x1 - x0) * 0.04;
-    let y1 = all().map(|p| p.1).fold(0.0, f64::max).max(1e-9) * 1.08;
+    let hi = all().map(|p| p.1).fold(0.0, f64::max).max(1e-9);
+    let lo = if zoom { all().map(|p| p.1).fold(hi, f64::min) } else { 0.0 };
+    let ypad = (hi - lo).max(hi * 1e-3) * 0.08;
+    let (y0, y1) = (if zoom { (lo - ypad).max(0.0) } else { 0.0 }, hi + ypad);
     let root = SVGBackend::new(path, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(|e| to_err(path, e))?;
     let mut chart = ChartBuilder::on(&root)
@@ -155,7 +160,7 @@ pub fn lines(
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(70)
-        .build_cartesian_2d(x0 - pad..x1 + pad, 0.0..y1)
+        .build_cartesian_2d(x0 - pad..x1 + pad, y0..y1)
         .map_err(|e| to_err(path, e))?;
     let x_label = |v: &f64| {
         if !log2_x {
@@ -177,7 +182,13 @@ pub fn lines(
         .draw()
         .map_err(|e| to_err(path, e))?;
     for (i, s) in series.iter().enumerate() {
-        let c = color(i);
+        // Beyond the fixed palette (a line per scene), spread hues evenly instead of repeating.
+        let c = if series.len() <= 8 {
+            color(i)
+        } else {
+            let (r, g, b) = HSLColor(i as f64 / series.len() as f64, 0.75, 0.42).rgb();
+            RGBColor(r, g, b)
+        };
         let pts: Vec<(f64, f64)> = s.points.iter().map(|&(x, y)| (tx(x), y)).collect();
         chart
             .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
@@ -266,6 +277,7 @@ pub enum Chart {
         x_desc: String,
         y_desc: String,
         log2_x: bool,
+        zoom: bool,
         series: Vec<Line>,
     },
     Scatter {
@@ -281,8 +293,8 @@ impl Chart {
             Chart::HBars { x_desc, labels, bars, dots, rule, zoom } => {
                 hbars(path, title, x_desc, labels, bars, dots, *rule, *zoom)
             }
-            Chart::Lines { x_desc, y_desc, log2_x, series } => {
-                lines(path, title, x_desc, y_desc, *log2_x, series)
+            Chart::Lines { x_desc, y_desc, log2_x, zoom, series } => {
+                lines(path, title, x_desc, y_desc, *log2_x, *zoom, series)
             }
             Chart::Scatter { x_desc, y_desc, points } => scatter(path, title, x_desc, y_desc, points),
         }
