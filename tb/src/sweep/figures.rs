@@ -83,7 +83,7 @@ fn ratio(a: Option<u64>, b: Option<u64>) -> Option<f64> {
     (b > 0.0).then(|| a / b)
 }
 
-/// 1. Performance normalised to RB_8, per scene and as the geometric mean.
+/// Figure 1: Performance normalised to RB_8, per scene and as the geometric mean.
 pub fn performance(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let scenes = s.scene_names();
@@ -123,7 +123,7 @@ pub fn performance(s: &Sweep) -> Figure {
     }
 }
 
-/// 2. Off-chip accesses: DRAM accesses of node fetches and of stack traffic, and stack entries
+/// Figure 2: Off-chip accesses: DRAM accesses of node fetches and of stack traffic, and stack entries
 /// moved to or from global memory.
 pub fn offchip(s: &Sweep) -> Figure {
     let kb = s.base_kb();
@@ -197,7 +197,7 @@ pub fn offchip(s: &Sweep) -> Figure {
     }
 }
 
-/// 3. Delay cycles from shared-memory bank conflicts, with and without skewed access.
+/// Figure 3: Delay cycles from shared-memory bank conflicts, with and without skewed access.
 pub fn bank_conflicts(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let configs: Vec<String> =
@@ -265,7 +265,7 @@ pub fn bank_conflicts(s: &Sweep) -> Figure {
     }
 }
 
-/// 4. The RB-size sweep, with and without SMS.
+/// Figure 4: The RB-size sweep, with and without SMS.
 pub fn rb_sweep(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let mut table = Table::new([
@@ -321,7 +321,7 @@ pub fn rb_sweep(s: &Sweep) -> Figure {
     }
 }
 
-/// 5. The L1D-size sweep for RB_8 and SMS.
+/// Figure 5: The L1D-size sweep for RB_8 and SMS.
 pub fn l1d_sweep(s: &Sweep) -> Figure {
     let sms_name = with_sms(8);
     let mut table = Table::new([
@@ -403,7 +403,7 @@ fn deeper_than(counts: &[u64], n: usize) -> f64 {
     }
 }
 
-/// 6. The stack-depth distribution per scene.
+/// Figure 6: The stack-depth distribution per scene.
 pub fn depth(s: &Sweep) -> Figure {
     let mut table =
         Table::new(["scene", "triangles", "rays", "pushes+pops", "max", "mean", "median", "deeper than 8"]);
@@ -466,7 +466,7 @@ fn register_bytes(r: &CostReport) -> i64 {
     (r.on_chip_bytes_per_sm() - r.sh_bytes) as i64
 }
 
-/// 7. Cost versus performance: bytes added per SM against the speed-up over RB_8.
+/// Figure 7: Cost versus performance: bytes added per SM against the speed-up over RB_8.
 pub fn cost(s: &Sweep) -> Result<Figure> {
     let kb = s.base_kb();
     let full_depth = s.scenes.iter().map(|sc| sc.depth.max).max().unwrap_or(0).max(1);
