@@ -18,6 +18,7 @@ pub mod sampling;
 pub mod scene;
 pub mod sim;
 pub mod stack_tb;
+pub mod sweep;
 pub mod table;
 pub mod traverse;
 pub mod vcd;

@@ -22,6 +22,8 @@ enum Command {
     Run(cli::run::Args),
     /// Exhaustive bounded model checking of stack consistency on small configurations.
     Check(cli::check::Args),
+    /// Run the paper's experiments over a scene set and write the report.
+    Sweep(cli::sweep::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -31,6 +33,7 @@ fn main() -> std::process::ExitCode {
         Command::Cost(args) => cli::cost::run(args),
         Command::Check(args) => cli::check::run(args),
         Command::Run(args) => cli::run::run(args),
+        Command::Sweep(args) => cli::sweep::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

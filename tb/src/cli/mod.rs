@@ -7,6 +7,7 @@ pub mod depth;
 pub mod run;
 pub mod scenes;
 pub mod stack_config;
+pub mod sweep;
 
 use std::path::PathBuf;
 

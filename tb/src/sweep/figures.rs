@@ -1,0 +1,564 @@
+//! The analogues of the paper's figures, computed from a finished [`Sweep`]: each is a table
+//! (Markdown and CSV), its numbers as JSON, and a chart.
+//!
+//! Performance is a whole-frame cycle count (SPEC section 8: the equivalent of IPC for a fixed
+//! workload), so a configuration's speed-up on a scene is RB_8's cycles over its cycles, and
+//! the figure over the scene set is the geometric mean of the per-scene speed-ups.
+
+use serde_json::{json, Value};
+
+use super::plot::{Bars, Chart, Line, Point};
+use super::{geomean, with_sms, Sweep, Variant, BASELINE};
+use crate::cost::CostReport;
+use crate::error::{Error, Result};
+use crate::sim::Outcome;
+use crate::table::Table;
+
+/// One figure of the report.
+#[derive(Clone, Debug)]
+pub struct Figure {
+    /// File stem in the report folder.
+    pub name: &'static str,
+    pub title: String,
+    /// What the figure shows and how its numbers were computed.
+    pub note: String,
+    pub table: Table,
+    pub json: Value,
+    pub chart: Chart,
+}
+
+/// Every figure, in report order.
+pub fn all(s: &Sweep) -> Result<Vec<Figure>> {
+    Ok(vec![performance(s), offchip(s), bank_conflicts(s), rb_sweep(s), l1d_sweep(s), depth(s), cost(s)?])
+}
+
+fn f4(v: Option<f64>) -> String {
+    v.map_or(String::new(), |v| format!("{v:.4}"))
+}
+
+impl Sweep {
+    /// Configurations run on the base L1D size, in plan order.
+    pub fn base_variants(&self) -> Vec<Variant> {
+        self.variants.iter().copied().filter(|v| v.l1d_kb == self.base_kb()).collect()
+    }
+
+    /// RB_8's cycles (base L1D) over `config`'s on `scene`.
+    pub fn speedup(&self, scene: &str, config: &str, l1d_kb: u32) -> Option<f64> {
+        let base = self.cycles(scene, BASELINE, self.base_kb())? as f64;
+        let c = self.cycles(scene, config, l1d_kb)? as f64;
+        (c > 0.0).then(|| base / c)
+    }
+
+    /// Geometric mean of the speed-ups over the scene set.
+    pub fn geomean_speedup(&self, config: &str, l1d_kb: u32) -> Option<f64> {
+        let v: Option<Vec<f64>> =
+            self.scenes.iter().map(|sc| self.speedup(&sc.name, config, l1d_kb)).collect();
+        geomean(v?)
+    }
+
+    /// `f` summed over the scene set.
+    pub fn sum(&self, config: &str, l1d_kb: u32, f: impl Fn(&Outcome) -> u64) -> Option<u64> {
+        self.scenes.iter().map(|sc| self.run(&sc.name, config, l1d_kb).map(|r| f(&r.outcome))).sum()
+    }
+
+    fn scene_names(&self) -> Vec<String> {
+        self.scenes.iter().map(|s| s.name.clone()).collect()
+    }
+}
+
+fn dram_node(o: &Outcome) -> u64 {
+    o.gpu.map_or(0, |g| g.dram_node)
+}
+
+fn dram_stack(o: &Outcome) -> u64 {
+    o.gpu.map_or(0, |g| g.dram_stack)
+}
+
+fn conflicts(o: &Outcome) -> u64 {
+    o.gpu.map_or(0, |g| g.bank_conflict_cycles)
+}
+
+fn ratio(a: Option<u64>, b: Option<u64>) -> Option<f64> {
+    let (a, b) = (a? as f64, b? as f64);
+    (b > 0.0).then(|| a / b)
+}
+
+/// Figure 1: Performance normalised to RB_8, per scene and as the geometric mean.
+pub fn performance(s: &Sweep) -> Figure {
+    let kb = s.base_kb();
+    let scenes = s.scene_names();
+    let configs: Vec<String> = s.base_variants().iter().map(|v| v.config.name()).collect();
+    let mut table =
+        Table::new(std::iter::once("config".to_string()).chain(scenes.clone()).chain(["geomean".into()]));
+    let mut rows = Vec::new();
+    let mut dots = Vec::new();
+    let mut means = Vec::new();
+    for (i, c) in configs.iter().enumerate() {
+        let per: Vec<Option<f64>> = scenes.iter().map(|sc| s.speedup(sc, c, kb)).collect();
+        let g = s.geomean_speedup(c, kb);
+        table.row(std::iter::once(c.clone()).chain(per.iter().map(|&v| f4(v))).chain([f4(g)]));
+        dots.extend(per.iter().flatten().map(|&v| (i, v)));
+        means.push(g);
+        let per_scene: Vec<Value> =
+            scenes.iter().zip(&per).map(|(sc, v)| json!({ "scene": sc, "speedup": v })).collect();
+        rows.push(json!({ "config": c, "per_scene": per_scene, "geomean": g }));
+    }
+    Figure {
+        name: "performance",
+        title: format!("Performance normalised to {BASELINE} ({kb} KB L1D)"),
+        note: format!(
+            "Speed-up = {BASELINE}'s cycles / the configuration's cycles for the whole frame; the last column \
+             is the geometric mean over the scenes."
+        ),
+        table,
+        json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),
+        chart: Chart::HBars {
+            x_desc: format!("speed-up over {BASELINE} (bars: geomean, dots: scenes)"),
+            labels: configs,
+            bars: vec![Bars { name: "geomean".into(), values: means }],
+            dots,
+            rule: Some(1.0),
+            zoom: true,
+        },
+    }
+}
+
+/// Figure 2: Off-chip accesses: DRAM accesses of node fetches and of stack traffic, and stack entries
+/// moved to or from global memory.
+pub fn offchip(s: &Sweep) -> Figure {
+    let kb = s.base_kb();
+    let configs: Vec<String> = s.base_variants().iter().map(|v| v.config.name()).collect();
+    let mut table = Table::new([
+        "config",
+        "DRAM node",
+        "DRAM stack",
+        "DRAM total",
+        "DRAM vs RB_8",
+        "stack entries to/from global",
+        "global entries vs RB_8",
+    ]);
+    let total = |c: &str| s.sum(c, kb, |o| dram_node(o) + dram_stack(o));
+    let global = |c: &str| s.sum(c, kb, |o| o.stack.global());
+    let base_total = total(BASELINE);
+    let mut rows = Vec::new();
+    let (mut stacked, mut node_bars) = (Vec::new(), Vec::new());
+    for c in &configs {
+        let (node, stack) = (s.sum(c, kb, dram_node), s.sum(c, kb, dram_stack));
+        let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
+        table.row([
+            c.clone(),
+            cell(node),
+            cell(stack),
+            cell(total(c)),
+            f4(ratio(total(c), base_total)),
+            cell(global(c)),
+            f4(ratio(global(c), global(BASELINE))),
+        ]);
+        stacked.push(ratio(total(c), base_total));
+        node_bars.push(ratio(node, base_total));
+        let per_scene: Vec<Value> = s
+            .scenes
+            .iter()
+            .filter_map(|sc| s.run(&sc.name, c, kb))
+            .map(|r| {
+                json!({
+                    "scene": r.scene,
+                    "dram_node": dram_node(&r.outcome),
+                    "dram_stack": dram_stack(&r.outcome),
+                    "stack_global": r.outcome.stack.global(),
+                })
+            })
+            .collect();
+        rows.push(json!({
+            "config": c, "dram_node": node, "dram_stack": stack, "stack_global": global(c),
+            "per_scene": per_scene,
+        }));
+    }
+    Figure {
+        name: "offchip",
+        title: format!("Off-chip accesses ({kb} KB L1D, sums over the scenes)"),
+        note: "DRAM accesses split into node fetches and stack spills/reloads (with write-backs of spilled \
+               lines), and the stack entries moved to or from global memory before any cache filters them. \
+               Ratios are sums over the scenes relative to RB_8's."
+            .into(),
+        table,
+        json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),
+        chart: Chart::HBars {
+            x_desc: format!("DRAM accesses relative to {BASELINE}'s total"),
+            labels: configs,
+            bars: vec![
+                Bars { name: "stack".into(), values: stacked },
+                Bars { name: "node".into(), values: node_bars },
+            ],
+            dots: Vec::new(),
+            rule: Some(1.0),
+            zoom: false,
+        },
+    }
+}
+
+/// Figure 3: Delay cycles from shared-memory bank conflicts, with and without skewed access.
+pub fn bank_conflicts(s: &Sweep) -> Figure {
+    let kb = s.base_kb();
+    let configs: Vec<String> =
+        s.base_variants().iter().filter(|v| v.config.sh_entries > 0).map(|v| v.config.name()).collect();
+    let mut table = Table::new(std::iter::once("scene".to_string()).chain(configs.clone()));
+    for sc in &s.scenes {
+        let cells = configs
+            .iter()
+            .map(|c| s.run(&sc.name, c, kb).map_or(String::new(), |r| conflicts(&r.outcome).to_string()));
+        table.row(std::iter::once(sc.name.clone()).chain(cells));
+    }
+    let totals: Vec<Option<u64>> = configs.iter().map(|c| s.sum(c, kb, conflicts)).collect();
+    table.row(
+        std::iter::once("total".to_string())
+            .chain(totals.iter().map(|t| t.map_or(String::new(), |t| t.to_string()))),
+    );
+    let (plain, skewed) = ("RB_8+SH_8", "RB_8+SH_8+SK");
+    let note = match (s.sum(plain, kb, conflicts), s.sum(skewed, kb, conflicts)) {
+        (Some(p), Some(k)) if p > 0 => format!(
+            "Skewed access (SK) changes the delay cycles of {plain} from {p} to {k} ({:+.1} %) over the scene set.",
+            (k as f64 / p as f64 - 1.0) * 100.0
+        ),
+        _ => "Delay cycles the bank arbiter adds when a warp's shared-memory accesses hit one bank.".into(),
+    };
+    let per: Vec<(usize, f64)> = configs
+        .iter()
+        .enumerate()
+        .flat_map(|(i, c)| {
+            s.scenes
+                .iter()
+                .filter_map(move |sc| s.run(&sc.name, c, kb))
+                .map(move |r| (i, conflicts(&r.outcome) as f64))
+        })
+        .collect();
+    let rows: Vec<Value> = configs
+        .iter()
+        .zip(&totals)
+        .map(|(c, t)| {
+            let per_scene: Vec<Value> = s
+                .scenes
+                .iter()
+                .filter_map(|sc| s.run(&sc.name, c, kb))
+                .map(|r| json!({ "scene": r.scene, "bank_conflict_cycles": conflicts(&r.outcome) }))
+                .collect();
+            json!({ "config": c, "total": t, "per_scene": per_scene })
+        })
+        .collect();
+    Figure {
+        name: "bank_conflicts",
+        title: format!("Bank-conflict delay cycles ({kb} KB L1D)"),
+        note: format!("{note} Only configurations with SH stacks use shared memory."),
+        table,
+        json: json!({ "l1d_kb": kb, "rows": rows }),
+        chart: Chart::HBars {
+            x_desc: "bank-conflict delay cycles (bars: sum over scenes, dots: scenes)".into(),
+            labels: configs,
+            bars: vec![Bars {
+                name: "total".into(),
+                values: totals.iter().map(|t| t.map(|t| t as f64)).collect(),
+            }],
+            dots: per,
+            rule: None,
+            zoom: false,
+        },
+    }
+}
+
+/// Figure 4: The RB-size sweep, with and without SMS.
+pub fn rb_sweep(s: &Sweep) -> Figure {
+    let kb = s.base_kb();
+    let mut table = Table::new([
+        "N",
+        "RB_N speed-up",
+        "RB_N+SMS speed-up",
+        "RB_N global entries",
+        "RB_N+SMS global entries",
+        "RB_N DRAM stack",
+        "RB_N+SMS DRAM stack",
+    ]);
+    let (mut plain, mut sms, mut rows) = (Vec::new(), Vec::new(), Vec::new());
+    for &n in &s.plan.rb_sizes {
+        let (a, b) = (format!("RB_{n}"), with_sms(n));
+        let (ga, gb) = (s.geomean_speedup(&a, kb), s.geomean_speedup(&b, kb));
+        let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
+        let glob = |c: &str| s.sum(c, kb, |o| o.stack.global());
+        let dram = |c: &str| s.sum(c, kb, dram_stack);
+        table.row([
+            n.to_string(),
+            f4(ga),
+            f4(gb),
+            cell(glob(&a)),
+            cell(glob(&b)),
+            cell(dram(&a)),
+            cell(dram(&b)),
+        ]);
+        plain.extend(ga.map(|g| (n as f64, g)));
+        sms.extend(gb.map(|g| (n as f64, g)));
+        rows.push(json!({
+            "n": n,
+            "rb": { "config": a, "speedup": ga, "stack_global": glob(&a), "dram_stack": dram(&a) },
+            "sms": { "config": b, "speedup": gb, "stack_global": glob(&b), "dram_stack": dram(&b) },
+        }));
+    }
+    Figure {
+        name: "rb_sweep",
+        title: format!("RB size sweep with and without SMS ({kb} KB L1D)"),
+        note: format!(
+            "RB_N alone and RB_N{} (SMS); speed-ups are geometric means over the scenes relative to {BASELINE}; \
+             entry and DRAM counts are sums.",
+            super::SMS_SUFFIX
+        ),
+        table,
+        json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),
+        chart: Chart::Lines {
+            x_desc: "RB entries per thread (N)".into(),
+            y_desc: format!("speed-up over {BASELINE} (geomean)"),
+            log2_x: true,
+            zoom: true,
+            series: vec![Line { name: "RB_N".into(), points: plain }, Line { name: "RB_N+SMS".into(), points: sms }],
+        },
+    }
+}
+
+/// Figure 5: The L1D-size sweep for RB_8 and SMS.
+pub fn l1d_sweep(s: &Sweep) -> Figure {
+    let sms_name = with_sms(8);
+    let mut table = Table::new([
+        "unified KB",
+        "RB_8 speed-up",
+        "SMS speed-up",
+        "SMS over RB_8",
+        "RB_8 L1D hit rate",
+        "SMS L1D hit rate",
+        "SMS L1D KB",
+    ]);
+    let mean_hit = |c: &str, kb: u32| {
+        let rates: Option<Vec<f64>> = s
+            .scenes
+            .iter()
+            .map(|sc| s.run(&sc.name, c, kb).and_then(|r| r.outcome.gpu).map(|g| g.l1d_hit_rate))
+            .collect();
+        rates.filter(|r| !r.is_empty()).map(|r| r.iter().sum::<f64>() / r.len() as f64)
+    };
+    let sms_cfg = sms_name.parse().ok();
+    let (mut plain, mut sms, mut rows) = (Vec::new(), Vec::new(), Vec::new());
+    for &kb in &s.plan.l1d_kb {
+        let (ga, gb) = (s.geomean_speedup(BASELINE, kb), s.geomean_speedup(&sms_name, kb));
+        let over = match (ga, gb) {
+            (Some(a), Some(b)) => Some(b / a),
+            _ => None,
+        };
+        let sms_l1d = sms_cfg.map(|c| (kb * 1024).saturating_sub(rtl::gpu::shared_bytes(&c)) as f64 / 1024.0);
+        let (ha, hb) = (mean_hit(BASELINE, kb), mean_hit(&sms_name, kb));
+        table.row([
+            kb.to_string(),
+            f4(ga),
+            f4(gb),
+            f4(over),
+            f4(ha),
+            f4(hb),
+            sms_l1d.map_or(String::new(), |v| v.to_string()),
+        ]);
+        plain.extend(ga.map(|g| (kb as f64, g)));
+        sms.extend(gb.map(|g| (kb as f64, g)));
+        rows.push(json!({
+            "unified_kb": kb,
+            "rb_8": { "speedup": ga, "l1d_hit_rate": ha },
+            "sms": { "config": sms_name, "speedup": gb, "l1d_hit_rate": hb, "l1d_kb": sms_l1d },
+        }));
+    }
+    Figure {
+        name: "l1d_sweep",
+        title: "L1D size sweep: RB_8 and SMS".into(),
+        note: format!(
+            "The unified L1D/shared array per SM; SMS's SH stacks are carved out of it and the rest is L1D. \
+             Speed-ups are geometric means over the scenes relative to {BASELINE} on {} KB; hit rates are \
+             means over the scenes.",
+            s.base_kb()
+        ),
+        table,
+        json: json!({ "baseline": BASELINE, "base_kb": s.base_kb(), "rows": rows }),
+        chart: Chart::Lines {
+            x_desc: "unified L1D/shared array per SM (KB)".into(),
+            y_desc: format!("speed-up over {BASELINE} at {} KB (geomean)", s.base_kb()),
+            log2_x: true,
+            zoom: true,
+            series: vec![
+                Line { name: BASELINE.into(), points: plain },
+                Line { name: sms_name.clone(), points: sms },
+            ],
+        },
+    }
+}
+
+/// Share of pushes and pops deeper than `n` entries.
+fn deeper_than(counts: &[u64], n: usize) -> f64 {
+    let total: u64 = counts.iter().sum();
+    let deep: u64 = counts.iter().skip(n + 1).sum();
+    if total == 0 {
+        0.0
+    } else {
+        deep as f64 / total as f64
+    }
+}
+
+/// Figure 6: The stack-depth distribution per scene.
+pub fn depth(s: &Sweep) -> Figure {
+    let mut table =
+        Table::new(["scene", "triangles", "rays", "pushes+pops", "max", "mean", "median", "deeper than 8"]);
+    let mut series = Vec::new();
+    for sc in &s.scenes {
+        let d = &sc.depth;
+        let total = d.pushes_and_pops.max(1) as f64;
+        table.row([
+            sc.name.clone(),
+            sc.triangles.to_string(),
+            sc.rays.to_string(),
+            d.pushes_and_pops.to_string(),
+            d.max.to_string(),
+            format!("{:.3}", d.mean),
+            d.median.to_string(),
+            format!("{:.4}", deeper_than(&d.histogram.counts, 8)),
+        ]);
+        let points = d
+            .histogram
+            .counts
+            .iter()
+            .enumerate()
+            .skip(1)
+            .map(|(k, &c)| (k as f64, c as f64 / total))
+            .collect();
+        series.push(Line { name: sc.name.clone(), points });
+    }
+    let reports: Vec<Value> = s.scenes.iter().map(|sc| json!(sc.depth)).collect();
+    Figure {
+        name: "depth",
+        title: "Stack depth per scene".into(),
+        note: "Depth of a push = stack size after it, of a pop = size before it, over every push and pop of \
+               every ray; 'deeper than 8' is the share beyond what RB_8 holds. Per-scene histograms: depth/*.svg."
+            .into(),
+        table,
+        json: json!({ "scenes": reports }),
+        chart: Chart::Lines {
+            x_desc: "stack depth at push/pop".into(),
+            y_desc: "fraction of pushes and pops".into(),
+            log2_x: false,
+            zoom: false,
+            series,
+        },
+    }
+}
+
+/// Which points are Pareto-optimal when a lower cost and a higher performance are better:
+/// `(cost, performance)` is dominated when another point costs no more and performs no worse,
+/// and is strictly better in one of the two. Equal points do not dominate each other.
+pub fn pareto_optimal(points: &[(f64, f64)]) -> Vec<bool> {
+    points
+        .iter()
+        .map(|&(c, p)| !points.iter().any(|&(c2, p2)| c2 <= c && p2 >= p && (c2 < c || p2 > p)))
+        .collect()
+}
+
+/// Stack storage in the RT unit per SM (RB entries and every stack register), without the SH
+/// array, which comes out of the unified L1D.
+fn register_bytes(r: &CostReport) -> i64 {
+    (r.on_chip_bytes_per_sm() - r.sh_bytes) as i64
+}
+
+/// Figure 7: Cost versus performance: bytes added per SM against the speed-up over RB_8.
+pub fn cost(s: &Sweep) -> Result<Figure> {
+    let kb = s.base_kb();
+    let full_depth = s.scenes.iter().map(|sc| sc.depth.max).max().unwrap_or(0).max(1);
+    let sms = s.hw.mem.sms;
+    let report = |cfg: &rtl::config::Config| {
+        CostReport::new(cfg, sms, full_depth).map_err(|e| Error::Invalid(format!("{}: {e}", cfg.name())))
+    };
+    let base = report(&BASELINE.parse().map_err(|e| Error::Invalid(format!("{BASELINE}: {e}")))?)?;
+    let mut designs = Vec::new();
+    for v in s.base_variants() {
+        let r = report(&v.config)?;
+        let name = v.config.name();
+        if let Some(g) = s.geomean_speedup(&name, kb) {
+            designs.push((name, r, g));
+        }
+    }
+    let points: Vec<(f64, f64)> =
+        designs.iter().map(|(_, r, g)| ((register_bytes(r) - register_bytes(&base)) as f64, *g)).collect();
+    let optimal = pareto_optimal(&points);
+    let mut table = Table::new([
+        "config",
+        "bytes added/SM vs RB_8",
+        "stack fields bytes/SM",
+        "SH bytes/SM (from L1D)",
+        "speed-up (geomean)",
+        "Pareto-optimal",
+    ]);
+    let mut rows = Vec::new();
+    let mut plotted = Vec::new();
+    for (((name, r, g), &(added, _)), &opt) in designs.iter().zip(&points).zip(&optimal) {
+        table.row([
+            name.clone(),
+            format!("{added}"),
+            r.added_bytes_per_sm().to_string(),
+            r.sh_bytes.to_string(),
+            format!("{g:.4}"),
+            if opt { "yes" } else { "no" }.to_string(),
+        ]);
+        rows.push(json!({
+            "config": name, "added_bytes_per_sm": added, "field_bytes_per_sm": r.added_bytes_per_sm(),
+            "sh_bytes_per_sm": r.sh_bytes, "speedup": g, "pareto_optimal": opt,
+        }));
+        plotted.push(Point { name: name.clone(), x: added, y: *g, highlight: opt });
+    }
+    Ok(Figure {
+        name: "cost",
+        title: format!("Cost versus performance ({kb} KB L1D)"),
+        note: format!(
+            "Bytes added per SM = the RT unit's stack storage (RB entries plus every stack register, widths \
+             from tb::cost, the RTL's definitions) minus {BASELINE}'s; negative for smaller RBs. The SH \
+             stacks' shared memory is carved out of the unified L1D and listed separately; 'stack fields' \
+             are the registers the design adds over its own short stack. RB_FULL is sized to the deepest \
+             stack of the scene set ({full_depth}). Pareto-optimal: no other design is at least as cheap \
+             and as fast and strictly better in one."
+        ),
+        table,
+        json: json!({ "baseline": BASELINE, "l1d_kb": kb, "full_depth": full_depth, "rows": rows }),
+        chart: Chart::Scatter {
+            x_desc: format!("bytes added per SM over {BASELINE}"),
+            y_desc: format!("speed-up over {BASELINE} (geomean)"),
+            points: plotted,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pareto_marks_exactly_the_undominated_points() {
+        // (cost, performance)
+        let points = [
+            (0.0, 1.0),  // cheapest: optimal
+            (10.0, 1.5), // optimal
+            (10.0, 1.2), // same cost, slower than the one above: dominated
+            (20.0, 1.5), // dearer, no faster than (10, 1.5): dominated
+            (30.0, 2.0), // fastest: optimal
+            (-5.0, 0.8), // cheaper than everything: optimal
+            (5.0, 0.9),  // dearer and slower than (0, 1): dominated
+            (30.0, 2.0), // equal to another point: neither dominates
+        ];
+        assert_eq!(pareto_optimal(&points), [true, true, false, false, true, true, false, true]);
+        assert_eq!(pareto_optimal(&[]), Vec::<bool>::new());
+        assert_eq!(pareto_optimal(&[(1.0, 1.0)]), [true]);
+    }
+
+    #[test]
+    fn share_deeper_than_counts_only_deeper_entries() {
+        // depths 1, 2, 9, 10 with counts 1, 1, 1, 1
+        let counts = [0, 1, 1, 0, 0, 0, 0, 0, 0, 1, 1];
+        assert_eq!(deeper_than(&counts, 8), 0.5);
+        assert_eq!(deeper_than(&[], 8), 0.0);
+    }
+}

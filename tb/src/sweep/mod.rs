@@ -1,0 +1,386 @@
+//! The paper's experiments (SPEC section 8) over a scene set, at the cycle level: the engine
+//! behind `sms sweep`.
+//!
+//! ```text
+//!   scenes ──► for each scene: load, build the Workload once
+//!                 │
+//!                 ▼  --jobs threads take (configuration, L1D size) runs off a shared queue,
+//!                 │  plus one pass that records the stack-depth histogram
+//!              Sweep { scenes, runs (sorted by scene, then plan order) }
+//!                 │
+//!                 ▼
+//!              figures (tables + charts) ──► report folder (Markdown, CSV, JSON, SVG)
+//! ```
+//!
+//! Scenes run one after the other so only one scene's geometry is in memory at a time (the
+//! largest takes about 2 GB); the runs of a scene share its workload across threads. Every
+//! result is stored at its place in the plan, so the report does not depend on thread count or
+//! scheduling.
+
+pub mod figures;
+pub mod plot;
+mod progress;
+pub mod report;
+
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use rtl::config::Config;
+use rtl::trace::NullSink;
+use serde::Serialize;
+
+pub use progress::Progress;
+
+use crate::depth::{DepthHistogram, DepthReport};
+use crate::error::{Error, Result};
+use crate::scene::SceneLibrary;
+use crate::sim::{simulate, Fidelity, Hardware, Outcome, RunSpec};
+use crate::workload::{BvhKind, ChildOrder, Workload, WorkloadOpts};
+
+/// The configuration every performance figure is normalised to.
+pub const BASELINE: &str = "RB_8";
+/// What "with SMS" adds to an RB_N configuration.
+pub const SMS_SUFFIX: &str = "+SH_8+SK+RA";
+/// RB sizes of the RB-size sweep.
+pub const RB_SIZES: [u32; 6] = [1, 2, 4, 8, 16, 32];
+/// Unified L1D/shared-array sizes (KB) of the L1D-size sweep.
+pub const L1D_KB: [u32; 5] = [16, 32, 64, 128, 256];
+
+/// `RB_N` with SMS.
+pub fn with_sms(n: u32) -> String {
+    format!("RB_{n}{SMS_SUFFIX}")
+}
+
+/// One simulation of a scene: a configuration on a unified L1D/shared array of `l1d_kb`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Variant {
+    pub config: Config,
+    pub l1d_kb: u32,
+}
+
+impl Variant {
+    pub fn name(&self) -> String {
+        format!("{}@{}KB", self.config.name(), self.l1d_kb)
+    }
+}
+
+/// Which simulations to run on every scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// Configurations on the base L1D size (performance, off-chip, bank-conflict and cost
+    /// figures). RB_8 is always run.
+    pub configs: Vec<Config>,
+    /// N of the RB-size sweep: RB_N and RB_N+SH_8+SK+RA on the base L1D size.
+    pub rb_sizes: Vec<u32>,
+    /// Unified-array sizes (KB) of the L1D sweep, each with RB_8 and SMS.
+    pub l1d_kb: Vec<u32>,
+}
+
+impl Default for Plan {
+    /// SPEC section 8: the 14 paper configurations, N = 1 to 32 and 16 to 256 KB.
+    fn default() -> Self {
+        Plan { configs: Config::paper_set(), rb_sizes: RB_SIZES.to_vec(), l1d_kb: L1D_KB.to_vec() }
+    }
+}
+
+impl Plan {
+    /// Every run of a scene, without repeats: RB_8 first, then the configurations, the RB-size
+    /// sweep and the L1D sweep, in that order.
+    pub fn variants(&self, base_kb: u32) -> Result<Vec<Variant>> {
+        let parse = |name: &str| name.parse::<Config>().map_err(|e| Error::Invalid(format!("{name}: {e}")));
+        let mut at_base = vec![parse(BASELINE)?];
+        at_base.extend(self.configs.iter().copied());
+        for &n in &self.rb_sizes {
+            at_base.push(parse(&format!("RB_{n}"))?);
+            at_base.push(parse(&with_sms(n))?);
+        }
+        let mut all: Vec<Variant> =
+            at_base.into_iter().map(|config| Variant { config, l1d_kb: base_kb }).collect();
+        for &kb in &self.l1d_kb {
+            for name in [BASELINE.to_string(), with_sms(8)] {
+                all.push(Variant { config: parse(&name)?, l1d_kb: kb });
+            }
+        }
+        let mut unique: Vec<Variant> = Vec::with_capacity(all.len());
+        for v in all {
+            if !unique.iter().any(|u| u.config.name() == v.config.name() && u.l1d_kb == v.l1d_kb) {
+                unique.push(v);
+            }
+        }
+        for v in &unique {
+            let sh_kb = rtl::gpu::shared_bytes(&v.config).div_ceil(1024);
+            if sh_kb >= v.l1d_kb {
+                return Err(Error::Invalid(format!(
+                    "{}: the SH stacks need {sh_kb} KB of shared memory, the unified array has {} KB",
+                    v.config.name(),
+                    v.l1d_kb
+                )));
+            }
+        }
+        Ok(unique)
+    }
+}
+
+/// What every scene is rendered with: the same settings for all scenes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Settings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub bounces: u32,
+    pub bvh: BvhKind,
+    pub order: ChildOrder,
+    pub seed: u64,
+}
+
+impl Settings {
+    pub fn opts(&self) -> WorkloadOpts {
+        WorkloadOpts {
+            bvh: self.bvh,
+            order: self.order,
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            max_bounces: self.bounces,
+            seed: self.seed,
+        }
+    }
+}
+
+/// Everything a sweep needs.
+#[derive(Clone, Debug)]
+pub struct Request {
+    pub scenes: Vec<String>,
+    pub settings: Settings,
+    /// The hardware; `mem.l1d_bytes` is the base unified-array size.
+    pub hw: Hardware,
+    pub plan: Plan,
+    /// Worker threads.
+    pub jobs: usize,
+}
+
+impl Request {
+    pub fn base_kb(&self) -> u32 {
+        self.hw.mem.l1d_bytes / 1024
+    }
+}
+
+/// One simulation's result.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Run {
+    pub scene: String,
+    pub config: String,
+    pub l1d_kb: u32,
+    pub outcome: Outcome,
+}
+
+/// What a scene is, and its stack-depth statistics.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneResult {
+    pub name: String,
+    pub primitives: usize,
+    pub triangles: usize,
+    pub rays: u64,
+    pub pixel_warps: u32,
+    pub depth: DepthReport<WorkloadOpts>,
+    /// Seconds to load the scene and to build its BVH and render it (not part of the results).
+    #[serde(skip)]
+    pub load_secs: f64,
+    #[serde(skip)]
+    pub workload_secs: f64,
+}
+
+/// A finished sweep.
+#[derive(Clone, Debug)]
+pub struct Sweep {
+    pub settings: Settings,
+    pub hw: Hardware,
+    pub plan: Plan,
+    pub variants: Vec<Variant>,
+    pub scenes: Vec<SceneResult>,
+    /// Sorted by scene (in request order), then by variant (in plan order).
+    pub runs: Vec<Run>,
+    pub jobs: usize,
+    pub wall: Duration,
+}
+
+impl Sweep {
+    pub fn base_kb(&self) -> u32 {
+        self.hw.mem.l1d_bytes / 1024
+    }
+
+    pub fn run(&self, scene: &str, config: &str, l1d_kb: u32) -> Option<&Run> {
+        self.runs.iter().find(|r| r.scene == scene && r.config == config && r.l1d_kb == l1d_kb)
+    }
+
+    pub fn cycles(&self, scene: &str, config: &str, l1d_kb: u32) -> Option<u64> {
+        Some(self.run(scene, config, l1d_kb)?.outcome.gpu?.cycles)
+    }
+}
+
+/// Checks scene names before any work, so a typo costs nothing.
+pub fn check_scenes(library: &SceneLibrary, scenes: &[String]) -> Result<()> {
+    let known = library.names()?;
+    for name in scenes {
+        if !known.contains(name) {
+            return Err(Error::UnknownScene { name: name.clone(), known });
+        }
+    }
+    if scenes.is_empty() {
+        return Err(Error::Invalid("no scenes to sweep".into()));
+    }
+    Ok(())
+}
+
+/// Runs the sweep. `progress` shows runs done, what is running, elapsed time and an estimate
+/// of the rest.
+pub fn run(req: &Request, library: &SceneLibrary, progress: &Progress) -> Result<Sweep> {
+    check_scenes(library, &req.scenes)?;
+    let variants = req.plan.variants(req.base_kb())?;
+    let start = Instant::now();
+    let mut scenes = Vec::with_capacity(req.scenes.len());
+    let mut runs = Vec::with_capacity(req.scenes.len() * variants.len());
+    for name in &req.scenes {
+        progress.status(&format!("loading {name}"));
+        let t = Instant::now();
+        let scene = library.load(name)?;
+        let load_secs = t.elapsed().as_secs_f64();
+        progress.status(&format!("building {name}"));
+        let t = Instant::now();
+        let workload = Workload::new(&scene, req.settings.opts())?;
+        let workload_secs = t.elapsed().as_secs_f64();
+        let (outcomes, depth) = run_scene(req, &workload, &variants, name, progress)?;
+        runs.extend(outcomes.into_iter().zip(&variants).map(|(outcome, v)| Run {
+            scene: name.clone(),
+            config: v.config.name(),
+            l1d_kb: v.l1d_kb,
+            outcome,
+        }));
+        scenes.push(SceneResult {
+            name: name.clone(),
+            primitives: scene.primitives.len(),
+            triangles: scene.primitives.triangle_count(),
+            rays: workload.num_rays(),
+            pixel_warps: workload.num_warps(),
+            depth: DepthReport::new(name, *workload.opts(), workload.num_rays(), depth),
+            load_secs,
+            workload_secs,
+        });
+    }
+    progress.finish();
+    Ok(Sweep {
+        settings: req.settings,
+        hw: req.hw,
+        plan: req.plan.clone(),
+        variants,
+        scenes,
+        runs,
+        jobs: req.jobs,
+        wall: start.elapsed(),
+    })
+}
+
+/// Every variant of one scene on `req.jobs` threads, plus the depth pass; outcomes in plan
+/// order.
+fn run_scene(
+    req: &Request,
+    workload: &Workload,
+    variants: &[Variant],
+    scene: &str,
+    progress: &Progress,
+) -> Result<(Vec<Outcome>, DepthHistogram)> {
+    // Index `variants.len()` is the depth pass.
+    let next = AtomicUsize::new(0);
+    let failed = AtomicBool::new(false);
+    let slots: Mutex<Vec<Option<Outcome>>> = Mutex::new(vec![None; variants.len()]);
+    let depth = Mutex::new(DepthHistogram::default());
+    let error: Mutex<Option<Error>> = Mutex::new(None);
+    let worker = || loop {
+        let i = next.fetch_add(1, Ordering::Relaxed);
+        if i > variants.len() || failed.load(Ordering::Relaxed) {
+            return;
+        }
+        if i == variants.len() {
+            let label = format!("{scene} depth");
+            progress.started(&label);
+            let mut h = DepthHistogram::default();
+            for jobs in workload.warps() {
+                jobs.iter().flat_map(|j| j.lanes.iter().flatten()).for_each(|t| h.add_trace(t));
+                progress.tick();
+            }
+            *depth.lock().expect("depth lock") = h;
+            progress.done(&label);
+            continue;
+        }
+        let v = variants[i];
+        let label = format!("{scene} {}", v.name());
+        progress.started(&label);
+        let hw = Hardware { mem: rtl::mem::MemParams { l1d_bytes: v.l1d_kb * 1024, ..req.hw.mem }, ..req.hw };
+        let spec = RunSpec { config: v.config, hw, fidelity: Fidelity::Cycle };
+        match simulate(&spec, workload, None, &mut NullSink, |_| progress.tick()) {
+            Ok(o) => slots.lock().expect("slots lock")[i] = Some(o),
+            Err(e) => {
+                failed.store(true, Ordering::Relaxed);
+                error.lock().expect("error lock").get_or_insert(Error::Invalid(format!("{label}: {e}")));
+            }
+        }
+        progress.done(&label);
+    };
+    std::thread::scope(|s| {
+        for _ in 0..req.jobs.max(1) {
+            s.spawn(worker);
+        }
+    });
+    if let Some(e) = error.into_inner().expect("error lock") {
+        return Err(e);
+    }
+    let outcomes =
+        slots.into_inner().expect("slots lock").into_iter().map(|o| o.expect("every run finished")).collect();
+    Ok((outcomes, depth.into_inner().expect("depth lock")))
+}
+
+/// Geometric mean; `None` for no values or a value that is not positive.
+pub fn geomean(values: impl IntoIterator<Item = f64>) -> Option<f64> {
+    let (mut sum, mut n) = (0.0, 0u32);
+    for v in values {
+        if !(v > 0.0 && v.is_finite()) {
+            return None;
+        }
+        sum += v.ln();
+        n += 1;
+    }
+    (n > 0).then(|| (sum / n as f64).exp())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_plan_runs_each_variant_once() {
+        let v = Plan::default().variants(64).unwrap();
+        let names: Vec<String> = v.iter().map(Variant::name).collect();
+        assert_eq!(names[0], "RB_8@64KB");
+        // 14 paper configurations, RB_1, RB_1 and RB_32 with SMS, and 4 other L1D sizes × 2.
+        assert_eq!(v.len(), 14 + 3 + 8);
+        for (i, n) in names.iter().enumerate() {
+            assert!(!names[i + 1..].contains(n), "{n} twice");
+        }
+        assert!(names.contains(&"RB_8+SH_8+SK+RA@16KB".to_string()));
+    }
+
+    #[test]
+    fn a_plan_whose_stacks_fill_the_array_is_refused() {
+        let plan = Plan { configs: vec![], rb_sizes: vec![], l1d_kb: vec![8] };
+        assert!(plan.variants(64).is_err(), "SMS needs 8 KB of SH: nothing left of 8 KB");
+    }
+
+    #[test]
+    fn geomean_of_known_values() {
+        assert_eq!(geomean([1.0, 1.0]), Some(1.0));
+        assert!((geomean([2.0, 8.0]).unwrap() - 4.0).abs() < 1e-12);
+        assert_eq!(geomean([]), None);
+        assert_eq!(geomean([1.0, 0.0]), None);
+    }
+}

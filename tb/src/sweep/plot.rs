@@ -1,0 +1,302 @@
+//! The sweep's SVG charts: horizontal bars per configuration, lines over a power-of-two axis,
+//! and the cost-versus-performance scatter. Every element is drawn in the order given, so the
+//! same data give the same file.
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use crate::error::{Error, Result};
+
+const SIZE: (u32, u32) = (960, 600);
+
+fn to_err(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::io(path, std::io::Error::other(e.to_string()))
+}
+
+/// Colour of series `i`, dark enough for thin lines.
+pub fn color(i: usize) -> RGBColor {
+    const COLORS: [RGBColor; 8] = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(127, 127, 127),
+    ];
+    COLORS[i % COLORS.len()]
+}
+
+/// Label of the row at position `v` of a bar chart whose rows sit at integers.
+fn row_label(labels: &[String], v: f64) -> String {
+    let i = v.round();
+    if (v - i).abs() > 1e-6 || i < 0.0 {
+        return String::new();
+    }
+    labels.get(i as usize).cloned().unwrap_or_default()
+}
+
+/// One set of bars, one value per row (`None` leaves the row empty).
+#[derive(Clone, Debug)]
+pub struct Bars {
+    pub name: String,
+    pub values: Vec<Option<f64>>,
+}
+
+/// Horizontal bars, one row per label. Bar sets are drawn over each other in order, so for a
+/// stacked look pass cumulative values with the largest first. `dots` are extra points drawn
+/// as small circles over the bars (e.g. per-scene values behind a mean), `rule` a vertical line
+/// (e.g. the baseline's 1.0). With `zoom` the axis spans only the values (speed-ups near 1),
+/// otherwise it starts at zero.
+#[allow(clippy::too_many_arguments)]
+pub fn hbars(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    labels: &[String],
+    bars: &[Bars],
+    dots: &[(usize, f64)],
+    rule: Option<f64>,
+    zoom: bool,
+) -> Result<()> {
+    let values = || {
+        bars.iter()
+            .flat_map(|b| b.values.iter().flatten())
+            .chain(dots.iter().map(|d| &d.1))
+            .chain(rule.as_ref())
+    };
+    let hi = values().copied().fold(0.0, f64::max).max(1e-9);
+    let lo = if zoom { values().copied().fold(hi, f64::min) } else { 0.0 };
+    let pad = (hi - lo).max(hi * 1e-3) * 0.08;
+    let (left, top) = (if zoom { (lo - pad).max(0.0) } else { 0.0 }, hi + pad);
+    let n = labels.len().max(1);
+    let height = (SIZE.1).max(90 + 28 * n as u32);
+    let root = SVGBackend::new(path, (SIZE.0, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| to_err(path, e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(170)
+        .build_cartesian_2d(left..top, -0.5..n as f64 - 0.5)
+        .map_err(|e| to_err(path, e))?;
+    let label = |v: &f64| row_label(labels, *v);
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_labels(4 * n)
+        .y_label_formatter(&label)
+        .disable_y_mesh()
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    for (s, b) in bars.iter().enumerate() {
+        let style = color(s).filled();
+        let rects = b.values.iter().enumerate().filter_map(|(i, v)| {
+            let y = i as f64;
+            v.map(|v| Rectangle::new([(left, y - 0.35), (v, y + 0.35)], style))
+        });
+        chart
+            .draw_series(rects)
+            .map_err(|e| to_err(path, e))?
+            .label(b.name.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], style));
+    }
+    if !dots.is_empty() {
+        chart
+            .draw_series(dots.iter().map(|&(i, v)| Circle::new((v, i as f64), 3, BLACK.filled())))
+            .map_err(|e| to_err(path, e))?
+            .label("per scene")
+            .legend(|(x, y)| Circle::new((x + 7, y), 3, BLACK.filled()));
+    }
+    if let Some(r) = rule {
+        chart
+            .draw_series(LineSeries::new([(r, -0.5), (r, n as f64 - 0.5)], BLACK.stroke_width(1)))
+            .map_err(|e| to_err(path, e))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    root.present().map_err(|e| to_err(path, e))
+}
+
+/// A named line through `(x, y)` points.
+#[derive(Clone, Debug)]
+pub struct Line {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Lines over `x`; with `log2_x` the axis is logarithmic and labelled with the powers of two.
+/// With `zoom` the y axis spans only the values (speed-ups near 1), otherwise it starts at zero.
+pub fn lines(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    log2_x: bool,
+    zoom: bool,
+    series: &[Line],
+) -> Result<()> {
+    let tx = |x: f64| if log2_x { x.log2() } else { x };
+    let all = || series.iter().flat_map(|s| s.points.iter());
+    let (x0, x1) =
+        all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(tx(p.0)), b.max(tx(p.0))));
+    let (x0, x1) = if x0.is_finite() { (x0, x1.max(x0 + 1.0)) } else { (0.0, 1.0) };
+    let pad = (x1 - x0) * 0.04;
+    let hi = all().map(|p| p.1).fold(0.0, f64::max).max(1e-9);
+    let lo = if zoom { all().map(|p| p.1).fold(hi, f64::min) } else { 0.0 };
+    let ypad = (hi - lo).max(hi * 1e-3) * 0.08;
+    let (y0, y1) = (if zoom { (lo - ypad).max(0.0) } else { 0.0 }, hi + ypad);
+    let root = SVGBackend::new(path, SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| to_err(path, e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0 - pad..x1 + pad, y0..y1)
+        .map_err(|e| to_err(path, e))?;
+    let x_label = |v: &f64| {
+        if !log2_x {
+            return format!("{v}");
+        }
+        let r = v.round();
+        if (v - r).abs() < 1e-6 {
+            format!("{}", 2f64.powf(r))
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .x_labels(if log2_x { 4 * (x1 - x0 + 1.0) as usize } else { 12 })
+        .x_label_formatter(&x_label)
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    for (i, s) in series.iter().enumerate() {
+        // Beyond the fixed palette (a line per scene), spread hues evenly instead of repeating.
+        let c = if series.len() <= 8 {
+            color(i)
+        } else {
+            let (r, g, b) = HSLColor(i as f64 / series.len() as f64, 0.75, 0.42).rgb();
+            RGBColor(r, g, b)
+        };
+        let pts: Vec<(f64, f64)> = s.points.iter().map(|&(x, y)| (tx(x), y)).collect();
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+            .map_err(|e| to_err(path, e))?
+            .label(s.name.as_str())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| to_err(path, e))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    root.present().map_err(|e| to_err(path, e))
+}
+
+/// A labelled design point of the cost-versus-performance plot.
+#[derive(Clone, Debug)]
+pub struct Point {
+    pub name: String,
+    pub x: f64,
+    pub y: f64,
+    pub highlight: bool,
+}
+
+/// Scatter of labelled points; highlighted ones are red and joined by a step line in x order
+/// (the Pareto front).
+pub fn scatter(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[Point]) -> Result<()> {
+    let (x0, x1) = points.iter().fold((0.0f64, 0.0f64), |(a, b), p| (a.min(p.x), b.max(p.x)));
+    let (y0, y1) = points.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.y), b.max(p.y)));
+    let y0 = if y0.is_finite() { y0 } else { 0.0 };
+    let (xpad, ypad) = (((x1 - x0) * 0.06).max(1.0), ((y1 - y0) * 0.08).max(0.01));
+    let root = SVGBackend::new(path, SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| to_err(path, e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0 - xpad..x1 + xpad * 3.0, (y0 - ypad).max(0.0)..y1 + ypad)
+        .map_err(|e| to_err(path, e))?;
+    chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw().map_err(|e| to_err(path, e))?;
+    let red = RGBColor(214, 39, 40);
+    let mut front: Vec<(f64, f64)> = points.iter().filter(|p| p.highlight).map(|p| (p.x, p.y)).collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let steps = front.windows(2).flat_map(|w| [w[0], (w[1].0, w[0].1), w[1]]).collect::<Vec<_>>();
+    chart
+        .draw_series(LineSeries::new(if front.len() > 1 { steps } else { front }, red.stroke_width(1)))
+        .map_err(|e| to_err(path, e))?
+        .label("Pareto front")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], red.stroke_width(1)));
+    let font = ("sans-serif", 12).into_font();
+    for p in points {
+        let c = if p.highlight { red } else { RGBColor(90, 90, 90) };
+        let size = if p.highlight { 5 } else { 4 };
+        chart
+            .draw_series([EmptyElement::at((p.x, p.y))
+                + Circle::new((0, 0), size, c.filled())
+                + Text::new(p.name.to_string(), (7, -6), font.clone())])
+            .map_err(|e| to_err(path, e))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    root.present().map_err(|e| to_err(path, e))
+}
+
+/// A chart as data, drawn by [`Chart::write_svg`].
+#[derive(Clone, Debug)]
+pub enum Chart {
+    HBars {
+        x_desc: String,
+        labels: Vec<String>,
+        bars: Vec<Bars>,
+        dots: Vec<(usize, f64)>,
+        rule: Option<f64>,
+        zoom: bool,
+    },
+    Lines {
+        x_desc: String,
+        y_desc: String,
+        log2_x: bool,
+        zoom: bool,
+        series: Vec<Line>,
+    },
+    Scatter {
+        x_desc: String,
+        y_desc: String,
+        points: Vec<Point>,
+    },
+}
+
+impl Chart {
+    pub fn write_svg(&self, path: &Path, title: &str) -> Result<()> {
+        match self {
+            Chart::HBars { x_desc, labels, bars, dots, rule, zoom } => {
+                hbars(path, title, x_desc, labels, bars, dots, *rule, *zoom)
+            }
+            Chart::Lines { x_desc, y_desc, log2_x, zoom, series } => {
+                lines(path, title, x_desc, y_desc, *log2_x, *zoom, series)
+            }
+            Chart::Scatter { x_desc, y_desc, points } => scatter(path, title, x_desc, y_desc, points),
+        }
+    }
+}

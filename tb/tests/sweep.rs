@@ -1,0 +1,205 @@
+//! `sms sweep` end to end on two built-in scenes at a tiny resolution: the report folder has
+//! every promised file, the numbers follow from the raw runs, thread count changes nothing, and
+//! bad input gives an error instead of a panic.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+const FIGURES: [&str; 7] =
+    ["performance", "offchip", "bank_conflicts", "rb_sweep", "l1d_sweep", "depth", "cost"];
+const SCENES: [&str; 2] = ["wknd", "clutter"];
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sms-sweep-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn sms(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_sms")).args(args).output().expect("run sms")
+}
+
+/// The default plan (14 paper configurations, RB and L1D sweeps) on two scenes, tiny.
+fn sweep(out: &Path, jobs: &str) {
+    let o = sms(&[
+        "sweep",
+        "--scenes",
+        &SCENES.join(","),
+        "--res",
+        "16x16",
+        "--spp",
+        "1",
+        "--bounces",
+        "1",
+        "--jobs",
+        jobs,
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "sms sweep failed: {}", String::from_utf8_lossy(&o.stderr));
+}
+
+fn json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())))
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Files whose bytes must not depend on the thread count: every figure (our SVGs draw elements in
+/// data order) and report.json; not the wall-clock times in timing.json and summary.md.
+fn deterministic_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_str().unwrap();
+            p.is_file() && name != "timing.json" && name != "summary.md"
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn a_sweep_writes_every_file_and_does_not_depend_on_thread_count() {
+    let (one, two) = (out_dir("jobs1"), out_dir("jobs2"));
+    sweep(&one, "1");
+    sweep(&two, "2");
+
+    for f in FIGURES {
+        for ext in ["md", "csv", "json", "svg"] {
+            let path = one.join(format!("{f}.{ext}"));
+            let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert!(!text.trim().is_empty(), "{} is empty", path.display());
+            if ext == "svg" {
+                assert!(text.starts_with("<svg"), "{} is not an SVG", path.display());
+            }
+        }
+    }
+    for scene in SCENES {
+        assert!(one.join("depth").join(format!("{scene}.svg")).is_file());
+        assert!(one.join("depth").join(format!("{scene}.csv")).is_file());
+    }
+    let summary = std::fs::read_to_string(one.join("summary.md")).unwrap();
+    assert!(summary.contains("16x16 pixels"), "summary states the render settings");
+    for f in FIGURES {
+        let title = json(&one.join(format!("{f}.json")))["title"].as_str().unwrap().to_string();
+        assert!(summary.contains(&title), "summary lacks {f}");
+    }
+    let report = json(&one.join("report.json"));
+    let runs = report["runs"].as_array().unwrap();
+    let per_scene = report["plan"]["runs_per_scene"].as_array().unwrap().len();
+    assert_eq!(
+        per_scene,
+        14 + 3 + 8,
+        "14 paper configurations, RB_1, RB_1 and RB_32 with SMS, 4 L1D sizes × 2"
+    );
+    assert_eq!(runs.len(), SCENES.len() * per_scene);
+    assert!(runs.iter().all(|r| r["outcome"]["gpu"]["cycles"].as_u64().unwrap() > 0));
+    assert!(json(&one.join("timing.json"))["runs"].as_array().unwrap().len() == runs.len());
+
+    let (a, b) = (deterministic_files(&one), deterministic_files(&two));
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() > 4 * FIGURES.len(), "every figure and report.json");
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.file_name(), y.file_name());
+        assert!(
+            std::fs::read(x).unwrap() == std::fs::read(y).unwrap(),
+            "{} differs between --jobs 1 and 2",
+            x.display()
+        );
+    }
+
+    check_performance(&one, &report);
+    check_pareto(&one);
+    let _ = std::fs::remove_dir_all(&one);
+    let _ = std::fs::remove_dir_all(&two);
+}
+
+/// RB_8 is exactly 1.0; every speed-up and geomean is recomputed from the raw cycles.
+fn check_performance(dir: &Path, report: &Value) {
+    let cycles = |scene: &str, config: &str| {
+        report["runs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["scene"] == scene && r["config"] == config && r["l1d_kb"] == 64)
+            .and_then(|r| r["outcome"]["gpu"]["cycles"].as_u64())
+            .unwrap_or_else(|| panic!("no run {scene} {config}")) as f64
+    };
+    let perf = json(&dir.join("performance.json"));
+    let rows = perf["data"]["rows"].as_array().unwrap();
+    assert_eq!(rows[0]["config"], "RB_8");
+    for row in rows {
+        let config = row["config"].as_str().unwrap();
+        let per: Vec<f64> =
+            row["per_scene"].as_array().unwrap().iter().map(|p| p["speedup"].as_f64().unwrap()).collect();
+        assert_eq!(per.len(), SCENES.len());
+        let expected: Vec<f64> = SCENES.iter().map(|s| cycles(s, "RB_8") / cycles(s, config)).collect();
+        let geomean = row["geomean"].as_f64().unwrap();
+        let hand = (expected[0] * expected[1]).sqrt();
+        if config == "RB_8" {
+            assert!(per.iter().all(|&v| v == 1.0), "RB_8 normalises to exactly 1: {per:?}");
+            assert_eq!(geomean, 1.0);
+        }
+        for (p, e) in per.iter().zip(&expected) {
+            assert!((p - e).abs() <= 1e-12 * e, "{config}: {p} vs {e}");
+        }
+        assert!((geomean - hand).abs() <= 1e-12 * hand, "{config}: geomean {geomean} vs {hand}");
+    }
+    let csv = std::fs::read_to_string(dir.join("performance.csv")).unwrap();
+    assert!(csv.lines().nth(1).unwrap().starts_with("RB_8,1.0000,1.0000,1.0000"), "{csv}");
+}
+
+/// Every design marked Pareto-optimal is undominated, every other one is dominated.
+fn check_pareto(dir: &Path) {
+    let cost = json(&dir.join("cost.json"));
+    let rows = cost["data"]["rows"].as_array().unwrap();
+    let pts: Vec<(f64, f64, bool)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r["added_bytes_per_sm"].as_f64().unwrap(),
+                r["speedup"].as_f64().unwrap(),
+                r["pareto_optimal"].as_bool().unwrap(),
+            )
+        })
+        .collect();
+    assert!(pts.iter().any(|p| p.2));
+    for &(c, s, optimal) in &pts {
+        let dominated = pts.iter().any(|&(c2, s2, _)| c2 <= c && s2 >= s && (c2 < c || s2 > s));
+        assert_eq!(optimal, !dominated, "({c}, {s})");
+    }
+    let sms = rows.iter().find(|r| r["config"] == "RB_8+SH_8+SK+RA").unwrap();
+    assert!(
+        sms["field_bytes_per_sm"].as_u64().unwrap() > 272,
+        "the paper's 272 bytes plus the RTL's extra bits"
+    );
+    assert_eq!(sms["sh_bytes_per_sm"], 8192);
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let out = out_dir("bad");
+    let out_s = out.to_str().unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (&["sweep", "--scenes", "wknd,nosuchscene", "--out", out_s], "unknown scene 'nosuchscene'"),
+        (&["sweep", "--quick", "--configs", "RB_8+SH_6", "--out", out_s], "--configs RB_8+SH_6"),
+        (&["sweep", "--quick", "--jobs", "0", "--out", out_s], "--jobs"),
+        (&["sweep", "--quick", "--l1d-sizes", "8", "--out", out_s], "8 KB"),
+        (
+            &["sweep", "--quick", "--out", "/proc/sms-sweep-cannot-write-here"],
+            "/proc/sms-sweep-cannot-write-here",
+        ),
+    ];
+    for (args, expected) in cases {
+        let o = sms(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(err.contains(expected), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    assert!(!out.exists(), "nothing is written when the input is bad");
+}
