@@ -183,6 +183,7 @@ impl Gpu {
                     self.jobs_in[sm].take(),
                 )?;
             }
+            #[cfg(not(feature = "untraced"))]
             if sink.enabled() {
                 sink.begin_cycle(now);
                 self.probe(sink);
@@ -200,7 +201,11 @@ impl Gpu {
                 None if more_jobs || !self.units.iter().all(RtUnit::empty) => {
                     return Err(RunError::Stalled { cycle: now });
                 }
-                Some(at) if self.rt.idle_skip && !sink.enabled() && at > self.mem.cycle() => {
+                Some(at)
+                    if self.rt.idle_skip
+                        && (cfg!(feature = "untraced") || !sink.enabled())
+                        && at > self.mem.cycle() =>
+                {
                     self.mem.skip_to(at)
                 }
                 _ => {}

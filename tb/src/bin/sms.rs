@@ -20,6 +20,8 @@ enum Command {
     Cost(cli::cost::Args),
     /// Exhaustive bounded model checking of stack consistency on small configurations.
     Check(cli::check::Args),
+    /// Run time against error of each level and sample rate, throughput, savings of skipped work.
+    Bench(cli::bench::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -28,6 +30,7 @@ fn main() -> std::process::ExitCode {
         Command::Depth(args) => cli::depth::run(args),
         Command::Cost(args) => cli::cost::run(args),
         Command::Check(args) => cli::check::run(args),
+        Command::Bench(args) => cli::bench::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
