@@ -422,6 +422,31 @@ fn time_obvhs(scene: &Scene, rays: &[Ray]) -> Result<f64> {
     }))
 }
 
+/// Throughput of full cycle-level runs of `w` (one per configuration) against plain traversals
+/// of the same rays, timed now.
+pub fn throughput(scene: &Scene, w: &Workload, runs: &[(Config, Outcome)]) -> Result<Vec<Throughput>> {
+    let rays = w.rays();
+    let plain = time_plain(w.bvh(), scene, &rays, w.opts().order);
+    let obvhs = time_obvhs(scene, &rays)?;
+    Ok(runs
+        .iter()
+        .map(|(config, o)| {
+            let g = o.gpu.unwrap_or_default();
+            Throughput {
+                scene: scene.name.clone(),
+                config: config.name(),
+                rays: rays.len() as u64,
+                cycles: g.cycles,
+                evaluated_cycles: g.evaluated_cycles,
+                stack_ops: o.stack.pushes + o.stack.pops,
+                wall: secs(o.wall),
+                plain_bvh6: plain,
+                obvhs_cwbvh: obvhs,
+            }
+        })
+        .collect())
+}
+
 /// Visits by kind and stack depths of every ray of `w`.
 fn work(scene: &Scene, w: &Workload) -> Work {
     let limit = 8;
@@ -548,25 +573,8 @@ pub fn bench_scene(
         });
     }
 
-    // Throughput against plain traversals of the same rays.
-    let rays = w.rays();
-    let plain = time_plain(w.bvh(), scene, &rays, wopts.order);
-    let obvhs = time_obvhs(scene, &rays)?;
-    for &config in &configs {
-        let o = &truth[&config.name()];
-        let g = o.gpu.unwrap_or_default();
-        report.throughput.push(Throughput {
-            scene: scene.name.clone(),
-            config: config.name(),
-            rays: rays.len() as u64,
-            cycles: g.cycles,
-            evaluated_cycles: g.evaluated_cycles,
-            stack_ops: o.stack.pushes + o.stack.pops,
-            wall: secs(o.wall),
-            plain_bvh6: plain,
-            obvhs_cwbvh: obvhs,
-        });
-    }
+    let full: Vec<(Config, Outcome)> = configs.iter().map(|c| (*c, truth[&c.name()])).collect();
+    report.throughput.extend(throughput(scene, &w, &full)?);
     report.work.push(work(scene, &w));
 
     // Savings, on the focus configuration.
