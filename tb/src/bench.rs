@@ -904,6 +904,8 @@ impl Report {
             .configure_mesh()
             .x_desc("seconds, all scenes and configurations")
             .y_desc("worst relative error, % (0 drawn at 1e-4)")
+            .bold_line_style(RGBColor(225, 225, 225))
+            .light_line_style(TRANSPARENT)
             .draw()
             .map_err(|e| to_err(&e))?;
         chart
@@ -930,7 +932,7 @@ impl Report {
             .configure_series_labels()
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
+            .position(SeriesLabelPosition::MiddleMiddle)
             .draw()
             .map_err(|e| to_err(&e))?;
         root.present().map_err(|e| to_err(&e))
