@@ -458,7 +458,7 @@ pub fn throughput(scene: &Scene, w: &Workload, runs: &[(Config, Outcome)]) -> Re
 
 /// Visits by kind and stack depths of every ray of `w`.
 fn work(scene: &Scene, w: &Workload) -> Work {
-    let limit = 8;
+    let limit = 8; // RB_8 entries
     let mut out =
         Work { scene: scene.name.clone(), triangles: scene.primitives.triangle_count(), ..Work::default() };
     for jobs in w.warps() {
