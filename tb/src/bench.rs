@@ -383,8 +383,18 @@ pub struct Report {
     pub throughput: Vec<Throughput>,
     pub work: Vec<Work>,
     pub savings: Vec<Saving>,
-    /// Seconds spent building each scene's workload (BVH and the render pass), not in any row.
-    pub workload_build: Vec<(String, f64)>,
+    pub scenes: Vec<SceneInfo>,
+}
+
+/// A scene's workload as benchmarked.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneInfo {
+    pub scene: String,
+    pub opts: WorkloadOpts,
+    pub pixel_warps: u32,
+    pub rays: u64,
+    /// Seconds building the BVH and rendering (not in any row).
+    pub build: f64,
 }
 
 fn secs(d: Duration) -> f64 {
@@ -512,17 +522,15 @@ pub fn bench_scene(
         let t = Instant::now();
         (Workload::new(scene, wopts)?, secs(t.elapsed()))
     };
-    report.workload_build.push((scene.name.clone(), build));
-    log(format!(
-        "{}: {}x{} {} spp {} bounces, {} warps, {} rays; workload built in {build:.2} s",
-        scene.name,
-        wopts.width,
-        wopts.height,
-        wopts.spp,
-        wopts.max_bounces,
-        w.num_warps(),
-        w.num_rays()
-    ));
+    let info = SceneInfo {
+        scene: scene.name.clone(),
+        opts: wopts,
+        pixel_warps: w.num_warps(),
+        rays: w.num_rays(),
+        build,
+    };
+    log(info.to_string());
+    report.scenes.push(info);
     let spec = |config: Config, fidelity| RunSpec { config, hw: opts.hw, fidelity };
 
     // Every setting of every configuration, then the errors (they need RB_8's value alike).
@@ -660,6 +668,25 @@ pub fn bench_scene(
         });
     }
     Ok(())
+}
+
+impl fmt::Display for SceneInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let o = &self.opts;
+        write!(
+            f,
+            "{}: {}x{}, {} spp, {} bounces, {:?}, {} pixel warps, {} rays; workload built in {:.2} s",
+            self.scene,
+            o.width,
+            o.height,
+            o.spp,
+            o.max_bounces,
+            o.bvh,
+            self.pixel_warps,
+            self.rays,
+            self.build
+        )
+    }
 }
 
 fn pct(e: Option<f64>) -> String {
@@ -849,6 +876,16 @@ impl Report {
         for h in Headline::ALL {
             out += &line(&[h], format!("{} alone", h.name()));
         }
+        // Reallocation makes the functional level's counts differ from the cycle level's.
+        let functional = Setting { fidelity: Fidelity::Functional, sample: None };
+        let ra = self.rows.iter().filter(|r| r.setting == functional && r.config.ends_with("+RA"));
+        let worst = ra.map(|r| r.errors.stack_global.unwrap_or(f64::NAN)).reduce(worse);
+        if let Some(e) = worst {
+            out += &format!(
+                "functional level with reallocation (all warps): off-chip stack error {} at worst\n",
+                pct(Some(e))
+            );
+        }
         out
     }
 
@@ -857,7 +894,18 @@ impl Report {
         let render = |t: Table| if markdown { t.to_markdown() } else { t.to_text() };
         let heading = |s: &str| if markdown { format!("\n## {s}\n\n") } else { format!("\n{s}\n") };
         let mut out = String::new();
+        out += &heading("Workloads");
+        for info in &self.scenes {
+            out += &format!("{}{info}\n", if markdown { "- " } else { "" });
+        }
         out += &heading("Run time against error (errors relative to the full cycle-level run)");
+        out += "err = |value − full cycle-level value| / full cycle-level value, on workload totals \
+                (sampled: estimates); perf = RB_8's cycles / the configuration's, both from the same \
+                setting; n/a = not measured at that level; ±95% = widest relative 95 % interval of the \
+                sampled estimates; time includes tracing the rays, not building the BVH.\n";
+        if markdown {
+            out += "\n";
+        }
         out += &render(self.rows_table());
         out += &heading("Per setting, over every scene and configuration");
         out += &render(self.summary_table(tolerance));
