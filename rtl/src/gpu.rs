@@ -184,6 +184,7 @@ impl Gpu {
                     self.jobs_in[sm].take(),
                 )?;
             }
+            #[cfg(not(feature = "untraced"))]
             if sink.next_wanted(now) == Some(now) {
                 sink.begin_cycle(now);
                 self.probe(sink);
@@ -203,6 +204,7 @@ impl Gpu {
                 }
                 Some(at) if self.rt.idle_skip && at > self.mem.cycle() => {
                     // Never skip a cycle the sink wants to see.
+                    #[cfg(not(feature = "untraced"))]
                     let at = sink.next_wanted(self.mem.cycle()).map_or(at, |w| w.min(at));
                     if at > self.mem.cycle() {
                         self.mem.skip_to(at)

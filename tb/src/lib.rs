@@ -5,6 +5,7 @@
 //! the path tracer's rays, [`traverse`] records every node visit, push and pop, [`workload`]
 //! groups the traces into warps in GPU launch order, and [`depth`] summarises stack depths.
 
+pub mod bench;
 pub mod bvh;
 pub mod cli;
 pub mod cost;

@@ -6,28 +6,24 @@ use proofs::harness::{run_cycle, CycleOpts, Op, RunError, RunSummary, WarpWork};
 use rtl::stack_unit::StackUnit;
 use rtl::trace::Sink;
 
-use crate::workload::{TraceOp, WarpJob};
+use crate::workload::{RayTrace, TraceOp, WarpJob};
 
 /// A warp job's stack operations per lane. Node visits carry no stack work; they become the
 /// driver's gaps between commands.
 pub fn warp_work(job: &WarpJob) -> WarpWork {
-    WarpWork {
-        lanes: job
-            .lanes
-            .iter()
-            .map(|lane| {
-                lane.as_ref().map(|t| {
-                    t.ops()
-                        .filter_map(|op| match op {
-                            TraceOp::Push(a) => Some(Op::Push(a)),
-                            TraceOp::Pop(_) => Some(Op::Pop),
-                            TraceOp::Visit { .. } => None,
-                        })
-                        .collect()
-                })
-            })
-            .collect(),
-    }
+    WarpWork { lanes: job.lanes.iter().map(|lane| lane.as_ref().map(lane_ops)).collect() }
+}
+
+/// One ray's stack operations.
+pub fn lane_ops(trace: &RayTrace) -> Vec<Op> {
+    trace
+        .ops()
+        .filter_map(|op| match op {
+            TraceOp::Push(a) => Some(Op::Push(a)),
+            TraceOp::Pop(_) => Some(Op::Pop),
+            TraceOp::Visit { .. } => None,
+        })
+        .collect()
 }
 
 /// Runs `jobs` through `unit` with the scoreboard on.

@@ -19,6 +19,8 @@ use crate::workload::{ChildOrder, NodeKind};
 
 /// Receives the operations of one traversal. `()` ignores them (for rendering only).
 pub trait Recorder {
+    /// The ray about to be traversed.
+    fn ray(&mut self, _ray: &Ray) {}
     fn visit(&mut self, addr: u64, kind: NodeKind);
     fn push(&mut self, addr: u64);
     fn pop(&mut self, addr: u64);
@@ -46,6 +48,7 @@ pub fn trace<R: Recorder>(
     order: ChildOrder,
     rec: &mut R,
 ) -> Option<Hit> {
+    rec.ray(ray);
     match bvh {
         Bvh::Cwbvh(cw) => trace_cwbvh(cw, prims, ray, tmax, rec),
         _ => trace_tree(bvh, prims, ray, tmax, order, rec),

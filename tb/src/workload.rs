@@ -16,6 +16,7 @@ use serde::Serialize;
 use crate::bvh::Bvh;
 pub use crate::bvh::BvhKind;
 use crate::error::{Error, Result};
+use crate::geometry::Ray;
 use crate::raygen::{Image, RayGen, ALBEDO};
 use crate::scene::Scene;
 use crate::traverse::{trace, Recorder};
@@ -289,6 +290,23 @@ impl<'s> Workload<'s> {
         self.run_warp::<RayTrace>(warp).jobs.into_iter().map(|lanes| WarpJob { lanes }).collect()
     }
 
+    /// Every ray of the workload in launch order (warp, sample, bounce, lane), e.g. to time
+    /// another traversal of the same rays.
+    pub fn rays(&self) -> Vec<Ray> {
+        #[derive(Default)]
+        struct RayOnly(Option<Ray>);
+        impl Recorder for RayOnly {
+            fn ray(&mut self, ray: &Ray) {
+                self.0 = Some(*ray);
+            }
+            fn visit(&mut self, _: u64, _: NodeKind) {}
+            fn push(&mut self, _: u64) {}
+            fn pop(&mut self, _: u64) {}
+        }
+        let rays = (0..self.num_warps()).flat_map(|warp| self.run_warp::<RayOnly>(warp).jobs);
+        rays.flatten().flatten().filter_map(|r| r.0).collect()
+    }
+
     fn run_warp<R: Recorder + Default>(&self, warp: u32) -> WarpRun<R> {
         let o = &self.opts;
         let prims = &self.scene.primitives;
@@ -382,6 +400,7 @@ mod tests {
                         }
                     }
                     assert_eq!(rays, w.num_rays());
+                    assert_eq!(w.rays().len() as u64, rays);
                     assert!(deepest > 0, "{name} {bvh:?} {order:?} never pushed");
                 }
             }

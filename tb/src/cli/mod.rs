@@ -1,6 +1,7 @@
 //! The `sms` subcommands, one module each: a clap `Args` struct and `run(args)`. The binary only
 //! dispatches, so new subcommands are added here without touching the others.
 
+pub mod bench;
 pub mod check;
 pub mod cost;
 pub mod depth;

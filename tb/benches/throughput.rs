@@ -1,0 +1,68 @@
+//! `cargo bench -p tb --bench throughput`: throughput of the full cycle-level model on the
+//! built-in `clutter` scene (simulated GPU cycles per second, stack operations per second) and
+//! its run time against obvhs's own traversal of the same rays.
+//!
+//! `-- --overhead` times only the SMS run with a `NullSink` (best of 3) and prints one
+//! `overhead_run_seconds BUILD WALL CPU` line, for `scripts/trace-overhead.sh`, which compares
+//! this build with one whose probe calls are compiled out (`--features untraced`). CPU is the
+//! thread's time on a CPU (Linux schedstat), which other processes' load disturbs far less than
+//! wall time; it is NaN where unavailable.
+
+use std::time::Duration;
+
+use tb::bench::throughput;
+use tb::sim::{simulate_all, Fidelity, Hardware, RunSpec};
+use tb::workload::{Workload, WorkloadOpts};
+
+const SCENE: &str = "clutter";
+const RES: u32 = 64;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let overhead = std::env::args().any(|a| a == "--overhead");
+    let scene = tb::load_scene(SCENE)?;
+    let opts = WorkloadOpts { width: RES, height: RES, ..WorkloadOpts::for_scene(&scene) };
+    let w = Workload::new(&scene, opts)?;
+    let run = |name: &str| -> Result<_, Box<dyn std::error::Error>> {
+        let spec = RunSpec { config: name.parse()?, hw: Hardware::default(), fidelity: Fidelity::Cycle };
+        Ok((spec.config, simulate_all(&spec, &w)?))
+    };
+    let build = if cfg!(feature = "untraced") { "untraced" } else { "traced" };
+    if overhead {
+        let (mut wall, mut cpu) = (Duration::MAX, f64::INFINITY);
+        for _ in 0..3 {
+            let before = on_cpu_seconds();
+            wall = wall.min(run("SMS")?.1.wall);
+            cpu = cpu.min(on_cpu_seconds() - before);
+        }
+        println!("overhead_run_seconds {build} {:.4} {cpu:.4}", wall.as_secs_f64());
+        return Ok(());
+    }
+    println!(
+        "{SCENE} {RES}x{RES}, {} spp, {} bounces, {} rays ({build} build)",
+        opts.spp,
+        opts.max_bounces,
+        w.num_rays()
+    );
+    let runs = vec![run("RB_8")?, run("SMS")?];
+    for t in throughput(&scene, &w, &runs)? {
+        println!(
+            "{:<16} {:>8} GPU cycles in {:.3} s: {:>9.0} cycles/s, {:>9.0} stack ops/s; \
+             obvhs CWBVH {:.4} s, our BVH6 {:.4} s: full model = {:.0}x obvhs",
+            t.config,
+            t.cycles,
+            t.wall,
+            t.cycles_per_sec(),
+            t.stack_ops_per_sec(),
+            t.obvhs_cwbvh,
+            t.plain_bvh6,
+            t.vs_obvhs()
+        );
+    }
+    Ok(())
+}
+
+/// Seconds this thread has spent on a CPU (Linux), NaN elsewhere.
+fn on_cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
+    stat.split_whitespace().next().and_then(|ns| ns.parse::<f64>().ok()).map_or(f64::NAN, |ns| ns * 1e-9)
+}

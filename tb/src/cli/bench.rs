@@ -1,0 +1,161 @@
+//! `sms bench`: run time against error of every level and sample rate, the model's throughput
+//! against a plain traversal, and the savings of skipping unneeded work, on the built-in scenes
+//! by default. Prints the tables and writes them (text, Markdown, CSV, JSON) and an SVG plot.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+
+use crate::bench::{bench_scene, BenchOpts, Report};
+use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
+use crate::sampling::SampleMode;
+
+/// Resolution when `--res` is not given: the whole default run takes about a minute on one core.
+pub const DEFAULT_RES: (u32, u32) = (64, 64);
+
+#[derive(Clone, Debug, clap::Args)]
+pub struct Args {
+    /// Scenes, comma-separated (default: the built-in ones).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// Stack configurations, comma-separated; RB_8 (the baseline) is always added.
+    #[arg(long, short = 'c', value_delimiter = ',', default_value = "RB_8,RB_8+SH_8+SK,SMS")]
+    pub config: Vec<String>,
+    /// Sample rates, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,0.5,0.25,0.1")]
+    pub fractions: Vec<f64>,
+    /// How sampled warps are drawn, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "random,tile")]
+    pub modes: Vec<SampleMode>,
+    /// Batches per sampled run (the confidence intervals' degrees of freedom + 1).
+    #[arg(long, default_value_t = 8)]
+    pub batches: u32,
+    /// Seed of the warp sampler.
+    #[arg(long, default_value_t = 1)]
+    pub sample_seed: u64,
+    /// Largest relative error a setting may make on a headline metric to qualify.
+    #[arg(long, default_value_t = 0.01)]
+    pub tolerance: f64,
+    /// Bounces added for the "more bounces" comparison.
+    #[arg(long, default_value_t = 2)]
+    pub more_bounces: u32,
+    /// Output folder.
+    #[arg(long, default_value = "out/bench")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub workload: WorkloadArgs,
+    #[command(flatten)]
+    pub hardware: HardwareArgs,
+    #[command(flatten)]
+    pub scene_files: SceneArgs,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let configs = args
+        .config
+        .iter()
+        .map(|name| name.parse().with_context(|| format!("--config {name}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let opts = BenchOpts {
+        configs,
+        fractions: args.fractions.clone(),
+        modes: args.modes.clone(),
+        batches: args.batches,
+        sample_seed: args.sample_seed,
+        hw: args.hardware.hardware()?,
+        more_bounces: args.more_bounces,
+    };
+    let scenes: Vec<String> = if args.scenes.is_empty() {
+        crate::scene::procedural::NAMES.iter().map(|s| s.to_string()).collect()
+    } else {
+        args.scenes.clone()
+    };
+    let library = args.scene_files.library();
+    let mut report = Report::default();
+    for name in &scenes {
+        let scene = library.load(name)?;
+        let mut wopts = args.workload.opts(&scene);
+        if args.workload.res.is_none() {
+            (wopts.width, wopts.height) = DEFAULT_RES;
+        }
+        bench_scene(&scene, wopts, &opts, &mut report, &mut |line| eprintln!("{line}"))?;
+    }
+    print!("{}", report.text(args.tolerance, false));
+    report.write(&args.out, args.tolerance)?;
+    eprintln!(
+        "wrote {}/bench.{{txt,md,csv,json}}, summary/throughput/work/savings.csv and time-vs-error.svg; {:.1} s in all",
+        args.out.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: super::Args,
+    }
+
+    #[test]
+    fn bench_runs_end_to_end_and_writes_its_files() {
+        let out = std::env::temp_dir().join(format!("tb-bench-{}", std::process::id()));
+        let out_arg = out.display().to_string();
+        let argv = [
+            "bench",
+            "--scenes",
+            "wknd,clutter",
+            "--res",
+            "16x16",
+            "--spp",
+            "1",
+            "--bounces",
+            "1",
+            "--fractions",
+            "1,0.5",
+            "--batches",
+            "2",
+            "--more-bounces",
+            "1",
+            "--out",
+            &out_arg,
+        ];
+        super::run(Cli::parse_from(argv).args).expect("bench runs");
+        for file in [
+            "bench.txt",
+            "bench.md",
+            "bench.csv",
+            "bench.json",
+            "summary.csv",
+            "throughput.csv",
+            "work.csv",
+            "savings.csv",
+            "time-vs-error.svg",
+        ] {
+            let text = std::fs::read_to_string(out.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+            assert!(!text.is_empty(), "{file}");
+        }
+        let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
+        // 2 scenes × 3 configurations × 2 levels × (full + 2 fractions × 2 modes).
+        assert_eq!(csv.lines().count(), 1 + 2 * 3 * 2 * 5);
+        assert!(csv.contains("clutter,RB_8+SH_8+SK+RA,cycle full,"));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("bench.json")).unwrap()).unwrap();
+        assert!(json["fastest"]["setting"].is_object(), "the full cycle level always qualifies");
+        let work = &json["report"]["work"];
+        assert_eq!(work[0]["scene"], "wknd");
+        assert_eq!(work[0]["triangle"], 0, "the procedural scene does no triangle work");
+        assert!(work[0]["procedural"].as_u64().unwrap() > 0);
+        assert!(work[1]["triangle"].as_u64().unwrap() > 0);
+        let text = std::fs::read_to_string(out.join("bench.txt")).unwrap();
+        assert!(text.contains("fastest within 1% on every headline metric"));
+        assert!(!text.contains("DIFFER"), "skipping work never changes results:\n{text}");
+        assert!(std::fs::read_to_string(out.join("time-vs-error.svg")).unwrap().starts_with("<svg"));
+        std::fs::remove_dir_all(&out).ok();
+    }
+}
