@@ -1,9 +1,7 @@
 //! Regenerates the example waves: `cargo run -p tb --example waves [DIR]` (default `waves`).
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "waves".to_string());
+    let dir = std::env::args().nth(1).unwrap_or_else(|| "waves".to_string());
     for path in tb::vcd::examples::write_examples(dir.as_ref())? {
         println!("{} (+ .gtkw)", path.display());
     }

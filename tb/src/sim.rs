@@ -422,7 +422,13 @@ mod tests {
     use crate::workload::WorkloadOpts;
 
     fn workload(scene: &crate::scene::Scene, res: u32) -> Workload<'_> {
-        let opts = WorkloadOpts { width: res, height: res, spp: 1, max_bounces: 1, ..WorkloadOpts::for_scene(scene) };
+        let opts = WorkloadOpts {
+            width: res,
+            height: res,
+            spp: 1,
+            max_bounces: 1,
+            ..WorkloadOpts::for_scene(scene)
+        };
         Workload::new(scene, opts).unwrap()
     }
 
@@ -447,7 +453,10 @@ mod tests {
             let f = simulate_all(&spec(name, Fidelity::Functional), &w).unwrap();
             let c = simulate_all(&spec(name, Fidelity::Cycle), &w).unwrap();
             assert_eq!(f.stack, c.stack, "{name}");
-            assert!(f.stack.rb_to_sh + f.stack.global() > 0, "{name}: clutter goes deeper than 4 + 4 entries");
+            assert!(
+                f.stack.rb_to_sh + f.stack.global() > 0,
+                "{name}: clutter goes deeper than 4 + 4 entries"
+            );
             assert_eq!(f.pops_checked, c.pops_checked);
             assert!(c.gpu.unwrap().cycles > 0);
         }
@@ -459,7 +468,8 @@ mod tests {
         let w = workload(&scene, 24);
         let s = spec("RB_4+SH_4", Fidelity::Functional);
         let full = simulate_all(&s, &w).unwrap();
-        let plan = SamplePlan { fraction: 1.0, mode: crate::sampling::SampleMode::Random, batches: 4, seed: 1 };
+        let plan =
+            SamplePlan { fraction: 1.0, mode: crate::sampling::SampleMode::Random, batches: 4, seed: 1 };
         let sampled = simulate_sampled(&s, &w, &plan, |_| {}).unwrap();
         let sum: u64 = sampled.batches.iter().map(|b| b.stack.global()).sum();
         assert_eq!(sum, full.stack.global(), "the batches partition the warps");

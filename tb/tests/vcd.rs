@@ -16,11 +16,7 @@ use tb::vcd::{Selection, Tee, VcdError, VcdOptions, VcdSink};
 /// The first example's configuration (SMS on RB_2 + SH_4, 2 warp slots of 8 lanes) with a
 /// bigger workload: 3 warps, so a slot is reused, deep enough to borrow and flush.
 fn sms_small() -> Example {
-    Example {
-        warps: 3,
-        max_peak: 16,
-        ..examples().remove(0)
-    }
+    Example { warps: 3, max_peak: 16, ..examples().remove(0) }
 }
 
 /// A scratch directory removed when the test ends.
@@ -61,10 +57,7 @@ fn dump_is_strictly_valid_and_replays_every_rtl_value() {
     let ex = sms_small();
     let (text, rec, summary) = dump(&ex, Selection::default());
     let st = summary.stats.stack;
-    assert!(
-        st.borrows > 0 && st.flushes > 0,
-        "workload too tame: {st:?}"
-    );
+    assert!(st.borrows > 0 && st.flushes > 0, "workload too tame: {st:?}");
     let waves = strict(&text);
     // Every RTL signal with a width is dumped, none invented.
     let expected: Vec<_> = rec.signals().filter(|s| s.1 > 0).collect();
@@ -135,10 +128,7 @@ fn planted_bugs_are_caught() {
     // The lenient reader accepts it: a shortened vector is legal VCD.
     read(short.as_bytes(), Mode::Lenient).unwrap();
 
-    let missing = format!(
-        "{head}{}",
-        plant(tail, |l| l.starts_with('b'), |_| String::new())
-    );
+    let missing = format!("{head}{}", plant(tail, |l| l.starts_with('b'), |_| String::new()));
     let err = read(missing.as_bytes(), Mode::Strict).unwrap_err();
     assert!(err.message.contains("has no value at time 0"), "{err}");
 }
@@ -146,30 +136,18 @@ fn planted_bugs_are_caught() {
 #[test]
 fn window_and_filters_dump_only_the_selection() {
     let ex = sms_small();
-    let select = Selection {
-        from: Some(40),
-        to: Some(160),
-        warps: Some(vec![0]),
-        lanes: Some(vec![0, 3]),
-        sms: None,
-    };
+    let select =
+        Selection { from: Some(40), to: Some(160), warps: Some(vec![0]), lanes: Some(vec![0, 3]), sms: None };
     let (full, rec, _) = dump(&ex, Selection::default());
     let (part, _, _) = dump(&ex, select.clone());
-    assert!(
-        part.len() * 5 < full.len(),
-        "{} vs {}",
-        part.len(),
-        full.len()
-    );
+    assert!(part.len() * 5 < full.len(), "{} vs {}", part.len(), full.len());
     let waves = strict(&part);
     let expected: Vec<&str> = rec
         .signals()
         .filter(|s| s.1 > 0)
         .map(|s| s.0)
         .filter(|p| {
-            !p.contains("warp[")
-                || p.contains("warp[0].thread[0].")
-                || p.contains("warp[0].thread[3].")
+            !p.contains("warp[") || p.contains("warp[0].thread[0].") || p.contains("warp[0].thread[3].")
         })
         .collect();
     let got: Vec<&str> = waves.signals.iter().map(|s| s.0.as_str()).collect();
@@ -182,10 +160,7 @@ fn window_and_filters_dump_only_the_selection() {
 }
 
 fn expect_err(select: Selection, cfg: &Config, path: &Path) -> String {
-    let opts = VcdOptions {
-        path: path.to_path_buf(),
-        select,
-    };
+    let opts = VcdOptions { path: path.to_path_buf(), select };
     match VcdSink::create(&opts, cfg) {
         Ok(_) => panic!("{opts:?} accepted"),
         Err(e) => e.to_string(),
@@ -197,63 +172,32 @@ fn bad_options_are_errors_naming_the_value() {
     let ex = sms_small();
     let tmp = TmpDir::new("errors");
     let path = tmp.join("errors.vcd");
-    let window = Selection {
-        from: Some(9),
-        to: Some(3),
-        ..Selection::default()
-    };
-    assert_eq!(
-        expect_err(window, &ex.config, &path),
-        "VCD window: from 9 is after to 3"
-    );
-    let warp = Selection {
-        warps: Some(vec![0, 2]),
-        ..Selection::default()
-    };
+    let window = Selection { from: Some(9), to: Some(3), ..Selection::default() };
+    assert_eq!(expect_err(window, &ex.config, &path), "VCD window: from 9 is after to 3");
+    let warp = Selection { warps: Some(vec![0, 2]), ..Selection::default() };
     let msg = expect_err(warp, &ex.config, &path);
-    assert!(
-        msg.contains("warp 2 does not exist") && msg.contains("2 warps"),
-        "{msg}"
-    );
-    let lane = Selection {
-        lanes: Some(vec![8]),
-        ..Selection::default()
-    };
+    assert!(msg.contains("warp 2 does not exist") && msg.contains("2 warps"), "{msg}");
+    let lane = Selection { lanes: Some(vec![8]), ..Selection::default() };
     let msg = expect_err(lane, &ex.config, &path);
-    assert!(
-        msg.contains("lane 8 does not exist") && msg.contains("8 lanes"),
-        "{msg}"
-    );
+    assert!(msg.contains("lane 8 does not exist") && msg.contains("8 lanes"), "{msg}");
     let nowhere = Path::new("/nonexistent-dir/x.vcd");
     let msg = expect_err(Selection::default(), &ex.config, nowhere);
-    assert!(
-        msg.starts_with("cannot write /nonexistent-dir/x.vcd: "),
-        "{msg}"
-    );
+    assert!(msg.starts_with("cannot write /nonexistent-dir/x.vcd: "), "{msg}");
 
-    let late = Selection {
-        from: Some(1_000_000),
-        ..Selection::default()
-    };
+    let late = Selection { from: Some(1_000_000), ..Selection::default() };
     let opts = VcdOptions { path, select: late };
     let mut sink = VcdSink::create(&opts, &ex.config).unwrap();
     let cycles = ex.run(&mut sink).unwrap().stats.cycles;
     let err = sink.finish().unwrap_err();
     assert!(matches!(err, VcdError::OutsideRun { .. }));
-    assert_eq!(
-        err.to_string(),
-        format!("VCD window [1000000,end] is outside the run (0..{cycles} cycles)")
-    );
+    assert_eq!(err.to_string(), format!("VCD window [1000000,end] is outside the run (0..{cycles} cycles)"));
 }
 
 #[test]
 fn save_file_opens_the_dump_with_grouped_signals() {
     let ex = sms_small();
     let tmp = TmpDir::new("gtkw");
-    let opts = VcdOptions {
-        path: tmp.join("grouped.vcd"),
-        select: Selection::default(),
-    };
+    let opts = VcdOptions { path: tmp.join("grouped.vcd"), select: Selection::default() };
     let mut sink = VcdSink::create(&opts, &ex.config).unwrap();
     ex.run(&mut sink).unwrap();
     sink.finish().unwrap();
@@ -279,10 +223,7 @@ fn save_file_opens_the_dump_with_grouped_signals() {
         .filter_map(|l| l.strip_prefix("rt_unit.warp[0].thread[0]."))
         .map(|l| l.split('[').next().unwrap())
         .collect();
-    assert_eq!(
-        &thread0[..4],
-        ["cmd_valid", "cmd_kind", "cmd_data", "rb_count"]
-    );
+    assert_eq!(&thread0[..4], ["cmd_valid", "cmd_kind", "cmd_data", "rb_count"]);
     assert_eq!(thread0.last(), Some(&"done"));
 }
 
@@ -301,11 +242,7 @@ fn gtkwave_round_trip_keeps_every_value() {
     let tmp = TmpDir::new("round");
     let (vcd, fst) = (tmp.join("round.vcd"), tmp.join("round.fst"));
     std::fs::write(&vcd, &text).unwrap();
-    let status = Command::new("vcd2fst")
-        .arg(&vcd)
-        .arg(&fst)
-        .status()
-        .unwrap();
+    let status = Command::new("vcd2fst").arg(&vcd).arg(&fst).status().unwrap();
     assert!(status.success());
     let out = Command::new("fst2vcd").arg(&fst).output().unwrap();
     assert!(out.status.success());

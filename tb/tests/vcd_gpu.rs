@@ -132,9 +132,14 @@ fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
     assert_eq!(got, want);
     let all = rec.signals().count();
     assert!(got.len() * 10 < all, "{} of {all} signals dumped: the filters did not apply", got.len());
-    for scope in
-        ["sm0.rt_unit.", "sm5.rt_unit.", "mem.", ".stack_manager.warp[1].thread[31].", ".warp_buffer.warp[1].thread[7].state", "mem.l1d5."]
-    {
+    for scope in [
+        "sm0.rt_unit.",
+        "sm5.rt_unit.",
+        "mem.",
+        ".stack_manager.warp[1].thread[31].",
+        ".warp_buffer.warp[1].thread[7].state",
+        "mem.l1d5.",
+    ] {
         assert!(got.iter().any(|s| s.0.contains(scope)), "nothing under {scope}");
     }
     for other in ["sm1.", ".warp[0].", ".warp_buffer.warp[0].", ".thread[1].", "mem.l1d1."] {

@@ -109,9 +109,8 @@ impl HardwareArgs {
             apply_hardware_toml(&mut hw, &text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         }
         if let Some(kb) = self.l1d_kb {
-            hw.mem.l1d_bytes = kb
-                .checked_mul(1024)
-                .ok_or_else(|| anyhow::anyhow!("--l1d-kb {kb}: too large"))?;
+            hw.mem.l1d_bytes =
+                kb.checked_mul(1024).ok_or_else(|| anyhow::anyhow!("--l1d-kb {kb}: too large"))?;
         }
         hw.mem.sms = self.sms.unwrap_or(hw.mem.sms);
         hw.mem.dram_latency = self.dram_latency.unwrap_or(hw.mem.dram_latency);
@@ -144,7 +143,8 @@ pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<
                 ("rt", "triangle") => rt.triangle = uint()?,
                 ("rt", "procedural") => rt.procedural = uint()?,
                 ("rt", "idle_skip") => {
-                    rt.idle_skip = v.as_bool().ok_or_else(|| format!("{name} = {v}: expected true or false"))?
+                    rt.idle_skip =
+                        v.as_bool().ok_or_else(|| format!("{name} = {v}: expected true or false"))?
                 }
                 ("mem", "sms") => m.sms = uint()?,
                 ("mem", "sector_bytes") => m.sector_bytes = uint()?,

@@ -272,7 +272,8 @@ fn table(report: &RunReport) -> Table {
             row(label, metric_row(m));
         }
     }
-    let full = |f: &dyn Fn(&Outcome) -> String| rs.iter().map(|r| r.full.as_ref().map_or("-".into(), f)).collect();
+    let full =
+        |f: &dyn Fn(&Outcome) -> String| rs.iter().map(|r| r.full.as_ref().map_or("-".into(), f)).collect();
     if rs.iter().any(|r| r.full.as_ref().is_some_and(|o| o.gpu.is_some())) {
         let rate = |x: f64| format!("{:.1} %", 100.0 * x);
         row("L1D hit rate", full(&|o| o.gpu.map_or("-".into(), |g| rate(g.l1d_hit_rate))));

@@ -64,11 +64,7 @@ impl Waves {
     }
 
     pub fn replay(&self) -> Replay<'_> {
-        Replay {
-            waves: self,
-            next: 0,
-            values: vec![0; self.signals.len()],
-        }
+        Replay { waves: self, next: 0, values: vec![0; self.signals.len()] }
     }
 }
 
@@ -145,10 +141,7 @@ pub fn read(input: impl BufRead, mode: Mode) -> Result<Waves, CheckError> {
             };
             if !ok {
                 let n = bits.len();
-                return fail(
-                    line,
-                    format!("{path}: {n} bits written to a {width}-bit wire"),
-                );
+                return fail(line, format!("{path}: {n} bits written to a {width}-bit wire"));
             }
             let mut value = 0u64;
             for b in &bits {
@@ -276,16 +269,9 @@ impl Sink for Recorder {
 /// Checks that the dump shows, at every recorded cycle in `window`, exactly the values the RTL
 /// reported, for every signal in the dump (each must be a recorded signal of the same width).
 /// Returns how many values were compared.
-pub fn compare(
-    waves: &Waves,
-    rec: &Recorder,
-    window: RangeInclusive<u64>,
-) -> Result<usize, String> {
-    let recorded: HashMap<&str, (usize, u32)> = rec
-        .signals()
-        .enumerate()
-        .map(|(i, (path, width))| (path, (i, width)))
-        .collect();
+pub fn compare(waves: &Waves, rec: &Recorder, window: RangeInclusive<u64>) -> Result<usize, String> {
+    let recorded: HashMap<&str, (usize, u32)> =
+        rec.signals().enumerate().map(|(i, (path, width))| (path, (i, width))).collect();
     let mut map = Vec::new();
     for (path, width) in &waves.signals {
         match recorded.get(path.as_str()) {
@@ -308,9 +294,7 @@ pub fn compare(
             if dumped[j] != rtl[i] {
                 let path = &waves.signals[j].0;
                 let (d, r) = (dumped[j], rtl[i]);
-                return Err(format!(
-                    "cycle {cycle}: {path} is {d} in the dump, {r} in the RTL"
-                ));
+                return Err(format!("cycle {cycle}: {path} is {d} in the dump, {r} in the RTL"));
             }
         }
         compared += map.len();

@@ -57,10 +57,7 @@ fn small(name: &str, warp_size: u32, warps: u32) -> Config {
 /// so shallow streams already borrow and flush.
 pub fn sms_small() -> Config {
     let mut cfg = small("RB_2+SH_4+SK+RA", 8, 2);
-    cfg.realloc = Some(Realloc {
-        borrow_limit: 1,
-        flush_limit: 3,
-    });
+    cfg.realloc = Some(Realloc { borrow_limit: 1, flush_limit: 3 });
     cfg
 }
 
@@ -107,10 +104,7 @@ pub fn write_examples(dir: &Path) -> Result<Vec<PathBuf>, Box<dyn Error>> {
     std::fs::create_dir_all(dir)?;
     let mut written = Vec::new();
     for ex in examples() {
-        let opts = VcdOptions {
-            path: dir.join(format!("{}.vcd", ex.name)),
-            select: ex.select.clone(),
-        };
+        let opts = VcdOptions { path: dir.join(format!("{}.vcd", ex.name)), select: ex.select.clone() };
         let mut sink = VcdSink::create(&opts, &ex.config)?;
         ex.run(&mut sink)?;
         sink.finish()?;

@@ -60,13 +60,7 @@ const UNITS_PER_PIXEL_AT_ZOOM_0: f64 = 1.0 / 200.0;
 
 /// Writes the save file `save` for the dump `dump` whose declared signals are `signals`
 /// (`(path, width)` in walk order) and whose written cycles are `from..end`.
-pub fn write(
-    save: &Path,
-    dump: &Path,
-    signals: &[(String, u32)],
-    from: u64,
-    end: u64,
-) -> io::Result<()> {
+pub fn write(save: &Path, dump: &Path, signals: &[(String, u32)], from: u64, end: u64) -> io::Result<()> {
     let mut f = BufWriter::new(File::create(save)?);
     writeln!(f, "[*] sms waves, written by tb::vcd")?;
     writeln!(f, "[dumpfile] \"{}\"", dump.display())?;
@@ -127,10 +121,7 @@ fn groups(signals: &[(String, u32)]) -> Vec<(String, Vec<&(String, u32)>)> {
     }
     let rank = |path: &str| {
         let name = path.rsplit('.').next().unwrap_or(path);
-        FIELD_ORDER
-            .iter()
-            .position(|f| *f == name)
-            .unwrap_or(FIELD_ORDER.len())
+        FIELD_ORDER.iter().position(|f| *f == name).unwrap_or(FIELD_ORDER.len())
     };
     for g in &mut groups {
         g.1.sort_by_key(|s| rank(&s.0));

@@ -53,16 +53,10 @@ impl Selection {
             }
         }
         if let Some(&warp) = self.warps.iter().flatten().find(|&&w| w >= cfg.warps) {
-            return Err(VcdError::NoSuchWarp {
-                warp,
-                warps: cfg.warps,
-            });
+            return Err(VcdError::NoSuchWarp { warp, warps: cfg.warps });
         }
         if let Some(&lane) = self.lanes.iter().flatten().find(|&&l| l >= cfg.warp_size) {
-            return Err(VcdError::NoSuchLane {
-                lane,
-                warp_size: cfg.warp_size,
-            });
+            return Err(VcdError::NoSuchLane { lane, warp_size: cfg.warp_size });
         }
         Ok(())
     }
@@ -150,41 +144,24 @@ impl fmt::Display for VcdError {
                 write!(f, "VCD window: from {from} is after to {to}")
             }
             VcdError::OutsideRun { window, cycles } => {
-                write!(
-                    f,
-                    "VCD window {window} is outside the run (0..{cycles} cycles)"
-                )
+                write!(f, "VCD window {window} is outside the run (0..{cycles} cycles)")
             }
-            VcdError::NoSuchWarp { warp, warps } => write!(
-                f,
-                "VCD warp {warp} does not exist: the configuration has {warps} warps (0..{warps})"
-            ),
-            VcdError::NoSuchLane { lane, warp_size } => write!(
-                f,
-                "VCD lane {lane} does not exist: warps have {warp_size} lanes (0..{warp_size})"
-            ),
-            VcdError::NoSuchSm { sm, sms } => write!(
-                f,
-                "VCD SM {sm} does not exist: the run has {sms} SMs (0..{sms})"
-            ),
+            VcdError::NoSuchWarp { warp, warps } => {
+                write!(f, "VCD warp {warp} does not exist: the configuration has {warps} warps (0..{warps})")
+            }
+            VcdError::NoSuchLane { lane, warp_size } => {
+                write!(f, "VCD lane {lane} does not exist: warps have {warp_size} lanes (0..{warp_size})")
+            }
+            VcdError::NoSuchSm { sm, sms } => {
+                write!(f, "VCD SM {sm} does not exist: the run has {sms} SMs (0..{sms})")
+            }
             VcdError::Io { path, error } => write!(f, "cannot write {path}: {error}"),
-            VcdError::Walk {
-                cycle,
-                signals,
-                declared,
-            } => write!(
-                f,
-                "probe walk of cycle {cycle} had {signals} signals, the first walk {declared}"
-            ),
-            VcdError::TooWide {
-                cycle,
-                path,
-                width,
-                value,
-            } => write!(
-                f,
-                "cycle {cycle}: {path} = {value} does not fit its {width} bits"
-            ),
+            VcdError::Walk { cycle, signals, declared } => {
+                write!(f, "probe walk of cycle {cycle} had {signals} signals, the first walk {declared}")
+            }
+            VcdError::TooWide { cycle, path, width, value } => {
+                write!(f, "cycle {cycle}: {path} = {value} does not fit its {width} bits")
+            }
         }
     }
 }
@@ -272,10 +249,7 @@ impl<W: Write> VcdSink<W> {
         self.end_walk();
         let cycles = self.run_cycles.unwrap_or(self.cycle.map_or(0, |c| c + 1));
         if !self.dumped {
-            self.fail(VcdError::OutsideRun {
-                window: self.select.describe_window(),
-                cycles,
-            });
+            self.fail(VcdError::OutsideRun { window: self.select.describe_window(), cycles });
         }
         if let Some(e) = self.error.take() {
             return Err(e);
@@ -314,11 +288,7 @@ impl<W: Write> VcdSink<W> {
                 self.value(cycle, i, value);
             }
         } else if self.pos != self.slots.len() {
-            self.fail(VcdError::Walk {
-                cycle,
-                signals: self.pos,
-                declared: self.slots.len(),
-            });
+            self.fail(VcdError::Walk { cycle, signals: self.pos, declared: self.slots.len() });
         }
         if self.select.in_window(cycle) {
             self.dumped = true;
@@ -348,11 +318,7 @@ impl<W: Write> VcdSink<W> {
         for (path, width, _) in &first.signals {
             // Zero-width fields do not exist in this configuration; VCD has no such wire.
             if !self.select.selects(path) || *width == 0 {
-                self.slots.push(Slot {
-                    id: None,
-                    width: *width,
-                    last: 0,
-                });
+                self.slots.push(Slot { id: None, width: *width, last: 0 });
                 continue;
             }
             let mut parts: Vec<&str> = path.split('.').collect();
@@ -367,11 +333,7 @@ impl<W: Write> VcdSink<W> {
                 open.push(scope);
             }
             let id = w.add_wire(*width, name)?;
-            self.slots.push(Slot {
-                id: Some(id),
-                width: *width,
-                last: 0,
-            });
+            self.slots.push(Slot { id: Some(id), width: *width, last: 0 });
             self.declared.push((path.clone(), *width));
         }
         for _ in &open {
@@ -391,12 +353,7 @@ impl<W: Write> VcdSink<W> {
         }
         if slot.width < 64 && value >> slot.width != 0 {
             let path = self.declared_path(pos);
-            return self.fail(VcdError::TooWide {
-                cycle,
-                path,
-                width: slot.width,
-                value,
-            });
+            return self.fail(VcdError::TooWide { cycle, path, width: slot.width, value });
         }
         if !self.stamped {
             self.stamped = true;
