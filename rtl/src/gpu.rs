@@ -139,12 +139,27 @@ impl Gpu {
 
     /// As [`Gpu::run`], calling `progress` about every `every` cycles.
     pub fn run_with_progress<S: Sink>(
+        self,
+        jobs: impl IntoIterator<Item = WarpJob>,
+        sink: &mut S,
+        every: u64,
+        progress: impl FnMut(Progress),
+    ) -> Result<GpuReport, RunError> {
+        self.run_timed(jobs, sink, every, progress, &mut Vec::new())
+    }
+
+    /// As [`Gpu::run_with_progress`], also filling `residence` with the cycles each job spent
+    /// in its RT unit's warp buffer, indexed by job (launch order).
+    pub fn run_timed<S: Sink>(
         mut self,
         jobs: impl IntoIterator<Item = WarpJob>,
         sink: &mut S,
         every: u64,
         mut progress: impl FnMut(Progress),
+        residence: &mut Vec<u64>,
     ) -> Result<GpuReport, RunError> {
+        // Job index of each SM's loads, in load order.
+        let mut loaded: Vec<Vec<u64>> = vec![Vec::new(); self.units.len()];
         let mut jobs = jobs.into_iter().peekable();
         let n = self.units.len();
         let mut dispatched = 0u64;
@@ -163,6 +178,7 @@ impl Gpu {
                 job.validate(self.cfg.warp_size)
                     .map_err(|reason| RunError::BadJob { job: dispatched, reason })?;
                 self.jobs_in[sm] = Some(job);
+                loaded[sm].push(dispatched);
                 dispatched += 1;
                 self.rr = (sm + 1) % n;
             }
@@ -218,6 +234,13 @@ impl Gpu {
             }
         }
         sink.end_run(self.mem.cycle());
+        residence.clear();
+        residence.resize(dispatched as usize, 0);
+        for (u, jobs) in self.units.iter().zip(&loaded) {
+            for (&job, &cycles) in jobs.iter().zip(&u.residence) {
+                residence[job as usize] = cycles;
+            }
+        }
         Ok(GpuReport { evaluated_cycles: evaluated, ..self.report() })
     }
 

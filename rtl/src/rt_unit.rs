@@ -257,6 +257,8 @@ struct Slot {
     lanes: Vec<Option<Vec<RayOp>>>,
     /// Load order: lower is older.
     age: u64,
+    /// Cycle the warp was loaded.
+    landed: u64,
 }
 
 /// Which source drives the memory port this cycle.
@@ -311,6 +313,9 @@ pub struct RtUnit {
     /// GTO: the warp issued last.
     greedy: Option<u32>,
     next_age: u64,
+    /// Cycles each warp job spent in the warp buffer, by load order (0 while resident): a
+    /// per-job share of the run time, used to attribute cycles to sampled warps.
+    pub residence: Vec<u64>,
     /// Distinguishes posted stores in flight.
     store_seq: u64,
     /// Per-cycle signals.
@@ -347,6 +352,7 @@ impl RtUnit {
             lanes: vec![Lanes::EMPTY; warps],
             greedy: None,
             next_age: 0,
+            residence: Vec::new(),
             store_seq: 0,
             port: Port::Idle,
             scheduled: None,
@@ -425,7 +431,9 @@ impl RtUnit {
                 if let Some(thread) = self.stack.warp_threads(w).find(|&t| !self.stack_clear(t)) {
                     return Err(RunError::ExitNotEmpty { cycle: now, sm: self.id, thread });
                 }
-                self.slots[w as usize] = None;
+                if let Some(slot) = self.slots[w as usize].take() {
+                    self.residence[slot.age as usize] = now - slot.landed;
+                }
                 if self.greedy == Some(w) {
                     self.greedy = None;
                 }
@@ -619,7 +627,8 @@ impl RtUnit {
             live: active.count_ones(),
             ..Lanes::EMPTY
         };
-        self.slots[w as usize] = Some(Slot { lanes: job.lanes, age: self.next_age });
+        self.slots[w as usize] = Some(Slot { lanes: job.lanes, age: self.next_age, landed: now });
+        self.residence.push(0);
         self.next_age += 1;
         self.stats.warps += 1;
         self.stats.rays += u64::from(active.count_ones());

@@ -431,3 +431,29 @@ fn stack_requests_go_before_node_pieces() {
     assert_eq!(run("sm0.rt_unit.port.stack"), [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)]);
     assert_eq!(run("sm0.rt_unit.port.node"), [(0, 0), (6, 1), (9, 0), (10, 1), (11, 0), (12, 1), (39, 0)]);
 }
+
+#[test]
+fn residence_times_account_for_every_job() {
+    let cfg: Config = "RB_8+SH_8+SK+RA".parse().unwrap();
+    let work = jobs(21, 40, 3);
+    let n = work.len();
+    let mut residence = Vec::new();
+    let gpu = Gpu::new(cfg, RtParams::default(), carve_out(&cfg, small_l2())).unwrap();
+    let r = gpu.run_timed(work, &mut NullSink, u64::MAX, |_| {}, &mut residence).unwrap();
+    assert_eq!(residence.len(), n, "one time per job, in launch order");
+    assert!(residence.iter().all(|&c| c > 0 && c < r.cycles), "{residence:?}");
+    // At most sms × warps jobs are resident at once, and the buffers are busy most of the run.
+    let slots = u64::from(small_l2().sms * cfg.warps);
+    let busy: u64 = residence.iter().sum();
+    assert!(busy <= slots * r.cycles, "{busy} > {slots} slots × {} cycles", r.cycles);
+    // A job alone in the GPU resides from its load to the cycle its slot frees: the hand-worked
+    // single ray loads at the end of cycle 0 and frees in cycle 821.
+    let lone = jobs(5, 1, 3);
+    let mut one = Vec::new();
+    let r1 = Gpu::new(cfg, RtParams::default(), carve_out(&cfg, one_sm()))
+        .unwrap()
+        .run_timed(lone, &mut NullSink, u64::MAX, |_| {}, &mut one)
+        .unwrap();
+    assert_eq!(one.len(), 1);
+    assert!(one[0] + 3 >= r1.cycles && one[0] < r1.cycles, "{} of {} cycles", one[0], r1.cycles);
+}

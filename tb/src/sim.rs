@@ -9,8 +9,8 @@
 //!   one stack manager, micro-ops       rtl_job(): trace ops → RayOps (node bytes by BVH layout)
 //!   at once, pops checked              Gpu: 8 SMs × RT unit, L1D/L2/DRAM, pops checked
 //!        └──────────────► Outcome { stack counts, GPU report? } ◄──────┘
-//!                              │ with a SamplePlan: one Outcome per batch
-//!                              ▼
+//!                              │ with a SamplePlan: one Outcome per batch (functional), or one
+//!                              ▼ launch of the whole sample shared out by residence (cycle)
 //!                        Estimate of each additive metric, 95 % interval
 //! ```
 //!
@@ -297,7 +297,20 @@ pub fn simulate<S: Sink>(
     w: &Workload,
     warps: Option<&[u32]>,
     sink: &mut S,
+    progress: impl FnMut(Tick),
+) -> Result<Outcome> {
+    simulate_inner(spec, w, warps, sink, progress, &mut Vec::new())
+}
+
+/// As [`simulate`]; at the cycle level also fills `residence` with the cycles each pixel warp's
+/// jobs spent in warp buffers (summed over its jobs, in the order of `warps`).
+fn simulate_inner<S: Sink>(
+    spec: &RunSpec,
+    w: &Workload,
+    warps: Option<&[u32]>,
+    sink: &mut S,
     mut progress: impl FnMut(Tick),
+    residence: &mut Vec<u64>,
 ) -> Result<Outcome> {
     spec.validate()?;
     let start = Instant::now();
@@ -311,9 +324,12 @@ pub fn simulate<S: Sink>(
     };
     let total = warps.len() as u32;
     let done = Cell::new(0u32);
+    // Jobs of each pixel warp, in order: maps the GPU's per-job residence back to pixel warps.
+    let jobs_per_warp = std::cell::RefCell::new(Vec::with_capacity(warps.len()));
     let pixel_warps = warps.iter().map(|&i| {
         let jobs = w.warp(i);
         done.set(done.get() + 1);
+        jobs_per_warp.borrow_mut().push(jobs.len());
         jobs
     });
     let bvh = w.opts().bvh;
@@ -336,11 +352,21 @@ pub fn simulate<S: Sink>(
             let gpu = Gpu::new(spec.config, spec.hw.rt, carve_out(&spec.config, spec.hw.mem))
                 .map_err(|e| Error::Invalid(e.to_string()))?;
             let jobs = pixel_warps.flat_map(|jobs| jobs.into_iter().map(|j| rtl_job(&j, bvh)));
+            let mut per_job = Vec::new();
             let report = gpu
-                .run_with_progress(jobs, sink, 100_000, |p: Progress| {
-                    progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle })
-                })
+                .run_timed(
+                    jobs,
+                    sink,
+                    100_000,
+                    |p: Progress| {
+                        progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle })
+                    },
+                    &mut per_job,
+                )
                 .map_err(|e| Error::Invalid(format!("{} failed its checks: {e}", spec.config.name())))?;
+            let mut next = per_job.iter();
+            residence.clear();
+            residence.extend(jobs_per_warp.borrow().iter().map(|&n| next.by_ref().take(n).sum::<u64>()));
             (report.stack, Some(GpuCounts::from(&report)), report.pops_checked)
         }
     };
@@ -363,7 +389,10 @@ pub fn simulate_all(spec: &RunSpec, w: &Workload) -> Result<Outcome> {
 #[derive(Clone, Debug, Serialize)]
 pub struct Sampled {
     pub fraction: f64,
+    /// Functional level: one run per batch. Cycle level: each batch's share of `launch`.
     pub batches: Vec<Outcome>,
+    /// Cycle level: the one launch of every sampled warp.
+    pub launch: Option<Outcome>,
     pub estimates: Vec<(Metric, Estimate)>,
     #[serde(serialize_with = "secs")]
     pub wall: Duration,
@@ -398,12 +427,35 @@ pub fn simulate_sampled(
     let total: u32 = batches.iter().map(|b| b.len() as u32).sum();
     let mut done = 0;
     let mut outcomes = Vec::with_capacity(batches.len());
-    for b in &batches {
-        let o = simulate(spec, w, Some(b), &mut NullSink, |t| {
-            progress(Tick { pixel_warps_done: done + t.pixel_warps_done, pixel_warps: total, cycle: t.cycle })
-        })?;
-        done += b.len() as u32;
-        outcomes.push(o);
+    let mut launch = None;
+    match spec.fidelity {
+        Fidelity::Functional => {
+            for b in &batches {
+                let o = simulate(spec, w, Some(b), &mut NullSink, |t| {
+                    let pixel_warps_done = done + t.pixel_warps_done;
+                    progress(Tick { pixel_warps_done, pixel_warps: total, cycle: t.cycle })
+                })?;
+                done += b.len() as u32;
+                outcomes.push(o);
+            }
+        }
+        Fidelity::Cycle => {
+            // One launch of the whole sample in launch order (separate launches per batch would
+            // each pay a fill and a drain of the GPU), then each batch's share by residence.
+            let mut order: Vec<(u32, usize)> =
+                batches.iter().enumerate().flat_map(|(b, ws)| ws.iter().map(move |&w| (w, b))).collect();
+            order.sort_unstable();
+            let warps: Vec<u32> = order.iter().map(|o| o.0).collect();
+            let mut residence = Vec::new();
+            let o = simulate_inner(spec, w, Some(&warps), &mut NullSink, &mut progress, &mut residence)?;
+            let all: u64 = residence.iter().sum();
+            for (b, ws) in batches.iter().enumerate() {
+                let mine: u64 = order.iter().zip(&residence).filter(|(o, _)| o.1 == b).map(|(_, r)| r).sum();
+                let share = if all == 0 { 1.0 / batches.len() as f64 } else { mine as f64 / all as f64 };
+                outcomes.push(share_of(&o, share, ws.len() as u32));
+            }
+            launch = Some(o);
+        }
     }
     let estimates = Metric::ALL
         .into_iter()
@@ -413,7 +465,46 @@ pub fn simulate_sampled(
             Some((m, estimate(&obs?, w.num_warps())))
         })
         .collect();
-    Ok(Sampled { fraction: plan.fraction, batches: outcomes, estimates, wall: start.elapsed() })
+    Ok(Sampled { fraction: plan.fraction, batches: outcomes, launch, estimates, wall: start.elapsed() })
+}
+
+/// `share` of a launch's counts, for a batch of `pixel_warps` warps (rates unchanged).
+fn share_of(o: &Outcome, share: f64, pixel_warps: u32) -> Outcome {
+    let x = |v: u64| (v as f64 * share).round() as u64;
+    let c = &o.stack;
+    Outcome {
+        fidelity: o.fidelity,
+        pixel_warps,
+        stack: Counts {
+            pushes: x(c.pushes),
+            pops: x(c.pops),
+            rb_to_sh: x(c.rb_to_sh),
+            sh_to_rb: x(c.sh_to_rb),
+            sh_to_global: x(c.sh_to_global),
+            global_to_sh: x(c.global_to_sh),
+            rb_to_global: x(c.rb_to_global),
+            global_to_rb: x(c.global_to_rb),
+            borrows: x(c.borrows),
+            releases: x(c.releases),
+            flushes: x(c.flushes),
+            flushes_saturated: x(c.flushes_saturated),
+            demotions: x(c.demotions),
+        },
+        gpu: o.gpu.map(|g| GpuCounts {
+            cycles: x(g.cycles),
+            evaluated_cycles: x(g.evaluated_cycles),
+            warp_jobs: x(g.warp_jobs),
+            rays: x(g.rays),
+            visits: x(g.visits),
+            node_fetches: x(g.node_fetches),
+            dram_node: x(g.dram_node),
+            dram_stack: x(g.dram_stack),
+            bank_conflict_cycles: x(g.bank_conflict_cycles),
+            ..g
+        }),
+        pops_checked: x(o.pops_checked),
+        wall: o.wall.mul_f64(share),
+    }
 }
 
 #[cfg(test)]
@@ -475,5 +566,32 @@ mod tests {
         assert_eq!(sum, full.stack.global(), "the batches partition the warps");
         assert!(sampled.get(Metric::StackGlobal).unwrap().contains(full.stack.global() as f64));
         assert!(sampled.get(Metric::Cycles).is_none(), "functional level has no cycles");
+    }
+}
+
+#[cfg(test)]
+mod cycle_sampling_tests {
+    use super::*;
+    use crate::workload::WorkloadOpts;
+
+    #[test]
+    fn sampling_every_warp_at_the_cycle_level_is_the_full_run() {
+        let scene = crate::load_scene("clutter").unwrap();
+        let opts = WorkloadOpts { width: 32, height: 32, spp: 1, max_bounces: 1, ..WorkloadOpts::for_scene(&scene) };
+        let w = Workload::new(&scene, opts).unwrap();
+        let s = RunSpec { config: "RB_4+SH_4".parse().unwrap(), hw: Hardware::default(), fidelity: Fidelity::Cycle };
+        let full = simulate_all(&s, &w).unwrap();
+        let plan = SamplePlan { fraction: 1.0, mode: crate::sampling::SampleMode::Random, batches: 4, seed: 3 };
+        let sampled = simulate_sampled(&s, &w, &plan, |_| {}).unwrap();
+        let launch = sampled.launch.unwrap();
+        assert_eq!(launch.gpu.unwrap().cycles, full.gpu.unwrap().cycles, "one launch of every warp");
+        assert_eq!(launch.stack, full.stack);
+        // Shares add up to the launch (up to rounding), so the estimate is the full run's value.
+        let cycles: u64 = sampled.batches.iter().map(|b| b.gpu.unwrap().cycles).sum();
+        assert!(cycles.abs_diff(full.gpu.unwrap().cycles) <= 4, "{cycles}");
+        let e = sampled.get(Metric::Cycles).unwrap();
+        let rel = (e.value - full.gpu.unwrap().cycles as f64).abs() / full.gpu.unwrap().cycles as f64;
+        assert!(rel < 0.25, "batch shares differ in warps per residence, but not wildly: {rel}");
+        assert!(e.half_width > 0.0 && e.half_width.is_finite());
     }
 }
