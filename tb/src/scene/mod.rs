@@ -144,11 +144,28 @@ pub struct SceneLibrary {
 }
 
 impl Default for SceneLibrary {
-    /// The project's `scenes/` and the shared scene folder beside the project.
+    /// The project's `scenes/` and the shared scene folder: `$SMS_SCENES_DIR` if set, else the
+    /// first `shared/scenes` beside the project or beside one of its parent folders (a clone
+    /// anywhere under the machine's work folder finds it), else `/work/shared/scenes`.
     fn default() -> Self {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        SceneLibrary { descriptions: root.join("scenes"), data: root.join("../shared/scenes") }
+        SceneLibrary { descriptions: root.join("scenes"), data: shared_scenes_dir(&root) }
     }
+}
+
+/// See [`SceneLibrary::default`]. Falls back to `../shared/scenes` of the project (named in the
+/// error when a mesh is missing) when no candidate exists.
+fn shared_scenes_dir(root: &Path) -> PathBuf {
+    if let Some(dir) = std::env::var_os("SMS_SCENES_DIR") {
+        return PathBuf::from(dir);
+    }
+    let beside = root.join("../shared/scenes");
+    let root = root.canonicalize().unwrap_or_else(|_| root.to_path_buf());
+    root.ancestors()
+        .map(|a| a.join("shared/scenes"))
+        .chain(std::iter::once(PathBuf::from("/work/shared/scenes")))
+        .find(|d| d.join("MANIFEST.md").is_file())
+        .unwrap_or(beside)
 }
 
 impl SceneLibrary {
