@@ -65,6 +65,9 @@ pub struct GpuReport {
     /// Bank-conflict delay cycles summed over SMs.
     pub bank_conflict_cycles: u64,
     pub pops_checked: u64,
+    /// Cycle in which the last job was dispatched: after it the GPU only drains (sampling
+    /// scales the part before it and keeps the drain).
+    pub last_dispatch: u64,
 }
 
 /// Passed to the progress callback.
@@ -160,6 +163,7 @@ impl Gpu {
     ) -> Result<GpuReport, RunError> {
         // Job index of each SM's loads, in load order.
         let mut loaded: Vec<Vec<u64>> = vec![Vec::new(); self.units.len()];
+        let mut last_dispatch = 0;
         let mut jobs = jobs.into_iter().peekable();
         let n = self.units.len();
         let mut dispatched = 0u64;
@@ -180,6 +184,7 @@ impl Gpu {
                 self.jobs_in[sm] = Some(job);
                 loaded[sm].push(dispatched);
                 dispatched += 1;
+                last_dispatch = now;
                 self.rr = (sm + 1) % n;
             }
             let more_jobs = jobs.peek().is_some();
@@ -241,7 +246,7 @@ impl Gpu {
                 residence[job as usize] = cycles;
             }
         }
-        Ok(GpuReport { evaluated_cycles: evaluated, ..self.report() })
+        Ok(GpuReport { evaluated_cycles: evaluated, last_dispatch, ..self.report() })
     }
 
     fn report(&self) -> GpuReport {
@@ -265,6 +270,7 @@ impl Gpu {
             stack,
             bank_conflict_cycles: sum(|u| u.arb.conflict_cycles),
             pops_checked: sum(|u| u.stats.pops_checked),
+            last_dispatch: 0,
         }
     }
 }

@@ -17,7 +17,9 @@
 //! and see less contention (measured: raw cycles off by 125 % even sampling every warp). Instead
 //! `sim::simulate_sampled` runs the whole sample as one launch and gives each batch the share of
 //! every count that its warps' warp-buffer residence is of the launch's. The estimate is then the
-//! launch's count scaled by total/sampled warps; the interval assumes counts accrue with
+//! launch's count scaled by total/sampled warps, except cycles: only the part up to the last
+//! dispatch scales with the work, the drain after it is kept as measured (a batch gets its warp
+//! share of it). The interval assumes counts accrue with
 //! residence, so it reflects how much warps differ in run time, not where e.g. a spill burst
 //! happened. `sms bench` measures the resulting error against the full run.
 

@@ -170,6 +170,8 @@ pub struct GpuCounts {
     pub l1d_hit_rate: f64,
     pub l2_hit_rate: f64,
     pub bank_conflict_cycles: u64,
+    /// Cycle of the last job's dispatch; the rest of the run is the drain.
+    pub last_dispatch: u64,
 }
 
 impl From<&GpuReport> for GpuCounts {
@@ -186,6 +188,7 @@ impl From<&GpuReport> for GpuCounts {
             l1d_hit_rate: r.l1d_hit_rate,
             l2_hit_rate: r.l2_hit_rate,
             bank_conflict_cycles: r.bank_conflict_cycles,
+            last_dispatch: r.last_dispatch,
         }
     }
 }
@@ -449,10 +452,21 @@ pub fn simulate_sampled(
             let mut residence = Vec::new();
             let o = simulate_inner(spec, w, Some(&warps), &mut NullSink, &mut progress, &mut residence)?;
             let all: u64 = residence.iter().sum();
+            // Cycles: the dispatch phase scales with the work, the drain after the last dispatch
+            // does not; each batch gets its residence share of the first and its warp share of
+            // the second, so the estimate is dispatch × total/sampled + drain.
+            let (cycles, dispatch) = o.gpu.map_or((0, 0), |g| (g.cycles, g.last_dispatch));
+            let drain = cycles - dispatch.min(cycles);
+            let n_total = f64::from(w.num_warps());
             for (b, ws) in batches.iter().enumerate() {
                 let mine: u64 = order.iter().zip(&residence).filter(|(o, _)| o.1 == b).map(|(_, r)| r).sum();
                 let share = if all == 0 { 1.0 / batches.len() as f64 } else { mine as f64 / all as f64 };
-                outcomes.push(share_of(&o, share, ws.len() as u32));
+                let mut part = share_of(&o, share, ws.len() as u32);
+                if let Some(g) = part.gpu.as_mut() {
+                    let c = dispatch.min(cycles) as f64 * share + drain as f64 * ws.len() as f64 / n_total;
+                    g.cycles = c.round() as u64;
+                }
+                outcomes.push(part);
             }
             launch = Some(o);
         }
