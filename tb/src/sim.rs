@@ -591,11 +591,17 @@ mod cycle_sampling_tests {
     #[test]
     fn sampling_every_warp_at_the_cycle_level_is_the_full_run() {
         let scene = crate::load_scene("clutter").unwrap();
-        let opts = WorkloadOpts { width: 32, height: 32, spp: 1, max_bounces: 1, ..WorkloadOpts::for_scene(&scene) };
+        let opts =
+            WorkloadOpts { width: 32, height: 32, spp: 1, max_bounces: 1, ..WorkloadOpts::for_scene(&scene) };
         let w = Workload::new(&scene, opts).unwrap();
-        let s = RunSpec { config: "RB_4+SH_4".parse().unwrap(), hw: Hardware::default(), fidelity: Fidelity::Cycle };
+        let s = RunSpec {
+            config: "RB_4+SH_4".parse().unwrap(),
+            hw: Hardware::default(),
+            fidelity: Fidelity::Cycle,
+        };
         let full = simulate_all(&s, &w).unwrap();
-        let plan = SamplePlan { fraction: 1.0, mode: crate::sampling::SampleMode::Random, batches: 4, seed: 3 };
+        let plan =
+            SamplePlan { fraction: 1.0, mode: crate::sampling::SampleMode::Random, batches: 4, seed: 3 };
         let sampled = simulate_sampled(&s, &w, &plan, |_| {}).unwrap();
         let launch = sampled.launch.unwrap();
         assert_eq!(launch.gpu.unwrap().cycles, full.gpu.unwrap().cycles, "one launch of every warp");

@@ -272,13 +272,19 @@ fn table(report: &RunReport) -> Table {
             row(label, metric_row(m));
         }
     }
-    let full =
-        |f: &dyn Fn(&Outcome) -> String| rs.iter().map(|r| r.full.as_ref().map_or("-".into(), f)).collect();
-    if rs.iter().any(|r| r.full.as_ref().is_some_and(|o| o.gpu.is_some())) {
+    // What was simulated: the full run, or a cycle-level sample's one launch.
+    let simulated = |r: &ConfigResult| r.full.clone().or(r.sampled.as_ref().and_then(|s| s.launch));
+    let full = |f: &dyn Fn(&Outcome) -> String| {
+        rs.iter().map(|r| simulated(r).map_or("-".into(), |o| f(&o))).collect()
+    };
+    if rs.iter().any(|r| simulated(r).is_some_and(|o| o.gpu.is_some())) {
         let rate = |x: f64| format!("{:.1} %", 100.0 * x);
         row("L1D hit rate", full(&|o| o.gpu.map_or("-".into(), |g| rate(g.l1d_hit_rate))));
         row("L2 hit rate", full(&|o| o.gpu.map_or("-".into(), |g| rate(g.l2_hit_rate))));
-        row("warp jobs (traceRay calls)", full(&|o| o.gpu.map_or("-".into(), |g| g.warp_jobs.to_string())));
+        row(
+            "warp jobs (traceRay calls) simulated",
+            full(&|o| o.gpu.map_or("-".into(), |g| g.warp_jobs.to_string())),
+        );
     }
     row("pops checked against the trace", full(&|o| o.pops_checked.to_string()));
     row(
