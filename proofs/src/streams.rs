@@ -14,7 +14,8 @@ pub fn stream(seed: u64, peak: u32) -> Vec<Op> {
         mix(seed ^ i.wrapping_mul(0x2545_F491_4F6C_DD1D))
     };
     // Climb to the peak with 70 % pushes, wander 4 × peak steps at 50 %, drain at 25 %.
-    let phases: [(u64, &dyn Fn(u32, u32) -> bool); 3] =
+    type Done<'a> = &'a dyn Fn(u32, u32) -> bool;
+    let phases: [(u64, Done); 3] =
         [(70, &|depth, _| depth >= peak), (50, &|_, steps| steps >= 4 * peak), (25, &|depth, _| depth == 0)];
     for (push_pct, done) in phases {
         let mut steps = 0;
@@ -45,7 +46,7 @@ pub fn warps(seed: u64, count: u32, warp_size: u32, max_peak: u32) -> Vec<WarpWo
             lanes: (0..warp_size)
                 .map(|l| {
                     let h = mix(seed ^ ((w as u64) << 32) ^ l as u64);
-                    if h % 16 == 0 {
+                    if h.is_multiple_of(16) {
                         None
                     } else {
                         Some(stream(h, (h >> 8) as u32 % (max_peak + 1)))

@@ -643,25 +643,29 @@ impl StackManager {
         let chain = self.members(t);
         let top = self.by_priority(&chain, true);
         if !self.full(top) {
-            return Ok(self.spill_into(t, top, v));
+            self.spill_into(t, top, v);
+            return Ok(());
         }
         if let Some(ra) = self.cfg.realloc {
             let len = chain.len as u32;
             if let Some(e) = chain.iter().find(|&s| self.stacks[s as usize].empty) {
                 self.move_to_rank(&chain, e, len - 1);
-                return Ok(self.spill_into(t, e, v));
+                self.spill_into(t, e, v);
+                return Ok(());
             }
             if len <= ra.borrow_limit {
                 if let Some(s) = self.first_idle(t) {
                     self.borrow(t, s, len);
-                    return Ok(self.spill_into(t, s, v));
+                    self.spill_into(t, s, v);
+                    return Ok(());
                 }
             }
             let oldest = self.by_priority(&chain, false);
             if len > 1 || self.stacks[oldest as usize].flush < ra.flush_limit {
                 self.flush(t, oldest, ra.flush_limit)?;
                 self.move_to_rank(&chain, oldest, len - 1);
-                return Ok(self.spill_into(t, oldest, v));
+                self.spill_into(t, oldest, v);
+                return Ok(());
             }
         }
         // SPEC 3, push case 3: SH load (Bottom) → global store → SH store (Top + 1).

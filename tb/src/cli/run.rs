@@ -273,7 +273,7 @@ fn table(report: &RunReport) -> Table {
         }
     }
     // What was simulated: the full run, or a cycle-level sample's one launch.
-    let simulated = |r: &ConfigResult| r.full.clone().or(r.sampled.as_ref().and_then(|s| s.launch));
+    let simulated = |r: &ConfigResult| r.full.or(r.sampled.as_ref().and_then(|s| s.launch));
     let full = |f: &dyn Fn(&Outcome) -> String| {
         rs.iter().map(|r| simulated(r).map_or("-".into(), |o| f(&o))).collect()
     };
