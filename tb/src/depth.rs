@@ -157,10 +157,16 @@ impl<Opts: Serialize> DepthReport<Opts> {
             .disable_x_mesh()
             .draw()
             .map_err(|e| to_err(&e))?;
+        // One bar per depth in depth order (plotters' Histogram sums through a hash map, so its
+        // SVG element order changed from run to run).
         chart
-            .draw_series(Histogram::vertical(&chart).style(BLUE.filled()).margin(2).data(
-                self.histogram.counts.iter().enumerate().skip(1).map(|(d, &c)| (d as u32, c as f64 / total)),
-            ))
+            .draw_series(self.histogram.counts.iter().enumerate().skip(1).map(|(d, &c)| {
+                let d = d as u32;
+                let span = [(SegmentValue::Exact(d), 0.0), (SegmentValue::Exact(d + 1), c as f64 / total)];
+                let mut bar = Rectangle::new(span, BLUE.filled());
+                bar.set_margin(0, 0, 2, 2);
+                bar
+            }))
             .map_err(|e| to_err(&e))?;
         root.present().map_err(|e| to_err(&e))
     }

@@ -79,8 +79,11 @@ fn a_sweep_writes_every_file_and_does_not_depend_on_thread_count() {
         }
     }
     for scene in SCENES {
-        assert!(one.join("depth").join(format!("{scene}.svg")).is_file());
-        assert!(one.join("depth").join(format!("{scene}.csv")).is_file());
+        for ext in ["svg", "csv"] {
+            let name = format!("{scene}.{ext}");
+            let a = std::fs::read(one.join("depth").join(&name)).unwrap();
+            assert_eq!(a, std::fs::read(two.join("depth").join(&name)).unwrap(), "depth/{name} differs");
+        }
     }
     let summary = std::fs::read_to_string(one.join("summary.md")).unwrap();
     assert!(summary.contains("16x16 pixels"), "summary states the render settings");
