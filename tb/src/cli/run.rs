@@ -52,6 +52,9 @@ pub struct Args {
     /// No progress output.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Configurations simulated at once (default: the available cores).
+    #[arg(long)]
+    pub jobs: Option<usize>,
     #[command(flatten)]
     pub vcd: VcdArgs,
     #[command(flatten)]
@@ -176,31 +179,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         log(format!("wrote {}", png.display()));
     }
 
+    // Configurations run in parallel (one thread each, up to --jobs); results keep their order.
+    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if jobs == 0 {
+        bail!("--jobs 0: at least one worker is needed");
+    }
+    let names: Vec<String> = specs.iter().map(|s| s.config.name()).collect();
+    let bar = ProgressLines::new(&names, args.quiet);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let slots: Vec<std::sync::Mutex<Option<anyhow::Result<ConfigResult>>>> =
+        specs.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.min(specs.len()) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(spec) = specs.get(i) else { break };
+                let r = run_one(spec, &w, plan.as_ref(), vcd.as_ref(), |t| bar.tick(i, t));
+                bar.done(i);
+                *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+            });
+        }
+    });
     let mut results = Vec::new();
-    for spec in &specs {
-        let name = spec.config.name();
-        let mut bar = ProgressLine::new(&name, args.quiet);
-        let result = match (&plan, &vcd) {
-            (Some(p), _) => ConfigResult {
-                config: name.clone(),
-                full: None,
-                sampled: Some(simulate_sampled(spec, &w, p, |t| bar.tick(t))?),
-            },
-            (None, Some(v)) => {
-                let mut sink = VcdSink::create(v, &spec.config)?;
-                let o = simulate(spec, &w, None, &mut sink, |t| bar.tick(t))?;
-                sink.finish()?;
-                log(format!("wrote {} and {}", v.path.display(), v.path.with_extension("gtkw").display()));
-                ConfigResult { config: name.clone(), full: Some(o), sampled: None }
-            }
-            (None, None) => ConfigResult {
-                config: name.clone(),
-                full: Some(simulate(spec, &w, None, &mut NullSink, |t| bar.tick(t))?),
-                sampled: None,
-            },
-        };
-        bar.done();
-        results.push(result);
+    for slot in slots {
+        results.push(slot.into_inner().unwrap_or_else(|e| e.into_inner()).expect("every configuration ran")?);
+    }
+    if let Some(v) = &vcd {
+        log(format!("wrote {} and {}", v.path.display(), v.path.with_extension("gtkw").display()));
     }
 
     let report = RunReport {
@@ -299,36 +304,73 @@ fn table(report: &RunReport) -> Table {
     t
 }
 
-/// A progress line on stderr: rewritten in place on a terminal, a line every few seconds
-/// otherwise.
-struct ProgressLine<'a> {
-    name: &'a str,
+/// One configuration, full or sampled, with or without waves.
+fn run_one(
+    spec: &RunSpec,
+    w: &Workload,
+    plan: Option<&SamplePlan>,
+    vcd: Option<&VcdOptions>,
+    mut tick: impl FnMut(Tick),
+) -> anyhow::Result<ConfigResult> {
+    let config = spec.config.name();
+    Ok(match (plan, vcd) {
+        (Some(p), _) => {
+            ConfigResult { config, full: None, sampled: Some(simulate_sampled(spec, w, p, tick)?) }
+        }
+        (None, Some(v)) => {
+            let mut sink = VcdSink::create(v, &spec.config)?;
+            let o = simulate(spec, w, None, &mut sink, &mut tick)?;
+            sink.finish()?;
+            ConfigResult { config, full: Some(o), sampled: None }
+        }
+        (None, None) => {
+            ConfigResult { config, full: Some(simulate(spec, w, None, &mut NullSink, tick)?), sampled: None }
+        }
+    })
+}
+
+/// Progress of the configurations running at once, as one line on stderr: rewritten in place
+/// on a terminal, a line every few seconds otherwise; a line per finished configuration.
+struct ProgressLines<'a> {
+    names: &'a [String],
     quiet: bool,
     tty: bool,
     start: Instant,
-    last: Instant,
+    state: std::sync::Mutex<(Instant, Vec<Option<Tick>>)>,
 }
 
-impl<'a> ProgressLine<'a> {
-    fn new(name: &'a str, quiet: bool) -> Self {
+impl<'a> ProgressLines<'a> {
+    fn new(names: &'a [String], quiet: bool) -> Self {
         let now = Instant::now();
-        ProgressLine { name, quiet, tty: std::io::stderr().is_terminal(), start: now, last: now }
+        ProgressLines {
+            names,
+            quiet,
+            tty: std::io::stderr().is_terminal(),
+            start: now,
+            state: std::sync::Mutex::new((now, vec![None; names.len()])),
+        }
     }
 
-    fn tick(&mut self, t: Tick) {
-        let every = if self.tty { Duration::from_millis(200) } else { Duration::from_secs(5) };
-        if self.quiet || self.last.elapsed() < every {
+    fn tick(&self, i: usize, t: Tick) {
+        if self.quiet {
             return;
         }
-        self.last = Instant::now();
-        let line = format!(
-            "{}: pixel warps {}/{}, cycle {}, {:.1} s",
-            self.name,
-            t.pixel_warps_done,
-            t.pixel_warps,
-            t.cycle,
-            secs(self.start)
-        );
+        let every = if self.tty { Duration::from_millis(200) } else { Duration::from_secs(5) };
+        let mut st = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        st.1[i] = Some(t);
+        if st.0.elapsed() < every {
+            return;
+        }
+        st.0 = Instant::now();
+        let parts: Vec<String> =
+            st.1.iter()
+                .zip(self.names)
+                .filter_map(|(t, n)| {
+                    let t = t.as_ref()?;
+                    Some(format!("{n}: warps {}/{}, cycle {}", t.pixel_warps_done, t.pixel_warps, t.cycle))
+                })
+                .collect();
+        let line = format!("{} · {:.1} s", parts.join(" · "), secs(self.start));
         if self.tty {
             eprint!("\r{line}\x1b[K");
         } else {
@@ -336,13 +378,15 @@ impl<'a> ProgressLine<'a> {
         }
     }
 
-    fn done(&self) {
+    fn done(&self, i: usize) {
         if self.quiet {
             return;
         }
+        let mut st = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        st.1[i] = None;
         if self.tty {
             eprint!("\r\x1b[K");
         }
-        eprintln!("{}: done in {:.2} s", self.name, secs(self.start));
+        eprintln!("{}: done at {:.2} s", self.names[i], secs(self.start));
     }
 }
