@@ -34,7 +34,8 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "cycle")]
     pub fidelity: Fidelity,
     /// Simulate this fraction of the warps (0 < f ≤ 1) and estimate every metric with a 95 %
-    /// confidence interval.
+    /// confidence interval. At the cycle level the sample is one launch and the intervals of
+    /// cycles, DRAM and conflicts are indicative only (`sms bench` measures the real error).
     #[arg(long, value_name = "FRACTION")]
     pub sample: Option<f64>,
     /// How sampled warps are drawn.
@@ -65,7 +66,8 @@ pub struct Args {
 #[derive(Clone, Debug, Default, clap::Args)]
 pub struct VcdArgs {
     /// Dump every selected register and per-cycle signal to this VCD file (a GTKWave save file
-    /// is written next to it). Idle-cycle skipping is off while dumping.
+    /// is written next to it). Inside the window every cycle is dumped; outside it idle cycles
+    /// are skipped as usual.
     #[arg(long, value_name = "FILE")]
     pub vcd: Option<PathBuf>,
     /// First cycle dumped.
