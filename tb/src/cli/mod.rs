@@ -172,3 +172,39 @@ pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hardware_toml_overrides_defaults_and_rejects_bad_input() {
+        let mut hw = crate::sim::Hardware::default();
+        apply_hardware_toml(
+            &mut hw,
+            "[rt]\ntriangle = 12\nidle_skip = false\n[mem]\nl1d_ways = 4\nl2_latency = 200\n",
+        )
+        .unwrap();
+        assert_eq!((hw.rt.triangle, hw.rt.idle_skip, hw.mem.l2_latency), (12, false, 200));
+        assert_eq!(hw.mem.l1d_assoc, rtl::mem::Assoc::Ways(4));
+        assert_eq!(hw.rt.internal, 8, "keys not named keep their SPEC default");
+
+        let err = |text: &str| apply_hardware_toml(&mut crate::sim::Hardware::default(), text).unwrap_err();
+        assert_eq!(err("[mem]\nl2_waysx = 3"), "unknown parameter mem.l2_waysx");
+        assert!(err("[rt]\ntriangle = -1").contains("rt.triangle = -1: expected a whole number"));
+        assert!(err("[rt]\nidle_skip = 3").contains("expected true or false"));
+        assert!(err("mem = 3").contains("must be a table"));
+        assert!(err("[mem\n").contains("not valid TOML"));
+    }
+
+    #[test]
+    fn hardware_flags_are_checked_by_the_memory_system() {
+        let args = HardwareArgs { l1d_kb: Some(64), sms: Some(2), ..HardwareArgs::default() };
+        let hw = args.hardware().unwrap();
+        assert_eq!((hw.mem.l1d_bytes, hw.mem.sms), (64 * 1024, 2));
+        let zero = HardwareArgs { sms: Some(0), ..HardwareArgs::default() };
+        assert!(zero.hardware().unwrap_err().to_string().starts_with("hardware: "));
+        let missing = HardwareArgs { hw: Some("/nonexistent/hw.toml".into()), ..HardwareArgs::default() };
+        assert!(missing.hardware().unwrap_err().to_string().contains("cannot read hardware file"));
+    }
+}
