@@ -392,3 +392,48 @@ impl<'a> ProgressLines<'a> {
         eprintln!("{}: done at {:.2} s", self.names[i], secs(self.start));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: super::Args,
+    }
+
+    fn run(line: &str) -> anyhow::Result<()> {
+        let argv = std::iter::once("run").chain(line.split_whitespace());
+        super::run(Cli::try_parse_from(argv)?.args)
+    }
+
+    fn error(line: &str) -> String {
+        format!("{:#}", run(line).expect_err(line))
+    }
+
+    #[test]
+    fn bad_requests_are_clear_errors() {
+        let tiny = "-q --scene wknd --res 8x8 --spp 1 --bounces 0";
+        assert!(
+            error(&format!("{tiny} -c RB_8,SMS --vcd /tmp/x.vcd")).contains("--vcd dumps one configuration")
+        );
+        assert!(
+            error(&format!("{tiny} -c SMS --vcd /tmp/x.vcd --sample 0.5")).contains("full cycle-level run")
+        );
+        assert!(error(&format!("{tiny} --sample 1.5")).contains("sample fraction 1.5 must be in (0, 1]"));
+        assert!(error(&format!("{tiny} -c RB_8+SH_32 --l1d-kb 32")).contains("the SH stacks need 32 KB"));
+        assert!(error(&format!("{tiny} -c RB_9+SH_3")).contains("--config RB_9+SH_3"));
+        assert!(error(&format!("{tiny} -c SMS --vcd /tmp/x.vcd --vcd-sms 8")).contains("the GPU has 8 SMs"));
+        assert!(error(&format!("{tiny} --jobs 0")).contains("--jobs 0"));
+        assert!(error("-q --scene no-such-scene").contains("unknown scene"));
+    }
+
+    #[test]
+    fn a_tiny_run_at_both_levels_and_sampled_succeeds() {
+        let tiny = "-q --scene clutter --res 16x16 --spp 1 --bounces 1 -c RB_4,RB_4+SH_4+SK+RA --json";
+        run(tiny).unwrap();
+        run(&format!("{tiny} --fidelity functional")).unwrap();
+        run(&format!("{tiny} --sample 0.5 --batches 2")).unwrap();
+    }
+}
