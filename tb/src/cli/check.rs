@@ -1,8 +1,14 @@
 //! `sms check`: the exhaustive bounded model checker, with bounds from the command line.
 
+use std::path::{Path, PathBuf};
+
 use anyhow::{bail, Result};
-use proofs::exhaustive::{check, describe, Bounds};
+use proofs::exhaustive::{check, describe, Action, Bounds, Coverage, Model};
 use rtl::config::{Config, RbSize, Realloc};
+use rtl::stack_manager::StackManager;
+use rtl::trace::{Probe, Sink};
+
+use crate::vcd::{Selection, VcdOptions, VcdSink};
 
 use crate::table::Table;
 
@@ -35,6 +41,77 @@ pub struct Args {
     /// Stop a configuration after this many distinct states.
     #[arg(long, default_value_t = 20_000_000)]
     pub max_states: usize,
+    /// If a property fails, dump the shortest counterexample here as a VCD (one action per time
+    /// step, every register of the warp) with a GTKWave save file next to it.
+    #[arg(long, value_name = "FILE")]
+    pub vcd: Option<PathBuf>,
+    /// Plant a stack-manager bug to watch the checker catch it (needs a build with `--features
+    /// mutants`): queue-wrap-off-by-one, reload-wrong-entry, spill-drops-entry,
+    /// missing-global-reload, early-release, skip-overflow-clear, flush-keeps-count,
+    /// eager-release.
+    #[arg(long)]
+    pub mutant: Option<String>,
+}
+
+/// The design under check: the stack manager as built, or with a planted bug.
+type Design = fn(StackManager) -> StackManager;
+
+#[cfg(feature = "mutants")]
+fn design(name: Option<&str>) -> Result<Design> {
+    use rtl::stack_manager::Mutant;
+    macro_rules! planted {
+        ($($name:literal => $m:ident),*) => {
+            match name {
+                None => Ok(|sm| sm),
+                $(Some($name) => Ok(|mut sm: StackManager| { sm.mutant = Some(Mutant::$m); sm }),)*
+                Some(other) => bail!("--mutant {other}: unknown; one of {}", [$($name),*].join(", ")),
+            }
+        };
+    }
+    planted!(
+        "queue-wrap-off-by-one" => QueueWrapOffByOne,
+        "reload-wrong-entry" => ReloadWrongEntry,
+        "spill-drops-entry" => SpillDropsEntry,
+        "missing-global-reload" => MissingGlobalReload,
+        "early-release" => EarlyRelease,
+        "skip-overflow-clear" => SkipOverflowClear,
+        "flush-keeps-count" => FlushKeepsCount,
+        "eager-release" => EagerRelease
+    )
+}
+
+#[cfg(not(feature = "mutants"))]
+fn design(name: Option<&str>) -> Result<Design> {
+    match name {
+        None => Ok(|sm| sm),
+        Some(m) => bail!("--mutant {m}: this build has no planted bugs; build with `--features mutants`"),
+    }
+}
+
+/// Replays `trace` on a fresh warp of `cfg` built by `design` and dumps every register after
+/// each action (time step i = after i actions) to `path`, with a GTKWave save file.
+pub fn dump_counterexample(
+    cfg: Config,
+    design: impl Fn(StackManager) -> StackManager,
+    trace: &[Action],
+    path: &Path,
+) -> Result<()> {
+    let mut model = Model::new(cfg)?;
+    model.sm = design(model.sm);
+    let opts = VcdOptions { path: path.to_path_buf(), select: Selection::default() };
+    let mut sink = VcdSink::create(&opts, &Config { warps: 1, ..cfg })?;
+    let mut cov = Coverage::default();
+    sink.begin_cycle(0);
+    model.sm.probe(&mut sink);
+    for (i, &a) in trace.iter().enumerate() {
+        // The last action is the one that breaks a property; its state is still dumped.
+        let _ = model.act(a, &mut cov);
+        sink.begin_cycle(i as u64 + 1);
+        model.sm.probe(&mut sink);
+    }
+    sink.end_run(trace.len() as u64 + 1);
+    sink.finish()?;
+    Ok(())
 }
 
 fn grid(a: &Args) -> Result<Vec<Config>> {
@@ -73,6 +150,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--values {}: at least 2 distinct values are needed to see entries reordered", args.values);
     }
     let configs = grid(&args)?;
+    let design = design(args.mutant.as_deref())?;
     let mut t = Table::new([
         "configuration",
         "depth",
@@ -90,7 +168,7 @@ pub fn run(args: Args) -> Result<()> {
         let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
         eprintln!("checking {} to depth {depth} ...", describe(c));
         let bounds = Bounds { depth, values: args.values, max_states: args.max_states };
-        match check(*c, bounds, |sm| sm) {
+        match check(*c, bounds, design) {
             Ok(cov) => t.row([
                 describe(c),
                 cov.depth_reached.to_string(),
@@ -105,6 +183,14 @@ pub fn run(args: Args) -> Result<()> {
             ]),
             Err(cex) => {
                 print!("{}", t.to_text());
+                if let Some(path) = &args.vcd {
+                    dump_counterexample(*c, design, &cex.trace, path)?;
+                    eprintln!(
+                        "wrote {} and {} (time step i = after action i)",
+                        path.display(),
+                        path.with_extension("gtkw").display()
+                    );
+                }
                 bail!(
                     "{}: property violated; shortest counterexample ({} actions):\n{cex}",
                     describe(c),
