@@ -194,21 +194,33 @@ pub struct StackStats {
 }
 
 impl StackStats {
+    /// Every counter of `self` combined with the same counter of `o` by `f`.
+    pub fn zip(&self, o: &StackStats, f: impl Fn(u64, u64) -> u64) -> StackStats {
+        StackStats {
+            pushes: f(self.pushes, o.pushes),
+            pops: f(self.pops, o.pops),
+            rb_to_sh: f(self.rb_to_sh, o.rb_to_sh),
+            sh_to_rb: f(self.sh_to_rb, o.sh_to_rb),
+            sh_to_global: f(self.sh_to_global, o.sh_to_global),
+            global_to_sh: f(self.global_to_sh, o.global_to_sh),
+            rb_to_global: f(self.rb_to_global, o.rb_to_global),
+            global_to_rb: f(self.global_to_rb, o.global_to_rb),
+            borrows: f(self.borrows, o.borrows),
+            releases: f(self.releases, o.releases),
+            flushes: f(self.flushes, o.flushes),
+            flushes_saturated: f(self.flushes_saturated, o.flushes_saturated),
+            demotions: f(self.demotions, o.demotions),
+        }
+    }
+
     /// Adds `o`'s counts to these (totals over RT units).
     pub fn add(&mut self, o: &StackStats) {
-        self.pushes += o.pushes;
-        self.pops += o.pops;
-        self.rb_to_sh += o.rb_to_sh;
-        self.sh_to_rb += o.sh_to_rb;
-        self.sh_to_global += o.sh_to_global;
-        self.global_to_sh += o.global_to_sh;
-        self.rb_to_global += o.rb_to_global;
-        self.global_to_rb += o.global_to_rb;
-        self.borrows += o.borrows;
-        self.releases += o.releases;
-        self.flushes += o.flushes;
-        self.flushes_saturated += o.flushes_saturated;
-        self.demotions += o.demotions;
+        *self = self.zip(o, |a, b| a + b);
+    }
+
+    /// The counts since `before` (a snapshot of the same counters).
+    pub fn since(&self, before: &StackStats) -> StackStats {
+        self.zip(before, |a, b| a - b)
     }
 
     pub fn sh_loads(&self) -> u64 {

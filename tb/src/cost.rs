@@ -124,15 +124,10 @@ impl CostReport {
                 note: "",
             },
         ];
+        // A per-thread field of the paper's accounting.
+        let paper =
+            |name, what, bits| Field { name, what, origin: Origin::Paper, bits, copies_per_sm: t, note: "" };
         if m > 0 {
-            let paper = |name, what, bits| Field {
-                name,
-                what,
-                origin: Origin::Paper,
-                bits,
-                copies_per_sm: t,
-                note: "",
-            };
             fields.push(paper("top", "SH queue newest entry", w.top));
             fields.push(paper("bottom", "SH queue oldest entry", w.bottom));
             fields.push(Field {
@@ -162,14 +157,6 @@ impl CostReport {
             });
         }
         if let Some(r) = ra {
-            let paper = |name, what, bits| Field {
-                name,
-                what,
-                origin: Origin::Paper,
-                bits,
-                copies_per_sm: t,
-                note: "",
-            };
             fields.push(paper("idle", "finished, stack not lent", w.idle));
             fields.push(paper("next_tid", "borrow chain link", w.next_tid));
             fields.push(paper("priority", "rank in the chain", paper_priority_bits(r.borrow_limit)));

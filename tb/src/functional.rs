@@ -76,31 +76,13 @@ where
             }
         };
         out.pops_checked += sb.pops_checked;
-        let mut warp = diff(&sm.stats, &before);
-        warp.add(&diff(&fast, &fast_before));
+        let mut warp = sm.stats.since(&before);
+        warp.add(&fast.since(&fast_before));
         out.per_warp.push(warp);
     }
     out.total = sm.stats;
     out.total.add(&fast);
     Ok(out)
-}
-
-fn diff(a: &StackStats, b: &StackStats) -> StackStats {
-    StackStats {
-        pushes: a.pushes - b.pushes,
-        pops: a.pops - b.pops,
-        rb_to_sh: a.rb_to_sh - b.rb_to_sh,
-        sh_to_rb: a.sh_to_rb - b.sh_to_rb,
-        sh_to_global: a.sh_to_global - b.sh_to_global,
-        global_to_sh: a.global_to_sh - b.global_to_sh,
-        rb_to_global: a.rb_to_global - b.rb_to_global,
-        global_to_rb: a.global_to_rb - b.global_to_rb,
-        borrows: a.borrows - b.borrows,
-        releases: a.releases - b.releases,
-        flushes: a.flushes - b.flushes,
-        flushes_saturated: a.flushes_saturated - b.flushes_saturated,
-        demotions: a.demotions - b.demotions,
-    }
 }
 
 #[derive(Debug)]

@@ -175,7 +175,10 @@ pub struct WorkloadOpts {
 impl WorkloadOpts {
     /// BVH6 (what Vulkan-Sim walks), nearest-first, and the scene's own render settings.
     pub fn for_scene(scene: &Scene) -> Self {
-        let r = scene.render;
+        Self::rendering(scene.render)
+    }
+
+    fn rendering(r: crate::scene::RenderSettings) -> Self {
         WorkloadOpts {
             bvh: BvhKind::Bvh6,
             order: ChildOrder::Nearest,
@@ -191,16 +194,7 @@ impl WorkloadOpts {
 impl Default for WorkloadOpts {
     /// The SPEC's evaluation settings (section 8) on a BVH6.
     fn default() -> Self {
-        let r = crate::scene::RenderSettings::default();
-        WorkloadOpts {
-            bvh: BvhKind::Bvh6,
-            order: ChildOrder::Nearest,
-            width: r.width,
-            height: r.height,
-            spp: r.spp,
-            max_bounces: r.max_bounces,
-            seed: 0,
-        }
+        Self::rendering(crate::scene::RenderSettings::default())
     }
 }
 

@@ -1,6 +1,8 @@
 //! `sms check --vcd`: a counterexample of the exhaustive checker, replayed and dumped as a VCD,
 //! shows exactly the registers the planted bug produced, step by step.
 
+mod common;
+use common::TmpDir;
 use proofs::exhaustive::{check, Bounds, Coverage, Model};
 use rtl::config::{Config, RbSize};
 use rtl::stack_manager::{Mutant, StackManager};
@@ -36,8 +38,7 @@ fn replay(design: fn(StackManager) -> StackManager, trace: &[proofs::exhaustive:
 fn counterexample_dump_replays_the_buggy_registers() {
     let bounds = Bounds { depth: 16, values: 2, max_states: 1_000_000 };
     let cex = check(cfg(), bounds, reload_wrong_entry).expect_err("the planted bug is caught");
-    let dir = std::env::temp_dir().join(format!("sms-check-vcd-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TmpDir::new("check-vcd", "cex");
     let path = dir.join("cex.vcd");
     dump_counterexample(cfg(), reload_wrong_entry, &cex.trace, &path).unwrap();
     assert!(path.with_extension("gtkw").is_file(), "a save file next to the dump");
@@ -54,5 +55,4 @@ fn counterexample_dump_replays_the_buggy_registers() {
     // The dump shows the bug: the correct design's registers differ somewhere on the same trace.
     let correct = replay(|sm| sm, &cex.trace);
     assert!(compare(&waves, &correct, 0..=steps).is_err(), "the dump would look the same without the bug");
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -4,7 +4,10 @@
 //! the RTL reported in the same run (a [`Recorder`] beside the [`VcdSink`]). Planted bugs show
 //! the checker can fail; GTKWave's own converters must round-trip the values.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::TmpDir;
+
+use std::path::Path;
 use std::process::Command;
 
 use proofs::harness::RunSummary;
@@ -17,26 +20,6 @@ use tb::vcd::{Selection, Tee, VcdError, VcdOptions, VcdSink};
 /// bigger workload: 3 warps, so a slot is reused, deep enough to borrow and flush.
 fn sms_small() -> Example {
     Example { warps: 3, max_peak: 16, ..examples().remove(0) }
-}
-
-/// A scratch directory removed when the test ends.
-struct TmpDir(PathBuf);
-
-impl TmpDir {
-    fn new(test: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("sms-vcd-{}-{test}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        TmpDir(dir)
-    }
-    fn join(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-}
-
-impl Drop for TmpDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
 }
 
 /// Runs `ex` with a VCD sink (to memory) and a recorder side by side.
@@ -170,7 +153,7 @@ fn expect_err(select: Selection, cfg: &Config, path: &Path) -> String {
 #[test]
 fn bad_options_are_errors_naming_the_value() {
     let ex = sms_small();
-    let tmp = TmpDir::new("errors");
+    let tmp = TmpDir::new("vcd", "errors");
     let path = tmp.join("errors.vcd");
     let window = Selection { from: Some(9), to: Some(3), ..Selection::default() };
     assert_eq!(expect_err(window, &ex.config, &path), "VCD window: from 9 is after to 3");
@@ -196,7 +179,7 @@ fn bad_options_are_errors_naming_the_value() {
 #[test]
 fn save_file_opens_the_dump_with_grouped_signals() {
     let ex = sms_small();
-    let tmp = TmpDir::new("gtkw");
+    let tmp = TmpDir::new("vcd", "gtkw");
     let opts = VcdOptions { path: tmp.join("grouped.vcd"), select: Selection::default() };
     let mut sink = VcdSink::create(&opts, &ex.config).unwrap();
     ex.run(&mut sink).unwrap();
@@ -239,7 +222,7 @@ fn gtkwave_round_trip_keeps_every_value() {
     }
     let ex = sms_small();
     let (text, rec, _) = dump(&ex, Selection::default());
-    let tmp = TmpDir::new("round");
+    let tmp = TmpDir::new("vcd", "round");
     let (vcd, fst) = (tmp.join("round.vcd"), tmp.join("round.fst"));
     std::fs::write(&vcd, &text).unwrap();
     let status = Command::new("vcd2fst").arg(&vcd).arg(&fst).status().unwrap();
@@ -254,8 +237,8 @@ fn gtkwave_round_trip_keeps_every_value() {
 
 #[test]
 fn examples_are_valid_and_small() {
-    let tmp = TmpDir::new("examples");
-    let paths = write_examples(&tmp.0).unwrap();
+    let tmp = TmpDir::new("vcd", "examples");
+    let paths = write_examples(tmp.path()).unwrap();
     assert_eq!(paths.len(), examples().len());
     let mut sizes = Vec::new();
     for p in &paths {

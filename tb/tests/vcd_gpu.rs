@@ -3,9 +3,12 @@
 //! valid VCD, and the values replayed from it are the RTL's own, cycle by cycle, also after
 //! GTKWave's `vcd2fst` → `fst2vcd` round trip. Bad requests are clear errors.
 
+mod common;
+use common::TmpDir;
+
 use std::io::Write;
 use std::ops::RangeInclusive;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use rtl::config::Config;
@@ -108,7 +111,7 @@ fn strict(text: &str) -> Waves {
 
 #[test]
 fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
-    let tmp = TmpDir::new("dump");
+    let tmp = TmpDir::new("vcd-gpu", "dump");
     let (text, rec, out) = dump(&tmp.join("gpu.vcd"));
     let g = out.gpu.unwrap();
     assert!(g.cycles > *WINDOW.end() + 1_000, "window must lie inside the run ({} cycles)", g.cycles);
@@ -196,26 +199,6 @@ fn have(tool: &str) -> bool {
     Command::new(tool).arg("--help").output().is_ok()
 }
 
-/// A scratch directory removed when the test ends.
-struct TmpDir(PathBuf);
-
-impl TmpDir {
-    fn new(test: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("sms-vcd-gpu-{}-{test}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        TmpDir(dir)
-    }
-    fn join(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-}
-
-impl Drop for TmpDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 #[test]
 fn gtkwave_round_trip_keeps_the_gpu_values() {
     if !(have("vcd2fst") && have("fst2vcd")) {
@@ -225,7 +208,7 @@ fn gtkwave_round_trip_keeps_the_gpu_values() {
         let _ = writeln!(std::io::stderr(), "{note}");
         return;
     }
-    let tmp = TmpDir::new("round");
+    let tmp = TmpDir::new("vcd-gpu", "round");
     let (vcd, fst) = (tmp.join("gpu.vcd"), tmp.join("gpu.fst"));
     let (text, rec, _) = dump(&vcd);
     let status = Command::new("vcd2fst").arg(&vcd).arg(&fst).output().unwrap();
@@ -248,7 +231,7 @@ fn create_err(select: Selection, path: &Path) -> String {
 
 #[test]
 fn bad_gpu_dump_requests_are_clear_errors() {
-    let tmp = TmpDir::new("errors");
+    let tmp = TmpDir::new("vcd-gpu", "errors");
     let path = tmp.join("bad.vcd");
     let warp = Selection { warps: Some(vec![4]), ..Selection::default() };
     assert_eq!(create_err(warp, &path), "VCD warp 4 does not exist: the configuration has 4 warps (0..4)");
@@ -257,8 +240,8 @@ fn bad_gpu_dump_requests_are_clear_errors() {
     let nowhere = tmp.join("missing-dir").join("x.vcd");
     let msg = create_err(Selection::default(), &nowhere);
     assert!(msg.starts_with(&format!("cannot write {}: ", nowhere.display())), "{msg}");
-    let msg = create_err(Selection::default(), &tmp.0);
-    assert!(msg.starts_with(&format!("cannot write {}: ", tmp.0.display())), "a directory: {msg}");
+    let msg = create_err(Selection::default(), tmp.path());
+    assert!(msg.starts_with(&format!("cannot write {}: ", tmp.path().display())), "a directory: {msg}");
 
     // The SM count is the hardware's, not the configuration's: an unknown SM is found on the
     // first probe walk and reported when the dump is finished, as is a window after the end of

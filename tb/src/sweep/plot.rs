@@ -15,6 +15,23 @@ fn to_err(path: &Path, e: impl std::fmt::Display) -> Error {
 }
 
 /// Colour of series `i`, dark enough for thin lines.
+/// Draws the series legend at `corner` and writes the file: the end of every chart here.
+fn legend_and_present<'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, SVGBackend<'a>, CT>,
+    root: &DrawingArea<SVGBackend<'a>, plotters::coord::Shift>,
+    corner: SeriesLabelPosition,
+    path: &Path,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(corner)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    root.present().map_err(|e| to_err(path, e))
+}
+
 pub fn color(i: usize) -> RGBColor {
     const COLORS: [RGBColor; 8] = [
         RGBColor(31, 119, 180),
@@ -115,14 +132,7 @@ pub fn hbars(
             .draw_series(LineSeries::new([(r, -0.5), (r, n as f64 - 0.5)], BLACK.stroke_width(1)))
             .map_err(|e| to_err(path, e))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| to_err(path, e))?;
-    root.present().map_err(|e| to_err(path, e))
+    legend_and_present(&mut chart, &root, SeriesLabelPosition::LowerRight, path)
 }
 
 /// A named line through `(x, y)` points.
@@ -197,14 +207,7 @@ pub fn lines(
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c.stroke_width(2)));
         chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| to_err(path, e))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| to_err(path, e))?;
-    root.present().map_err(|e| to_err(path, e))
+    legend_and_present(&mut chart, &root, SeriesLabelPosition::UpperRight, path)
 }
 
 /// A labelled design point of the cost-versus-performance plot.
@@ -252,14 +255,7 @@ pub fn scatter(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[P
                 + Text::new(p.name.to_string(), (7, -6), font.clone())])
             .map_err(|e| to_err(path, e))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| to_err(path, e))?;
-    root.present().map_err(|e| to_err(path, e))
+    legend_and_present(&mut chart, &root, SeriesLabelPosition::LowerRight, path)
 }
 
 /// A chart as data, drawn by [`Chart::write_svg`].
