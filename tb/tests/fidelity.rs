@@ -4,23 +4,13 @@
 
 use rtl::config::Config;
 use tb::sampling::{SampleMode, SamplePlan};
-use tb::scene::Scene;
 use tb::sim::{
     simulate_all, simulate_sampled, Counts, Fidelity, Hardware, Metric, Outcome, RunSpec, Sampled,
 };
-use tb::workload::{ChildOrder, Workload, WorkloadOpts};
+use tb::workload::{ChildOrder, Workload};
 
-fn workload(scene: &Scene, res: u32, order: ChildOrder) -> Workload<'_> {
-    let opts = WorkloadOpts {
-        width: res,
-        height: res,
-        spp: 1,
-        max_bounces: 1,
-        order,
-        ..WorkloadOpts::for_scene(scene)
-    };
-    Workload::new(scene, opts).unwrap()
-}
+mod common;
+use common::small_workload as workload;
 
 fn run(config: Config, fidelity: Fidelity, w: &Workload) -> Outcome {
     let spec = RunSpec { config, hw: Hardware::default(), fidelity };

@@ -5,21 +5,11 @@
 use std::collections::BTreeMap;
 
 use serde_json::Value;
-use tb::scene::Scene;
 use tb::sim::{simulate_all, Fidelity, Hardware, Outcome, RunSpec};
-use tb::workload::{ChildOrder, Workload, WorkloadOpts};
+use tb::workload::{ChildOrder, Workload};
 
-fn workload(scene: &Scene, res: u32, order: ChildOrder) -> Workload<'_> {
-    let opts = WorkloadOpts {
-        width: res,
-        height: res,
-        spp: 1,
-        max_bounces: 1,
-        order,
-        ..WorkloadOpts::for_scene(scene)
-    };
-    Workload::new(scene, opts).unwrap()
-}
+mod common;
+use common::small_workload as workload;
 
 fn run(name: &str, fidelity: Fidelity, w: &Workload) -> Outcome {
     let spec = RunSpec { config: name.parse().unwrap(), hw: Hardware::default(), fidelity };

@@ -29,3 +29,21 @@ impl Drop for TmpDir {
         let _ = std::fs::remove_dir_all(&self.0);
     }
 }
+
+/// A small square workload of `scene`: `res × res` pixels, 1 spp, 1 bounce, child order `order`.
+pub fn small_workload(
+    scene: &tb::scene::Scene,
+    res: u32,
+    order: tb::workload::ChildOrder,
+) -> tb::workload::Workload<'_> {
+    use tb::workload::{Workload, WorkloadOpts};
+    let opts = WorkloadOpts {
+        width: res,
+        height: res,
+        spp: 1,
+        max_bounces: 1,
+        order,
+        ..WorkloadOpts::for_scene(scene)
+    };
+    Workload::new(scene, opts).unwrap()
+}
