@@ -4,16 +4,18 @@
 //!             ┌──────── parked (1 request that could not proceed) ────────┐
 //!   req ─────►│ tag check ─ hit ──► hit pipe (hit_latency) ──────────────► │ out ─► resp
 //!   (≤ 1/cyc) │           ─ read miss ─► MSHR ─ allocate ─► miss queue ───┼──► down (to L2)
-//!             │           ─ write ─────────── write-through ─► miss queue │
+//!             │           ─ write ── evict / keep sector ─► miss queue ───┤
 //!   fill ────►│ tag fill, release MSHR waiters / forward write acks ─────► │ out
 //!             └────────────────────────────────────────────────────────────┘
 //! ```
 //!
 //! Handshake: `ready` is high unless a request is parked. A request accepted in cycle `t` is
 //! looked up in cycle `t`: a read hit answers at `t + hit_latency`; a read miss merges into the
-//! MSHR entry of its sector or allocates one and queues a sector read for L2; a store is written
-//! through (no allocate: a store hit refreshes LRU, a store miss leaves the tags alone) and is
-//! acknowledged when L2 acknowledges it. A request that needs an MSHR entry or a miss-queue slot
+//! MSHR entry of its sector or allocates one and queues a sector read for L2; a store goes on to
+//! L2 and is acknowledged when L2 acknowledges it. A store hit invalidates its sector
+//! (write-evict, [`L1dWrite::WriteEvict`], Vulkan-Sim's dl1 policy for the RT unit's global
+//! stores) or refreshes LRU and keeps it (write-through, the old behaviour); a store miss leaves
+//! the tags alone (no write-allocate) in both. A request that needs an MSHR entry or a miss-queue slot
 //! that is not there is parked and retried every cycle, and `ready` is low meanwhile (so a later
 //! hit waits behind it, as in an in-order cache pipeline). Responses from L2 are registered: they
 //! fill the tags at the clock edge and their waiters' responses are visible the next cycle. All
@@ -21,7 +23,7 @@
 
 use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
-use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS};
+use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, ADDR_BITS};
 use crate::config::bits_for;
 use crate::trace::{Probe, Sink};
 use std::collections::{BTreeMap, VecDeque};
@@ -196,7 +198,10 @@ impl L1d {
                 Action::WriteThrough => {
                     let hit = self.tags.lookup(r.addr).is_hit();
                     if hit {
-                        self.tags.touch(r.addr);
+                        match self.params.l1d_write {
+                            L1dWrite::WriteEvict => self.tags.invalidate(r.addr),
+                            L1dWrite::WriteThrough => self.tags.touch(r.addr),
+                        }
                     }
                     self.send_down(r, Pending::Write(r.response()));
                     self.counters.lookup(&r, hit);

@@ -9,7 +9,10 @@
 //!   DRAM fill ─► tag fill (write-back of a dirty victim) ─► release MSHR waiters ─► out
 //! ```
 //!
-//! Lines are interleaved over banks (`bank = line mod l2_banks`); each bank grants at most one SM
+//! Banks are memory sub-partitions (GPGPU-Sim's `addrdec_tlx`): `bank = addr / l2_interleave_bytes
+//! mod l2_banks`, each with its own sets indexed by the address with the bank digit removed
+//! (linear or IPOLY, see [`super::addr::L2Map`]); the old mapping is `bank = line mod l2_banks`
+//! over one array indexed `line mod sets`. Each bank grants at most one SM
 //! per cycle, round-robin starting after the SM it granted last, while its pipeline has room. The
 //! tag check sits at the end of the bank pipeline, so a miss pays the L2 latency and then DRAM's.
 //! If the head of a bank cannot proceed (MSHR or DRAM queue full) it waits there and the bank
@@ -81,7 +84,7 @@ impl L2 {
         let sms = p.sms as usize;
         L2 {
             params: *p,
-            tags: TagStore::new(Geometry::new(p.l2_bytes, p.l2_assoc, p.line_bytes, p.sector_bytes)),
+            tags: TagStore::new(Geometry::l2(p)),
             mshr: Mshr::new(p.l2_mshrs, p.l2_mshr_merge),
             banks: vec![VecDeque::new(); p.l2_banks as usize],
             rr: vec![0; p.l2_banks as usize],
@@ -96,7 +99,10 @@ impl L2 {
     }
 
     fn bank_of(&self, addr: u64) -> usize {
-        ((addr / u64::from(self.params.line_bytes)) % u64::from(self.params.l2_banks)) as usize
+        match &self.tags.geometry().banked {
+            Some(map) => map.bank_of(addr) as usize,
+            None => ((addr / u64::from(self.params.line_bytes)) % u64::from(self.params.l2_banks)) as usize,
+        }
     }
 
     /// Responses for SM `sm` visible this cycle.
