@@ -418,6 +418,55 @@ mod tests {
         compare(geom(1536, 2), random(geom(1536, 2), 9, 20000), false).unwrap();
     }
 
+    /// Random reads (hit: touch; miss: fill) and store hits that invalidate their sector, against
+    /// the reference; `planted`: the tag store only clears the bit and never frees the way.
+    fn compare_with_invalidate(g: Geometry, seed: u64, planted: bool) -> Result<(), String> {
+        let mut dut = TagStore::new(g);
+        let mut r = RefLru::new(g);
+        let mut rng = XorShift(seed);
+        let span = u64::from(g.lines() * g.line_bytes) * 2;
+        for step in 0..6000 {
+            let addr = rng.below(span);
+            let (got, want) = (dut.lookup(addr), r.lookup(addr));
+            if got != want {
+                return Err(format!("step {step} addr {addr:#x}: {got:?} vs {want:?}"));
+            }
+            if got.is_hit() && rng.below(3) == 0 {
+                if planted {
+                    let slot = dut.find(addr).unwrap();
+                    dut.slots[slot].as_mut().unwrap().valid &= !g.sector_bit(addr);
+                } else {
+                    dut.invalidate(addr);
+                }
+                r.invalidate(addr);
+            } else if got.is_hit() {
+                dut.touch(addr);
+                r.touch(addr);
+            } else {
+                let (got, want) = (dut.fill(addr, None).map(|v| v.addr), r.fill(addr));
+                if got != want {
+                    return Err(format!("step {step} addr {addr:#x}: evicted {got:x?} vs {want:x?}"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn invalidate_matches_reference_and_frees_empty_lines() {
+        for seed in 1..=4 {
+            compare_with_invalidate(geom(4, 4), seed, false).unwrap();
+            compare_with_invalidate(geom(1, 7), seed, false).unwrap();
+        }
+        // A line whose sectors are all invalid must become a free way (GPGPU-Sim's invalid line).
+        assert!(compare_with_invalidate(geom(4, 4), 1, true).is_err());
+        let mut t = TagStore::new(geom(1, 2));
+        t.fill(0x20, Some(ReqKind::StackSpill));
+        t.invalidate(0x20);
+        assert_eq!((t.lines_held(), t.lookup(0x20)), (0, Lookup::LineMiss));
+        t.invalidate(0x20);
+    }
+
     #[test]
     fn checker_catches_a_fifo_reference() {
         // The comparison above would pass for any replacement policy if it never looked at the

@@ -394,10 +394,10 @@ mod tests {
     #[test]
     fn one_bank_grants_one_sm_per_cycle_round_robin() {
         let mut b = Bench::new(p(3), 10);
-        // Lines 0 and 8 share bank 0; line 1 is in bank 1.
-        let reqs = [read(1, 0), read(2, 8 * 128), read(3, 128)];
+        // 256-byte interleaving over 8 banks: 0 and 8 × 256 share bank 0; 256 is in bank 1.
+        let reqs = [read(1, 0), read(2, 8 * 256), read(3, 256)];
         assert_eq!(b.step(&reqs), vec![true, false, true]);
-        assert_eq!(b.step(&[read(4, 0), read(2, 8 * 128), None]), vec![false, true, false]);
+        assert_eq!(b.step(&[read(4, 0), read(2, 8 * 256), None]), vec![false, true, false]);
         assert_eq!(b.step(&[read(4, 0), None, None]), vec![true, false, false]);
         b.settle(3);
         // SM 0's two reads of one sector: one DRAM read.
@@ -424,9 +424,30 @@ mod tests {
     }
 
     #[test]
+    fn banks_follow_the_mapping() {
+        // Old: line interleaving; new: 256-byte chunks. Two requests from two SMs in one cycle
+        // are both granted iff they are in different banks.
+        let old = MemParams {
+            l2_set_index: crate::mem::SetIndex::Linear,
+            l2_interleave_bytes: 128,
+            ..p(2)
+        };
+        assert_eq!(Bench::new(old, 10).step(&[read(1, 0), read(2, 128)]), vec![true, true]);
+        assert_eq!(Bench::new(p(2), 10).step(&[read(1, 0), read(2, 128)]), vec![true, false]);
+        assert_eq!(Bench::new(p(2), 10).step(&[read(1, 0), read(2, 256)]), vec![true, true]);
+    }
+
+    #[test]
     fn dirty_lines_are_written_back_on_eviction() {
-        // 2 sets of 2 ways: lines 0, 2, 4 share set 0.
-        let mp = MemParams { l2_bytes: 4 * 128, l2_assoc: Assoc::Ways(2), l2_banks: 1, ..p(1) };
+        // 2 sets of 2 ways, old linear mapping: lines 0, 2, 4 share set 0.
+        let mp = MemParams {
+            l2_bytes: 4 * 128,
+            l2_assoc: Assoc::Ways(2),
+            l2_banks: 1,
+            l2_set_index: crate::mem::SetIndex::Linear,
+            l2_interleave_bytes: 128,
+            ..p(1)
+        };
         let mut b = Bench::new(mp, 10);
         b.step(&[Some(MemReq::write(1, 0x20, 8, ReqKind::StackSpill))]);
         b.step(&[Some(MemReq::write(2, 0x40, 8, ReqKind::StackSpill))]);
