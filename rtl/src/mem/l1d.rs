@@ -392,10 +392,10 @@ mod tests {
 
     #[test]
     fn streaming_defaults_are_the_mobile_config() {
-        // -gpgpu_cache:dl1 S:1:128:256,…,A:256:8,16:0,32 with alloc 's': 1 × 256 × 4 × 4
+        // -gpgpu_cache:dl1 S:1:128:256,…,A:256:8,16:0,32 with alloc 's': 1 set × 256 ways × 4 × 4
         // MSHRs (gpu-cache.h:562-563), merge MAX_WARP_PER_SM (564), miss queue 16.
         let p = MemParams::default();
-        assert_eq!((p.l1d_mshrs, p.l1d_mshr_merge, p.l1d_miss_queue), (1 * 256 * 4 * 4, 64, 16));
+        assert_eq!((p.l1d_mshrs, p.l1d_mshr_merge, p.l1d_miss_queue), (256 * 4 * 4, 64, 16));
         // 4096 distinct sectors in flight at once are all taken without a stall.
         let mut b = Bench::new(MemParams { l1d_miss_queue: 4096, ..p }, 5000);
         for i in 0..4096 {

@@ -427,11 +427,7 @@ mod tests {
     fn banks_follow_the_mapping() {
         // Old: line interleaving; new: 256-byte chunks. Two requests from two SMs in one cycle
         // are both granted iff they are in different banks.
-        let old = MemParams {
-            l2_set_index: crate::mem::SetIndex::Linear,
-            l2_interleave_bytes: 128,
-            ..p(2)
-        };
+        let old = MemParams { l2_set_index: crate::mem::SetIndex::Linear, l2_interleave_bytes: 128, ..p(2) };
         assert_eq!(Bench::new(old, 10).step(&[read(1, 0), read(2, 128)]), vec![true, true]);
         assert_eq!(Bench::new(p(2), 10).step(&[read(1, 0), read(2, 128)]), vec![true, false]);
         assert_eq!(Bench::new(p(2), 10).step(&[read(1, 0), read(2, 256)]), vec![true, true]);

@@ -136,7 +136,12 @@ pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<
             };
             let ways = |w: u32| if w == 0 { Assoc::Full } else { Assoc::Ways(w) };
             // A string naming one of `names`, parsed by `from`.
-            fn choice<T>(name: &str, v: &toml::Value, names: &[&str], from: fn(&str) -> Option<T>) -> Result<T, String> {
+            fn choice<T>(
+                name: &str,
+                v: &toml::Value,
+                names: &[&str],
+                from: fn(&str) -> Option<T>,
+            ) -> Result<T, String> {
                 v.as_str().and_then(from).ok_or_else(|| {
                     let allowed: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
                     format!("{name} = {v}: expected one of {}", allowed.join(", "))
@@ -163,9 +168,7 @@ pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<
                 ("mem", "l1d_mshrs") => m.l1d_mshrs = uint()?,
                 ("mem", "l1d_mshr_merge") => m.l1d_mshr_merge = uint()?,
                 ("mem", "l1d_miss_queue") => m.l1d_miss_queue = uint()?,
-                ("mem", "l1d_write") => {
-                    m.l1d_write = choice(&name, v, L1dWrite::NAMES, L1dWrite::from_name)?
-                }
+                ("mem", "l1d_write") => m.l1d_write = choice(&name, v, L1dWrite::NAMES, L1dWrite::from_name)?,
                 ("mem", "l2_bytes") => m.l2_bytes = uint()?,
                 ("mem", "l2_ways") => m.l2_assoc = ways(uint()?),
                 ("mem", "l2_latency") => m.l2_latency = uint()?,
@@ -225,7 +228,8 @@ mod tests {
             err("[mem]\nl1d_write = \"back\""),
             "mem.l1d_write = \"back\": expected one of \"evict\", \"through\""
         );
-        assert!(err("[mem]\nl2_set_index = 1").contains("mem.l2_set_index = 1: expected one of \"ipoly\", \"linear\""));
+        assert!(err("[mem]\nl2_set_index = 1")
+            .contains("mem.l2_set_index = 1: expected one of \"ipoly\", \"linear\""));
         assert!(err("[mem]\nlocal_layout = \"x\"").contains("expected one of \"interleaved\", \"linear\""));
         assert!(err("mem = 3").contains("must be a table"));
         assert!(err("[mem\n").contains("not valid TOML"));
