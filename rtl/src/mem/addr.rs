@@ -220,6 +220,15 @@ mod tests {
         &[10, 9, 8, 7, 5, 3, 2],
     ];
 
+    /// The 32-set equations (`hashing.cc:52-67`), higher bits from bit 12.
+    const SRC32: [&[u32]; 5] = [
+        &[13, 12, 11, 10, 9, 6, 5, 3, 0],
+        &[14, 13, 12, 11, 10, 7, 6, 4, 1],
+        &[14, 10, 9, 8, 7, 6, 3, 2, 0],
+        &[11, 10, 9, 8, 7, 4, 3, 1],
+        &[12, 11, 10, 9, 8, 5, 4, 2],
+    ];
+
     fn source_eq(addr: u64, eqs: &[&[u32]], index_bits: u32) -> u32 {
         let higher = addr >> (7 + index_bits);
         let index = (addr >> 7) & ((1 << index_bits) - 1);
@@ -254,6 +263,7 @@ mod tests {
             let addr = x.next() & 0xffff_ffff_ff80;
             assert_eq!(ipoly(addr >> 7, 64), source_eq(addr, &SRC64, 6), "{addr:#x}");
             assert_eq!(ipoly(addr >> 7, 16), source_eq(addr, &SRC16, 4), "{addr:#x}");
+            assert_eq!(ipoly(addr >> 7, 32), source_eq(addr, &SRC32, 5), "{addr:#x}");
         }
     }
 
