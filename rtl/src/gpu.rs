@@ -101,9 +101,12 @@ impl Gpu {
     /// `mem.sms` SMs with stack configuration `cfg`.
     pub fn new(cfg: Config, rt: RtParams, mem: MemParams) -> Result<Gpu, ConfigError> {
         let sys = MemSystem::new(mem)?;
-        let units = (0..mem.sms)
+        let mut units = (0..mem.sms)
             .map(|sm| RtUnit::new(sm, cfg, rt, mem.sector_bytes))
             .collect::<Result<Vec<_>, _>>()?;
+        for u in &mut units {
+            u.stack.set_local_layout(mem.local_layout, mem.sms);
+        }
         let n = units.len();
         Ok(Gpu { cfg, rt, units, mem: sys, rr: 0, reqs: vec![None; n], jobs_in: vec![None; n] })
     }

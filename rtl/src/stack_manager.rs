@@ -25,6 +25,7 @@ use std::collections::VecDeque;
 
 use crate::bank_arbiter::{ShReq, MAX_WORDS};
 use crate::config::{Config, ConfigError, Widths};
+use crate::mem::addr::{LocalLayout, LocalMap};
 use crate::mem_sched::GReq;
 use crate::trace::{Probe, Sink};
 
@@ -290,6 +291,8 @@ pub struct StackManager {
     w: Widths,
     /// Which SM this is: places the spill regions in the device address space.
     sm: u32,
+    /// Where spill slots live ([`StackManager::set_local_layout`]; per-thread regions until set).
+    local: LocalMap,
     threads: Vec<ThreadRegs>,
     stacks: Vec<StackRegs>,
     rb: Vec<VecDeque<Entry>>,
@@ -317,6 +320,15 @@ impl StackManager {
             cfg,
             w,
             sm,
+            local: LocalMap {
+                layout: LocalLayout::Linear,
+                base: SPILL_BASE,
+                sms: sm + 1,
+                threads: cfg.threads(),
+                warp_size: cfg.warp_size,
+                entry_bytes: cfg.entry_bytes,
+                slots: 1u64 << cfg.spill_ptr_bits,
+            },
             threads: vec![ThreadRegs::default(); n],
             stacks: vec![StackRegs::default(); n],
             rb: vec![VecDeque::new(); n],
@@ -428,11 +440,16 @@ impl StackManager {
         Ok(self.pops_out.iter().find(|p| p.0 == t).map(|p| p.1))
     }
 
+    /// Lays the spill slots out as `layout` among the threads of `sms` SMs (the memory system's
+    /// `local_layout`; see [`LocalMap`]).
+    pub fn set_local_layout(&mut self, layout: LocalLayout, sms: u32) {
+        self.local.layout = layout;
+        self.local.sms = sms.max(self.sm + 1);
+    }
+
     /// Byte address of a global spill slot.
     pub fn spill_addr(&self, t: u32, slot: u32) -> u64 {
-        let region = (1u64 << self.cfg.spill_ptr_bits) * self.cfg.entry_bytes as u64;
-        let id = self.sm as u64 * self.cfg.threads() as u64 + t as u64;
-        SPILL_BASE + id * region + slot as u64 * self.cfg.entry_bytes as u64
+        self.local.addr(self.sm, t, slot)
     }
 
     /// Loads a new warp into slot `w`; lanes not in `active` start finished.

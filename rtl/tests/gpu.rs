@@ -86,9 +86,10 @@ fn run_with(cfg: &str, mem: MemParams, rt: RtParams, work: Vec<WarpJob>) -> Resu
     Gpu::new(cfg, rt, carve_out(&cfg, mem)).unwrap().run(work, &mut NullSink)
 }
 
-/// The paper's memory system with a small L2, so spilled lines do reach DRAM.
+/// The paper's memory system with a small L2, so spilled lines do reach DRAM: 2 banks of 16 sets
+/// (the least IPOLY indexes).
 fn small_l2() -> MemParams {
-    MemParams { l2_bytes: 64 * 1024, ..MemParams::default() }
+    MemParams { l2_bytes: 64 * 1024, l2_banks: 2, ..MemParams::default() }
 }
 
 fn run(cfg: &str, work: Vec<WarpJob>) -> GpuReport {

@@ -2,19 +2,23 @@
 //! one tag per line with a valid and a dirty bit per sector.
 //!
 //! ```text
-//!   addr ─► line = addr / line_bytes ─► set = line mod sets ─► ways of the set ─► Hit
+//!   addr ─► line = addr / line_bytes ─► set (line mod sets, or L2Map) ─► ways ─► Hit
 //!                                                                              ─► SectorMiss
 //!                                                                              ─► LineMiss
 //! ```
 //!
 //! The set count need not be a power of two (3 MB / (128 B × 16) = 1536 sets; 56 KB fully
-//! associative = 448 ways), so the set index is a modulo. LRU is exact: each way carries the stamp
+//! associative = 448 ways), so the plain set index is a modulo. A banked L2 instead takes its set
+//! from [`L2Map`] (bank, then the set within the bank: linear or IPOLY), its banks' sets laid end
+//! to end in one array. LRU is exact: each way carries the stamp
 //! of its last use and each set keeps its ways ordered by stamp. [`TagStore::lookup`] and
 //! [`TagStore::victim`] are pure; [`TagStore::touch`] and [`TagStore::fill`] are the updates the
 //! owning unit applies at its clock edge. Policy (write-through or write-back) belongs to the
-//! owner: a store is a `fill` with a dirty kind (write-allocate) or a `touch` (no-allocate).
+//! owner: a store is a `fill` with a dirty kind (write-allocate), a `touch` (write-through, no
+//! allocate) or an [`TagStore::invalidate`] (write-evict).
 
-use super::{Assoc, ReqKind};
+use super::addr::L2Map;
+use super::{Assoc, MemParams, ReqKind};
 use std::collections::BTreeMap;
 
 /// Shape of a cache.
@@ -24,6 +28,8 @@ pub struct Geometry {
     pub ways: u32,
     pub line_bytes: u32,
     pub sector_bytes: u32,
+    /// Banked set mapping; `None`: `set = line mod sets`.
+    pub banked: Option<L2Map>,
 }
 
 impl Geometry {
@@ -34,7 +40,20 @@ impl Geometry {
             Assoc::Full => lines,
             Assoc::Ways(w) => w,
         };
-        Geometry { sets: lines / ways, ways, line_bytes, sector_bytes }
+        Geometry { sets: lines / ways, ways, line_bytes, sector_bytes, banked: None }
+    }
+
+    /// The L2 of `p` (parameters already validated): banks' sets end to end when
+    /// [`MemParams::l2_map`] gives a banked mapping, else one array indexed `line mod sets`.
+    pub fn l2(p: &MemParams) -> Geometry {
+        let plain = Geometry::new(p.l2_bytes, p.l2_assoc, p.line_bytes, p.sector_bytes);
+        match p.l2_map() {
+            None => plain,
+            Some(map) => {
+                let sets = map.sets_per_bank * map.banks;
+                Geometry { sets, ways: plain.lines() / sets, banked: Some(map), ..plain }
+            }
+        }
     }
 
     pub fn lines(&self) -> u32 {
@@ -47,7 +66,10 @@ impl Geometry {
     }
 
     pub fn set_of(&self, addr: u64) -> usize {
-        (self.line_of(addr) % u64::from(self.sets)) as usize
+        match &self.banked {
+            None => (self.line_of(addr) % u64::from(self.sets)) as usize,
+            Some(map) => map.set_of(addr),
+        }
     }
 
     /// One-hot sector bit of `addr` within its line.
@@ -208,6 +230,25 @@ impl TagStore {
         victim
     }
 
+    /// Clears the valid (and dirty) bit of the sector of `addr` (write-evict); a line left with no
+    /// valid sector frees its way, as GPGPU-Sim treats a line whose sectors are all invalid as an
+    /// invalid line (`tag_array::probe`, `gpu-cache.cc:282-285`). No effect if absent.
+    pub fn invalidate(&mut self, addr: u64) {
+        let Some(slot) = self.find(addr) else { return };
+        let bit = self.geom.sector_bit(addr);
+        let way = self.slots[slot].as_mut().expect("indexed slot holds a line");
+        way.valid &= !bit;
+        way.dirty &= !bit;
+        if way.valid == 0 {
+            let ways = self.geom.ways as usize;
+            let (set, w) = (slot / ways, (slot % ways) as u32);
+            let old = self.slots[slot].take().expect("line");
+            self.index[set].remove(&old.line);
+            self.lru[set].remove(&old.stamp);
+            self.free[set].push(w);
+        }
+    }
+
     /// Slot holding the line of `addr`, if present.
     fn find(&self, addr: u64) -> Option<usize> {
         let set = self.geom.set_of(addr);
@@ -268,6 +309,18 @@ pub(crate) mod reference {
             }
         }
 
+        /// Clears the sector of `addr`; a line with no valid sector leaves the set.
+        pub fn invalidate(&mut self, addr: u64) {
+            let (line, bit) = (self.geom.line_of(addr), self.geom.sector_bit(addr));
+            let set = &mut self.sets[self.geom.set_of(addr)];
+            if let Some(i) = set.iter().position(|(l, _)| *l == line) {
+                set[i].1 &= !bit;
+                if set[i].1 == 0 {
+                    set.remove(i);
+                }
+            }
+        }
+
         /// Returns the evicted line's byte address.
         pub fn fill(&mut self, addr: u64) -> Option<u64> {
             let (line, bit, ways) =
@@ -293,7 +346,7 @@ mod tests {
     use crate::mem::testutil::XorShift;
 
     fn geom(sets: u32, ways: u32) -> Geometry {
-        Geometry { sets, ways, line_bytes: 128, sector_bytes: 32 }
+        Geometry { sets, ways, line_bytes: 128, sector_bytes: 32, banked: None }
     }
 
     /// Drives the tag store and the reference with one address stream (hit: touch; miss: fill,
@@ -363,6 +416,55 @@ mod tests {
         }
         // 1536 sets, as the default L2 has.
         compare(geom(1536, 2), random(geom(1536, 2), 9, 20000), false).unwrap();
+    }
+
+    /// Random reads (hit: touch; miss: fill) and store hits that invalidate their sector, against
+    /// the reference; `planted`: the tag store only clears the bit and never frees the way.
+    fn compare_with_invalidate(g: Geometry, seed: u64, planted: bool) -> Result<(), String> {
+        let mut dut = TagStore::new(g);
+        let mut r = RefLru::new(g);
+        let mut rng = XorShift(seed);
+        let span = u64::from(g.lines() * g.line_bytes) * 2;
+        for step in 0..6000 {
+            let addr = rng.below(span);
+            let (got, want) = (dut.lookup(addr), r.lookup(addr));
+            if got != want {
+                return Err(format!("step {step} addr {addr:#x}: {got:?} vs {want:?}"));
+            }
+            if got.is_hit() && rng.below(3) == 0 {
+                if planted {
+                    let slot = dut.find(addr).unwrap();
+                    dut.slots[slot].as_mut().unwrap().valid &= !g.sector_bit(addr);
+                } else {
+                    dut.invalidate(addr);
+                }
+                r.invalidate(addr);
+            } else if got.is_hit() {
+                dut.touch(addr);
+                r.touch(addr);
+            } else {
+                let (got, want) = (dut.fill(addr, None).map(|v| v.addr), r.fill(addr));
+                if got != want {
+                    return Err(format!("step {step} addr {addr:#x}: evicted {got:x?} vs {want:x?}"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn invalidate_matches_reference_and_frees_empty_lines() {
+        for seed in 1..=4 {
+            compare_with_invalidate(geom(4, 4), seed, false).unwrap();
+            compare_with_invalidate(geom(1, 7), seed, false).unwrap();
+        }
+        // A line whose sectors are all invalid must become a free way (GPGPU-Sim's invalid line).
+        assert!(compare_with_invalidate(geom(4, 4), 1, true).is_err());
+        let mut t = TagStore::new(geom(1, 2));
+        t.fill(0x20, Some(ReqKind::StackSpill));
+        t.invalidate(0x20);
+        assert_eq!((t.lines_held(), t.lookup(0x20)), (0, Lookup::LineMiss));
+        t.invalidate(0x20);
     }
 
     #[test]

@@ -237,8 +237,9 @@ mod tests {
             l1d_mshrs: 4,
             l1d_mshr_merge: 2,
             l1d_miss_queue: 2,
+            // 2 banks of 16 sets of 2 ways (IPOLY needs 16 sets or more).
             l2_bytes: 8 * 1024,
-            l2_assoc: Assoc::Ways(4),
+            l2_assoc: Assoc::Ways(2),
             l2_banks: 2,
             l2_bank_queue: 16,
             l2_mshrs: 6,
@@ -296,7 +297,7 @@ mod tests {
         };
         let node = |addr| MemReq::read(1, addr, 32, ReqKind::NodeFetch);
         assert_eq!(latency(0, node(0x4000)), 260, "L1D miss, L2 miss");
-        assert_eq!(latency(0, node(0x4000)), 20, "L1D hit");
+        assert_eq!(latency(0, node(0x4000)), 1, "L1D hit, used by the RT unit the next cycle");
         assert_eq!(latency(1, node(0x4000)), 160, "L1D miss, L2 hit");
         let spill = MemReq::write(2, 0x8000, 8, ReqKind::StackSpill);
         assert_eq!(latency(0, spill), 160, "store acknowledged by L2");
@@ -400,25 +401,36 @@ mod tests {
     }
 
     /// One SM, one request at a time: every L1D and L2 hit or miss must be what reference LRU
-    /// caches predict (L1D write-through without allocate, L2 write-allocate), and every latency
-    /// must be the level's figure: 20, 160 or 260 for reads, 160 for stores.
-    fn caches_against_reference(fifo_l1d: bool, fifo_l2: bool) -> Result<(), String> {
-        let p = MemParams {
-            sms: 1,
-            l1d_bytes: 2048,
-            l2_bytes: 8192,
-            l2_assoc: Assoc::Ways(4),
-            ..MemParams::default()
-        };
+    /// caches predict (L1D write-evict or write-through, without allocate; L2 write-allocate,
+    /// indexed by the L2 mapping of `p`), and every latency must be the level's figure:
+    /// `l1d_hit_latency`, 160 or 260 for reads, 160 for stores. `evict_ref`: what the reference
+    /// does on an L1D store hit (a planted mismatch when it differs from `p.l1d_write`).
+    fn caches_against_reference(
+        p: MemParams,
+        fifo_l1d: bool,
+        fifo_l2: bool,
+        evict_ref: bool,
+    ) -> Result<(), String> {
+        caches_against(p, fifo_l1d, fifo_l2, evict_ref, Geometry::l2(&p))
+    }
+
+    /// As [`caches_against_reference`], the reference L2 shaped as `l2_ref`.
+    fn caches_against(
+        p: MemParams,
+        fifo_l1d: bool,
+        fifo_l2: bool,
+        evict_ref: bool,
+        l2_ref: Geometry,
+    ) -> Result<(), String> {
         let mut sys = MemSystem::new(p).unwrap();
         let mut r1 = RefLru::new(sys.l1d(0).tags().geometry());
-        let mut r2 = RefLru::new(Geometry::new(8192, Assoc::Ways(4), 128, 32));
+        let mut r2 = RefLru::new(l2_ref);
         r1.fifo = fifo_l1d;
         r2.fifo = fifo_l2;
         let mut rng = XorShift(11);
         for i in 0..3000 {
             // Half the accesses within three L1Ds' worth, half within three L2s' worth.
-            let span = if rng.below(2) == 0 { 3 * 2048 } else { 3 * 8192 };
+            let span = 3 * u64::from(if rng.below(2) == 0 { p.l1d_bytes } else { p.l2_bytes });
             let addr = rng.below(span / 8) * 8;
             let req = if rng.below(4) == 0 {
                 MemReq::write(i, addr, 8, ReqKind::StackSpill)
@@ -441,7 +453,7 @@ mod tests {
             let latency = log[0].0 - start;
             let expected = match (req.write, want1, want2) {
                 (true, _, _) => 160,
-                (false, true, _) => 20,
+                (false, true, _) => u64::from(p.l1d_hit_latency),
                 (false, false, Some(true)) => 160,
                 (false, false, _) => 260,
             };
@@ -449,10 +461,13 @@ mod tests {
                 return Err(format!("request {i} {req:?}: latency {latency}, expected {expected}"));
             }
             // Update the references as the caches do.
-            if want1 {
-                r1.touch(addr);
-            } else if !req.write {
-                r1.fill(addr);
+            match (want1, req.write) {
+                (true, true) if evict_ref => r1.invalidate(addr),
+                (true, _) => r1.touch(addr),
+                (false, false) => {
+                    r1.fill(addr);
+                }
+                (false, true) => {}
             }
             match want2 {
                 Some(true) => r2.touch(addr),
@@ -465,15 +480,56 @@ mod tests {
         Ok(())
     }
 
-    #[test]
-    fn cache_hits_and_latencies_match_reference_lru() {
-        caches_against_reference(false, false).unwrap();
+    /// The reference test's system: one SM, small caches, 2 L2 banks of 16 sets.
+    fn ref_params() -> MemParams {
+        MemParams {
+            sms: 1,
+            l1d_bytes: 2048,
+            l2_bytes: 16384,
+            l2_assoc: Assoc::Ways(4),
+            l2_banks: 2,
+            ..MemParams::default()
+        }
+    }
+
+    /// The old mapping and L1D policy.
+    fn old(p: MemParams) -> MemParams {
+        MemParams {
+            l1d_write: crate::mem::L1dWrite::WriteThrough,
+            l1d_hit_latency: 20,
+            l2_set_index: crate::mem::SetIndex::Linear,
+            l2_interleave_bytes: 128,
+            ..p
+        }
     }
 
     #[test]
-    fn cache_checker_catches_a_fifo_reference() {
-        assert!(caches_against_reference(true, false).is_err());
-        assert!(caches_against_reference(false, true).is_err());
+    fn cache_hits_and_latencies_match_reference_lru() {
+        caches_against_reference(ref_params(), false, false, true).unwrap();
+        caches_against_reference(old(ref_params()), false, false, false).unwrap();
+        // Linear index within 256-byte sub-partitions.
+        let linear = MemParams { l2_set_index: crate::mem::SetIndex::Linear, ..ref_params() };
+        caches_against_reference(linear, false, false, true).unwrap();
+    }
+
+    #[test]
+    fn cache_checker_catches_a_fifo_reference_and_a_wrong_write_policy() {
+        assert!(caches_against_reference(ref_params(), true, false, true).is_err());
+        assert!(caches_against_reference(ref_params(), false, true, true).is_err());
+        assert!(caches_against_reference(ref_params(), false, false, false).is_err());
+        assert!(caches_against_reference(old(ref_params()), false, false, true).is_err());
+    }
+
+    #[test]
+    fn cache_checker_catches_a_reference_with_another_set_index() {
+        // The reference indexes each bank linearly while the L2 hashes (IPOLY): hits differ.
+        let p = ref_params();
+        let mut linear = Geometry::l2(&p);
+        linear.banked.as_mut().expect("banked L2").index = crate::mem::SetIndex::Linear;
+        assert!(caches_against(p, false, false, true, linear).is_err());
+        // And the old single array against the new mapping.
+        let old_ref = Geometry::l2(&old(p));
+        assert!(caches_against(p, false, false, true, old_ref).is_err());
     }
 
     #[test]

@@ -4,16 +4,18 @@
 //!             ┌──────── parked (1 request that could not proceed) ────────┐
 //!   req ─────►│ tag check ─ hit ──► hit pipe (hit_latency) ──────────────► │ out ─► resp
 //!   (≤ 1/cyc) │           ─ read miss ─► MSHR ─ allocate ─► miss queue ───┼──► down (to L2)
-//!             │           ─ write ─────────── write-through ─► miss queue │
+//!             │           ─ write ── evict / keep sector ─► miss queue ───┤
 //!   fill ────►│ tag fill, release MSHR waiters / forward write acks ─────► │ out
 //!             └────────────────────────────────────────────────────────────┘
 //! ```
 //!
 //! Handshake: `ready` is high unless a request is parked. A request accepted in cycle `t` is
 //! looked up in cycle `t`: a read hit answers at `t + hit_latency`; a read miss merges into the
-//! MSHR entry of its sector or allocates one and queues a sector read for L2; a store is written
-//! through (no allocate: a store hit refreshes LRU, a store miss leaves the tags alone) and is
-//! acknowledged when L2 acknowledges it. A request that needs an MSHR entry or a miss-queue slot
+//! MSHR entry of its sector or allocates one and queues a sector read for L2; a store goes on to
+//! L2 and is acknowledged when L2 acknowledges it. A store hit invalidates its sector
+//! (write-evict, [`L1dWrite::WriteEvict`], Vulkan-Sim's dl1 policy for the RT unit's global
+//! stores) or refreshes LRU and keeps it (write-through, the old behaviour); a store miss leaves
+//! the tags alone (no write-allocate) in both. A request that needs an MSHR entry or a miss-queue slot
 //! that is not there is parked and retried every cycle, and `ready` is low meanwhile (so a later
 //! hit waits behind it, as in an in-order cache pipeline). Responses from L2 are registered: they
 //! fill the tags at the clock edge and their waiters' responses are visible the next cycle. All
@@ -21,7 +23,7 @@
 
 use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
-use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS};
+use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, ADDR_BITS};
 use crate::config::bits_for;
 use crate::trace::{Probe, Sink};
 use std::collections::{BTreeMap, VecDeque};
@@ -196,7 +198,10 @@ impl L1d {
                 Action::WriteThrough => {
                     let hit = self.tags.lookup(r.addr).is_hit();
                     if hit {
-                        self.tags.touch(r.addr);
+                        match self.params.l1d_write {
+                            L1dWrite::WriteEvict => self.tags.invalidate(r.addr),
+                            L1dWrite::WriteThrough => self.tags.touch(r.addr),
+                        }
                     }
                     self.send_down(r, Pending::Write(r.response()));
                     self.counters.lookup(&r, hit);
@@ -270,6 +275,7 @@ impl Probe for L1d {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mem::cache::Lookup;
     use crate::mem::ReqKind;
     use crate::trace::Snapshot;
 
@@ -333,17 +339,27 @@ mod tests {
         Some(MemReq::read(id, addr, 8, ReqKind::NodeFetch))
     }
 
-    #[test]
-    fn hit_takes_exactly_the_hit_latency() {
-        let mut b = Bench::new(MemParams::default(), 50);
+    /// Cycle, after acceptance, in which a hit's response is visible to the requester.
+    fn hit_latency(p: MemParams) -> u64 {
+        let mut b = Bench::new(p, 50);
         assert!(b.step(read(1, 0x1000)));
         b.run_until_quiet();
         let t = b.cycle;
         assert!(b.step(read(2, 0x1008)));
         b.run_until_quiet();
-        assert_eq!(b.resp_log.last(), Some(&(t + 20, MemResp { id: 2, addr: 0x1008 })));
         assert_eq!(b.l1.counters().hits, 1);
         assert_eq!(b.l1.counters().misses, 1);
+        let (c, r) = *b.resp_log.last().unwrap();
+        assert_eq!(r, MemResp { id: 2, addr: 0x1008 });
+        c - t
+    }
+
+    #[test]
+    fn hit_takes_exactly_the_hit_latency() {
+        // Default: the RT unit's direct L1D access, a hit visible the cycle after the lookup
+        // (the response register); the old load/store-unit figure stays reachable.
+        assert_eq!(hit_latency(MemParams::default()), 1);
+        assert_eq!(hit_latency(MemParams { l1d_hit_latency: 20, ..MemParams::default() }), 20);
     }
 
     #[test]
@@ -375,8 +391,23 @@ mod tests {
     }
 
     #[test]
+    fn streaming_defaults_are_the_mobile_config() {
+        // -gpgpu_cache:dl1 S:1:128:256,…,A:256:8,16:0,32 with alloc 's': 1 set × 256 ways × 4 × 4
+        // MSHRs (gpu-cache.h:562-563), merge MAX_WARP_PER_SM (564), miss queue 16.
+        let p = MemParams::default();
+        assert_eq!((p.l1d_mshrs, p.l1d_mshr_merge, p.l1d_miss_queue), (256 * 4 * 4, 64, 16));
+        // 4096 distinct sectors in flight at once are all taken without a stall.
+        let mut b = Bench::new(MemParams { l1d_miss_queue: 4096, ..p }, 5000);
+        for i in 0..4096 {
+            assert!(b.step(read(i, i * 32)), "miss {i}");
+        }
+        assert_eq!(b.l1.mshr_occupancy(), 4096);
+        assert_eq!(b.l1.counters().stall_cycles, 0);
+    }
+
+    #[test]
     fn full_mshr_stalls_until_a_fill() {
-        let p = MemParams { l1d_miss_queue: 64, ..MemParams::default() };
+        let p = MemParams { l1d_miss_queue: 64, l1d_mshrs: 32, ..MemParams::default() };
         let mut b = Bench::new(p, 100);
         for i in 0..32 {
             assert!(b.step(read(i, i * 32)), "miss {i}");
@@ -412,23 +443,60 @@ mod tests {
         assert_eq!(b.l1.counters().hits, 1);
     }
 
-    #[test]
-    fn stores_write_through_without_allocating() {
-        let mut b = Bench::new(MemParams::default(), 30);
+    /// Store miss, load (fills the sector), store hit, reload: returns the bench.
+    fn store_sequence(write: L1dWrite) -> Bench {
+        let mut b = Bench::new(MemParams { l1d_write: write, ..MemParams::default() }, 30);
         assert!(b.step(Some(MemReq::write(1, 0x40, 8, ReqKind::StackSpill))));
         b.run_until_quiet();
         assert_eq!(b.resp_log.len(), 1, "store acknowledged");
-        assert_eq!(b.l1.tags().lines_held(), 0, "no allocate");
+        assert_eq!(b.l1.tags().lines_held(), 0, "a store miss allocates nothing");
         assert!(b.down_log[0].write);
         assert!(b.step(Some(MemReq::read(2, 0x40, 8, ReqKind::StackReload))));
         b.run_until_quiet();
         assert_eq!(b.l1.counters().kind(ReqKind::StackReload).misses, 1);
-        // Now present: a store hits, is still written through, and a reload hits.
+        assert_eq!(b.l1.tags().lookup(0x40), Lookup::Hit);
+        // Now present: a store hits and goes on to L2; then a reload.
         assert!(b.step(Some(MemReq::write(3, 0x40, 8, ReqKind::StackSpill))));
         assert!(b.step(Some(MemReq::read(4, 0x40, 8, ReqKind::StackReload))));
         b.run_until_quiet();
+        assert_eq!(b.l1.counters().kind(ReqKind::StackSpill).misses, 1, "the second store hit");
+        assert_eq!(b.resp_log.len(), 4);
+        b
+    }
+
+    #[test]
+    fn write_through_keeps_the_sector() {
+        let b = store_sequence(L1dWrite::WriteThrough);
+        // Store miss, fill, store hit: three L2 requests; the reload hits.
         assert_eq!(b.down_log.len(), 3);
+        assert_eq!(b.l1.counters().kind(ReqKind::StackReload).misses, 1);
         assert_eq!(b.l1.counters().hits, 2);
+    }
+
+    #[test]
+    fn write_evict_invalidates_the_sector_so_the_reload_misses() {
+        let b = store_sequence(L1dWrite::WriteEvict);
+        // The store hit invalidated the only valid sector: the line left the cache, and the
+        // reload went to L2 again.
+        assert_eq!(b.down_log.len(), 4);
+        assert!(!b.down_log[3].write);
+        assert_eq!(b.l1.counters().kind(ReqKind::StackReload).misses, 2);
+        assert_eq!(b.l1.counters().hits, 1);
+        // After the reload's fill the sector is back.
+        assert_eq!(b.l1.tags().lookup(0x40), Lookup::Hit);
+    }
+
+    #[test]
+    fn write_evict_keeps_the_lines_other_sectors() {
+        let mut b = Bench::new(MemParams::default(), 30);
+        assert!(b.step(read(1, 0x100)));
+        assert!(b.step(read(2, 0x120)));
+        b.run_until_quiet();
+        assert!(b.step(Some(MemReq::write(3, 0x100, 8, ReqKind::StackSpill))));
+        b.run_until_quiet();
+        assert_eq!(b.l1.tags().lookup(0x100), Lookup::SectorMiss);
+        assert_eq!(b.l1.tags().lookup(0x120), Lookup::Hit);
+        assert_eq!(b.l1.tags().lines_held(), 1);
     }
 
     #[test]

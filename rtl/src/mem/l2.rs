@@ -9,7 +9,10 @@
 //!   DRAM fill ─► tag fill (write-back of a dirty victim) ─► release MSHR waiters ─► out
 //! ```
 //!
-//! Lines are interleaved over banks (`bank = line mod l2_banks`); each bank grants at most one SM
+//! Banks are memory sub-partitions (GPGPU-Sim's `addrdec_tlx`): `bank = addr / l2_interleave_bytes
+//! mod l2_banks`, each with its own sets indexed by the address with the bank digit removed
+//! (linear or IPOLY, see [`super::addr::L2Map`]); the old mapping is `bank = line mod l2_banks`
+//! over one array indexed `line mod sets`. Each bank grants at most one SM
 //! per cycle, round-robin starting after the SM it granted last, while its pipeline has room. The
 //! tag check sits at the end of the bank pipeline, so a miss pays the L2 latency and then DRAM's.
 //! If the head of a bank cannot proceed (MSHR or DRAM queue full) it waits there and the bank
@@ -81,7 +84,7 @@ impl L2 {
         let sms = p.sms as usize;
         L2 {
             params: *p,
-            tags: TagStore::new(Geometry::new(p.l2_bytes, p.l2_assoc, p.line_bytes, p.sector_bytes)),
+            tags: TagStore::new(Geometry::l2(p)),
             mshr: Mshr::new(p.l2_mshrs, p.l2_mshr_merge),
             banks: vec![VecDeque::new(); p.l2_banks as usize],
             rr: vec![0; p.l2_banks as usize],
@@ -96,7 +99,10 @@ impl L2 {
     }
 
     fn bank_of(&self, addr: u64) -> usize {
-        ((addr / u64::from(self.params.line_bytes)) % u64::from(self.params.l2_banks)) as usize
+        match &self.tags.geometry().banked {
+            Some(map) => map.bank_of(addr) as usize,
+            None => ((addr / u64::from(self.params.line_bytes)) % u64::from(self.params.l2_banks)) as usize,
+        }
     }
 
     /// Responses for SM `sm` visible this cycle.
@@ -388,10 +394,10 @@ mod tests {
     #[test]
     fn one_bank_grants_one_sm_per_cycle_round_robin() {
         let mut b = Bench::new(p(3), 10);
-        // Lines 0 and 8 share bank 0; line 1 is in bank 1.
-        let reqs = [read(1, 0), read(2, 8 * 128), read(3, 128)];
+        // 256-byte interleaving over 8 banks: 0 and 8 × 256 share bank 0; 256 is in bank 1.
+        let reqs = [read(1, 0), read(2, 8 * 256), read(3, 256)];
         assert_eq!(b.step(&reqs), vec![true, false, true]);
-        assert_eq!(b.step(&[read(4, 0), read(2, 8 * 128), None]), vec![false, true, false]);
+        assert_eq!(b.step(&[read(4, 0), read(2, 8 * 256), None]), vec![false, true, false]);
         assert_eq!(b.step(&[read(4, 0), None, None]), vec![true, false, false]);
         b.settle(3);
         // SM 0's two reads of one sector: one DRAM read.
@@ -418,9 +424,26 @@ mod tests {
     }
 
     #[test]
+    fn banks_follow_the_mapping() {
+        // Old: line interleaving; new: 256-byte chunks. Two requests from two SMs in one cycle
+        // are both granted iff they are in different banks.
+        let old = MemParams { l2_set_index: crate::mem::SetIndex::Linear, l2_interleave_bytes: 128, ..p(2) };
+        assert_eq!(Bench::new(old, 10).step(&[read(1, 0), read(2, 128)]), vec![true, true]);
+        assert_eq!(Bench::new(p(2), 10).step(&[read(1, 0), read(2, 128)]), vec![true, false]);
+        assert_eq!(Bench::new(p(2), 10).step(&[read(1, 0), read(2, 256)]), vec![true, true]);
+    }
+
+    #[test]
     fn dirty_lines_are_written_back_on_eviction() {
-        // 2 sets of 2 ways: lines 0, 2, 4 share set 0.
-        let mp = MemParams { l2_bytes: 4 * 128, l2_assoc: Assoc::Ways(2), l2_banks: 1, ..p(1) };
+        // 2 sets of 2 ways, old linear mapping: lines 0, 2, 4 share set 0.
+        let mp = MemParams {
+            l2_bytes: 4 * 128,
+            l2_assoc: Assoc::Ways(2),
+            l2_banks: 1,
+            l2_set_index: crate::mem::SetIndex::Linear,
+            l2_interleave_bytes: 128,
+            ..p(1)
+        };
         let mut b = Bench::new(mp, 10);
         b.step(&[Some(MemReq::write(1, 0x20, 8, ReqKind::StackSpill))]);
         b.step(&[Some(MemReq::write(2, 0x40, 8, ReqKind::StackSpill))]);

@@ -21,27 +21,52 @@
 //! inputs and decisions when sampled between `eval` and `commit`.
 //!
 //! Unloaded latencies, measured from the cycle a request is accepted to the cycle its response is
-//! visible to the SM, with the defaults: L1D hit 20 (`l1d_hit_latency`); L1D miss, L2 hit 160
-//! (`l2_latency`); L1D miss, L2 miss 260 (`l2_latency + dram_latency`, plus
+//! visible to the SM, with the defaults: L1D hit 1 (`l1d_hit_latency`, see below); L1D miss, L2
+//! hit 160 (`l2_latency`); L1D miss, L2 miss 260 (`l2_latency + dram_latency`, plus
 //! `ceil(sector_bytes / dram_bytes_per_cycle) - 1` bus cycles). Queueing adds to these.
 //!
-//! Write policy: the L1D is write-through, no write-allocate (a store updates a present sector and
-//! always goes on to L2; a store miss allocates nothing), as GPU L1s do for global and local
-//! stores. The L2 is write-back, write-allocate without fetch: a store marks its sector valid and
+//! Write policy: the L1D is write-evict (default) or write-through, never write-allocate (a store
+//! always goes on to L2; a store miss allocates nothing), as GPU L1s are for global stores. The
+//! L2 is write-back, write-allocate without fetch: a store marks its sector valid and
 //! dirty (the real L2 keeps byte masks), and a dirty line is written to DRAM when evicted. Stores
 //! are acknowledged by the L2 (so a reload issued after the acknowledgement sees the data); DRAM
 //! writes are posted (they use bandwidth but nobody waits for them).
+//!
+//! Memory path as Vulkan-Sim's RT unit uses it (each mechanism has its old behaviour as an
+//! option; sources are Vulkan-Sim files, see also rtl/DESIGN.md "Memory path"):
+//! - The RT unit accesses the L1D directly (`-gpgpu_rt_use_l1 1`; `rt_unit::memory_cycle`,
+//!   `shader.cc:3233`, calls `cache->access` at `shader.cc:3502`) and uses a hit in the cycle of
+//!   the lookup (`shader.cc:3557-3575`); the 20-cycle `l1_latency_queue` belongs to the load/store
+//!   unit (`shader.cc:2352`). `l1d_hit_latency` counts from acceptance to the response visible to
+//!   the RT unit; the L1D's responses are registered, so 1 (visible in the next cycle, where the
+//!   RT unit's step consumes it) is the earliest and the default. Old: 20.
+//! - Write policy (`-gpgpu_cache:dl1 S:1:128:256,L:L:s:N:L,A:256:8,16:0,32`): `L` =
+//!   local write-back / global write-through, whose hit function (`gpu-cache.cc:1295-1305`)
+//!   evicts on a global store, and RT-unit stores are global (`GLOBAL_ACC_W`, `shader.cc:3351`):
+//!   a store hit invalidates its sector (`gpu-cache.cc:1289`) and goes on to L2
+//!   ([`L1dWrite::WriteEvict`]); `N` = no write-allocate, a store miss just goes on
+//!   (`gpu-cache.cc:1559`). Old: [`L1dWrite::WriteThrough`] (a hit refreshes LRU, sector kept).
+//! - Streaming L1D (`s`): MSHRs = sets × ways × 4 × sectors = 1 × 256 × 4 × 4 = 4096 and merge
+//!   = `MAX_WARP_PER_SM` = 64 (`gpu-cache.h:548-566`), miss queue 16 (the config string). Old: 32,
+//!   8, 8. The MSHR table is a map, so its size costs nothing per cycle.
+//! - Local memory interleaved across threads ([`addr::LocalLayout`]), L2 banks as memory
+//!   sub-partitions interleaved every 256 bytes with their own IPOLY-indexed sets
+//!   ([`addr::L2Map`]). Old: private per-thread regions, `bank = line mod banks`, `set = line mod
+//!   sets`.
 //!
 //! Granularity: tags are per 128-byte line with a valid and a dirty bit per 32-byte sector; a miss
 //! fetches one sector, and MSHRs merge misses to the same sector. With `sector_bytes ==
 //! line_bytes` the caches are line-granular and MSHRs merge same-line misses.
 
+pub mod addr;
 pub mod cache;
 pub mod dram;
 pub mod hierarchy;
 pub mod l1d;
 pub mod l2;
 pub mod mshr;
+
+pub use addr::{LocalLayout, SetIndex};
 
 use crate::config::ConfigError;
 use std::fmt;
@@ -186,6 +211,36 @@ impl Counters {
     }
 }
 
+/// What an L1D store hit does to the cached sector (a store always goes on to L2, and a store miss
+/// allocates nothing in either policy).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum L1dWrite {
+    /// Vulkan-Sim's dl1 policy `L` for the RT unit's global stores: the sector is invalidated
+    /// (`data_cache::wr_hit_we`, `gpu-cache.cc:1274-1292`), so a reload misses.
+    WriteEvict,
+    /// Old behaviour: the sector stays valid and the line becomes most recently used.
+    WriteThrough,
+}
+
+impl L1dWrite {
+    pub const NAMES: &'static [&'static str] = &["evict", "through"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            L1dWrite::WriteEvict => "evict",
+            L1dWrite::WriteThrough => "through",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<L1dWrite> {
+        match s {
+            "evict" => Some(L1dWrite::WriteEvict),
+            "through" => Some(L1dWrite::WriteThrough),
+            _ => None,
+        }
+    }
+}
+
 /// Associativity of a cache.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Assoc {
@@ -209,22 +264,34 @@ pub struct MemParams {
     /// times the ways, e.g. 56 KB fully associative).
     pub l1d_bytes: u32,
     pub l1d_assoc: Assoc,
-    /// Cycles from accepting a read that hits to its response (20).
+    /// Cycles from accepting a read that hits to its response being visible to the RT unit (1:
+    /// Vulkan-Sim's RT unit uses an L1D hit in the cycle of the lookup, and 1 is the earliest a
+    /// registered response allows; the old value 20 is the load/store unit's `-gpgpu_l1_latency`).
     pub l1d_hit_latency: u32,
-    /// Outstanding missed sectors per L1D (32).
+    /// Outstanding missed sectors per L1D (4096: Vulkan-Sim's streaming L1D, `gpu-cache.h:562`;
+    /// old 32).
     pub l1d_mshrs: u32,
-    /// Requests one L1D MSHR entry can hold (8).
+    /// Requests one L1D MSHR entry can hold (64 = `MAX_WARP_PER_SM`, `gpu-cache.h:564`; old 8).
     pub l1d_mshr_merge: u32,
-    /// Requests an L1D can hold waiting for the L2 port (8).
+    /// Requests an L1D can hold waiting for the L2 port (16: the dl1 config string; old 8).
     pub l1d_miss_queue: u32,
+    /// What a store hit does (write-evict; old write-through).
+    pub l1d_write: L1dWrite,
     /// L2 capacity (3 MB).
     pub l2_bytes: u32,
     pub l2_assoc: Assoc,
     /// Cycles from an L1D accepting a read that misses it and hits L2 to its response (160).
     pub l2_latency: u32,
-    /// L2 banks; sectors are interleaved over banks by line, and each bank accepts one request
-    /// per cycle (8).
+    /// L2 banks (memory sub-partitions), each with its own sets (`l2_bytes / l2_banks`); each bank
+    /// accepts one request per cycle (8).
     pub l2_banks: u32,
+    /// Bytes of consecutive addresses per bank before the next bank: `bank = addr /
+    /// interleave mod banks` (256: MOBILE `-gpgpu_mem_addr_mapping dramid@8`; old 128 = the line,
+    /// which with [`SetIndex::Linear`] is the old `line mod banks`, `line mod sets`). A power of
+    /// two, at least the line.
+    pub l2_interleave_bytes: u32,
+    /// Set index within a bank, over the address with the bank digit removed (IPOLY; old linear).
+    pub l2_set_index: SetIndex,
     /// Requests one bank's pipeline can hold (256).
     pub l2_bank_queue: u32,
     /// Outstanding missed sectors in the whole L2 (256).
@@ -239,6 +306,8 @@ pub struct MemParams {
     pub dram_bytes_per_cycle: u32,
     /// Requests waiting for the DRAM bus (64).
     pub dram_queue: u32,
+    /// Where threads' spill slots live (interleaved across threads; old per-thread regions).
+    pub local_layout: LocalLayout,
 }
 
 impl Default for MemParams {
@@ -249,14 +318,17 @@ impl Default for MemParams {
             line_bytes: 128,
             l1d_bytes: 64 * 1024,
             l1d_assoc: Assoc::Full,
-            l1d_hit_latency: 20,
-            l1d_mshrs: 32,
-            l1d_mshr_merge: 8,
-            l1d_miss_queue: 8,
+            l1d_hit_latency: 1,
+            l1d_mshrs: 4096,
+            l1d_mshr_merge: 64,
+            l1d_miss_queue: 16,
+            l1d_write: L1dWrite::WriteEvict,
             l2_bytes: 3 * 1024 * 1024,
             l2_assoc: Assoc::Ways(16),
             l2_latency: 160,
             l2_banks: 8,
+            l2_interleave_bytes: 256,
+            l2_set_index: SetIndex::Ipoly,
             l2_bank_queue: 256,
             l2_mshrs: 256,
             l2_mshr_merge: 16,
@@ -264,6 +336,7 @@ impl Default for MemParams {
             dram_latency: 100,
             dram_bytes_per_cycle: 32,
             dram_queue: 64,
+            local_layout: LocalLayout::Interleaved,
         }
     }
 }
@@ -344,6 +417,33 @@ impl MemParams {
             " (two port registers, one response register and one pipeline stage)",
         )?;
         at_least("l2_banks", self.l2_banks, 1, "")?;
+        let i = self.l2_interleave_bytes;
+        if !i.is_power_of_two() || i < l {
+            return Err(reject(
+                "l2_interleave_bytes",
+                i,
+                format!("must be a power of two, at least line_bytes ({l})"),
+            ));
+        }
+        if let Some(map) = self.l2_map() {
+            if map.sets_per_bank == 0 {
+                let ways = match self.l2_assoc {
+                    Assoc::Full => "1 set".to_string(),
+                    Assoc::Ways(w) => format!("{w} ways"),
+                };
+                return Err(reject(
+                    "l2_bytes",
+                    self.l2_bytes,
+                    format!(
+                        "must split into whole sets per bank: a multiple of line size ({l}) × {ways} × {} banks",
+                        self.l2_banks
+                    ),
+                ));
+            }
+            if let Some(why) = addr::L2Map::unsupported(map.sets_per_bank, self.l2_set_index) {
+                return Err(reject("l2_set_index", self.l2_set_index, why));
+            }
+        }
         at_least("l2_bank_queue", self.l2_bank_queue, 1, "")?;
         at_least("l2_mshrs", self.l2_mshrs, 1, "")?;
         at_least("l2_mshr_merge", self.l2_mshr_merge, 1, "")?;
@@ -352,6 +452,39 @@ impl MemParams {
         at_least("dram_bytes_per_cycle", self.dram_bytes_per_cycle, 1, "")?;
         at_least("dram_queue", self.dram_queue, 1, "")?;
         Ok(())
+    }
+
+    /// The L2's bank and set mapping, or `None` for the old single-array mapping (linear index,
+    /// line interleaving: `bank = line mod banks`, `set = line mod sets`). `sets_per_bank` is 0
+    /// when the L2 does not split into whole sets per bank (rejected by `validate`). A fully
+    /// associative L2 is one set per bank.
+    pub fn l2_map(&self) -> Option<addr::L2Map> {
+        if self.l2_set_index == SetIndex::Linear && self.l2_interleave_bytes == self.line_bytes {
+            return None;
+        }
+        let lines = self.l2_bytes / self.line_bytes;
+        let per_bank = lines / self.l2_banks.max(1);
+        let sets_per_bank = match self.l2_assoc {
+            _ if !lines.is_multiple_of(self.l2_banks.max(1)) => 0,
+            Assoc::Full => 1,
+            Assoc::Ways(w) if w > 0 && per_bank.is_multiple_of(w) => per_bank / w,
+            Assoc::Ways(_) => 0,
+        };
+        Some(addr::L2Map {
+            banks: self.l2_banks,
+            interleave_bytes: self.l2_interleave_bytes,
+            line_bytes: self.line_bytes,
+            sets_per_bank,
+            index: self.l2_set_index,
+        })
+    }
+
+    /// L2 bank of `addr`.
+    pub fn l2_bank_of(&self, addr: u64) -> u32 {
+        match self.l2_map() {
+            Some(m) => m.bank_of(addr),
+            None => (addr / u64::from(self.line_bytes) % u64::from(self.l2_banks)) as u32,
+        }
     }
 
     /// Address of the sector holding `addr`.
@@ -418,12 +551,102 @@ mod tests {
             (MemParams { dram_latency: 0, ..d }, "dram_latency"),
             (MemParams { dram_bytes_per_cycle: 0, ..d }, "dram_bytes_per_cycle"),
             (MemParams { l1d_mshrs: 0, ..d }, "l1d_mshrs"),
+            (MemParams { l2_interleave_bytes: 64, ..d }, "l2_interleave_bytes"),
+            (MemParams { l2_interleave_bytes: 384, ..d }, "l2_interleave_bytes"),
+            // 3 MB over 5 banks is not whole lines per bank.
+            (MemParams { l2_banks: 5, ..d }, "l2_bytes"),
+            // 2 MB / 8 banks / 16 ways = 128 sets: fine; 1.5 MB → 96 sets: fine; 3 MB / 8 / 32
+            // ways = 96; 3 MB / 16 banks / 64 ways = 24 sets: no IPOLY.
+            (MemParams { l2_banks: 16, l2_assoc: Assoc::Ways(64), ..d }, "l2_set_index"),
         ];
         for (p, name) in cases {
             let e = p.validate().unwrap_err();
             assert_eq!(e.parameter, name, "{e}");
         }
-        // 3 MB is 1536 sets of 16 ways: not a power of two, still valid.
+        // 3 MB is 1536 sets of 16 ways: not a power of two, still valid; per bank 192 = 3 × 64.
         assert_eq!(d.l2_bytes / (128 * 16), 1536);
+        assert_eq!(d.l2_map().unwrap().sets_per_bank, 192);
+        // The same sizes with the linear index are valid, and the old mapping has no bank split.
+        MemParams { l2_banks: 16, l2_assoc: Assoc::Ways(64), l2_set_index: SetIndex::Linear, ..d }
+            .validate()
+            .unwrap();
+        let old = MemParams { l2_set_index: SetIndex::Linear, l2_interleave_bytes: 128, l2_banks: 5, ..d };
+        assert!(old.l2_map().is_none());
+        old.validate().unwrap();
+    }
+
+    /// (bank, set) of the first spill slot (slot 0) of each of `threads` threads on each of `sms`
+    /// SMs, as the real stack managers compute the address and the L2 maps it.
+    fn first_slots(p: &MemParams, sms: u32) -> Vec<(u32, usize)> {
+        use crate::config::Config;
+        use crate::stack_manager::StackManager;
+        let g = cache::Geometry::l2(p);
+        let cfg = Config::default();
+        (0..sms)
+            .flat_map(|sm| {
+                let mut m = StackManager::new(cfg, sm).unwrap();
+                m.set_local_layout(p.local_layout, p.sms);
+                (0..cfg.threads()).map(move |t| m.spill_addr(t, 0)).collect::<Vec<_>>()
+            })
+            .map(|a| (p.l2_bank_of(a), g.set_of(a)))
+            .collect()
+    }
+
+    /// Largest number of distinct lines (ignoring sectors) falling into one set.
+    fn worst_set(p: &MemParams, sms: u32) -> usize {
+        use std::collections::BTreeMap;
+        let mut lines: BTreeMap<usize, std::collections::BTreeSet<u64>> = BTreeMap::new();
+        let cfg = crate::config::Config::default();
+        let g = cache::Geometry::l2(p);
+        for sm in 0..sms {
+            let mut m = crate::stack_manager::StackManager::new(cfg, sm).unwrap();
+            m.set_local_layout(p.local_layout, p.sms);
+            for t in 0..cfg.threads() {
+                let a = m.spill_addr(t, 0);
+                lines.entry(g.set_of(a)).or_default().insert(a / 128);
+            }
+        }
+        lines.values().map(|l| l.len()).max().unwrap()
+    }
+
+    #[test]
+    fn first_spill_slots_spread_over_banks_and_sets() {
+        use std::collections::BTreeSet;
+        let new = MemParams::default();
+        let old = MemParams {
+            local_layout: LocalLayout::Linear,
+            l2_set_index: SetIndex::Linear,
+            l2_interleave_bytes: 128,
+            ..new
+        };
+        let count = |v: &[(u32, usize)]| {
+            let banks: BTreeSet<u32> = v.iter().map(|x| x.0).collect();
+            let sets: BTreeSet<usize> = v.iter().map(|x| x.1).collect();
+            (banks.len(), sets.len())
+        };
+        // Old: 128 threads 512 KB apart are 128 lines in 3 sets of bank 0, 43 lines per set
+        // against 16 ways (the "evicted to DRAM"); 8 SMs still only 3 sets of bank 0.
+        assert_eq!(count(&first_slots(&old, 1)), (1, 3));
+        assert_eq!(worst_set(&old, 1), 43);
+        assert_eq!(count(&first_slots(&old, 8)), (1, 3));
+        assert_eq!(worst_set(&old, 8), 342);
+        // New: one SM's 128 first slots are 1 KB, 8 lines (4 warps × 256 B), each in its own set
+        // (a 256-byte chunk of one warp, two lines, is in one bank; warp slots are 8 SMs' warps
+        // apart, so one SM's warps share a bank as they share a channel in GPGPU-Sim); all 8 SMs'
+        // are 8 KB over every bank, one line per set.
+        assert_eq!(count(&first_slots(&new, 1)), (1, 8));
+        assert_eq!(worst_set(&new, 1), 1);
+        assert_eq!(count(&first_slots(&new, 8)), (8, 64));
+        assert_eq!(worst_set(&new, 8), 1);
+        // The new layout alone, with the old L2 mapping, is as dense (8 KB over 64 line sets).
+        let layout_only = MemParams { local_layout: LocalLayout::Interleaved, ..old };
+        assert_eq!(count(&first_slots(&layout_only, 8)), (8, 64));
+        // The new L2 mapping alone spreads the old layout's lines over many sets (IPOLY), though
+        // 512 KB strides keep them in one bank.
+        let map_only = MemParams { local_layout: LocalLayout::Linear, ..new };
+        let (banks, sets) = count(&first_slots(&map_only, 8));
+        assert_eq!(banks, 1);
+        assert!(sets >= 64, "{sets} sets");
+        assert!(worst_set(&map_only, 8) <= 16, "at most one set's ways per set");
     }
 }

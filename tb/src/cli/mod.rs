@@ -84,9 +84,10 @@ pub struct HardwareArgs {
     /// TOML file overriding RT-unit and memory parameters: `[rt]` keys bvh_header, internal,
     /// instance_leaf, leaf_descriptor, triangle, procedural, idle_skip; `[mem]` keys sms,
     /// sector_bytes, line_bytes, l1d_bytes, l1d_ways (0 = fully associative), l1d_hit_latency,
-    /// l1d_mshrs, l1d_mshr_merge, l1d_miss_queue, l2_bytes, l2_ways, l2_latency, l2_banks,
+    /// l1d_mshrs, l1d_mshr_merge, l1d_miss_queue, l1d_write ("evict" or "through"), l2_bytes,
+    /// l2_ways, l2_latency, l2_banks, l2_interleave_bytes, l2_set_index ("ipoly" or "linear"),
     /// l2_bank_queue, l2_mshrs, l2_mshr_merge, l2_dram_queue, dram_latency,
-    /// dram_bytes_per_cycle, dram_queue.
+    /// dram_bytes_per_cycle, dram_queue, local_layout ("interleaved" or "linear").
     #[arg(long, value_name = "FILE")]
     pub hw: Option<PathBuf>,
     /// Unified L1D/shared-memory size per SM in KB (default 64); the SH stacks are carved out.
@@ -122,7 +123,7 @@ impl HardwareArgs {
 
 /// Applies `[rt]` and `[mem]` tables of `text` to `hw`; unknown keys and wrong types are errors.
 pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<(), String> {
-    use rtl::mem::Assoc;
+    use rtl::mem::{Assoc, L1dWrite, LocalLayout, SetIndex};
     let doc: toml::Table = text.parse().map_err(|e| format!("not valid TOML: {e}"))?;
     for (section, value) in &doc {
         let table = value.as_table().ok_or_else(|| format!("'{section}' must be a table ([{section}])"))?;
@@ -134,6 +135,18 @@ pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<
                     .ok_or_else(|| format!("{name} = {v}: expected a whole number ≥ 0"))
             };
             let ways = |w: u32| if w == 0 { Assoc::Full } else { Assoc::Ways(w) };
+            // A string naming one of `names`, parsed by `from`.
+            fn choice<T>(
+                name: &str,
+                v: &toml::Value,
+                names: &[&str],
+                from: fn(&str) -> Option<T>,
+            ) -> Result<T, String> {
+                v.as_str().and_then(from).ok_or_else(|| {
+                    let allowed: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+                    format!("{name} = {v}: expected one of {}", allowed.join(", "))
+                })
+            }
             let (rt, m) = (&mut hw.rt, &mut hw.mem);
             match (section.as_str(), key.as_str()) {
                 ("rt", "bvh_header") => rt.bvh_header = uint()?,
@@ -155,10 +168,15 @@ pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<
                 ("mem", "l1d_mshrs") => m.l1d_mshrs = uint()?,
                 ("mem", "l1d_mshr_merge") => m.l1d_mshr_merge = uint()?,
                 ("mem", "l1d_miss_queue") => m.l1d_miss_queue = uint()?,
+                ("mem", "l1d_write") => m.l1d_write = choice(&name, v, L1dWrite::NAMES, L1dWrite::from_name)?,
                 ("mem", "l2_bytes") => m.l2_bytes = uint()?,
                 ("mem", "l2_ways") => m.l2_assoc = ways(uint()?),
                 ("mem", "l2_latency") => m.l2_latency = uint()?,
                 ("mem", "l2_banks") => m.l2_banks = uint()?,
+                ("mem", "l2_interleave_bytes") => m.l2_interleave_bytes = uint()?,
+                ("mem", "l2_set_index") => {
+                    m.l2_set_index = choice(&name, v, SetIndex::NAMES, SetIndex::from_name)?
+                }
                 ("mem", "l2_bank_queue") => m.l2_bank_queue = uint()?,
                 ("mem", "l2_mshrs") => m.l2_mshrs = uint()?,
                 ("mem", "l2_mshr_merge") => m.l2_mshr_merge = uint()?,
@@ -166,6 +184,9 @@ pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<
                 ("mem", "dram_latency") => m.dram_latency = uint()?,
                 ("mem", "dram_bytes_per_cycle") => m.dram_bytes_per_cycle = uint()?,
                 ("mem", "dram_queue") => m.dram_queue = uint()?,
+                ("mem", "local_layout") => {
+                    m.local_layout = choice(&name, v, LocalLayout::NAMES, LocalLayout::from_name)?
+                }
                 _ => return Err(format!("unknown parameter {name}")),
             }
         }
@@ -188,11 +209,28 @@ mod tests {
         assert_eq!((hw.rt.triangle, hw.rt.idle_skip, hw.mem.l2_latency), (12, false, 200));
         assert_eq!(hw.mem.l1d_assoc, rtl::mem::Assoc::Ways(4));
         assert_eq!(hw.rt.internal, 8, "keys not named keep their SPEC default");
+        apply_hardware_toml(
+            &mut hw,
+            "[mem]\nl1d_write = \"through\"\nl2_set_index = \"linear\"\nlocal_layout = \"linear\"\nl2_interleave_bytes = 128\n",
+        )
+        .unwrap();
+        use rtl::mem::{L1dWrite, LocalLayout, SetIndex};
+        assert_eq!(
+            (hw.mem.l1d_write, hw.mem.l2_set_index, hw.mem.local_layout, hw.mem.l2_interleave_bytes),
+            (L1dWrite::WriteThrough, SetIndex::Linear, LocalLayout::Linear, 128)
+        );
 
         let err = |text: &str| apply_hardware_toml(&mut crate::sim::Hardware::default(), text).unwrap_err();
         assert_eq!(err("[mem]\nl2_waysx = 3"), "unknown parameter mem.l2_waysx");
         assert!(err("[rt]\ntriangle = -1").contains("rt.triangle = -1: expected a whole number"));
         assert!(err("[rt]\nidle_skip = 3").contains("expected true or false"));
+        assert_eq!(
+            err("[mem]\nl1d_write = \"back\""),
+            "mem.l1d_write = \"back\": expected one of \"evict\", \"through\""
+        );
+        assert!(err("[mem]\nl2_set_index = 1")
+            .contains("mem.l2_set_index = 1: expected one of \"ipoly\", \"linear\""));
+        assert!(err("[mem]\nlocal_layout = \"x\"").contains("expected one of \"interleaved\", \"linear\""));
         assert!(err("mem = 3").contains("must be a table"));
         assert!(err("[mem\n").contains("not valid TOML"));
     }
