@@ -15,7 +15,7 @@
 use crate::bank_arbiter::BankArbiter;
 use crate::config::{Config, ConfigError};
 use crate::mem_sched::{FixedLatencyMem, MemSched};
-use crate::stack_manager::{Cmd, StackManager, StackStats};
+use crate::stack_manager::{Cmd, StackManager, StackStats, StackTiming};
 use crate::trace::{Probe, Sink};
 
 /// Default global-memory latency of the standalone stack unit, in cycles.
@@ -40,12 +40,32 @@ pub struct UnitStats {
 }
 
 impl StackUnit {
+    /// The stack subsystem as before issue 12: posted global stores and SH accesses done right
+    /// after the banks (`sh_latency` 2).
     pub fn new(cfg: Config, global_latency: u64) -> Result<Self, ConfigError> {
+        StackUnit::with_timing(
+            cfg,
+            global_latency,
+            StackTiming::Overlapped,
+            crate::bank_arbiter::MIN_SH_LATENCY,
+        )
+    }
+
+    /// With `StackTiming::Blocking` the memory acknowledges stores and the sequencer waits for
+    /// the acknowledgement; `sh_latency` as in [`BankArbiter::with_latency`]. (A standalone unit
+    /// has no node fetches, so the rest of `Blocking` does not apply.)
+    pub fn with_timing(
+        cfg: Config,
+        global_latency: u64,
+        timing: StackTiming,
+        sh_latency: u32,
+    ) -> Result<Self, ConfigError> {
+        let acked = timing == StackTiming::Blocking;
         Ok(StackUnit {
-            sm: StackManager::new(cfg, 0)?,
-            arb: BankArbiter::new(cfg.banks),
+            sm: StackManager::new(cfg, 0)?.with_acked_stores(acked),
+            arb: BankArbiter::with_latency(cfg.banks, sh_latency),
             sched: MemSched::new(),
-            mem: FixedLatencyMem::new(global_latency),
+            mem: FixedLatencyMem::with_acks(global_latency, acked),
             cycle: 0,
         })
     }
@@ -53,7 +73,7 @@ impl StackUnit {
     /// One clock cycle. The answers to `cmds` are in `self.sm.answer(t)`.
     pub fn step(&mut self, cmds: &[(u32, Cmd)]) {
         self.sm.step(cmds, self.arb.done(), self.sched.delivered());
-        self.arb.step(self.sm.sh_requests());
+        self.arb.step(self.cycle, self.sm.sh_requests());
         let port = self.sched.step(self.sm.global_requests(), true, self.mem.completions());
         self.mem.step(port);
         self.cycle += 1;
