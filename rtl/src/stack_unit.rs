@@ -121,3 +121,45 @@ impl Probe for StackUnit {
         s.pop_scope();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// RB_2, no SH, global latency 10: pushes 1, 2, 3 (the third spills 1 to global memory),
+    /// then pops 3, 2, 1. Returns the cycle the first pop is accepted. By hand: pushes in cycles
+    /// 0, 1, 2; the sequencer issues the store in 3. Posted (Overlapped): it is idle after that,
+    /// so the pop goes in 4. Acknowledged (Blocking): the scheduler sends the store in 4, the
+    /// memory reports the ack in 4 + 10 = 14, the FIFO takes it in 15 and delivers it in 16, the
+    /// sequencer completes the store in 17, the pop goes in 18.
+    fn pop_cycle(timing: StackTiming) -> u64 {
+        let cfg: Config = "RB_2".parse().unwrap();
+        let mut u = StackUnit::with_timing(cfg, 10, timing, 2).unwrap();
+        for v in [1, 2, 3] {
+            u.step(&[(0, Cmd::Push(v))]);
+        }
+        while !u.sm.ready(0) {
+            u.step(&[]);
+        }
+        let at = u.cycle;
+        u.step(&[(0, Cmd::Pop)]);
+        assert_eq!(u.sm.answer(0), Ok(Some(3)));
+        for want in [2, 1] {
+            while !u.sm.ready(0) {
+                u.step(&[]);
+            }
+            u.step(&[(0, Cmd::Pop)]);
+            assert_eq!(u.sm.answer(0), Ok(Some(want)), "the spilled entry comes back");
+        }
+        while !u.idle() {
+            u.step(&[]);
+        }
+        at
+    }
+
+    #[test]
+    fn acknowledged_stores_hold_the_sequencer_until_the_ack() {
+        assert_eq!(pop_cycle(StackTiming::Overlapped), 4);
+        assert_eq!(pop_cycle(StackTiming::Blocking), 18);
+    }
+}

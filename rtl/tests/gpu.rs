@@ -121,7 +121,6 @@ fn single_warp(lane0: Vec<RayOp>) -> WarpJob {
 ///    until 819.
 /// -  819: no ops left → Stack (Finish). 820: finish accepted → Done.
 /// -  821: warp done and its stacks quiet: the slot frees. 822: nothing left: the run ends.
-#[test]
 ///
 /// The derivation holds for both stack timings (the old `Overlapped` with `sh_latency` 2, and the
 /// default `Blocking` with 20): the push and the pop move no entry (the RB never fills), so the
@@ -558,6 +557,7 @@ fn blocking_node_fetch_waits_for_the_reload() {
 /// both timings give the same run, cycle for cycle (SH latency plays no part either).
 #[test]
 fn stack_timing_is_invisible_without_stack_traffic() {
+    assert_eq!(RtParams::default().stack_timing, StackTiming::Blocking, "the paper's timing is the default");
     let work = jobs(11, 16, 45);
     let old = run_with("RB_FULL", small_l2(), RtParams::default().overlapped(), work.clone()).unwrap();
     let new = run_with("RB_FULL", small_l2(), RtParams::default(), work.clone()).unwrap();
