@@ -4,11 +4,16 @@
 use proofs::harness::{run_cycle, CycleOpts, RunSummary};
 use proofs::streams::warps;
 use rtl::config::Config;
+use rtl::stack_manager::StackTiming;
 use rtl::stack_unit::StackUnit;
 use rtl::trace::NullSink;
 
 fn run(cfg: Config, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
-    let mut unit = StackUnit::new(cfg, 40).unwrap();
+    run_timed(StackUnit::new(cfg, 40).unwrap(), seed, warp_count, check_every_cycle)
+}
+
+fn run_timed(mut unit: StackUnit, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
+    let cfg = *unit.sm.config();
     let work = warps(seed, warp_count, cfg.warp_size, 130);
     let opts = CycleOpts { max_gap: 6, seed, check_every_cycle, max_cycles: 50_000_000, lockstep: false };
     run_cycle(&mut unit, work, opts, &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
@@ -39,5 +44,24 @@ fn every_cycle_checks_hold_on_the_full_sms() {
     for cfg in [Config::sms(), "RB_2+SH_8+SK+RA".parse().unwrap(), "RB_8+SH_4".parse().unwrap()] {
         let s = run(cfg, 11, 4, true);
         assert!(s.stats.stack.flushes_saturated > 0 || cfg.realloc.is_none() || s.stats.stack.flushes > 0);
+    }
+}
+
+/// Issue 12: acknowledged global stores (Blocking) and the 20-cycle SH latency keep every pop
+/// right and every per-cycle invariant, and only cost time.
+#[test]
+fn acknowledged_stores_and_sh_latency_keep_the_checks() {
+    for cfg in [Config::sms(), "RB_2+SH_4".parse().unwrap(), "RB_2".parse().unwrap()] {
+        let old = run(cfg, 13, 4, false);
+        let unit = StackUnit::with_timing(cfg, 40, StackTiming::Blocking, 20).unwrap();
+        let new = run_timed(unit, 13, 4, true);
+        assert_eq!(new.pops_checked, old.pops_checked, "{}", cfg.name());
+        assert!(
+            new.stats.cycles > old.stats.cycles,
+            "{}: {} vs {}",
+            cfg.name(),
+            new.stats.cycles,
+            old.stats.cycles
+        );
     }
 }

@@ -8,9 +8,19 @@
 //!
 //! A request is one stack entry: `entry_bytes / bank_bytes` words in adjacent banks. Each cycle
 //! every bank serves at most one word; two requests for the *same* word are served together
-//! (broadcast). A request is done when all its words have been served, and is reported in `done`
-//! the cycle after. A cycle in which some word waits because its bank serves another word is a
-//! conflict delay cycle.
+//! (broadcast). A request is done when all its words have been served; it then passes the
+//! shared-memory pipeline and is reported in `done`. A cycle in which some word waits because its
+//! bank serves another word is a conflict delay cycle.
+//!
+//! Latency (`sh_latency`, [`BankArbiter::with_latency`]): the cycles from the stack manager issuing
+//! an unconflicted request to the cycle its sequencer sees it done (and issues its next micro-op);
+//! each conflict cycle adds one. The request reaches the banks the cycle after issue, so with
+//! `sh_latency = 2` it is reported in `done` right after its last word is served (the model before
+//! issue 12), and every cycle above 2 is a pipeline stage after the banks. Vulkan-Sim's ldst unit
+//! is a pipeline `-gpgpu_smem_latency` deep (20 in `configs/tested-cfgs/MOBILE/gpgpusim.config`
+//! line 108; `shader.cc` ~3646 builds the unit with that depth and asserts it is > 1) that a shared
+//! access enters only after `shared_cycle` (~2261) has stalled it for its bank conflicts, so the
+//! latency comes after the serialization, as here.
 
 use crate::trace::{Probe, Sink};
 
@@ -41,11 +51,20 @@ struct Pending {
     served: u8,
 }
 
+/// Total cycles of an unconflicted SH access in the model before issue 12 (issue, bank cycle,
+/// done): the least `sh_latency` can be.
+pub const MIN_SH_LATENCY: u32 = 2;
+
 /// Registers of the arbiter.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct BankArbiter {
     banks: u32,
+    /// Pipeline stages after the banks: `sh_latency - 2`.
+    stages: u32,
     pending: Vec<Pending>,
+    /// Served requests in the pipeline after the banks: (cycle whose step reports it, thread), in
+    /// order.
+    pipe: std::collections::VecDeque<(u64, u32)>,
     /// Threads whose request completed last cycle (registered output).
     done: Vec<u32>,
     /// Per-cycle signals of the last evaluated cycle, for probes.
@@ -58,8 +77,16 @@ pub struct BankArbiter {
 }
 
 impl BankArbiter {
+    /// `sh_latency` = [`MIN_SH_LATENCY`]: done right after the banks.
     pub fn new(banks: u32) -> Self {
         BankArbiter { banks, ..Default::default() }
+    }
+
+    /// An unconflicted access takes `sh_latency` cycles from issue to completion (at least
+    /// [`MIN_SH_LATENCY`]; smaller values are treated as the minimum — `RtParams::validate`
+    /// rejects them first).
+    pub fn with_latency(banks: u32, sh_latency: u32) -> Self {
+        BankArbiter { banks, stages: sh_latency.saturating_sub(MIN_SH_LATENCY), ..Default::default() }
     }
 
     /// Threads whose request completed in the previous cycle.
@@ -68,16 +95,35 @@ impl BankArbiter {
     }
 
     pub fn is_idle(&self) -> bool {
-        self.pending.is_empty() && self.done.is_empty()
+        self.pending.is_empty() && self.done.is_empty() && self.pipe.is_empty()
+    }
+
+    /// Acts next cycle (a request at the banks, or a done signal for the stack manager to read).
+    pub fn busy(&self) -> bool {
+        !self.pending.is_empty() || !self.done.is_empty()
+    }
+
+    /// Cycle whose step reports the oldest request in the pipeline after the banks.
+    pub fn pipe_due(&self) -> Option<u64> {
+        self.pipe.front().map(|&(at, _)| at)
     }
 
     pub fn occupancy(&self) -> usize {
         self.pending.len()
     }
 
-    /// One clock cycle: serve pending words (oldest first), then enqueue `new` for later cycles.
-    pub fn step(&mut self, new: &[ShReq]) {
+    /// Clock cycle `now`: report requests leaving the pipeline, serve pending words (oldest
+    /// first), then enqueue `new` for later cycles. `now` numbers the caller's cycles (it may jump
+    /// over cycles in which the arbiter is idle or only holds requests in the pipeline).
+    pub fn step(&mut self, now: u64, new: &[ShReq]) {
         self.done.clear();
+        while let Some(&(at, t)) = self.pipe.front() {
+            if at > now {
+                break;
+            }
+            self.done.push(t);
+            self.pipe.pop_front();
+        }
         let mut bank_word = [u32::MAX; 64];
         let mut grant_mask = 0u64;
         let mut conflict_mask = 0u64;
@@ -100,11 +146,15 @@ impl BankArbiter {
                 }
             }
         }
-        let done = &mut self.done;
+        let (done, pipe, due) = (&mut self.done, &mut self.pipe, now + u64::from(self.stages));
         self.pending.retain(|p| {
             let complete = p.served.count_ones() == p.req.len as u32;
             if complete {
-                done.push(p.req.thread);
+                if due == now {
+                    done.push(p.req.thread);
+                } else {
+                    pipe.push_back((due, p.req.thread));
+                }
             }
             !complete
         });
@@ -125,6 +175,7 @@ impl Probe for BankArbiter {
         s.signal("grant", self.banks, self.grant_mask);
         s.signal("conflict", self.banks, self.conflict_mask);
         s.signal("pending", 16, self.pending.len() as u64);
+        s.signal("pipe", 16, self.pipe.len() as u64);
         s.signal("delay_cycles", 64, self.conflict_cycles);
         s.pop_scope();
     }
@@ -143,8 +194,8 @@ mod tests {
     #[test]
     fn disjoint_banks_finish_in_one_cycle() {
         let mut a = BankArbiter::new(32);
-        a.step(&[req(0, &[0, 1]), req(1, &[2, 3])]);
-        a.step(&[]);
+        a.step(0, &[req(0, &[0, 1]), req(1, &[2, 3])]);
+        a.step(0, &[]);
         assert_eq!(a.done(), &[0, 1]);
         assert_eq!(a.conflict_cycles, 0);
     }
@@ -153,25 +204,51 @@ mod tests {
     fn same_bank_different_words_serialise() {
         let mut a = BankArbiter::new(32);
         // Words 0, 32, 64 all sit in bank 0: three cycles, two of them with a conflict.
-        a.step(&[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
+        a.step(0, &[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
         let mut order = vec![];
         for _ in 0..3 {
-            a.step(&[]);
+            a.step(0, &[]);
             order.extend_from_slice(a.done());
         }
         assert_eq!(order, vec![0, 1, 2], "oldest first");
         assert_eq!(a.conflict_cycles, 2);
         assert_eq!(a.conflict_word_waits, 3);
-        a.step(&[]);
+        a.step(0, &[]);
         assert!(a.is_idle());
     }
 
     #[test]
     fn same_word_is_a_broadcast() {
         let mut a = BankArbiter::new(32);
-        a.step(&[req(0, &[5]), req(1, &[5])]);
-        a.step(&[]);
+        a.step(0, &[req(0, &[5]), req(1, &[5])]);
+        a.step(0, &[]);
         assert_eq!(a.done(), &[0, 1]);
         assert_eq!(a.conflict_cycles, 0);
+    }
+
+    /// Vulkan-Sim's 20-cycle shared-memory latency comes after the bank serialization: three
+    /// requests issued in cycle 0 to bank 0 are served in 1, 2, 3 and reported done (read by the
+    /// sequencer the cycle after) in 19, 20, 21, i.e. completed 20, 21, 22 cycles after issue.
+    #[test]
+    fn latency_follows_bank_serialisation() {
+        let mut a = BankArbiter::with_latency(32, 20);
+        a.step(0, &[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
+        let mut done = vec![];
+        for now in 1..=30 {
+            a.step(now, &[]);
+            done.extend(a.done().iter().map(|&t| (now, t)));
+            if now == 3 {
+                assert!(!a.busy() && !a.is_idle(), "only the pipeline holds requests");
+                assert_eq!(a.pipe_due(), Some(19));
+            }
+        }
+        assert_eq!(done, [(19, 0), (20, 1), (21, 2)]);
+        assert_eq!(a.conflict_cycles, 2, "the pipeline adds no conflicts");
+        assert!(a.is_idle());
+        // The minimum latency is the arbiter without a pipeline.
+        let mut b = BankArbiter::with_latency(32, MIN_SH_LATENCY);
+        b.step(0, &[req(0, &[0])]);
+        b.step(1, &[]);
+        assert_eq!(b.done(), &[0]);
     }
 }

@@ -3,12 +3,16 @@
 //! ```text
 //!  stack manager ──► request queue ──(≤1 per cycle, when the port is ready)──► memory port
 //!                                                                                  │
-//!  stack manager ◄── response FIFO (≤1 delivered per cycle) ◄── load completions ◄─┘
+//!  stack manager ◄── response FIFO (≤1 delivered per cycle) ◄── completions ◄──────┘
 //! ```
 //!
-//! Each thread has at most one request outstanding (its sequencer waits for a load's data before
-//! the next request), so the scheduler keeps one thread's requests in order by construction.
-//! Stores are posted: they leave the queue and need no response.
+//! Each thread has at most one request outstanding that waits for a response (its sequencer waits
+//! for a load's data before the next request), so the scheduler keeps one thread's requests in
+//! order by construction. Stores are posted with `StackTiming::Overlapped` (they leave the queue
+//! and need no response); with `StackTiming::Blocking` the L2's acknowledgement of a store is a
+//! completion like a load's data and goes through the FIFO too: the sequencer has one completion
+//! input that takes one response per cycle, and SPEC section 3 has a dependent request wait until
+//! the earlier response "is in the response FIFO".
 
 use std::collections::VecDeque;
 
@@ -87,11 +91,14 @@ impl Probe for MemSched {
     }
 }
 
-/// Global memory that answers every load a fixed number of cycles after it was issued; accepts
-/// one request per cycle. The RT unit replaces it with the cache hierarchy.
+/// Global memory that answers every load (and, if asked, acknowledges every store) a fixed
+/// number of cycles after it was issued; accepts one request per cycle. The RT unit replaces it
+/// with the cache hierarchy.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct FixedLatencyMem {
     latency: u64,
+    /// Stores are acknowledged (for acknowledged-store sequencers) rather than posted.
+    acks: bool,
     cycle: u64,
     /// (ready cycle, thread), in issue order, so also in ready order.
     inflight: VecDeque<(u64, u32)>,
@@ -103,7 +110,12 @@ impl FixedLatencyMem {
         FixedLatencyMem { latency: latency.max(1), ..Default::default() }
     }
 
-    /// Loads that completed in the previous cycle.
+    /// As [`FixedLatencyMem::new`], acknowledging stores after the same latency if `acks`.
+    pub fn with_acks(latency: u64, acks: bool) -> Self {
+        FixedLatencyMem { acks, ..FixedLatencyMem::new(latency) }
+    }
+
+    /// Loads (and acknowledged stores) that completed in the previous cycle.
     pub fn completions(&self) -> &[u32] {
         &self.done
     }
@@ -126,7 +138,7 @@ impl FixedLatencyMem {
             self.done.push(t);
             self.inflight.pop_front();
         }
-        if let Some(r) = req.filter(|r| !r.write) {
+        if let Some(r) = req.filter(|r| !r.write || self.acks) {
             self.inflight.push_back((self.cycle + self.latency, r.thread));
         }
         self.cycle += 1;

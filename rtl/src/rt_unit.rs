@@ -24,7 +24,12 @@
 //! one response per sector piece of its node (WaitMem), then spends its kind's latency (Busy).
 //! Push, Pop and the final Finish go to the stack manager one per cycle, each when the stack
 //! manager is `ready` for the thread; a Pop's answer must equal the trace's address, else the run
-//! stops with [`RunError::PopMismatch`]. A ray spends the BVH-header latency once, when its warp
+//! stops with [`RunError::PopMismatch`]. With [`StackTiming::Blocking`] (the default) a lane
+//! waiting to fetch is scheduled only once its stack sequencer is idle too: the pop's refill and
+//! the pushes' spills (each global store until the L2 acknowledges it) finish before the next
+//! node fetch, as in the paper's RT unit; since Finish also waits for `ready`, a warp cannot leave
+//! with a store unacknowledged. With [`StackTiming::Overlapped`] stores are posted and the refill
+//! overlaps the fetch. A ray spends the BVH-header latency once, when its warp
 //! is loaded (Vulkan-Sim reads the acceleration structure's header before the root).
 //!
 //! Clocking: every decision of a cycle reads registers only (thread states, fetch masks, the
@@ -46,12 +51,13 @@
 //! - Node data is not modelled, only addresses; stack entries are (the stack manager moves real
 //!   values, which is how every pop is checked).
 
-use crate::bank_arbiter::BankArbiter;
+use crate::bank_arbiter::{BankArbiter, MIN_SH_LATENCY};
 use crate::config::{Config, ConfigError};
 use crate::mem::{MemReq, MemResp, ReqKind};
 use crate::mem_sched::MemSched;
 use crate::node_fetch::{pieces, NodeFetch};
 use crate::ray_op::{NodeKind, RayOp, WarpJob};
+pub use crate::stack_manager::StackTiming;
 use crate::stack_manager::{Cmd, StackError, StackManager};
 use crate::trace::{Probe, Sink};
 
@@ -72,6 +78,17 @@ pub struct RtParams {
     pub procedural: u32,
     /// Jump over cycles in which every thread waits on memory (identical results, faster).
     pub idle_skip: bool,
+    /// Whether stack traffic is on the ray's critical path (`Blocking`, the paper's sequence and
+    /// the default) or overlaps the next node fetch with posted stores (`Overlapped`, the model
+    /// before issue 12). See [`StackTiming`].
+    pub stack_timing: StackTiming,
+    /// Total cycles of an unconflicted shared-memory (SH stack) access, from the cycle the
+    /// sequencer issues it to the cycle it issues its next micro-op; each bank-conflict cycle adds
+    /// one. Default 20: Vulkan-Sim's `-gpgpu_smem_latency 20`
+    /// (`configs/tested-cfgs/MOBILE/gpgpusim.config` line 108; the ldst unit's pipeline depth,
+    /// `shader.cc` ~3646). 2 is the model before issue 12 (issue, then one bank cycle) and the
+    /// least allowed ([`MIN_SH_LATENCY`]).
+    pub sh_latency: u32,
 }
 
 impl Default for RtParams {
@@ -84,6 +101,8 @@ impl Default for RtParams {
             triangle: 8,
             procedural: 8,
             idle_skip: true,
+            stack_timing: StackTiming::Blocking,
+            sh_latency: 20,
         }
     }
 }
@@ -100,8 +119,22 @@ impl RtParams {
         }
     }
 
-    /// Every latency must be at least one cycle (a thread is Busy for exactly that many cycles).
+    /// The timing of the model before issue 12 ([`StackTiming::Overlapped`], `sh_latency` 2),
+    /// other fields unchanged.
+    pub fn overlapped(self) -> Self {
+        RtParams { stack_timing: StackTiming::Overlapped, sh_latency: MIN_SH_LATENCY, ..self }
+    }
+
+    /// Every latency must be at least one cycle (a thread is Busy for exactly that many cycles);
+    /// `sh_latency` at least [`MIN_SH_LATENCY`].
     pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.sh_latency < MIN_SH_LATENCY {
+            return Err(ConfigError {
+                parameter: "sh_latency",
+                value: self.sh_latency.to_string(),
+                reason: format!("an SH access takes at least {MIN_SH_LATENCY} cycles (issue, then the bank)"),
+            });
+        }
         let named = [
             ("bvh_header", self.bvh_header),
             ("internal", self.internal),
@@ -316,11 +349,14 @@ pub struct RtUnit {
     /// Cycles each warp job spent in the warp buffer, by load order (0 while resident): a
     /// per-job share of the run time, used to attribute cycles to sampled warps.
     pub residence: Vec<u64>,
-    /// Distinguishes posted stores in flight.
+    /// Distinguishes posted stores in flight (Overlapped; with Blocking a store's id names its
+    /// thread, which has at most one store in flight, so the acknowledgement finds its sequencer).
     store_seq: u64,
     /// Per-cycle signals.
     port: Port,
     scheduled: Option<u32>,
+    /// Lanes of the scheduled warp that start their fetch.
+    scheduled_lanes: u32,
     next_event: Option<u64>,
     /// Scratch, reused every cycle.
     arrived: Vec<u32>,
@@ -343,8 +379,8 @@ impl RtUnit {
             id,
             cfg,
             rt,
-            stack: StackManager::new(cfg, id)?,
-            arb: BankArbiter::new(cfg.banks),
+            stack: StackManager::new(cfg, id)?.with_acked_stores(rt.stack_timing == StackTiming::Blocking),
+            arb: BankArbiter::with_latency(cfg.banks, rt.sh_latency),
             sched: MemSched::new(),
             fetch: NodeFetch::new(sector_bytes),
             slots: vec![None; warps],
@@ -356,6 +392,7 @@ impl RtUnit {
             store_seq: 0,
             port: Port::Idle,
             scheduled: None,
+            scheduled_lanes: 0,
             next_event: None,
             arrived: vec![0; threads],
             woken: vec![0; warps],
@@ -393,7 +430,11 @@ impl RtUnit {
         if let Some(g) = self.sched.head() {
             self.port = Port::Stack;
             return Some(if g.write {
-                MemReq::write(self.store_seq << 2 | TAG_STORE, g.addr, bytes, ReqKind::StackSpill)
+                let tag = match self.rt.stack_timing {
+                    StackTiming::Blocking => u64::from(g.thread),
+                    StackTiming::Overlapped => self.store_seq,
+                };
+                MemReq::write(tag << 2 | TAG_STORE, g.addr, bytes, ReqKind::StackSpill)
             } else {
                 MemReq::read(u64::from(g.thread) << 2 | TAG_LOAD, g.addr, bytes, ReqKind::StackReload)
             });
@@ -443,14 +484,15 @@ impl RtUnit {
         // Scheduler: picks a warp in the cycle the fetch queue drains (the port taking the last
         // piece is the queue's ready signal).
         self.scheduled = None;
+        self.scheduled_lanes = 0;
         if self.fetch.queue_empty() {
-            let ready = |w: u32| self.lanes[w as usize].fetch != 0;
+            let ready = |w: u32| self.fetchable(w) != 0;
             let age = |w: u32| self.slots[w as usize].as_ref().map_or(u64::MAX, |s| s.age);
             if let Some(w) = gto(self.greedy, self.cfg.warps, ready, age) {
                 self.greedy = Some(w);
                 self.scheduled = Some(w);
-                let (slot, threads, mask) =
-                    (&self.slots[w as usize], &self.threads, self.lanes[w as usize].fetch);
+                self.scheduled_lanes = self.fetchable(w);
+                let (slot, threads, mask) = (&self.slots[w as usize], &self.threads, self.scheduled_lanes);
                 let lanes = slot.as_ref().map_or(&[][..], |s| &s.lanes[..]);
                 self.fetch.coalesce(
                     w,
@@ -466,7 +508,8 @@ impl RtUnit {
         }
 
         // Responses: node pieces wake lanes; stack loads go to the response FIFO; store
-        // acknowledgements need nothing (stores are posted).
+        // acknowledgements too with Blocking (their sequencer waits), and need nothing with
+        // Overlapped (stores are posted).
         self.completions.clear();
         for r in resp {
             match r.id & 3 {
@@ -478,7 +521,12 @@ impl RtUnit {
                     self.woken[w as usize] |= lanes;
                 }
                 TAG_LOAD => self.completions.push((r.id >> 2) as u32),
-                _ => debug_assert_eq!(r.id & 3, TAG_STORE),
+                _ => {
+                    debug_assert_eq!(r.id & 3, TAG_STORE);
+                    if self.rt.stack_timing == StackTiming::Blocking {
+                        self.completions.push((r.id >> 2) as u32);
+                    }
+                }
             }
         }
 
@@ -492,7 +540,7 @@ impl RtUnit {
             let due = now >= q.busy_until;
             let todo = q.stack
                 | std::mem::take(&mut self.woken[w as usize])
-                | if self.scheduled == Some(w) { q.fetch } else { 0 }
+                | if self.scheduled == Some(w) { self.scheduled_lanes } else { 0 }
                 | if due { q.busy } else { 0 };
             for l in lanes_of(todo) {
                 let t = w * ws + l;
@@ -571,7 +619,7 @@ impl RtUnit {
             }
         }
         self.stats.pops_checked += self.expected_pops.len() as u64;
-        self.arb.step(self.stack.sh_requests());
+        self.arb.step(now, self.stack.sh_requests());
         self.sched.step(self.stack.global_requests(), took_stack, &self.completions);
 
         if let (Some(job), Some(w)) = (job, load_slot) {
@@ -581,19 +629,35 @@ impl RtUnit {
         // Next event: anything that acts next cycle without a memory response, else the first
         // operation unit to finish.
         let acts_next = !self.fetch.queue_empty()
-            || !self.arb.is_idle()
+            || self.arb.busy()
             || !self.sched.is_idle()
             || (0..self.cfg.warps).any(|w| {
                 let m = &self.lanes[w as usize];
                 self.slots[w as usize].is_some()
-                    && (m.fetch != 0
+                    && (self.fetchable(w) != 0
                         || m.live == 0
                         || lanes_of(m.stack).any(|l| self.stack.ready(w * ws + l)))
             })
             || self.stack.can_issue();
-        let event = self.lanes.iter().map(|m| m.busy_until).min().unwrap_or(u64::MAX);
+        // A lane waiting to fetch on its sequencer (Blocking) moves when the sequencer completes,
+        // which one of the events here or a memory response causes.
+        let event =
+            self.lanes.iter().map(|m| m.busy_until).chain(self.arb.pipe_due()).min().unwrap_or(u64::MAX);
         self.next_event = if acts_next { Some(now + 1) } else { (event != u64::MAX).then_some(event) };
         Ok(())
+    }
+
+    /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with
+    /// Blocking only those whose stack sequencer is idle.
+    fn fetchable(&self, w: u32) -> u32 {
+        let m = self.lanes[w as usize].fetch;
+        match self.rt.stack_timing {
+            StackTiming::Overlapped => m,
+            StackTiming::Blocking => {
+                let ws = self.cfg.warp_size;
+                lanes_of(m).filter(|&l| self.stack.ready(w * ws + l)).fold(0, |a, l| a | 1 << l)
+            }
+        }
     }
 
     /// Thread `t` holds no stack entry anywhere, and with reallocation its own SH stack is idle
@@ -669,6 +733,7 @@ impl Probe for RtUnit {
         s.signal("greedy", wbits, u64::from(self.greedy.unwrap_or(0)));
         s.signal("issue_valid", 1, u64::from(self.scheduled.is_some()));
         s.signal("issue_warp", wbits, u64::from(self.scheduled.unwrap_or(0)));
+        s.signal("issue_lanes", ws, u64::from(self.scheduled_lanes));
         s.pop_scope();
         s.push_scope("port");
         s.signal("node", 1, u64::from(self.port == Port::Node));

@@ -39,6 +39,47 @@ pub const SPILL_BASE: u64 = 0x8000_0000_0000;
 /// test shows up as this value at a pop, never as a panic).
 pub const POISON: Entry = 0xDEAD_DEAD_DEAD_DEAD;
 
+/// How a thread's stack traffic overlaps its traversal (`[stack] timing`).
+///
+/// The paper's RT unit handles a node's result in sequence: pop (and reload any spilled entry),
+/// push the hit children (spilling as needed), and only then read the new stack top for the next
+/// node fetch; SPEC section 3 makes a request that needs an earlier one's data wait until that
+/// response is in the response FIFO. Vulkan-Sim retires an RT warp only when it has no write
+/// pending (`shader.cc` ~3090: `!has_pending_writes()`), i.e. stores are acknowledged.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum StackTiming {
+    /// The paper's sequence (default): a thread's next node fetch waits until its sequencer is
+    /// idle, and a global store completes when the L2's acknowledgement is delivered by the
+    /// response FIFO (so a warp cannot leave with a store unacknowledged).
+    #[default]
+    Blocking,
+    /// The model before issue 12: global stores are posted (complete when issued), and a pop's
+    /// refill and a push's spill proceed while the thread fetches its next node; only the
+    /// thread's next stack command waits for them.
+    Overlapped,
+}
+
+impl StackTiming {
+    /// The TOML spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            StackTiming::Blocking => "blocking",
+            StackTiming::Overlapped => "overlapped",
+        }
+    }
+}
+
+impl std::str::FromStr for StackTiming {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "blocking" => Ok(StackTiming::Blocking),
+            "overlapped" => Ok(StackTiming::Overlapped),
+            _ => Err(format!("'{s}': expected \"blocking\" or \"overlapped\"")),
+        }
+    }
+}
+
 /// A command from the RT unit to the stack manager for one thread.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Cmd {
@@ -307,6 +348,9 @@ pub struct StackManager {
     pops_out: Vec<(u32, Entry)>,
     errors_out: Vec<StackError>,
     cmds_seen: Vec<(u32, Cmd)>,
+    /// A global store stays in flight until its acknowledgement arrives on the global
+    /// completion input ([`StackTiming::Blocking`]); otherwise it is posted.
+    acked_stores: bool,
     pub stats: StackStats,
     #[cfg(feature = "mutants")]
     pub mutant: Option<Mutant>,
@@ -341,6 +385,7 @@ impl StackManager {
             pops_out: Vec::new(),
             errors_out: Vec::new(),
             cmds_seen: Vec::new(),
+            acked_stores: false,
             stats: StackStats::default(),
             #[cfg(feature = "mutants")]
             mutant: None,
@@ -353,6 +398,17 @@ impl StackManager {
 
     pub fn config(&self) -> &Config {
         &self.cfg
+    }
+    /// Global stores wait for their acknowledgement (`true`, [`StackTiming::Blocking`]) or are
+    /// posted (`false`, the default of [`StackManager::new`], and [`StackTiming::Overlapped`]).
+    /// The functional level ([`StackManager::apply`], [`StackManager::complete_next`]) completes
+    /// a store at once either way.
+    pub fn with_acked_stores(mut self, acked: bool) -> Self {
+        self.acked_stores = acked;
+        self
+    }
+    pub fn acked_stores(&self) -> bool {
+        self.acked_stores
     }
     pub fn widths(&self) -> &Widths {
         &self.w
@@ -971,6 +1027,13 @@ impl StackManager {
                 self.g_out.push(GReq { thread: t, write: false, addr: self.spill_addr(t, slot) });
                 self.seq[t as usize].inflight = Some(u);
             }
+            Uop::GlobalStore { slot, src } if self.acked_stores => {
+                // Capture the latch now (the store carries its data); the data lands, and the
+                // sequencer moves on, when the acknowledgement comes back.
+                let v = self.take_src(t, src);
+                self.g_out.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
+                self.seq[t as usize].inflight = Some(Uop::GlobalStore { slot, src: Src::Value(v) });
+            }
             Uop::GlobalStore { slot, .. } => {
                 self.g_out.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
                 self.complete(t, u);
@@ -982,7 +1045,8 @@ impl StackManager {
     /// One clock cycle at the cycle level.
     ///
     /// `sh_done` are the threads whose SH request the arbiter completed last cycle, `g_done` the
-    /// thread whose load data the response FIFO delivered last cycle; `cmds` go to ready threads.
+    /// thread whose load data (or, with acknowledged stores, store acknowledgement) the response
+    /// FIFO delivered last cycle; `cmds` go to ready threads.
     /// Afterwards `sh_requests`, `global_requests`, `pops` and `errors` hold this cycle's outputs.
     pub fn step(&mut self, cmds: &[(u32, Cmd)], sh_done: &[u32], g_done: Option<u32>) {
         self.sh_out.clear();

@@ -15,7 +15,7 @@
 use crate::bank_arbiter::BankArbiter;
 use crate::config::{Config, ConfigError};
 use crate::mem_sched::{FixedLatencyMem, MemSched};
-use crate::stack_manager::{Cmd, StackManager, StackStats};
+use crate::stack_manager::{Cmd, StackManager, StackStats, StackTiming};
 use crate::trace::{Probe, Sink};
 
 /// Default global-memory latency of the standalone stack unit, in cycles.
@@ -40,12 +40,32 @@ pub struct UnitStats {
 }
 
 impl StackUnit {
+    /// The stack subsystem as before issue 12: posted global stores and SH accesses done right
+    /// after the banks (`sh_latency` 2).
     pub fn new(cfg: Config, global_latency: u64) -> Result<Self, ConfigError> {
+        StackUnit::with_timing(
+            cfg,
+            global_latency,
+            StackTiming::Overlapped,
+            crate::bank_arbiter::MIN_SH_LATENCY,
+        )
+    }
+
+    /// With `StackTiming::Blocking` the memory acknowledges stores and the sequencer waits for
+    /// the acknowledgement; `sh_latency` as in [`BankArbiter::with_latency`]. (A standalone unit
+    /// has no node fetches, so the rest of `Blocking` does not apply.)
+    pub fn with_timing(
+        cfg: Config,
+        global_latency: u64,
+        timing: StackTiming,
+        sh_latency: u32,
+    ) -> Result<Self, ConfigError> {
+        let acked = timing == StackTiming::Blocking;
         Ok(StackUnit {
-            sm: StackManager::new(cfg, 0)?,
-            arb: BankArbiter::new(cfg.banks),
+            sm: StackManager::new(cfg, 0)?.with_acked_stores(acked),
+            arb: BankArbiter::with_latency(cfg.banks, sh_latency),
             sched: MemSched::new(),
-            mem: FixedLatencyMem::new(global_latency),
+            mem: FixedLatencyMem::with_acks(global_latency, acked),
             cycle: 0,
         })
     }
@@ -53,7 +73,7 @@ impl StackUnit {
     /// One clock cycle. The answers to `cmds` are in `self.sm.answer(t)`.
     pub fn step(&mut self, cmds: &[(u32, Cmd)]) {
         self.sm.step(cmds, self.arb.done(), self.sched.delivered());
-        self.arb.step(self.sm.sh_requests());
+        self.arb.step(self.cycle, self.sm.sh_requests());
         let port = self.sched.step(self.sm.global_requests(), true, self.mem.completions());
         self.mem.step(port);
         self.cycle += 1;
@@ -99,5 +119,47 @@ impl Probe for StackUnit {
         self.arb.probe(s);
         self.sched.probe(s);
         s.pop_scope();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// RB_2, no SH, global latency 10: pushes 1, 2, 3 (the third spills 1 to global memory),
+    /// then pops 3, 2, 1. Returns the cycle the first pop is accepted. By hand: pushes in cycles
+    /// 0, 1, 2; the sequencer issues the store in 3. Posted (Overlapped): it is idle after that,
+    /// so the pop goes in 4. Acknowledged (Blocking): the scheduler sends the store in 4, the
+    /// memory reports the ack in 4 + 10 = 14, the FIFO takes it in 15 and delivers it in 16, the
+    /// sequencer completes the store in 17, the pop goes in 18.
+    fn pop_cycle(timing: StackTiming) -> u64 {
+        let cfg: Config = "RB_2".parse().unwrap();
+        let mut u = StackUnit::with_timing(cfg, 10, timing, 2).unwrap();
+        for v in [1, 2, 3] {
+            u.step(&[(0, Cmd::Push(v))]);
+        }
+        while !u.sm.ready(0) {
+            u.step(&[]);
+        }
+        let at = u.cycle;
+        u.step(&[(0, Cmd::Pop)]);
+        assert_eq!(u.sm.answer(0), Ok(Some(3)));
+        for want in [2, 1] {
+            while !u.sm.ready(0) {
+                u.step(&[]);
+            }
+            u.step(&[(0, Cmd::Pop)]);
+            assert_eq!(u.sm.answer(0), Ok(Some(want)), "the spilled entry comes back");
+        }
+        while !u.idle() {
+            u.step(&[]);
+        }
+        at
+    }
+
+    #[test]
+    fn acknowledged_stores_hold_the_sequencer_until_the_ack() {
+        assert_eq!(pop_cycle(StackTiming::Overlapped), 4);
+        assert_eq!(pop_cycle(StackTiming::Blocking), 18);
     }
 }

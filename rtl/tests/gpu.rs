@@ -6,7 +6,7 @@ use rtl::config::Config;
 use rtl::gpu::{carve_out, Gpu, GpuReport};
 use rtl::mem::MemParams;
 use rtl::ray_op::{NodeKind, RayOp, WarpJob};
-use rtl::rt_unit::{RtParams, RunError};
+use rtl::rt_unit::{RtParams, RunError, StackTiming};
 use rtl::trace::{NullSink, Sink};
 
 /// Tiny deterministic generator (SplitMix64).
@@ -122,8 +122,18 @@ fn single_warp(lane0: Vec<RayOp>) -> WarpJob {
 ///    until 819.
 /// -  819: no ops left → Stack (Finish). 820: finish accepted → Done.
 /// -  821: warp done and its stacks quiet: the slot frees. 822: nothing left: the run ends.
+///
+/// The derivation holds for both stack timings (the old `Overlapped` with `sh_latency` 2, and the
+/// default `Blocking` with 20): the push and the pop move no entry (the RB never fills), so the
+/// stack sequencer is idle in the cycle after each command and neither timing adds a cycle.
 #[test]
 fn single_ray_cycle_count_derived_by_hand() {
+    for rt in [RtParams::default().overlapped(), RtParams::default()] {
+        single_ray_with(rt);
+    }
+}
+
+fn single_ray_with(rt: RtParams) {
     let (root, a, b) = (0x1_0000, 0x2_0000, 0x3_0000);
     let ops = vec![
         RayOp::Visit { addr: root, kind: NodeKind::Internal, bytes: 64 },
@@ -132,7 +142,7 @@ fn single_ray_cycle_count_derived_by_hand() {
         RayOp::Pop(a),
         RayOp::Visit { addr: a, kind: NodeKind::Triangle, bytes: 64 },
     ];
-    let r = run_with("RB_8", one_sm(), RtParams::default(), vec![single_warp(ops.clone())]).unwrap();
+    let r = run_with("RB_8", one_sm(), rt, vec![single_warp(ops.clone())]).unwrap();
     assert_eq!(r.cycles, 822);
     assert_eq!((r.rays, r.visits, r.node_fetches, r.pops_checked), (1, 3, 6, 1));
     assert_eq!(r.dram_node, 6);
@@ -144,7 +154,7 @@ fn single_ray_cycle_count_derived_by_hand() {
     // 3 WaitMem, 4 Stack.
     let mut watch = Watch::new("sm0.rt_unit.warp_buffer.warp[0].thread[0].state");
     let cfg: Config = "RB_8".parse().unwrap();
-    Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
+    Gpu::new(cfg, rt, one_sm()).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
     let (done, busy, fetch, wait, stack) = (0, 1, 2, 3, 4);
     #[rustfmt::skip]
     let derived = [
@@ -154,17 +164,19 @@ fn single_ray_cycle_count_derived_by_hand() {
     assert_eq!(watch.changes, derived);
 }
 
-/// Records when one signal changes value: (cycle, new value).
+/// Records when one signal changes value: (cycle, new value); with `every`, every cycle's
+/// non-zero value.
 struct Watch {
     path: &'static str,
     scope: Vec<String>,
     cycle: u64,
+    every: bool,
     changes: Vec<(u64, u64)>,
 }
 
 impl Watch {
     fn new(path: &'static str) -> Self {
-        Watch { path, scope: Vec::new(), cycle: 0, changes: Vec::new() }
+        Watch { path, scope: Vec::new(), cycle: 0, every: false, changes: Vec::new() }
     }
 }
 
@@ -183,8 +195,8 @@ impl Sink for Watch {
     }
     fn signal(&mut self, name: &str, _: u32, value: u64) {
         let (scope, signal) = self.path.rsplit_once('.').unwrap();
-        if name == signal && self.scope.join(".") == scope && self.changes.last().map(|c| c.1) != Some(value)
-        {
+        let record = if self.every { value != 0 } else { self.changes.last().map(|c| c.1) != Some(value) };
+        if name == signal && self.scope.join(".") == scope && record {
             self.changes.push((self.cycle, value));
         }
     }
@@ -312,15 +324,19 @@ fn bad_jobs_are_errors() {
 #[test]
 fn idle_skipping_equals_stepping_every_cycle() {
     // Dense (every SM full: little to skip) and sparse (one warp per SM: mostly waiting).
-    for (cfg, work, min_skipped_percent) in [
-        ("RB_2", jobs(5, 24, 45), 5),
-        ("RB_8+SH_8+SK+RA", jobs(5, 24, 45), 5),
-        ("RB_2+SH_4", jobs(6, 6, 45), 50),
+    // Both stack timings: Blocking adds waits on store acknowledgements, on the SH latency
+    // pipeline and lanes that wait to fetch on their sequencer.
+    let old = RtParams::default().overlapped();
+    for (cfg, work, rt, min_skipped_percent) in [
+        ("RB_2", jobs(5, 24, 45), old, 5),
+        ("RB_8+SH_8+SK+RA", jobs(5, 24, 45), old, 5),
+        ("RB_2+SH_4", jobs(6, 6, 45), old, 50),
+        ("RB_2", jobs(5, 24, 45), RtParams::default(), 5),
+        ("RB_8+SH_8+SK+RA", jobs(5, 24, 45), RtParams::default(), 5),
+        ("RB_2+SH_4", jobs(6, 6, 45), RtParams::default(), 50),
     ] {
-        let stepped =
-            run_with(cfg, small_l2(), RtParams { idle_skip: false, ..RtParams::default() }, work.clone())
-                .unwrap();
-        let skipped = run_with(cfg, small_l2(), RtParams::default(), work).unwrap();
+        let stepped = run_with(cfg, small_l2(), RtParams { idle_skip: false, ..rt }, work.clone()).unwrap();
+        let skipped = run_with(cfg, small_l2(), rt, work).unwrap();
         assert_eq!(stepped, GpuReport { evaluated_cycles: stepped.evaluated_cycles, ..skipped }, "{cfg}");
         assert_eq!(stepped.evaluated_cycles, stepped.cycles);
         let skipped_percent = 100 - 100 * skipped.evaluated_cycles / stepped.cycles;
@@ -415,7 +431,8 @@ fn planted_stack_bugs_stop_the_run() {
 /// a global store; 8 the sequencer issues it to the memory scheduler; 9 the port sends it
 /// instead of a node piece, and the sequencer is free again, so lane 0 pops 3, planning a
 /// reload of 1; 10 the reload is issued; 11 the port sends it. The 31 node pieces take cycles
-/// 6–8, 10 and 12–38.
+/// 6–8, 10 and 12–38. (Posted stores: the old `Overlapped` timing; with `Blocking` the pop waits
+/// for the store's acknowledgement, see `blocking_stores_wait_for_the_l2_ack`.)
 #[test]
 fn stack_requests_go_before_node_pieces() {
     let mut lanes: Vec<Option<Vec<RayOp>>> = (0..32)
@@ -426,7 +443,10 @@ fn stack_requests_go_before_node_pieces() {
     let run = |path| {
         let mut watch = Watch::new(path);
         let job = WarpJob { lanes: lanes.clone() };
-        Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![job], &mut watch).unwrap();
+        Gpu::new(cfg, RtParams::default().overlapped(), one_sm())
+            .unwrap()
+            .run(vec![job], &mut watch)
+            .unwrap();
         watch.changes
     };
     assert_eq!(run("sm0.rt_unit.port.stack"), [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)]);
@@ -457,4 +477,117 @@ fn residence_times_account_for_every_job() {
         .unwrap();
     assert_eq!(one.len(), 1);
     assert!(one[0] + 3 >= r1.cycles && one[0] < r1.cycles, "{} of {} cycles", one[0], r1.cycles);
+}
+
+/// Lane 0 alone on one SM, RB_2 (no SH: a spill goes straight to global memory): push 1, 2, 3
+/// (the third spills 1), pop 3 (reloads 1 into the RB), visit a fresh 32-byte triangle, pop 2,
+/// pop 1. Returns, per watched signal, its changes.
+fn spill_then_fetch(rt: RtParams, paths: &[&'static str]) -> (GpuReport, Vec<Vec<(u64, u64)>>) {
+    let mut ops: Vec<RayOp> = [1, 2, 3].map(RayOp::Push).into();
+    ops.push(RayOp::Pop(3));
+    ops.push(RayOp::Visit { addr: 0x9000, kind: NodeKind::Triangle, bytes: 32 });
+    ops.extend([2, 1].map(RayOp::Pop));
+    let cfg: Config = "RB_2".parse().unwrap();
+    let mut report = None;
+    let changes = paths
+        .iter()
+        .map(|&p| {
+            let mut watch = Watch::new(p);
+            let gpu = Gpu::new(cfg, rt, one_sm()).unwrap();
+            report = Some(gpu.run(vec![single_warp(ops.clone())], &mut watch).unwrap());
+            watch.changes
+        })
+        .collect();
+    (report.unwrap(), changes)
+}
+
+const PORT_STACK: &str = "sm0.rt_unit.port.stack";
+const PORT_NODE: &str = "sm0.rt_unit.port.node";
+/// 0 none, 1 push, 2 pop, 3 finish: the command the stack manager accepted in a cycle.
+const CMD: &str = "sm0.rt_unit.stack_manager.warp[0].thread[0].cmd_kind";
+
+/// Issue 12, item 1: with `Blocking` a global store completes only when the L2's
+/// acknowledgement comes back through the response FIFO, so the thread's next stack command
+/// waits for it. `spill_then_fetch`, derived by hand (memory defaults: a store is acknowledged
+/// `l2_latency` = 160 cycles after the L1D takes it, as a load that hits in L2 answers):
+///
+/// - Both: header until 4; pushes accepted in 5, 6, 7; the push in 7 plans the global store of 1;
+///   8 the sequencer issues it; 9 the port sends it.
+/// - Overlapped: the store is posted, the sequencer is idle after 8, so the pop is accepted in 9.
+/// - Blocking: the ack is visible in 9 + 160 = 169 and enters the response FIFO; 170 the FIFO
+///   delivers it; 171 the sequencer completes the store; 172 the pop is accepted.
+#[test]
+fn blocking_stores_wait_for_the_l2_ack() {
+    let (_, old) = spill_then_fetch(RtParams::default().overlapped(), &[CMD, PORT_STACK]);
+    let (_, new) = spill_then_fetch(RtParams::default(), &[CMD, PORT_STACK]);
+    let pop_at = |c: &[(u64, u64)]| c.iter().find(|&&(_, k)| k == 2).unwrap().0;
+    assert_eq!((pop_at(&old[0]), pop_at(&new[0])), (9, 172));
+    // The store leaves through the port in cycle 9 in both.
+    assert_eq!((old[1][1], new[1][1]), ((9, 1), (9, 1)));
+}
+
+/// Issue 12, item 1: with `Blocking` the node fetch after a pop that reloads from global memory
+/// waits for the reload; with `Overlapped` it goes right after. `spill_then_fetch`, by hand
+/// (continuing `blocking_stores_wait_for_the_l2_ack`; the reload hits in L2: 160 cycles; the
+/// triangle is a fresh line: L1D and L2 miss, 260 cycles):
+///
+/// - Overlapped: pop accepted in 9 (→ Fetch); 10 the warp is scheduled (one piece queued) and
+///   the sequencer issues the reload; 11 the port sends the reload (stack first), 12 the node
+///   piece. 12 + 260 = 272 the piece is back: Busy (8) until 280, → Stack; pops in 281, 282;
+///   finish 283; the slot frees in 284; the run ends at 285.
+/// - Blocking: pop accepted in 172; 173 the reload is issued (the lane waits in Fetch, not
+///   schedulable); 174 the port sends it; 334 back, into the FIFO; 335 delivered; 336 the
+///   sequencer completes the load and moves the entry to the RB bottom: idle; 337 the warp is
+///   scheduled; 338 the port sends the node piece; 598 back; Busy until 606; pops 607, 608;
+///   finish 609; frees 610; ends 611.
+#[test]
+fn blocking_node_fetch_waits_for_the_reload() {
+    let (old_r, old) = spill_then_fetch(RtParams::default().overlapped(), &[PORT_STACK, PORT_NODE, CMD]);
+    let (new_r, new) = spill_then_fetch(RtParams::default(), &[PORT_STACK, PORT_NODE, CMD]);
+    assert_eq!(old[0], [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)], "store, reload");
+    assert_eq!(old[1], [(0, 0), (12, 1), (13, 0)], "node piece right after the reload");
+    assert_eq!(new[0], [(0, 0), (9, 1), (10, 0), (174, 1), (175, 0)]);
+    assert_eq!(new[1], [(0, 0), (338, 1), (339, 0)], "node piece after the reload is back");
+    let finish_at = |c: &[(u64, u64)]| c.iter().find(|&&(_, k)| k == 3).unwrap().0;
+    assert_eq!((finish_at(&old[2]), finish_at(&new[2])), (283, 609));
+    assert_eq!((old_r.cycles, new_r.cycles), (285, 611));
+    assert_eq!((old_r.pops_checked, new_r.pops_checked), (3, 3));
+}
+
+/// RB_FULL moves no entry, so the stack sequencer is idle in the cycle after every command and
+/// both timings give the same run, cycle for cycle (SH latency plays no part either).
+#[test]
+fn stack_timing_is_invisible_without_stack_traffic() {
+    assert_eq!(RtParams::default().stack_timing, StackTiming::Blocking, "the paper's timing is the default");
+    let work = jobs(11, 16, 45);
+    let old = run_with("RB_FULL", small_l2(), RtParams::default().overlapped(), work.clone()).unwrap();
+    let new = run_with("RB_FULL", small_l2(), RtParams::default(), work.clone()).unwrap();
+    assert_eq!(old, new);
+    // With traffic the timings differ (and Blocking is slower).
+    let old = run_with("RB_2+SH_4", small_l2(), RtParams::default().overlapped(), work.clone()).unwrap();
+    let new = run_with("RB_2+SH_4", small_l2(), RtParams::default(), work).unwrap();
+    assert!(new.cycles > old.cycles, "{} vs {}", new.cycles, old.cycles);
+    assert_eq!((old.stack, old.pops_checked), (new.stack, new.pops_checked), "same traffic");
+}
+
+/// The SH latency alone (Overlapped, so only `sh_latency` differs): RB_2+SH_4, lane 0 pushes
+/// 1, 2, 3; the third spills 1 to SH (one SH store), and the next push waits for it. Accepted
+/// in 5, 6, 7; the store is issued in 8 and completes `sh_latency` cycles later (the sequencer
+/// is idle after that cycle), so the fourth push is accepted in 8 + sh_latency + 1: 11 with the
+/// old 2, 29 with Vulkan-Sim's 20.
+#[test]
+fn sh_accesses_take_the_shared_memory_latency() {
+    let mut ops: Vec<RayOp> = [1, 2, 3, 4].map(RayOp::Push).into();
+    ops.extend([4, 3, 2, 1].map(RayOp::Pop));
+    let cfg: Config = "RB_2+SH_4".parse().unwrap();
+    let pushes = |sh_latency: u32| {
+        let mut watch = Watch { every: true, ..Watch::new(CMD) };
+        let rt = RtParams { sh_latency, ..RtParams::default().overlapped() };
+        Gpu::new(cfg, rt, one_sm()).unwrap().run(vec![single_warp(ops.clone())], &mut watch).unwrap();
+        watch.changes.iter().filter(|&&(_, k)| k == 1).map(|c| c.0).collect::<Vec<_>>()
+    };
+    assert_eq!(pushes(2), [5, 6, 7, 11]);
+    assert_eq!(pushes(20), [5, 6, 7, 29]);
+    let e = RtParams { sh_latency: 1, ..RtParams::default() }.validate().unwrap_err();
+    assert_eq!(e.parameter, "sh_latency");
 }

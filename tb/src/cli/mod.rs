@@ -82,7 +82,10 @@ pub fn parse_res(s: &str) -> Result<(u32, u32), String> {
 #[derive(Clone, Debug, Default, clap::Args)]
 pub struct HardwareArgs {
     /// TOML file overriding RT-unit and memory parameters: `[rt]` keys bvh_header, internal,
-    /// instance_leaf, leaf_descriptor, triangle, procedural, idle_skip; `[mem]` keys sms,
+    /// instance_leaf, leaf_descriptor, triangle, procedural, idle_skip; `[stack]` keys timing
+    /// ("blocking", the default: stack traffic before the next node fetch, acknowledged stores;
+    /// or "overlapped": posted stores, refill overlaps the fetch) and sh_latency (cycles of an
+    /// unconflicted shared-memory access, default 20, at least 2); `[mem]` keys sms,
     /// sector_bytes, line_bytes, l1d_bytes, l1d_ways (0 = fully associative), l1d_hit_latency,
     /// l1d_mshrs, l1d_mshr_merge, l1d_miss_queue, l1d_write ("evict" or "through"), l2_bytes,
     /// l2_ways, l2_latency, l2_banks, l2_interleave_bytes, l2_set_index ("ipoly" or "linear"),
@@ -117,11 +120,13 @@ impl HardwareArgs {
         hw.mem.dram_latency = self.dram_latency.unwrap_or(hw.mem.dram_latency);
         // The memory system checks every value; report its reason before any work starts.
         rtl::mem::hierarchy::MemSystem::new(hw.mem).map_err(|e| anyhow::anyhow!("hardware: {e}"))?;
+        hw.rt.validate().map_err(|e| anyhow::anyhow!("hardware: {e}"))?;
         Ok(hw)
     }
 }
 
-/// Applies `[rt]` and `[mem]` tables of `text` to `hw`; unknown keys and wrong types are errors.
+/// Applies `[rt]`, `[stack]` and `[mem]` tables of `text` to `hw`; unknown keys and wrong types
+/// are errors.
 pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<(), String> {
     use rtl::mem::{Assoc, L1dWrite, LocalLayout, SetIndex};
     let doc: toml::Table = text.parse().map_err(|e| format!("not valid TOML: {e}"))?;
@@ -159,6 +164,14 @@ pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<
                     rt.idle_skip =
                         v.as_bool().ok_or_else(|| format!("{name} = {v}: expected true or false"))?
                 }
+                ("stack", "timing") => {
+                    rt.stack_timing = v
+                        .as_str()
+                        .ok_or_else(|| format!("{name} = {v}: expected \"blocking\" or \"overlapped\""))?
+                        .parse()
+                        .map_err(|e| format!("{name} = {e}"))?
+                }
+                ("stack", "sh_latency") => rt.sh_latency = uint()?,
                 ("mem", "sms") => m.sms = uint()?,
                 ("mem", "sector_bytes") => m.sector_bytes = uint()?,
                 ("mem", "line_bytes") => m.line_bytes = uint()?,
@@ -219,6 +232,12 @@ mod tests {
             (hw.mem.l1d_write, hw.mem.l2_set_index, hw.mem.local_layout, hw.mem.l2_interleave_bytes),
             (L1dWrite::WriteThrough, SetIndex::Linear, LocalLayout::Linear, 128)
         );
+        assert_eq!((hw.rt.stack_timing, hw.rt.sh_latency), (rtl::rt_unit::StackTiming::Blocking, 20));
+        apply_hardware_toml(&mut hw, "[stack]\ntiming = \"overlapped\"\nsh_latency = 2\n").unwrap();
+        assert_eq!(
+            hw.rt,
+            rtl::rt_unit::RtParams { triangle: 12, idle_skip: false, ..Default::default() }.overlapped()
+        );
 
         let err = |text: &str| apply_hardware_toml(&mut crate::sim::Hardware::default(), text).unwrap_err();
         assert_eq!(err("[mem]\nl2_waysx = 3"), "unknown parameter mem.l2_waysx");
@@ -231,6 +250,12 @@ mod tests {
         assert!(err("[mem]\nl2_set_index = 1")
             .contains("mem.l2_set_index = 1: expected one of \"ipoly\", \"linear\""));
         assert!(err("[mem]\nlocal_layout = \"x\"").contains("expected one of \"interleaved\", \"linear\""));
+        assert_eq!(
+            err("[stack]\ntiming = \"posted\""),
+            "stack.timing = 'posted': expected \"blocking\" or \"overlapped\""
+        );
+        assert!(err("[stack]\ntiming = 1").contains("stack.timing = 1: expected \"blocking\" or"));
+        assert!(err("[stack]\nsh_latency = -2").contains("stack.sh_latency = -2: expected a whole number"));
         assert!(err("mem = 3").contains("must be a table"));
         assert!(err("[mem\n").contains("not valid TOML"));
     }
