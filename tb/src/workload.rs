@@ -263,8 +263,8 @@ impl<'s> Workload<'s> {
             Accel::Flat => Bvh::build(&scene.primitives, opts.bvh)?,
             Accel::TwoLevel if opts.bvh != BvhKind::Bvh6 => {
                 return Err(Error::Invalid(format!(
-                    "accel two-level is built as BVH6 only (bvh {:?} asked)",
-                    opts.bvh
+                    "accel two-level is built as BVH6 only: bvh {} asked, use bvh bvh6",
+                    format!("{:?}", opts.bvh).to_lowercase()
                 )))
             }
             Accel::TwoLevel => Bvh::TwoLevel(Box::new(TwoLevel::build(&scene.primitives, &scene.objects)?)),
