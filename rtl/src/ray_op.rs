@@ -18,6 +18,10 @@
 pub enum NodeKind {
     /// Internal node: ray-box tests of its children.
     Internal,
+    /// Acceleration-structure header (Vulkan-Sim's `BVH_STRUCTURE` transaction, 64 bytes): a
+    /// two-level trace fetches each BLAS's header after its instance leaf
+    /// (`vulkan_ray_tracing.cc:731`); costs the `bvh_header` latency.
+    BvhHeader,
     /// Instance leaf: transform the ray into the instance's space.
     InstanceLeaf,
     /// Leaf descriptor, fetched before the primitive it describes.

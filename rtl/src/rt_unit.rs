@@ -112,6 +112,7 @@ impl RtParams {
     pub fn latency(&self, kind: NodeKind) -> u32 {
         match kind {
             NodeKind::Internal => self.internal,
+            NodeKind::BvhHeader => self.bvh_header,
             NodeKind::InstanceLeaf => self.instance_leaf,
             NodeKind::LeafDescriptor => self.leaf_descriptor,
             NodeKind::Triangle => self.triangle,

@@ -301,6 +301,15 @@ pub struct Work {
     pub leaf: u64,
     pub triangle: u64,
     pub procedural: u64,
+    /// Instance leaves and acceleration-structure headers (two-level only).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub instance: u64,
+    #[serde(skip_serializing_if = "is_zero")]
+    pub header: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 /// A piece of work the model skips when a run does not need it, timed both ways.
@@ -483,6 +492,8 @@ fn work(scene: &Scene, w: &Workload) -> Work {
                         NodeKind::Leaf => &mut out.leaf,
                         NodeKind::Triangle => &mut out.triangle,
                         NodeKind::Procedural => &mut out.procedural,
+                        NodeKind::Instance => &mut out.instance,
+                        NodeKind::BvhHeader => &mut out.header,
                     } += 1;
                 }
             }

@@ -12,6 +12,19 @@
 //! Addresses: every node fetch in a trace is a byte address `region base + index * size`, with
 //! internal nodes, leaves (BVH2 leaf nodes, BVH6 leaf descriptors) and primitive blocks in
 //! separate 16 GiB regions, so addresses are unique across kinds and aligned to their size.
+//!
+//! Two-level ([`TwoLevel`], `--accel two-level`): a TLAS (a BVH6 over the instances' world
+//! boxes, one instance per leaf) over one BLAS per mesh (a BVH6 over the mesh's primitives in its
+//! own space, built once however many instances share it), as the Vulkan pipeline builds them.
+//! Sizes are Vulkan-Sim's (`src/cuda-sim/vulkan_acceleration_structure_util.h`, lengths in
+//! dwords): `GEN_RT_BVH_length` 16 (a 64-byte acceleration-structure header, line 76),
+//! `GEN_RT_BVH_INTERNAL_NODE_length` 16 (64 B, line 96), `GEN_RT_BVH_INSTANCE_LEAF_length` 32
+//! (128 B, line 213). Layout: the TLAS's internal nodes first in the internal region, then each
+//! BLAS's in mesh order; BLAS leaf descriptors and primitive blocks likewise concatenated in their
+//! regions; instance leaves (128 B each, in TLAS leaf order) and headers (the TLAS's, then one
+//! per BLAS) in two more regions. Instances of one mesh share its BLAS's addresses, so the caches
+//! see the sharing. A transformed instance's world box is the box of its BLAS's transformed
+//! corners, widened by a relative 1e-5 so rounding in the transform never loses a hit.
 
 use std::collections::VecDeque;
 use std::ops::Range;
@@ -27,6 +40,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::geometry::Primitives;
+use crate::scene::{Instance, MeshGeometry, Objects};
 
 /// Start of the internal-node region.
 pub const INTERNAL_BASE: u64 = 0x4_0000_0000;
@@ -40,6 +54,14 @@ pub const BVH2_NODE_SIZE: u64 = 48;
 pub const CWBVH_NODE_SIZE: u64 = 80;
 pub const BVH6_NODE_SIZE: u64 = 64;
 pub const BVH6_LEAF_DESC_SIZE: u64 = 8;
+/// Start of the instance-leaf region (two-level).
+pub const INSTANCE_BASE: u64 = 0x10_0000_0000;
+/// Start of the acceleration-structure header region (two-level).
+pub const HEADER_BASE: u64 = 0x14_0000_0000;
+/// `GEN_RT_BVH_INSTANCE_LEAF_length` 32 dwords.
+pub const INSTANCE_LEAF_SIZE: u64 = 128;
+/// `GEN_RT_BVH_length` 16 dwords.
+pub const BVH_HEADER_SIZE: u64 = 64;
 /// Most children a BVH6 node holds.
 pub const BVH6_WIDTH: usize = 6;
 
@@ -145,12 +167,148 @@ impl Bvh6 {
     }
 }
 
+/// One mesh's bottom-level BVH6 and where its nodes live.
+#[derive(Clone, Debug)]
+pub struct Blas {
+    pub bvh: Bvh6,
+    /// Where the mesh's primitives are (the BVH's primitive indices are relative to its start).
+    pub geometry: MeshGeometry,
+    /// Object-space bounds.
+    pub bounds: Aabb,
+    /// Index of this BLAS's first internal node, leaf and primitive slot in their regions.
+    node_base: u64,
+    leaf_base: u64,
+    slot_base: u64,
+}
+
+impl Blas {
+    pub fn node_addr(&self, node: NodeRef) -> u64 {
+        match node {
+            NodeRef::Internal(i) => INTERNAL_BASE + (self.node_base + i as u64) * BVH6_NODE_SIZE,
+            NodeRef::Leaf(j) => LEAF_BASE + (self.leaf_base + j as u64) * BVH6_LEAF_DESC_SIZE,
+        }
+    }
+
+    pub fn prim_addr(&self, slot: u32) -> u64 {
+        PRIM_BASE + (self.slot_base + slot as u64) * PRIM_SIZE
+    }
+}
+
+/// A TLAS over instances of per-mesh BLASes (see the module docs).
+#[derive(Clone, Debug)]
+pub struct TwoLevel {
+    /// Primitive indices are instance indices.
+    pub tlas: Bvh6,
+    pub blas: Vec<Blas>,
+    pub instances: Vec<Instance>,
+    /// World-to-object transform of each instance (`None`: identity).
+    pub to_object: Vec<Option<glam::Affine3A>>,
+    /// The TLAS header's bounds: the union of the instances' world boxes.
+    pub world: Aabb,
+    /// Object-space triangles of the local meshes (a copy of [`Objects::local`]).
+    pub local: Vec<obvhs::triangle::Triangle>,
+}
+
+impl TwoLevel {
+    /// Builds one BLAS per mesh and the TLAS over the instances. `prims` is the scene's
+    /// world-space primitive list the world meshes are slices of.
+    pub fn build(prims: &Primitives, objects: &Objects) -> Result<Self> {
+        if objects.instances.is_empty() {
+            return Err(Error::Invalid("cannot build a TLAS over no instances".into()));
+        }
+        let p = params(BvhKind::Bvh6);
+        let mut time = Duration::ZERO;
+        let (mut node_base, mut leaf_base, mut slot_base) = (0u64, 0u64, 0u64);
+        let mut blas = Vec::with_capacity(objects.meshes.len());
+        for geometry in &objects.meshes {
+            let r = geometry.range();
+            let r = r.start as usize..r.end as usize;
+            let bvh2 = match (geometry, prims) {
+                (MeshGeometry::World(_), Primitives::Triangles(t)) => build_bvh2(&t[r], p, &mut time),
+                (MeshGeometry::World(_), Primitives::Spheres(s)) => build_bvh2(&s[r], p, &mut time),
+                (MeshGeometry::Local(_), _) => build_bvh2(&objects.local[r], p, &mut time),
+            };
+            let bvh = Bvh6::from_bvh2(&bvh2);
+            let bounds = bvh.node_children(0).iter().fold(Aabb::empty(), |b, c| b.union(&c.aabb));
+            let b = Blas { bvh, geometry: geometry.clone(), bounds, node_base, leaf_base, slot_base };
+            node_base += b.bvh.nodes.len() as u64;
+            leaf_base += b.bvh.leaves.len() as u64;
+            slot_base += b.bvh.prim_indices.len() as u64;
+            blas.push(b);
+        }
+        let boxes: Vec<Aabb> = objects
+            .instances
+            .iter()
+            .map(|inst| world_box(&blas[inst.mesh as usize].bounds, inst.to_world.as_ref()))
+            .collect();
+        let tlas = Bvh6::from_bvh2(&build_bvh2(&boxes, p, &mut time));
+        // The TLAS's internal nodes come first in the internal region.
+        let tlas_nodes = tlas.nodes.len() as u64;
+        blas.iter_mut().for_each(|b| b.node_base += tlas_nodes);
+        let world = boxes.iter().fold(Aabb::empty(), |w, b| w.union(b));
+        Ok(TwoLevel {
+            tlas,
+            blas,
+            instances: objects.instances.clone(),
+            to_object: objects.instances.iter().map(|i| i.to_world.map(|m| m.inverse())).collect(),
+            world,
+            local: objects.local.clone(),
+        })
+    }
+
+    /// Address of a TLAS node: an internal node, or leaf `j`'s instance leaf.
+    pub fn tlas_addr(&self, node: NodeRef) -> u64 {
+        match node {
+            NodeRef::Internal(i) => INTERNAL_BASE + i as u64 * BVH6_NODE_SIZE,
+            NodeRef::Leaf(j) => INSTANCE_BASE + j as u64 * INSTANCE_LEAF_SIZE,
+        }
+    }
+
+    /// Address of the TLAS's header (`None`) or BLAS `mesh`'s.
+    pub fn header_addr(&self, mesh: Option<u32>) -> u64 {
+        HEADER_BASE + mesh.map_or(0, |m| m as u64 + 1) * BVH_HEADER_SIZE
+    }
+
+    /// The instance in TLAS leaf `leaf`.
+    pub fn leaf_instance(&self, leaf: u32) -> u32 {
+        self.tlas.prim_indices[self.tlas.leaves[leaf as usize].start as usize]
+    }
+
+    /// TLAS nodes plus every BLAS's nodes.
+    pub fn node_count(&self) -> usize {
+        let count = |b: &Bvh6| b.nodes.len() + b.leaves.len();
+        count(&self.tlas) + self.blas.iter().map(|b| count(&b.bvh)).sum::<usize>()
+    }
+}
+
+/// World box of an instance: its BLAS's bounds, or the box of their transformed corners widened
+/// by a relative 1e-5 (module docs).
+fn world_box(bounds: &Aabb, to_world: Option<&glam::Affine3A>) -> Aabb {
+    let Some(m) = to_world else { return *bounds };
+    let mut b = Aabb::empty();
+    for corner in 0..8 {
+        let pick = |bit: usize, axis: usize| {
+            if corner >> bit & 1 == 0 {
+                bounds.min[axis]
+            } else {
+                bounds.max[axis]
+            }
+        };
+        let p = glam::Vec3A::new(pick(0, 0), pick(1, 1), pick(2, 2));
+        b = b.union(&Aabb::new(m.transform_point3a(p), m.transform_point3a(p)));
+    }
+    let pad = (b.max.abs().max(b.min.abs()) + b.diagonal()) * 1e-5;
+    Aabb::new(b.min - pad, b.max + pad)
+}
+
 /// A built hierarchy.
 #[derive(Clone)]
 pub enum Bvh {
     Bvh2(Bvh2),
     Cwbvh(CwBvh),
     Bvh6(Bvh6),
+    /// A TLAS over BLASes, all BVH6.
+    TwoLevel(Box<TwoLevel>),
 }
 
 /// Build settings shared by all kinds: obvhs's "fast" preset (PLOC plus reinsertion); BVH2 and
@@ -188,7 +346,7 @@ impl Bvh {
         match self {
             Bvh::Bvh2(_) => BvhKind::Bvh2,
             Bvh::Cwbvh(_) => BvhKind::Cwbvh,
-            Bvh::Bvh6(_) => BvhKind::Bvh6,
+            Bvh::Bvh6(_) | Bvh::TwoLevel(_) => BvhKind::Bvh6,
         }
     }
 
@@ -198,6 +356,7 @@ impl Bvh {
             Bvh::Bvh2(b) => b.nodes.len(),
             Bvh::Cwbvh(b) => b.nodes.len(),
             Bvh::Bvh6(b) => b.nodes.len() + b.leaves.len(),
+            Bvh::TwoLevel(t) => t.node_count(),
         }
     }
 
@@ -207,6 +366,7 @@ impl Bvh {
             Bvh::Bvh2(_) => (BVH2_NODE_SIZE, BVH2_NODE_SIZE),
             Bvh::Cwbvh(_) => (CWBVH_NODE_SIZE, CWBVH_NODE_SIZE),
             Bvh::Bvh6(_) => (BVH6_NODE_SIZE, BVH6_LEAF_DESC_SIZE),
+            Bvh::TwoLevel(_) => unreachable!("two-level nodes are addressed by TwoLevel"),
         };
         match node {
             NodeRef::Internal(i) => INTERNAL_BASE + i as u64 * internal,

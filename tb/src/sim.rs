@@ -31,7 +31,10 @@ use rtl::stack_manager::StackStats;
 use rtl::trace::{NullSink, Sink};
 use serde::Serialize;
 
-use crate::bvh::{BvhKind, BVH2_NODE_SIZE, BVH6_LEAF_DESC_SIZE, BVH6_NODE_SIZE, CWBVH_NODE_SIZE, PRIM_SIZE};
+use crate::bvh::{
+    BvhKind, BVH2_NODE_SIZE, BVH6_LEAF_DESC_SIZE, BVH6_NODE_SIZE, BVH_HEADER_SIZE, CWBVH_NODE_SIZE,
+    INSTANCE_LEAF_SIZE, PRIM_SIZE,
+};
 use crate::error::{Error, Result};
 use crate::sampling::{choose, estimate, Estimate, SamplePlan};
 use crate::workload::{NodeKind, TraceOp, WarpJob, Workload, WARP_SIZE};
@@ -63,12 +66,21 @@ pub fn node_bytes(bvh: BvhKind, kind: NodeKind) -> u32 {
         (NodeKind::Leaf, _) => BVH6_LEAF_DESC_SIZE,
         (NodeKind::Internal, BvhKind::Cwbvh) => CWBVH_NODE_SIZE,
         (NodeKind::Triangle | NodeKind::Procedural, _) => PRIM_SIZE,
+        (NodeKind::Instance, _) => INSTANCE_LEAF_SIZE,
+        (NodeKind::BvhHeader, _) => BVH_HEADER_SIZE,
     };
     bytes as u32
 }
 
+/// The RT unit's operation for a node kind. An instance leaf costs the instance-transform latency
+/// and an acceleration-structure header the `BVH_STRUCTURE` latency (`bvh_header`), as Vulkan-Sim
+/// costs every transaction by its type (`-gpgpu_rt_intersection_latency 4,8,8,4,8,8,8`:
+/// structure, internal, instance leaf, leaf descriptor, quad, quad hit, procedural;
+/// `src/gpgpu-sim/shader.h:1604-1611`, `configs/tested-cfgs/MOBILE/gpgpusim.config:197`).
 fn rtl_kind(kind: NodeKind) -> RtlKind {
     match kind {
+        NodeKind::Instance => RtlKind::InstanceLeaf,
+        NodeKind::BvhHeader => RtlKind::BvhHeader,
         NodeKind::Internal => RtlKind::Internal,
         NodeKind::Leaf => RtlKind::LeafDescriptor,
         NodeKind::Triangle => RtlKind::Triangle,
@@ -548,6 +560,44 @@ mod tests {
         assert_eq!(node_bytes(BvhKind::Bvh2, NodeKind::Leaf), 48);
         assert_eq!(node_bytes(BvhKind::Cwbvh, NodeKind::Internal), 80);
         assert_eq!(node_bytes(BvhKind::Cwbvh, NodeKind::Triangle), 64);
+    }
+
+    #[test]
+    fn instance_leaves_and_headers_cost_their_bytes_and_latencies() {
+        let mut t = crate::workload::RayTrace::default();
+        use crate::traverse::Recorder;
+        t.visit(0x100, NodeKind::BvhHeader);
+        t.visit(0x200, NodeKind::Instance);
+        let mut lanes = vec![None; WARP_SIZE];
+        lanes[0] = Some(t);
+        let job = rtl_job(&WarpJob { lanes }, BvhKind::Bvh6);
+        let ops = job.lanes[0].as_ref().unwrap();
+        assert_eq!(ops[0], RayOp::Visit { addr: 0x100, kind: RtlKind::BvhHeader, bytes: 64 });
+        assert_eq!(ops[1], RayOp::Visit { addr: 0x200, kind: RtlKind::InstanceLeaf, bytes: 128 });
+        let rt = RtParams::default();
+        assert_eq!((rt.latency(RtlKind::InstanceLeaf), rt.latency(RtlKind::BvhHeader)), (8, 4));
+    }
+
+    #[test]
+    fn two_level_runs_at_both_levels_with_every_pop_checked() {
+        let scene = crate::load_scene("clutter").unwrap();
+        for order in [crate::workload::ChildOrder::Nearest, crate::workload::ChildOrder::VulkanSim] {
+            let opts = WorkloadOpts {
+                width: 16,
+                height: 16,
+                spp: 1,
+                max_bounces: 1,
+                accel: crate::workload::Accel::TwoLevel,
+                order,
+                ..WorkloadOpts::for_scene(&scene)
+            };
+            let w = Workload::new(&scene, opts).unwrap();
+            let f = simulate_all(&spec("RB_4+SH_4", Fidelity::Functional), &w).unwrap();
+            let c = simulate_all(&spec("RB_4+SH_4", Fidelity::Cycle), &w).unwrap();
+            assert_eq!(f.stack, c.stack, "{order:?}");
+            assert_eq!(c.pops_checked, c.stack.pops, "{order:?}");
+            assert!(c.pops_checked > 0);
+        }
     }
 
     #[test]

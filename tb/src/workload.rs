@@ -7,19 +7,19 @@
 //! [`WarpJob`]. A job whose lanes are all finished is not issued. Warps are traced lazily, one at
 //! a time, when [`Workload::warp_jobs`] is iterated, so no more than one warp's traces are held.
 //!
-//! Traces are packed one `u64` per operation: 2 bits of operation, 2 bits of node kind and a
-//! 60-bit address.
+//! Traces are packed one `u64` per operation: 2 bits of operation, 3 bits of node kind and a
+//! 59-bit address.
 
 use glam::Vec3A;
 use serde::Serialize;
 
-use crate::bvh::Bvh;
 pub use crate::bvh::BvhKind;
+use crate::bvh::{Bvh, TwoLevel};
 use crate::error::{Error, Result};
 use crate::geometry::Ray;
 use crate::raygen::{Image, RayGen, ALBEDO};
 use crate::scene::Scene;
-use crate::traverse::{trace, Recorder};
+use crate::traverse::{hit_normal, trace, Recorder};
 
 /// Threads per warp.
 pub const WARP_SIZE: usize = 32;
@@ -31,6 +31,11 @@ pub enum NodeKind {
     Leaf,
     Triangle,
     Procedural,
+    /// A TLAS instance leaf (two-level, 128 bytes).
+    Instance,
+    /// An acceleration structure's header (two-level, 64 bytes): the TLAS's at the start of a
+    /// ray, a BLAS's after each instance leaf.
+    BvhHeader,
 }
 
 /// One operation of a traversal.
@@ -42,9 +47,16 @@ pub enum TraceOp {
 }
 
 const OP_SHIFT: u32 = 62;
-const KIND_SHIFT: u32 = 60;
+const KIND_SHIFT: u32 = 59;
 const ADDR_MASK: u64 = (1 << KIND_SHIFT) - 1;
-const KINDS: [NodeKind; 4] = [NodeKind::Internal, NodeKind::Leaf, NodeKind::Triangle, NodeKind::Procedural];
+const KINDS: [NodeKind; 6] = [
+    NodeKind::Internal,
+    NodeKind::Leaf,
+    NodeKind::Triangle,
+    NodeKind::Procedural,
+    NodeKind::Instance,
+    NodeKind::BvhHeader,
+];
 
 impl TraceOp {
     fn pack(self) -> u64 {
@@ -53,14 +65,14 @@ impl TraceOp {
             TraceOp::Push(addr) => (1, 0, addr),
             TraceOp::Pop(addr) => (2, 0, addr),
         };
-        debug_assert!(addr <= ADDR_MASK, "device addresses fit in 60 bits");
+        debug_assert!(addr <= ADDR_MASK, "device addresses fit in 59 bits");
         op << OP_SHIFT | kind << KIND_SHIFT | (addr & ADDR_MASK)
     }
 
     fn unpack(word: u64) -> Self {
         let addr = word & ADDR_MASK;
         match word >> OP_SHIFT {
-            0 => TraceOp::Visit { addr, kind: KINDS[(word >> KIND_SHIFT & 3) as usize] },
+            0 => TraceOp::Visit { addr, kind: KINDS[(word >> KIND_SHIFT & 7) as usize] },
             1 => TraceOp::Push(addr),
             _ => TraceOp::Pop(addr),
         }
@@ -154,15 +166,37 @@ pub enum ChildOrder {
     /// Descend the nearest hit child, push the others far to near (nearest remaining on top).
     #[default]
     Nearest,
-    /// Descend the first hit child in index order, push the others in index order.
+    /// Vulkan-Sim's rule: descend the first hit internal child in index order, push every other
+    /// hit child (leaves included) in index order, pop leaves LIFO (see `traverse`).
     #[value(name = "vulkansim")]
     VulkanSim,
+}
+
+/// Which acceleration structure the rays traverse.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Accel {
+    /// One BVH over every primitive of the scene, instances flattened.
+    #[default]
+    Flat,
+    /// A TLAS over one BLAS per mesh, as the Vulkan pipeline builds them (BVH6 only); see
+    /// [`crate::bvh::TwoLevel`].
+    TwoLevel,
+}
+
+impl Accel {
+    pub fn is_flat(&self) -> bool {
+        *self == Accel::Flat
+    }
 }
 
 /// What to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct WorkloadOpts {
     pub bvh: BvhKind,
+    /// Left out of serialised output when flat (outputs from before the option stay identical).
+    #[serde(skip_serializing_if = "Accel::is_flat")]
+    pub accel: Accel,
     pub order: ChildOrder,
     pub width: u32,
     pub height: u32,
@@ -181,6 +215,7 @@ impl WorkloadOpts {
     fn rendering(r: crate::scene::RenderSettings) -> Self {
         WorkloadOpts {
             bvh: BvhKind::Bvh6,
+            accel: Accel::Flat,
             order: ChildOrder::Nearest,
             width: r.width,
             height: r.height,
@@ -224,7 +259,16 @@ impl<'s> Workload<'s> {
             )));
         }
         opts.width.checked_mul(opts.height).ok_or_else(|| Error::Invalid("resolution too large".into()))?;
-        let bvh = Bvh::build(&scene.primitives, opts.bvh)?;
+        let bvh = match opts.accel {
+            Accel::Flat => Bvh::build(&scene.primitives, opts.bvh)?,
+            Accel::TwoLevel if opts.bvh != BvhKind::Bvh6 => {
+                return Err(Error::Invalid(format!(
+                    "accel two-level is built as BVH6 only: bvh {} asked, use bvh bvh6",
+                    format!("{:?}", opts.bvh).to_lowercase()
+                )))
+            }
+            Accel::TwoLevel => Bvh::TwoLevel(Box::new(TwoLevel::build(&scene.primitives, &scene.objects)?)),
+        };
         let size = scene.primitives.bounds().diagonal().length();
         let raygen = RayGen::new(&scene.camera, opts.width, opts.height, opts.seed, size);
         let mut w = Workload {
@@ -330,7 +374,7 @@ impl<'s> Workload<'s> {
                             Some(_) if bounce == o.max_bounces => None,
                             Some(h) => {
                                 let point = ray.at(h.t);
-                                let normal = prims.normal(h.prim as usize, point, ray.dir);
+                                let normal = hit_normal(self.scene, &h, point, ray.dir);
                                 let pixel = pixels[lane]?;
                                 let next = self.raygen.bounce(pixel, sample, bounce + 1, point, normal);
                                 Some((next, throughput * ALBEDO))
@@ -352,7 +396,7 @@ mod tests {
     use crate::scene::load_scene;
 
     fn small(bvh: BvhKind, order: ChildOrder, seed: u64) -> WorkloadOpts {
-        WorkloadOpts { bvh, order, width: 16, height: 12, spp: 1, max_bounces: 2, seed }
+        WorkloadOpts { bvh, accel: Accel::Flat, order, width: 16, height: 12, spp: 1, max_bounces: 2, seed }
     }
 
     const KINDS: [BvhKind; 3] = [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh];
@@ -402,6 +446,36 @@ mod tests {
     }
 
     #[test]
+    fn two_level_traces_are_valid_stack_histories_and_render_like_flat() {
+        for name in ["wknd", "clutter"] {
+            let scene = load_scene(name).expect(name);
+            for order in ORDERS {
+                let flat = Workload::new(&scene, small(BvhKind::Bvh6, order, 1)).expect("flat");
+                let opts = WorkloadOpts { accel: Accel::TwoLevel, ..small(BvhKind::Bvh6, order, 1) };
+                let w = Workload::new(&scene, opts).expect("two-level");
+                let mut instances = 0;
+                for job in w.warp_jobs() {
+                    for trace in job.lanes.iter().flatten() {
+                        trace.check_stack_history().unwrap_or_else(|e| panic!("{name} {order:?}: {e}"));
+                        instances += trace
+                            .ops()
+                            .filter(|o| matches!(o, TraceOp::Visit { kind: NodeKind::Instance, .. }))
+                            .count();
+                    }
+                }
+                assert!(instances > 0);
+                // One identity instance per scene: the same rays, hits and image.
+                assert_eq!(w.num_rays(), flat.num_rays());
+                assert_eq!(w.image(), flat.image(), "{name} {order:?}");
+            }
+        }
+        let scene = load_scene("grid").expect("grid");
+        let opts = WorkloadOpts { accel: Accel::TwoLevel, ..small(BvhKind::Bvh2, ChildOrder::Nearest, 0) };
+        let e = Workload::new(&scene, opts).err().expect("two-level BVH2 is refused").to_string();
+        assert!(e.contains("two-level") && e.contains("BVH6"), "{e}");
+    }
+
+    #[test]
     fn a_wrong_pop_is_caught() {
         let mut good = RayTrace::default();
         good.visit(crate::bvh::INTERNAL_BASE, NodeKind::Internal);
@@ -421,8 +495,7 @@ mod tests {
 
     #[test]
     fn ops_round_trip_through_packing() {
-        let kinds = [NodeKind::Internal, NodeKind::Leaf, NodeKind::Triangle, NodeKind::Procedural];
-        for (i, kind) in kinds.into_iter().enumerate() {
+        for (i, kind) in super::KINDS.into_iter().enumerate() {
             let addr = ADDR_MASK - i as u64;
             for op in [TraceOp::Visit { addr, kind }, TraceOp::Push(addr), TraceOp::Pop(addr)] {
                 assert_eq!(TraceOp::unpack(op.pack()), op);

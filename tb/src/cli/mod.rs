@@ -42,6 +42,10 @@ pub struct WorkloadArgs {
     /// order).
     #[arg(long, value_enum, default_value = "nearest")]
     pub order: crate::workload::ChildOrder,
+    /// Acceleration structure: flat (one BVH over every primitive, instances flattened) or
+    /// two-level (a TLAS over one BLAS per mesh, one stack across both levels; needs --bvh bvh6).
+    #[arg(long, value_enum, default_value = "flat")]
+    pub accel: crate::workload::Accel,
     /// Resolution as WIDTHxHEIGHT (default: the scene's).
     #[arg(long, value_parser = parse_res)]
     pub res: Option<(u32, u32)>,
@@ -62,6 +66,7 @@ impl WorkloadArgs {
         let mut opts = crate::workload::WorkloadOpts::for_scene(scene);
         opts.bvh = self.bvh;
         opts.order = self.order;
+        opts.accel = self.accel;
         if let Some((w, h)) = self.res {
             (opts.width, opts.height) = (w, h);
         }

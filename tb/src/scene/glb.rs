@@ -1,13 +1,19 @@
 //! glTF 2.0 (binary .glb or .gltf with external buffers): triangle positions of every mesh
 //! instance reached from the default scene's root nodes, with node transforms flattened, so a
 //! mesh referenced by several nodes counts once per node (as the scene manifest counts them).
+//!
+//! For two-level acceleration structures the loader also keeps each mesh once in its own space
+//! (all its primitives: one BLAS) and each node that references a mesh as an instance of it with
+//! the node's world transform (the description's transform included).
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use glam::{Affine3A, Mat4, Vec3A};
 use gltf::{buffer::Source, mesh::Mode};
 
 use super::mesh::{checked_vertex, TriangleSink};
+use super::{Instance, MeshGeometry};
 use crate::error::{Error, Result};
 
 fn buffers(doc: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>> {
@@ -48,7 +54,8 @@ pub(super) fn load(bytes: &[u8], path: &Path, xf: &Affine3A, sink: &mut Triangle
     let node_count = doc.nodes().len();
     let mut pending: Vec<(gltf::Node, Mat4, usize)> =
         scene.nodes().map(|n| (n, Mat4::from(*xf), 0)).collect();
-    let mut positions = Vec::new();
+    // glTF mesh index to the scene's mesh (None: every triangle of it is degenerate).
+    let mut meshes: HashMap<usize, Option<u32>> = HashMap::new();
     while let Some((node, parent, depth)) = pending.pop() {
         if depth > node_count {
             return Err(Error::format(path, format!("node {}", node.index()), "node cycle"));
@@ -56,52 +63,85 @@ pub(super) fn load(bytes: &[u8], path: &Path, xf: &Affine3A, sink: &mut Triangle
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let world_xf = Affine3A::from_mat4(world);
         if let Some(mesh) = node.mesh() {
-            for prim in mesh.primitives() {
-                let at = || format!("mesh {} primitive {}", mesh.index(), prim.index());
-                let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-                let Some(read) = reader.read_positions() else {
-                    return Err(Error::format(path, at(), "no POSITION attribute"));
-                };
-                positions.clear();
-                for (i, p) in read.enumerate() {
-                    let v =
-                        checked_vertex(path, || format!("{} vertex {i}", at()), &world_xf, Vec3A::from(p))?;
-                    positions.push(v);
+            add_mesh(&mesh, &buffers, path, &world_xf, sink)?;
+            // The mesh once in its own space (a BLAS), and this node as an instance of it.
+            let id = match meshes.get(&mesh.index()) {
+                Some(&id) => id,
+                None => {
+                    let mut local = std::mem::take(&mut sink.objects.local);
+                    let start = local.len() as u32;
+                    add_mesh(&mesh, &buffers, path, &Affine3A::IDENTITY, &mut TriangleSink::new(&mut local))?;
+                    let end = local.len() as u32;
+                    sink.objects.local = local;
+                    let id = (end > start).then(|| {
+                        sink.objects.meshes.push(MeshGeometry::Local(start..end));
+                        sink.objects.meshes.len() as u32 - 1
+                    });
+                    meshes.insert(mesh.index(), id);
+                    id
                 }
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(ix) => ix.into_u32().collect(),
-                    None => (0..positions.len() as u32).collect(),
-                };
-                if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
-                    return Err(Error::format(
-                        path,
-                        at(),
-                        format!("index {bad} out of range ({} vertices)", positions.len()),
-                    ));
-                }
-                let v = |i: u32| positions[i as usize];
-                match prim.mode() {
-                    Mode::Triangles => {
-                        if !indices.len().is_multiple_of(3) {
-                            return Err(Error::format(path, at(), "index count is not a multiple of 3"));
-                        }
-                        for t in indices.chunks_exact(3) {
-                            sink.add(v(t[0]), v(t[1]), v(t[2]));
-                        }
-                    }
-                    Mode::TriangleStrip => {
-                        for (k, w) in indices.windows(3).enumerate() {
-                            let (a, b) = if k % 2 == 0 { (w[0], w[1]) } else { (w[1], w[0]) };
-                            sink.add(v(a), v(b), v(w[2]));
-                        }
-                    }
-                    Mode::TriangleFan => sink.add_fan(indices.iter().map(|&i| v(i))),
-                    // Points and lines have no surface to hit.
-                    Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => {}
-                }
+            };
+            if let Some(mesh) = id {
+                let to_world = (world_xf != Affine3A::IDENTITY).then_some(world_xf);
+                sink.objects.instances.push(Instance { mesh, to_world });
             }
         }
         pending.extend(node.children().map(|c| (c, world, depth + 1)));
+    }
+    Ok(())
+}
+
+/// Adds the triangles of every primitive of `mesh`, transformed by `xf`, to `sink`.
+fn add_mesh(
+    mesh: &gltf::Mesh,
+    buffers: &[Vec<u8>],
+    path: &Path,
+    xf: &Affine3A,
+    sink: &mut TriangleSink,
+) -> Result<()> {
+    let mut positions = Vec::new();
+    for prim in mesh.primitives() {
+        let at = || format!("mesh {} primitive {}", mesh.index(), prim.index());
+        let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+        let Some(read) = reader.read_positions() else {
+            return Err(Error::format(path, at(), "no POSITION attribute"));
+        };
+        positions.clear();
+        for (i, p) in read.enumerate() {
+            let v = checked_vertex(path, || format!("{} vertex {i}", at()), xf, Vec3A::from(p))?;
+            positions.push(v);
+        }
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(ix) => ix.into_u32().collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+            return Err(Error::format(
+                path,
+                at(),
+                format!("index {bad} out of range ({} vertices)", positions.len()),
+            ));
+        }
+        let v = |i: u32| positions[i as usize];
+        match prim.mode() {
+            Mode::Triangles => {
+                if !indices.len().is_multiple_of(3) {
+                    return Err(Error::format(path, at(), "index count is not a multiple of 3"));
+                }
+                for t in indices.chunks_exact(3) {
+                    sink.add(v(t[0]), v(t[1]), v(t[2]));
+                }
+            }
+            Mode::TriangleStrip => {
+                for (k, w) in indices.windows(3).enumerate() {
+                    let (a, b) = if k % 2 == 0 { (w[0], w[1]) } else { (w[1], w[0]) };
+                    sink.add(v(a), v(b), v(w[2]));
+                }
+            }
+            Mode::TriangleFan => sink.add_fan(indices.iter().map(|&i| v(i))),
+            // Points and lines have no surface to hit.
+            Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => {}
+        }
     }
     Ok(())
 }

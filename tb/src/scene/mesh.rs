@@ -12,16 +12,40 @@ use flate2::read::GzDecoder;
 use glam::{Affine3A, Vec3A};
 use obvhs::triangle::Triangle;
 
-use super::{glb, obj, ply};
+use super::{glb, obj, ply, Objects};
 use crate::error::{Error, Result};
 
-/// Collects the triangles of one or more meshes into the scene's triangle list.
+/// Collects the triangles of one or more meshes into the scene's (flattened, world-space)
+/// triangle list, and the scene's object structure: world-space objects (ranges of that list,
+/// opened by [`TriangleSink::begin_object`]) and glTF meshes with their instances.
 pub(crate) struct TriangleSink<'a> {
     pub triangles: &'a mut Vec<Triangle>,
     pub dropped: usize,
+    pub objects: Objects,
+    /// Start of the open world-space object.
+    open: Option<usize>,
 }
 
-impl TriangleSink<'_> {
+impl<'a> TriangleSink<'a> {
+    pub fn new(triangles: &'a mut Vec<Triangle>) -> Self {
+        TriangleSink { triangles, dropped: 0, objects: Objects::default(), open: None }
+    }
+
+    /// Closes the open world-space object (if any) and opens one at the next triangle.
+    pub fn begin_object(&mut self) {
+        self.end_object();
+        self.open = Some(self.triangles.len());
+    }
+
+    /// Closes the open world-space object: one mesh and one identity instance of it, unless it
+    /// holds no triangles.
+    pub fn end_object(&mut self) {
+        if let Some(start) = self.open.take() {
+            if self.triangles.len() > start {
+                self.objects.add_world(start as u32..self.triangles.len() as u32);
+            }
+        }
+    }
     /// Adds a triangle, or counts it as dropped when its area is zero.
     pub fn add(&mut self, v0: Vec3A, v1: Vec3A, v2: Vec3A) {
         if (v1 - v0).cross(v2 - v0) == Vec3A::ZERO {
@@ -83,8 +107,17 @@ pub(crate) fn load_mesh(path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> 
     let ext = format.rsplit('.').next().unwrap_or_default().to_ascii_lowercase();
     let before = sink.triangles.len();
     match ext.as_str() {
-        "obj" => obj::load(open(path)?, path, xf, sink)?,
-        "ply" => ply::load(open(path)?, path, xf, sink)?,
+        // Each file is at least one object (LumiBench makes every OBJ file its own BLAS).
+        "obj" => {
+            sink.begin_object();
+            obj::load(open(path)?, path, xf, sink)?;
+            sink.end_object();
+        }
+        "ply" => {
+            sink.begin_object();
+            ply::load(open(path)?, path, xf, sink)?;
+            sink.end_object();
+        }
         "glb" | "gltf" => {
             let mut bytes = Vec::new();
             open(path)?.read_to_end(&mut bytes).map_err(|e| Error::io(path, e))?;

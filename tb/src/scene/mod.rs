@@ -27,9 +27,11 @@ mod obj;
 mod ply;
 pub mod procedural;
 
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use glam::{Affine3A, Mat4, Vec3A};
+use obvhs::triangle::Triangle;
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
@@ -81,11 +83,75 @@ impl Default for RenderSettings {
     }
 }
 
+/// Where a mesh's primitives are stored.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MeshGeometry {
+    /// `Scene::primitives[range]`: the object is stored in world space (an OBJ object or PLY
+    /// file with the description's transform baked in, as LumiBench bakes it; a built-in scene).
+    World(Range<u32>),
+    /// `Objects::local[range]`: a glTF mesh in its own space, placed by its instances.
+    Local(Range<u32>),
+}
+
+impl MeshGeometry {
+    pub fn range(&self) -> Range<u32> {
+        match self {
+            MeshGeometry::World(r) | MeshGeometry::Local(r) => r.clone(),
+        }
+    }
+}
+
+/// One placement of a mesh: a TLAS leaf.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into [`Objects::meshes`].
+    pub mesh: u32,
+    /// Object to world; `None` is the identity (the ray is used as it is).
+    pub to_world: Option<Affine3A>,
+}
+
+/// A scene's structure as the Vulkan pipeline builds it: meshes (one BLAS each) and their
+/// instances (the TLAS leaves). Each OBJ object (see the OBJ reader) and PLY file is one
+/// world-space mesh with one identity instance (LumiBench places every model with
+/// `glm::mat4(1)`: RayTracingInVulkan `src/Vulkan/RayTracing/Application.cpp:341-352`); each glTF
+/// mesh is one local mesh with one instance per node that references it, carrying the node's
+/// world transform; a built-in scene is one mesh.
+#[derive(Clone, Debug, Default)]
+pub struct Objects {
+    /// Object-space triangles of the local (glTF) meshes.
+    pub local: Vec<Triangle>,
+    pub meshes: Vec<MeshGeometry>,
+    pub instances: Vec<Instance>,
+}
+
+impl Objects {
+    /// One world-space mesh of `len` primitives with one identity instance.
+    pub fn single(len: usize) -> Self {
+        let mut o = Objects::default();
+        o.add_world(0..len as u32);
+        o
+    }
+
+    /// Adds a world-space mesh `Scene::primitives[range]` and one identity instance of it.
+    pub fn add_world(&mut self, range: Range<u32>) {
+        self.meshes.push(MeshGeometry::World(range));
+        self.instances.push(Instance { mesh: self.meshes.len() as u32 - 1, to_world: None });
+    }
+
+    /// Primitives of all instances together (what the flattened list holds).
+    pub fn instanced_primitives(&self) -> u64 {
+        self.instances.iter().map(|i| self.meshes[i.mesh as usize].range().len() as u64).sum()
+    }
+}
+
 /// Everything needed to trace a scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
     pub name: String,
+    /// Every primitive in world space (instances flattened): what the flat BVH is built over.
     pub primitives: Primitives,
+    /// Meshes and instances: what a two-level acceleration structure is built over.
+    pub objects: Objects,
     pub camera: Camera,
     pub render: RenderSettings,
     /// Zero-area triangles the loaders dropped.
@@ -219,7 +285,7 @@ impl SceneLibrary {
             return Err(Error::format(path, "mesh", "no [[mesh]] entries"));
         }
         let mut triangles = Vec::new();
-        let mut sink = mesh::TriangleSink { triangles: &mut triangles, dropped: 0 };
+        let mut sink = mesh::TriangleSink::new(&mut triangles);
         for m in &desc.mesh {
             let xf = match m.transform {
                 Some(rows) => {
@@ -238,6 +304,7 @@ impl SceneLibrary {
             mesh::load_mesh(&self.data.join(&m.file), &xf, &mut sink)?;
         }
         let dropped_degenerate = sink.dropped;
+        let objects = std::mem::take(&mut sink.objects);
         let primitives = Primitives::Triangles(triangles);
         let c = desc.camera;
         let camera = match (c.eye, c.look_at) {
@@ -256,7 +323,14 @@ impl SceneLibrary {
                 ))
             }
         };
-        Ok(Scene { name: name.to_owned(), primitives, camera, render: desc.render, dropped_degenerate })
+        Ok(Scene {
+            name: name.to_owned(),
+            primitives,
+            objects,
+            camera,
+            render: desc.render,
+            dropped_degenerate,
+        })
     }
 }
 

@@ -3,6 +3,14 @@
 //! A hand-written reader rather than tobj: it reports the line of every error, never stores
 //! normals, texture coordinates or materials (so `mtllib` is never opened), and streams the
 //! 130 MB forest file line by line. Faces are fan-triangulated; indices may be negative (relative).
+//!
+//! Objects: an `o` line starts a new object (a BLAS and its instance in a two-level
+//! acceleration structure); a file without `o` lines is one object. `g` (and `usemtl`) groups do
+//! not split objects: LumiBench's loader merges every shape tinyobjloader reports for a file
+//! (its `o` and `g` groups alike) into one `Model` (RayTracingInVulkan `src/Assets/Model.cpp:97`)
+//! and builds one BLAS per `Model` (`src/Vulkan/RayTracing/Application.cpp:263-287`), so a BLAS
+//! is a whole OBJ file there. The merged `*-partial` scene files keep the `o` line of each
+//! original file, so splitting on `o` recovers LumiBench's objects.
 
 use std::io::BufRead;
 use std::path::Path;
@@ -44,6 +52,7 @@ pub(super) fn load(
                 }
                 vertices.push(checked_vertex(path, at, xf, Vec3A::from(p))?);
             }
+            Some("o") => sink.begin_object(),
             Some("f") => {
                 face.clear();
                 for token in tokens {

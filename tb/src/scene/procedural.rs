@@ -23,6 +23,7 @@ pub fn build(name: &str) -> Option<Scene> {
     };
     Some(Scene {
         name: name.to_owned(),
+        objects: super::Objects::single(primitives.len()),
         primitives,
         camera,
         render: RenderSettings::default(),

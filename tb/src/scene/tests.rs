@@ -30,11 +30,16 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
 
 /// Loads one file; returns (triangles, dropped) or the error message.
 fn load(path: &Path) -> Result<(Vec<obvhs::triangle::Triangle>, usize), String> {
+    load_objects(path).map(|(t, d, _)| (t, d))
+}
+
+/// Loads one file with its object structure.
+fn load_objects(path: &Path) -> Result<(Vec<obvhs::triangle::Triangle>, usize, Objects), String> {
     let mut triangles = Vec::new();
-    let mut sink = TriangleSink { triangles: &mut triangles, dropped: 0 };
+    let mut sink = TriangleSink::new(&mut triangles);
     load_mesh(path, &Affine3A::IDENTITY, &mut sink).map_err(|e| e.to_string())?;
-    let dropped = sink.dropped;
-    Ok((triangles, dropped))
+    let (dropped, objects) = (sink.dropped, std::mem::take(&mut sink.objects));
+    Ok((triangles, dropped, objects))
 }
 
 fn load_err(dir: &Path, name: &str, text: &str) -> String {
@@ -55,6 +60,46 @@ fn obj_fans_negative_indices_and_gzip() {
         assert_eq!((tris.len(), dropped), (2, 0));
         assert_eq!(tris[1].v2, vec3a(0.0, 1.0, 0.0));
     }
+}
+
+#[test]
+fn obj_objects_split_on_o_lines_not_on_groups() {
+    let dir = temp_dir("obj_objects");
+    // A face before any `o`, an empty object, a `g` group inside object b (no split), object c.
+    let text = format!(
+        "{QUAD}f 1 2 3\no empty\no b\nf 1 2 3 4\ng inner\nf 2 3 4\nusemtl m\nf 1 3 4\no c\nf 1 2 4\n"
+    );
+    let (tris, _, objects) = load_objects(&write(&dir, "objs.obj", text.as_bytes())).expect("loads");
+    assert_eq!(tris.len(), 6);
+    assert_eq!(
+        objects.meshes,
+        [MeshGeometry::World(0..1), MeshGeometry::World(1..5), MeshGeometry::World(5..6)]
+    );
+    assert!(objects.instances.iter().enumerate().all(|(k, i)| i.mesh == k as u32 && i.to_world.is_none()));
+    // No `o` line: the file is one object.
+    let (_, _, one) =
+        load_objects(&write(&dir, "one.obj", format!("{QUAD}g a\nf 1 2 3\ng b\nf 1 3 4\n").as_bytes()))
+            .expect("loads");
+    assert_eq!(one.meshes, [MeshGeometry::World(0..2)]);
+}
+
+#[test]
+fn every_mesh_file_of_a_description_is_its_own_object() {
+    let lib = library("desc_objects");
+    write(&lib.data, "quad.obj", format!("{QUAD}f 1 2 3 4\n").as_bytes());
+    let toml = "[[mesh]]\nfile = \"quad.obj\"\n[[mesh]]\nfile = \"quad.obj\"\n";
+    write(&lib.descriptions, "two.toml", toml.as_bytes());
+    let scene = lib.load("two").expect("loads");
+    assert_eq!(scene.objects.meshes, [MeshGeometry::World(0..2), MeshGeometry::World(2..4)]);
+    assert_eq!(scene.objects.instanced_primitives(), 4);
+}
+
+#[test]
+fn merged_lumibench_file_has_one_object_per_original_file() {
+    // bath-partial merges 46 OBJ files that hold geometry, each with its `o` line (MANIFEST.md).
+    let scene = load_scene("bath-partial").expect("bath-partial");
+    assert_eq!(scene.objects.instances.len(), 46);
+    assert_eq!(scene.objects.instanced_primitives(), scene.primitives.len() as u64);
 }
 
 #[test]
@@ -195,6 +240,44 @@ fn glb_flattens_node_transforms() {
     xs.sort_by(f32::total_cmp);
     // v1 = (1,0,0): as is, translated by 5, scaled by 2 then translated by 5.
     assert_eq!(xs, [1.0, 6.0, 7.0]);
+}
+
+#[test]
+fn glb_nodes_are_instances_of_one_shared_mesh() {
+    let dir = temp_dir("glb_instances");
+    let (tris, _, objects) = load_objects(&write(&dir, "m.glb", &glb([0, 1, 2]))).expect("glb");
+    assert_eq!(objects.meshes, [MeshGeometry::Local(0..1)], "the mesh is stored once");
+    assert_eq!(objects.local[0].v1, vec3a(1.0, 0.0, 0.0), "in its own space");
+    assert_eq!(objects.instances.len(), 3);
+    assert!(objects.instances.iter().all(|i| i.mesh == 0));
+    // Each instance's transform places the local triangle where the flattened list has it.
+    let mut placed: Vec<f32> = objects
+        .instances
+        .iter()
+        .map(|i| i.to_world.unwrap_or(Affine3A::IDENTITY).transform_point3a(objects.local[0].v1).x)
+        .collect();
+    placed.sort_by(f32::total_cmp);
+    let mut flat: Vec<f32> = tris.iter().map(|t| t.v1.x).collect();
+    flat.sort_by(f32::total_cmp);
+    assert_eq!(placed, flat);
+    assert_eq!(
+        objects.instances.iter().filter(|i| i.to_world.is_none()).count(),
+        1,
+        "the untransformed root"
+    );
+}
+
+#[test]
+fn gallery_has_36_instances_of_shared_meshes() {
+    let scene = load_scene("gallery-instanced").expect("gallery-instanced");
+    let o = &scene.objects;
+    // 36 instanced nodes plus the ground; 4 meshes (3 models and the ground), stored once.
+    assert_eq!(o.meshes.len(), 4);
+    assert_eq!(o.instances.len(), 37);
+    assert_eq!(o.instances.iter().filter(|i| o.meshes[i.mesh as usize].range().len() > 2).count(), 36);
+    assert_eq!(o.local.len(), 577_000);
+    assert_eq!(o.instanced_primitives(), 6_923_978);
+    assert_eq!(scene.primitives.len(), 6_923_978);
 }
 
 #[test]

@@ -138,6 +138,7 @@ impl Settings {
     pub fn opts(&self) -> WorkloadOpts {
         WorkloadOpts {
             bvh: self.bvh,
+            accel: Default::default(),
             order: self.order,
             width: self.width,
             height: self.height,
