@@ -676,10 +676,16 @@ impl RtUnit {
         let ws = self.cfg.warp_size;
         let active = job.active_mask();
         self.stack.load_warp(w, active);
+        // A two-level trace fetches the acceleration structure's header as its first visit and
+        // pays the header latency there; a flat trace reads it without a fetch, here.
+        let header_fetched = job.lanes.iter().flatten().next().is_some_and(|ops| {
+            matches!(ops.first(), Some(RayOp::Visit { kind: NodeKind::BvhHeader, .. }))
+        });
+        let start = now + if header_fetched { 0 } else { u64::from(self.rt.bvh_header) };
         for l in 0..ws {
             self.threads[(w * ws + l) as usize] = Thread {
                 state: if active & (1 << l) != 0 {
-                    ThreadState::Busy { until: now + u64::from(self.rt.bvh_header) }
+                    ThreadState::Busy { until: start }
                 } else {
                     ThreadState::Done
                 },
@@ -688,7 +694,7 @@ impl RtUnit {
         }
         self.lanes[w as usize] = Lanes {
             busy: active,
-            busy_until: now + u64::from(self.rt.bvh_header),
+            busy_until: start,
             live: active.count_ones(),
             ..Lanes::EMPTY
         };

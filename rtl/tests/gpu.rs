@@ -164,6 +164,28 @@ fn single_ray_with(rt: RtParams) {
     assert_eq!(watch.changes, derived);
 }
 
+/// A two-level trace fetches the acceleration structure's header as its first visit and pays the
+/// header latency there, not again when its warp lands: the same ray with that first fetch marked
+/// as another 4-cycle kind (the flat traces' case, which reads the header at load) takes
+/// `bvh_header - 1` cycles more (the cycle in which the warp lands is spent either way), with the
+/// same memory traffic.
+#[test]
+fn two_level_header_latency_is_paid_once() {
+    let trace = |first: NodeKind| {
+        vec![
+            RayOp::Visit { addr: 0x8_0000, kind: first, bytes: 64 },
+            RayOp::Visit { addr: 0x1_0000, kind: NodeKind::Internal, bytes: 64 },
+            RayOp::Visit { addr: 0x3_0000, kind: NodeKind::Triangle, bytes: 64 },
+        ]
+    };
+    let rt = RtParams::default();
+    assert_eq!(rt.latency(NodeKind::BvhHeader), rt.latency(NodeKind::LeafDescriptor));
+    let fetched = run_with("RB_8", one_sm(), rt, vec![single_warp(trace(NodeKind::BvhHeader))]).unwrap();
+    let at_load = run_with("RB_8", one_sm(), rt, vec![single_warp(trace(NodeKind::LeafDescriptor))]).unwrap();
+    assert_eq!(at_load.cycles, fetched.cycles + u64::from(rt.bvh_header) - 1);
+    assert_eq!((fetched.node_fetches, fetched.dram_node), (at_load.node_fetches, at_load.dram_node));
+}
+
 /// Records when one signal changes value: (cycle, new value); with `every`, every cycle's
 /// non-zero value.
 struct Watch {
