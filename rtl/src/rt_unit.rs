@@ -678,9 +678,10 @@ impl RtUnit {
         self.stack.load_warp(w, active);
         // A two-level trace fetches the acceleration structure's header as its first visit and
         // pays the header latency there; a flat trace reads it without a fetch, here.
-        let header_fetched = job.lanes.iter().flatten().next().is_some_and(|ops| {
-            matches!(ops.first(), Some(RayOp::Visit { kind: NodeKind::BvhHeader, .. }))
-        });
+        let header_fetched =
+            job.lanes.iter().flatten().next().is_some_and(|ops| {
+                matches!(ops.first(), Some(RayOp::Visit { kind: NodeKind::BvhHeader, .. }))
+            });
         let start = now + if header_fetched { 0 } else { u64::from(self.rt.bvh_header) };
         for l in 0..ws {
             self.threads[(w * ws + l) as usize] = Thread {
@@ -692,12 +693,8 @@ impl RtUnit {
                 pos: 0,
             };
         }
-        self.lanes[w as usize] = Lanes {
-            busy: active,
-            busy_until: start,
-            live: active.count_ones(),
-            ..Lanes::EMPTY
-        };
+        self.lanes[w as usize] =
+            Lanes { busy: active, busy_until: start, live: active.count_ones(), ..Lanes::EMPTY };
         self.slots[w as usize] = Some(Slot { lanes: job.lanes, age: self.next_age, landed: now });
         self.residence.push(0);
         self.next_age += 1;

@@ -13,6 +13,8 @@ pub mod depth;
 pub mod error;
 pub mod functional;
 pub mod geometry;
+pub mod hw;
+pub mod presets;
 pub mod raygen;
 mod rng;
 pub mod sampling;

@@ -23,10 +23,8 @@ use std::cell::Cell;
 use std::time::{Duration, Instant};
 
 use rtl::config::Config;
-use rtl::gpu::{carve_out, Gpu, GpuReport, Progress};
-use rtl::mem::MemParams;
+use rtl::gpu::{Gpu, GpuReport, Progress};
 use rtl::ray_op::{self, NodeKind as RtlKind, RayOp};
-use rtl::rt_unit::RtParams;
 use rtl::stack_manager::StackStats;
 use rtl::trace::{NullSink, Sink};
 use serde::Serialize;
@@ -50,13 +48,7 @@ pub enum Fidelity {
     Cycle,
 }
 
-/// Hardware parameters around the stack: operation latencies and the memory system. `mem` is the
-/// whole unified L1D/shared array; each configuration's SH stacks are carved out of it.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Hardware {
-    pub rt: RtParams,
-    pub mem: MemParams,
-}
+pub use crate::hw::Hardware;
 
 /// Bytes the RT unit fetches for a node of `kind` in hierarchy `bvh` (SPEC section 7 layouts).
 pub fn node_bytes(bvh: BvhKind, kind: NodeKind) -> u32 {
@@ -364,7 +356,7 @@ fn simulate_inner<S: Sink>(
             (run.total, None, run.pops_checked)
         }
         Fidelity::Cycle => {
-            let gpu = Gpu::new(spec.config, spec.hw.rt, carve_out(&spec.config, spec.hw.mem))
+            let gpu = Gpu::new(spec.config, spec.hw.rt, spec.hw.mem_for(&spec.config))
                 .map_err(|e| Error::Invalid(e.to_string()))?;
             let jobs = pixel_warps.flat_map(|jobs| jobs.into_iter().map(|j| rtl_job(&j, bvh)));
             let mut per_job = Vec::new();
@@ -574,7 +566,7 @@ mod tests {
         let ops = job.lanes[0].as_ref().unwrap();
         assert_eq!(ops[0], RayOp::Visit { addr: 0x100, kind: RtlKind::BvhHeader, bytes: 64 });
         assert_eq!(ops[1], RayOp::Visit { addr: 0x200, kind: RtlKind::InstanceLeaf, bytes: 128 });
-        let rt = RtParams::default();
+        let rt = rtl::rt_unit::RtParams::default();
         assert_eq!((rt.latency(RtlKind::InstanceLeaf), rt.latency(RtlKind::BvhHeader)), (8, 4));
     }
 

@@ -83,187 +83,61 @@ pub fn parse_res(s: &str) -> Result<(u32, u32), String> {
     Ok((parse(w)?, parse(h)?))
 }
 
-/// The hardware around the stack: SPEC section 7 defaults, then a TOML file, then flags.
+/// The hardware around the stack: a shipped preset or a TOML file, then flags.
 #[derive(Clone, Debug, Default, clap::Args)]
 pub struct HardwareArgs {
-    /// TOML file overriding RT-unit and memory parameters: `[rt]` keys bvh_header, internal,
-    /// instance_leaf, leaf_descriptor, triangle, procedural, idle_skip; `[stack]` keys timing
-    /// ("blocking", the default: stack traffic before the next node fetch, acknowledged stores;
-    /// or "overlapped": posted stores, refill overlaps the fetch) and sh_latency (cycles of an
-    /// unconflicted shared-memory access, default 20, at least 2); `[mem]` keys sms,
-    /// sector_bytes, line_bytes, l1d_bytes, l1d_ways (0 = fully associative), l1d_hit_latency,
-    /// l1d_mshrs, l1d_mshr_merge, l1d_miss_queue, l1d_write ("evict" or "through"), l2_bytes,
-    /// l2_ways, l2_latency, l2_banks, l2_interleave_bytes, l2_set_index ("ipoly" or "linear"),
-    /// l2_bank_queue, l2_mshrs, l2_mshr_merge, l2_dram_queue, dram_latency,
-    /// dram_bytes_per_cycle, dram_queue, local_layout ("interleaved" or "linear").
-    #[arg(long, value_name = "FILE")]
-    pub hw: Option<PathBuf>,
-    /// Unified L1D/shared-memory size per SM in KB (default 64); the SH stacks are carved out.
+    /// Hardware: a shipped preset — paper (default: the paper's text, the rest from Vulkan-Sim's
+    /// MOBILE config), vulkansim-mobile (that config file as it is), rtx2060, legacy (this model
+    /// before it adopted Vulkan-Sim's mechanisms) — or a TOML file applied to `paper`, with
+    /// `[rt]` keys bvh_header, internal, instance_leaf, leaf_descriptor, triangle, procedural,
+    /// idle_skip; `[stack]` keys timing ("blocking" or "overlapped") and sh_latency (cycles of
+    /// an unconflicted shared-memory access, at least 2); `[mem]` keys sms, sector_bytes,
+    /// line_bytes, l1d_bytes, shared_carveout (SH stacks carved out of the L1D array),
+    /// l1d_ways (0 = fully associative), l1d_hit_latency, l1d_mshrs, l1d_mshr_merge,
+    /// l1d_miss_queue, l1d_write ("evict" or "through"), l2_bytes, l2_ways, l2_latency,
+    /// l2_banks, l2_interleave_bytes, l2_set_index ("ipoly" or "linear"), l2_bank_queue,
+    /// l2_mshrs, l2_mshr_merge, l2_dram_queue, dram_latency, dram_bytes_per_cycle, dram_queue,
+    /// local_layout ("interleaved" or "linear"). The presets are in tb/hw/, every key cited.
+    #[arg(long, value_name = "PRESET|FILE")]
+    pub hw: Option<String>,
+    /// Stack timing: blocking (the paper's RT unit: a ray's next node fetch waits for its stack
+    /// requests, stores wait for the L2's acknowledgement) or overlapped (posted stores, the
+    /// refill runs beside the next node fetch). Default: the hardware's (paper: blocking).
+    #[arg(long, value_parser = |s: &str| s.parse::<rtl::rt_unit::StackTiming>())]
+    pub stack_timing: Option<rtl::rt_unit::StackTiming>,
+    /// Unified L1D/shared-memory size per SM in KB (paper: 64); the SH stacks are carved out.
     #[arg(long)]
     pub l1d_kb: Option<u32>,
-    /// SMs, one RT unit each (default 8).
+    /// SMs, one RT unit each (paper: 8).
     #[arg(long)]
     pub sms: Option<u32>,
-    /// DRAM latency in cycles beyond the L2's (default 100).
+    /// DRAM latency in cycles beyond the L2's (paper: 100).
     #[arg(long)]
     pub dram_latency: Option<u32>,
 }
 
 impl HardwareArgs {
-    pub fn hardware(&self) -> anyhow::Result<crate::sim::Hardware> {
-        let mut hw = crate::sim::Hardware::default();
-        if let Some(path) = &self.hw {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| anyhow::anyhow!("cannot read hardware file {}: {e}", path.display()))?;
-            apply_hardware_toml(&mut hw, &text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        }
+    pub fn hardware(&self) -> anyhow::Result<crate::hw::Hardware> {
+        let mut hw = match &self.hw {
+            Some(spec) => crate::hw::resolve(spec).map_err(|e| anyhow::anyhow!("--hw {e}"))?,
+            None => crate::hw::Hardware::default(),
+        };
         if let Some(kb) = self.l1d_kb {
             hw.mem.l1d_bytes =
                 kb.checked_mul(1024).ok_or_else(|| anyhow::anyhow!("--l1d-kb {kb}: too large"))?;
         }
+        hw.rt.stack_timing = self.stack_timing.unwrap_or(hw.rt.stack_timing);
         hw.mem.sms = self.sms.unwrap_or(hw.mem.sms);
         hw.mem.dram_latency = self.dram_latency.unwrap_or(hw.mem.dram_latency);
-        // The memory system checks every value; report its reason before any work starts.
-        rtl::mem::hierarchy::MemSystem::new(hw.mem).map_err(|e| anyhow::anyhow!("hardware: {e}"))?;
-        hw.rt.validate().map_err(|e| anyhow::anyhow!("hardware: {e}"))?;
+        // Every value checked before any work starts.
+        hw.validate().map_err(|e| anyhow::anyhow!("hardware: {e}"))?;
         Ok(hw)
     }
-}
-
-/// Applies `[rt]`, `[stack]` and `[mem]` tables of `text` to `hw`; unknown keys and wrong types
-/// are errors.
-pub fn apply_hardware_toml(hw: &mut crate::sim::Hardware, text: &str) -> Result<(), String> {
-    use rtl::mem::{Assoc, L1dWrite, LocalLayout, SetIndex};
-    let doc: toml::Table = text.parse().map_err(|e| format!("not valid TOML: {e}"))?;
-    for (section, value) in &doc {
-        let table = value.as_table().ok_or_else(|| format!("'{section}' must be a table ([{section}])"))?;
-        for (key, v) in table {
-            let name = format!("{section}.{key}");
-            let uint = || -> Result<u32, String> {
-                v.as_integer()
-                    .and_then(|i| u32::try_from(i).ok())
-                    .ok_or_else(|| format!("{name} = {v}: expected a whole number ≥ 0"))
-            };
-            let ways = |w: u32| if w == 0 { Assoc::Full } else { Assoc::Ways(w) };
-            // A string naming one of `names`, parsed by `from`.
-            fn choice<T>(
-                name: &str,
-                v: &toml::Value,
-                names: &[&str],
-                from: fn(&str) -> Option<T>,
-            ) -> Result<T, String> {
-                v.as_str().and_then(from).ok_or_else(|| {
-                    let allowed: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
-                    format!("{name} = {v}: expected one of {}", allowed.join(", "))
-                })
-            }
-            let (rt, m) = (&mut hw.rt, &mut hw.mem);
-            match (section.as_str(), key.as_str()) {
-                ("rt", "bvh_header") => rt.bvh_header = uint()?,
-                ("rt", "internal") => rt.internal = uint()?,
-                ("rt", "instance_leaf") => rt.instance_leaf = uint()?,
-                ("rt", "leaf_descriptor") => rt.leaf_descriptor = uint()?,
-                ("rt", "triangle") => rt.triangle = uint()?,
-                ("rt", "procedural") => rt.procedural = uint()?,
-                ("rt", "idle_skip") => {
-                    rt.idle_skip =
-                        v.as_bool().ok_or_else(|| format!("{name} = {v}: expected true or false"))?
-                }
-                ("stack", "timing") => {
-                    rt.stack_timing = v
-                        .as_str()
-                        .ok_or_else(|| format!("{name} = {v}: expected \"blocking\" or \"overlapped\""))?
-                        .parse()
-                        .map_err(|e| format!("{name} = {e}"))?
-                }
-                ("stack", "sh_latency") => rt.sh_latency = uint()?,
-                ("mem", "sms") => m.sms = uint()?,
-                ("mem", "sector_bytes") => m.sector_bytes = uint()?,
-                ("mem", "line_bytes") => m.line_bytes = uint()?,
-                ("mem", "l1d_bytes") => m.l1d_bytes = uint()?,
-                ("mem", "l1d_ways") => m.l1d_assoc = ways(uint()?),
-                ("mem", "l1d_hit_latency") => m.l1d_hit_latency = uint()?,
-                ("mem", "l1d_mshrs") => m.l1d_mshrs = uint()?,
-                ("mem", "l1d_mshr_merge") => m.l1d_mshr_merge = uint()?,
-                ("mem", "l1d_miss_queue") => m.l1d_miss_queue = uint()?,
-                ("mem", "l1d_write") => m.l1d_write = choice(&name, v, L1dWrite::NAMES, L1dWrite::from_name)?,
-                ("mem", "l2_bytes") => m.l2_bytes = uint()?,
-                ("mem", "l2_ways") => m.l2_assoc = ways(uint()?),
-                ("mem", "l2_latency") => m.l2_latency = uint()?,
-                ("mem", "l2_banks") => m.l2_banks = uint()?,
-                ("mem", "l2_interleave_bytes") => m.l2_interleave_bytes = uint()?,
-                ("mem", "l2_set_index") => {
-                    m.l2_set_index = choice(&name, v, SetIndex::NAMES, SetIndex::from_name)?
-                }
-                ("mem", "l2_bank_queue") => m.l2_bank_queue = uint()?,
-                ("mem", "l2_mshrs") => m.l2_mshrs = uint()?,
-                ("mem", "l2_mshr_merge") => m.l2_mshr_merge = uint()?,
-                ("mem", "l2_dram_queue") => m.l2_dram_queue = uint()?,
-                ("mem", "dram_latency") => m.dram_latency = uint()?,
-                ("mem", "dram_bytes_per_cycle") => m.dram_bytes_per_cycle = uint()?,
-                ("mem", "dram_queue") => m.dram_queue = uint()?,
-                ("mem", "local_layout") => {
-                    m.local_layout = choice(&name, v, LocalLayout::NAMES, LocalLayout::from_name)?
-                }
-                _ => return Err(format!("unknown parameter {name}")),
-            }
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn hardware_toml_overrides_defaults_and_rejects_bad_input() {
-        let mut hw = crate::sim::Hardware::default();
-        apply_hardware_toml(
-            &mut hw,
-            "[rt]\ntriangle = 12\nidle_skip = false\n[mem]\nl1d_ways = 4\nl2_latency = 200\n",
-        )
-        .unwrap();
-        assert_eq!((hw.rt.triangle, hw.rt.idle_skip, hw.mem.l2_latency), (12, false, 200));
-        assert_eq!(hw.mem.l1d_assoc, rtl::mem::Assoc::Ways(4));
-        assert_eq!(hw.rt.internal, 8, "keys not named keep their SPEC default");
-        apply_hardware_toml(
-            &mut hw,
-            "[mem]\nl1d_write = \"through\"\nl2_set_index = \"linear\"\nlocal_layout = \"linear\"\nl2_interleave_bytes = 128\n",
-        )
-        .unwrap();
-        use rtl::mem::{L1dWrite, LocalLayout, SetIndex};
-        assert_eq!(
-            (hw.mem.l1d_write, hw.mem.l2_set_index, hw.mem.local_layout, hw.mem.l2_interleave_bytes),
-            (L1dWrite::WriteThrough, SetIndex::Linear, LocalLayout::Linear, 128)
-        );
-        assert_eq!((hw.rt.stack_timing, hw.rt.sh_latency), (rtl::rt_unit::StackTiming::Blocking, 20));
-        apply_hardware_toml(&mut hw, "[stack]\ntiming = \"overlapped\"\nsh_latency = 2\n").unwrap();
-        assert_eq!(
-            hw.rt,
-            rtl::rt_unit::RtParams { triangle: 12, idle_skip: false, ..Default::default() }.overlapped()
-        );
-
-        let err = |text: &str| apply_hardware_toml(&mut crate::sim::Hardware::default(), text).unwrap_err();
-        assert_eq!(err("[mem]\nl2_waysx = 3"), "unknown parameter mem.l2_waysx");
-        assert!(err("[rt]\ntriangle = -1").contains("rt.triangle = -1: expected a whole number"));
-        assert!(err("[rt]\nidle_skip = 3").contains("expected true or false"));
-        assert_eq!(
-            err("[mem]\nl1d_write = \"back\""),
-            "mem.l1d_write = \"back\": expected one of \"evict\", \"through\""
-        );
-        assert!(err("[mem]\nl2_set_index = 1")
-            .contains("mem.l2_set_index = 1: expected one of \"ipoly\", \"linear\""));
-        assert!(err("[mem]\nlocal_layout = \"x\"").contains("expected one of \"interleaved\", \"linear\""));
-        assert_eq!(
-            err("[stack]\ntiming = \"posted\""),
-            "stack.timing = 'posted': expected \"blocking\" or \"overlapped\""
-        );
-        assert!(err("[stack]\ntiming = 1").contains("stack.timing = 1: expected \"blocking\" or"));
-        assert!(err("[stack]\nsh_latency = -2").contains("stack.sh_latency = -2: expected a whole number"));
-        assert!(err("mem = 3").contains("must be a table"));
-        assert!(err("[mem\n").contains("not valid TOML"));
-    }
 
     #[test]
     fn hardware_flags_are_checked_by_the_memory_system() {
@@ -273,6 +147,10 @@ mod tests {
         let zero = HardwareArgs { sms: Some(0), ..HardwareArgs::default() };
         assert!(zero.hardware().unwrap_err().to_string().starts_with("hardware: "));
         let missing = HardwareArgs { hw: Some("/nonexistent/hw.toml".into()), ..HardwareArgs::default() };
-        assert!(missing.hardware().unwrap_err().to_string().contains("cannot read hardware file"));
+        assert!(missing.hardware().unwrap_err().to_string().contains("not a preset (paper, "));
+        let legacy = HardwareArgs { hw: Some("legacy".into()), ..HardwareArgs::default() };
+        assert_eq!(legacy.hardware().unwrap(), crate::hw::preset("legacy").unwrap());
+        let blocking = HardwareArgs { stack_timing: Some(rtl::rt_unit::StackTiming::Blocking), ..legacy };
+        assert_eq!(blocking.hardware().unwrap().rt.stack_timing, rtl::rt_unit::StackTiming::Blocking);
     }
 }
