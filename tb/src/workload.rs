@@ -159,6 +159,22 @@ pub enum ChildOrder {
     VulkanSim,
 }
 
+/// When a path ends besides a miss and the bounce limit. Neither has Russian roulette.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum PathEnd {
+    /// As LumiBench's path tracer: a Lambertian surface scatters only a ray arriving at its
+    /// front (`isScattered = dot(direction, normal) < 0`, RayTracingInVulkan
+    /// assets/shaders/Scatter.glsl:17), and the ray generation shader ends the path when a hit
+    /// does not scatter (RayTracing.rgen:71-75). Front is the side the triangle's winding
+    /// (LumiBench: the interpolated vertex normal) faces; a sphere's outside. Emitters, which
+    /// also end a path there (Scatter.glsl:56-63), do not exist here: no scene has materials.
+    #[default]
+    Lumibench,
+    /// Every hit scatters, from either side (the model before issue 12).
+    Always,
+}
+
 /// What to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct WorkloadOpts {
@@ -170,6 +186,8 @@ pub struct WorkloadOpts {
     /// Diffuse bounces after the primary ray.
     pub max_bounces: u32,
     pub seed: u64,
+    /// When a hit ends the path.
+    pub path_end: PathEnd,
 }
 
 impl WorkloadOpts {
@@ -187,6 +205,7 @@ impl WorkloadOpts {
             spp: r.spp,
             max_bounces: r.max_bounces,
             seed: 0,
+            path_end: PathEnd::default(),
         }
     }
 }
@@ -328,6 +347,12 @@ impl<'s> Workload<'s> {
                                 None
                             }
                             Some(_) if bounce == o.max_bounces => None,
+                            Some(h)
+                                if o.path_end == PathEnd::Lumibench
+                                    && prims.outward_normal(h.prim as usize, ray.at(h.t)).dot(ray.dir) >= 0.0 =>
+                            {
+                                None
+                            }
                             Some(h) => {
                                 let point = ray.at(h.t);
                                 let normal = prims.normal(h.prim as usize, point, ray.dir);
@@ -352,7 +377,7 @@ mod tests {
     use crate::scene::load_scene;
 
     fn small(bvh: BvhKind, order: ChildOrder, seed: u64) -> WorkloadOpts {
-        WorkloadOpts { bvh, order, width: 16, height: 12, spp: 1, max_bounces: 2, seed }
+        WorkloadOpts { bvh, order, width: 16, height: 12, spp: 1, max_bounces: 2, seed, path_end: PathEnd::Always }
     }
 
     const KINDS: [BvhKind; 3] = [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh];

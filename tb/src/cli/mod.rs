@@ -1,6 +1,7 @@
 //! The `sms` subcommands, one module each: a clap `Args` struct and `run(args)`. The binary only
 //! dispatches, so new subcommands are added here without touching the others.
 
+pub mod ablate;
 pub mod bench;
 pub mod check;
 pub mod cost;
@@ -31,8 +32,8 @@ impl SceneArgs {
     }
 }
 
-/// What to trace: scene, hierarchy, child order, resolution, samples, bounces, seed. Shared by
-/// the subcommands that simulate a workload.
+/// What to trace: scene, hierarchy, child order, resolution, samples, bounces, path end, seed.
+/// Shared by the subcommands that simulate a workload.
 #[derive(Clone, Debug, clap::Args)]
 pub struct WorkloadArgs {
     /// Hierarchy: bvh6 (Vulkan-Sim's 6-wide layout, 64-byte nodes), bvh2 or cwbvh (obvhs).
@@ -42,33 +43,44 @@ pub struct WorkloadArgs {
     /// order).
     #[arg(long, value_enum, default_value = "nearest")]
     pub order: crate::workload::ChildOrder,
-    /// Resolution as WIDTHxHEIGHT (default: the scene's).
+    /// Resolution as WIDTHxHEIGHT (default: the scene's; LumiBench's 128x128 unless its
+    /// description says otherwise).
     #[arg(long, value_parser = parse_res)]
     pub res: Option<(u32, u32)>,
-    /// Samples per pixel (default: the scene's).
+    /// Samples per pixel (default: the scene's; LumiBench's 2).
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Diffuse bounces after the primary ray (default: the scene's).
+    /// Diffuse bounces after the primary ray (default: the scene's; LumiBench's 16 rays per
+    /// path, i.e. 15).
     #[arg(long)]
     pub bounces: Option<u32>,
+    /// When a hit ends a path besides a miss and the bounce limit: lumibench (a hit on a
+    /// surface's back does not scatter, as LumiBench's Lambertian material) or always (every
+    /// hit scatters: the model before issue 12). No Russian roulette either way.
+    #[arg(long, value_enum, default_value = "lumibench")]
+    pub path_end: crate::workload::PathEnd,
     /// Seed of the ray generator: the same seed gives bit-identical results.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
 }
 
 impl WorkloadArgs {
+    /// The overrides of every scene's own render settings.
+    pub fn settings(&self) -> crate::sweep::Settings {
+        crate::sweep::Settings {
+            res: self.res,
+            spp: self.spp,
+            bounces: self.bounces,
+            bvh: self.bvh,
+            order: self.order,
+            path_end: self.path_end,
+            seed: self.seed,
+        }
+    }
+
     /// `scene`'s own render settings with these arguments applied.
     pub fn opts(&self, scene: &crate::scene::Scene) -> crate::workload::WorkloadOpts {
-        let mut opts = crate::workload::WorkloadOpts::for_scene(scene);
-        opts.bvh = self.bvh;
-        opts.order = self.order;
-        if let Some((w, h)) = self.res {
-            (opts.width, opts.height) = (w, h);
-        }
-        opts.spp = self.spp.unwrap_or(opts.spp);
-        opts.max_bounces = self.bounces.unwrap_or(opts.max_bounces);
-        opts.seed = self.seed;
-        opts
+        self.settings().opts(scene)
     }
 }
 

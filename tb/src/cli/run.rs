@@ -266,8 +266,11 @@ fn table(report: &RunReport) -> Table {
         );
     }
     let labelled = [
-        (Metric::DramNode, "off-chip accesses: node fetches"),
-        (Metric::DramStack, "off-chip accesses: stack traffic"),
+        (Metric::Offchip, "off-chip accesses (SM → L2 requests)"),
+        (Metric::OffchipNode, "  of which node fetches"),
+        (Metric::OffchipStack, "  of which stack traffic"),
+        (Metric::DramNode, "DRAM accesses: node fetches"),
+        (Metric::DramStack, "DRAM accesses: stack traffic"),
         (Metric::StackGlobal, "stack entries to/from global memory"),
         (Metric::ShSpills, "RB → SH spills"),
         (Metric::Borrows, "SH stacks borrowed"),

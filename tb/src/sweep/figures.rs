@@ -23,6 +23,8 @@ pub struct Figure {
     /// What the figure shows and how its numbers were computed.
     pub note: String,
     pub table: Table,
+    /// The figure's numbers scene by scene, when `table` does not already give them per scene.
+    pub per_scene: Option<Table>,
     pub json: Value,
     pub chart: Chart,
 }
@@ -64,6 +66,33 @@ impl Sweep {
     fn scene_names(&self) -> Vec<String> {
         self.scenes.iter().map(|s| s.name.clone()).collect()
     }
+}
+
+/// Speed-ups over RB_8 per scene (rows: `configs` at `l1d_kb`, columns: scenes, then geomean).
+fn speedup_table(s: &Sweep, configs: &[(String, u32)], label: &str) -> Table {
+    let scenes = s.scene_names();
+    let mut t = Table::new(std::iter::once(label.to_string()).chain(scenes.clone()).chain(["geomean".into()]));
+    for (c, kb) in configs {
+        let name = if *kb == s.base_kb() { c.clone() } else { format!("{c}@{kb}KB") };
+        t.row(
+            std::iter::once(name)
+                .chain(scenes.iter().map(|sc| f4(s.speedup(sc, c, *kb))))
+                .chain([f4(s.geomean_speedup(c, *kb))]),
+        );
+    }
+    t
+}
+
+fn offchip_node(o: &Outcome) -> u64 {
+    o.gpu.map_or(0, |g| g.offchip_node)
+}
+
+fn offchip_stack(o: &Outcome) -> u64 {
+    o.gpu.map_or(0, |g| g.offchip_stack)
+}
+
+fn offchip_total(o: &Outcome) -> u64 {
+    offchip_node(o) + offchip_stack(o)
 }
 
 fn dram_node(o: &Outcome) -> u64 {
@@ -111,6 +140,7 @@ pub fn performance(s: &Sweep) -> Figure {
              is the geometric mean over the scenes."
         ),
         table,
+        per_scene: None,
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),
         chart: Chart::HBars {
             x_desc: format!("speed-up over {BASELINE} (bars: geomean, dots: scenes)"),
@@ -123,36 +153,55 @@ pub fn performance(s: &Sweep) -> Figure {
     }
 }
 
-/// Figure 2: Off-chip accesses: DRAM accesses of node fetches and of stack traffic, and stack entries
-/// moved to or from global memory.
+/// Figure 2: Off-chip accesses as the paper counts them (requests leaving the SMs for L2, which
+/// it counts as off-chip), split into node fetches and stack traffic, beside DRAM accesses and
+/// the stack entries moved to or from global memory.
 pub fn offchip(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let configs: Vec<String> = s.base_variants().iter().map(|v| v.config.name()).collect();
     let mut table = Table::new([
         "config",
+        "off-chip node",
+        "off-chip stack",
+        "off-chip total",
+        "off-chip vs RB_8",
         "DRAM node",
         "DRAM stack",
         "DRAM total",
         "DRAM vs RB_8",
         "stack entries to/from global",
-        "global entries vs RB_8",
     ]);
-    let total = |c: &str| s.sum(c, kb, |o| dram_node(o) + dram_stack(o));
+    let mut per_scene_table = Table::new([
+        "scene",
+        "config",
+        "off-chip node",
+        "off-chip stack",
+        "off-chip total",
+        "off-chip vs RB_8",
+        "DRAM node",
+        "DRAM stack",
+        "stack entries to/from global",
+    ]);
+    let total = |c: &str| s.sum(c, kb, offchip_total);
+    let dram = |c: &str| s.sum(c, kb, |o| dram_node(o) + dram_stack(o));
     let global = |c: &str| s.sum(c, kb, |o| o.stack.global());
-    let base_total = total(BASELINE);
+    let (base_total, base_dram) = (total(BASELINE), dram(BASELINE));
+    let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
     let mut rows = Vec::new();
     let (mut stacked, mut node_bars) = (Vec::new(), Vec::new());
     for c in &configs {
-        let (node, stack) = (s.sum(c, kb, dram_node), s.sum(c, kb, dram_stack));
-        let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
+        let (node, stack) = (s.sum(c, kb, offchip_node), s.sum(c, kb, offchip_stack));
         table.row([
             c.clone(),
             cell(node),
             cell(stack),
             cell(total(c)),
             f4(ratio(total(c), base_total)),
+            cell(s.sum(c, kb, dram_node)),
+            cell(s.sum(c, kb, dram_stack)),
+            cell(dram(c)),
+            f4(ratio(dram(c), base_dram)),
             cell(global(c)),
-            f4(ratio(global(c), global(BASELINE))),
         ]);
         stacked.push(ratio(total(c), base_total));
         node_bars.push(ratio(node, base_total));
@@ -163,6 +212,8 @@ pub fn offchip(s: &Sweep) -> Figure {
             .map(|r| {
                 json!({
                     "scene": r.scene,
+                    "offchip_node": offchip_node(&r.outcome),
+                    "offchip_stack": offchip_stack(&r.outcome),
                     "dram_node": dram_node(&r.outcome),
                     "dram_stack": dram_stack(&r.outcome),
                     "stack_global": r.outcome.stack.global(),
@@ -170,21 +221,44 @@ pub fn offchip(s: &Sweep) -> Figure {
             })
             .collect();
         rows.push(json!({
-            "config": c, "dram_node": node, "dram_stack": stack, "stack_global": global(c),
-            "per_scene": per_scene,
+            "config": c, "offchip_node": node, "offchip_stack": stack,
+            "dram_node": s.sum(c, kb, dram_node), "dram_stack": s.sum(c, kb, dram_stack),
+            "stack_global": global(c), "per_scene": per_scene,
         }));
+    }
+    for sc in &s.scenes {
+        let base = s.run(&sc.name, BASELINE, kb).map(|r| offchip_total(&r.outcome));
+        for c in &configs {
+            if let Some(r) = s.run(&sc.name, c, kb) {
+                let o = &r.outcome;
+                per_scene_table.row([
+                    sc.name.clone(),
+                    c.clone(),
+                    offchip_node(o).to_string(),
+                    offchip_stack(o).to_string(),
+                    offchip_total(o).to_string(),
+                    f4(ratio(Some(offchip_total(o)), base)),
+                    dram_node(o).to_string(),
+                    dram_stack(o).to_string(),
+                    o.stack.global().to_string(),
+                ]);
+            }
+        }
     }
     Figure {
         name: "offchip",
         title: format!("Off-chip accesses ({kb} KB L1D, sums over the scenes)"),
-        note: "DRAM accesses split into node fetches and stack spills/reloads (with write-backs of spilled \
-               lines), and the stack entries moved to or from global memory before any cache filters them. \
-               Ratios are sums over the scenes relative to RB_8's."
+        note: "Off-chip accesses as the paper counts them (L2 is off-chip): requests leaving the SMs for L2 \
+               (L1D fills and write-through stores), split into node fetches and stack spills/reloads. \
+               Beside them the DRAM accesses (with write-backs of spilled lines) and the stack entries moved \
+               to or from global memory before any cache filters them. Ratios are sums over the scenes \
+               relative to RB_8's; the per-scene table gives each scene's counts."
             .into(),
         table,
+        per_scene: Some(per_scene_table),
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),
         chart: Chart::HBars {
-            x_desc: format!("DRAM accesses relative to {BASELINE}'s total"),
+            x_desc: format!("off-chip (SM to L2) requests relative to {BASELINE}'s total"),
             labels: configs,
             bars: vec![
                 Bars { name: "stack".into(), values: stacked },
@@ -250,6 +324,7 @@ pub fn bank_conflicts(s: &Sweep) -> Figure {
         title: format!("Bank-conflict delay cycles ({kb} KB L1D)"),
         note: format!("{note} Only configurations with SH stacks use shared memory."),
         table,
+        per_scene: None,
         json: json!({ "l1d_kb": kb, "rows": rows }),
         chart: Chart::HBars {
             x_desc: "bank-conflict delay cycles (bars: sum over scenes, dots: scenes)".into(),
@@ -317,6 +392,11 @@ pub fn rb_sweep(s: &Sweep) -> Figure {
             log2_x: true,
             zoom: true,
             series: vec![Line { name: "RB_N".into(), points: plain }, Line { name: "RB_N+SMS".into(), points: sms }],
+        },
+        per_scene: {
+            let configs: Vec<(String, u32)> =
+                s.plan.rb_sizes.iter().flat_map(|&n| [(format!("RB_{n}"), kb), (with_sms(n), kb)]).collect();
+            Some(speedup_table(s, &configs, "config"))
         },
     }
 }
@@ -389,6 +469,11 @@ pub fn l1d_sweep(s: &Sweep) -> Figure {
                 Line { name: sms_name.clone(), points: sms },
             ],
         },
+        per_scene: {
+            let configs: Vec<(String, u32)> =
+                s.plan.l1d_kb.iter().flat_map(|&kb| [(BASELINE.to_string(), kb), (sms_name.clone(), kb)]).collect();
+            Some(speedup_table(s, &configs, "config@unified KB"))
+        },
     }
 }
 
@@ -439,6 +524,7 @@ pub fn depth(s: &Sweep) -> Figure {
                every ray; 'deeper than 8' is the share beyond what RB_8 holds. Per-scene histograms: depth/*.svg."
             .into(),
         table,
+        per_scene: None,
         json: json!({ "scenes": reports }),
         chart: Chart::Lines {
             x_desc: "stack depth at push/pop".into(),
@@ -523,6 +609,11 @@ pub fn cost(s: &Sweep) -> Result<Figure> {
              and as fast and strictly better in one."
         ),
         table,
+        per_scene: Some(speedup_table(
+            s,
+            &designs.iter().map(|(name, _, _)| (name.clone(), kb)).collect::<Vec<_>>(),
+            "config",
+        )),
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "full_depth": full_depth, "rows": rows }),
         chart: Chart::Scatter {
             x_desc: format!("bytes added per SM over {BASELINE}"),
