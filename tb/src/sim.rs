@@ -592,6 +592,22 @@ mod tests {
     }
 
     #[test]
+    fn offchip_accesses_are_the_requests_between_l1d_and_dram() {
+        let scene = crate::load_scene("clutter").unwrap();
+        let w = workload(&scene, 24);
+        for name in ["RB_1", "RB_8", "RB_4+SH_4+SK+RA"] {
+            let o = simulate_all(&spec(name, Fidelity::Cycle), &w).unwrap();
+            let g = o.gpu.unwrap();
+            let m = |k: Metric| k.of(&o).unwrap();
+            assert_eq!(m(Metric::Offchip), m(Metric::OffchipNode) + m(Metric::OffchipStack), "{name}");
+            // The L1D filters node fetches before L2, the L2 filters requests before DRAM.
+            assert!(g.offchip_node > 0 && g.offchip_node <= g.node_fetches, "{name}: {g:?}");
+            assert!(g.offchip_node >= g.dram_node, "{name}: {g:?}");
+            assert!(g.offchip_stack >= o.stack.rb_to_global + o.stack.sh_to_global, "{name}: every spill leaves");
+        }
+    }
+
+    #[test]
     fn sampling_a_fraction_of_one_is_the_full_run_split() {
         let scene = crate::load_scene("clutter").unwrap();
         let w = workload(&scene, 24);

@@ -484,6 +484,51 @@ mod tests {
         assert!(jobs.iter().all(|j| j.lanes.iter().any(Option::is_some)));
     }
 
+    /// A quad filling the view, wound to face the camera (`front`) or away from it.
+    fn quad(front: bool) -> Scene {
+        use crate::geometry::Primitives;
+        use glam::vec3a;
+        let (a, b, c, d) =
+            (vec3a(-50.0, -50.0, 0.0), vec3a(50.0, -50.0, 0.0), vec3a(50.0, 50.0, 0.0), vec3a(-50.0, 50.0, 0.0));
+        let tris = if front {
+            vec![obvhs::triangle::Triangle { v0: a, v1: b, v2: c }, obvhs::triangle::Triangle { v0: a, v1: c, v2: d }]
+        } else {
+            vec![obvhs::triangle::Triangle { v0: a, v1: c, v2: b }, obvhs::triangle::Triangle { v0: a, v1: d, v2: c }]
+        };
+        Scene {
+            name: "quad".into(),
+            primitives: Primitives::Triangles(tris),
+            camera: crate::scene::Camera::look_at([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 45.0),
+            render: crate::scene::RenderSettings { width: 8, height: 8, spp: 1, max_bounces: 3 },
+            dropped_degenerate: 0,
+        }
+    }
+
+    /// LumiBench's Lambertian scatters only rays that arrive at a surface's front
+    /// (Scatter.glsl:17), and a hit that does not scatter ends the path (RayTracing.rgen:71-75).
+    #[test]
+    fn a_back_face_hit_ends_a_lumibench_path_and_scatters_otherwise() {
+        let rays = |front: bool, path_end: PathEnd| {
+            let scene = quad(front);
+            let opts = WorkloadOpts { path_end, ..WorkloadOpts::for_scene(&scene) };
+            Workload::new(&scene, opts).unwrap().num_rays()
+        };
+        // Every primary ray hits the quad; a bounce off its front leaves it and misses.
+        assert_eq!(rays(true, PathEnd::Lumibench), 2 * 64);
+        assert_eq!(rays(true, PathEnd::Always), 2 * 64);
+        // Seen from behind: the path ends at the primary hit, unless every hit scatters.
+        assert_eq!(rays(false, PathEnd::Lumibench), 64);
+        assert_eq!(rays(false, PathEnd::Always), 2 * 64);
+        assert_eq!(WorkloadOpts::default().path_end, PathEnd::Lumibench);
+    }
+
+    #[test]
+    fn the_default_workload_is_lumibench_s() {
+        let o = WorkloadOpts::default();
+        // 16 traceRay calls per path at most: the primary ray and 15 bounces.
+        assert_eq!((o.width, o.height, o.spp, o.max_bounces + 1), (128, 128, 2, 16));
+    }
+
     #[test]
     fn empty_resolution_is_an_error() {
         let scene = load_scene("grid").expect("grid");

@@ -393,7 +393,11 @@ fn simulate_variant(
     workload: &Workload,
     progress: &Progress,
 ) -> Result<(Outcome, Option<RunSample>)> {
-    match req.sample.filter(|p| p.fraction < 1.0) {
+    // A sample that would hold every warp (small frames: at least one warp per batch) is the
+    // full run.
+    let n = workload.num_warps();
+    let partial = |p: &SamplePlan| p.fraction < 1.0 && ((f64::from(n) * p.fraction).round() as u32).max(p.batches) < n;
+    match req.sample.filter(partial) {
         None => Ok((simulate(spec, workload, None, &mut NullSink, |_| progress.tick())?, None)),
         Some(plan) => {
             let s = simulate_sampled(spec, workload, &plan, |_| progress.tick())?;
