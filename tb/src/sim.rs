@@ -603,7 +603,10 @@ mod tests {
             // The L1D filters node fetches before L2, the L2 filters requests before DRAM.
             assert!(g.offchip_node > 0 && g.offchip_node <= g.node_fetches, "{name}: {g:?}");
             assert!(g.offchip_node >= g.dram_node, "{name}: {g:?}");
-            assert!(g.offchip_stack >= o.stack.rb_to_global + o.stack.sh_to_global, "{name}: every spill leaves");
+            assert!(
+                g.offchip_stack >= o.stack.rb_to_global + o.stack.sh_to_global,
+                "{name}: every spill leaves"
+            );
         }
     }
 

@@ -349,7 +349,8 @@ impl<'s> Workload<'s> {
                             Some(_) if bounce == o.max_bounces => None,
                             Some(h)
                                 if o.path_end == PathEnd::Lumibench
-                                    && prims.outward_normal(h.prim as usize, ray.at(h.t)).dot(ray.dir) >= 0.0 =>
+                                    && prims.outward_normal(h.prim as usize, ray.at(h.t)).dot(ray.dir)
+                                        >= 0.0 =>
                             {
                                 None
                             }
@@ -377,7 +378,16 @@ mod tests {
     use crate::scene::load_scene;
 
     fn small(bvh: BvhKind, order: ChildOrder, seed: u64) -> WorkloadOpts {
-        WorkloadOpts { bvh, order, width: 16, height: 12, spp: 1, max_bounces: 2, seed, path_end: PathEnd::Always }
+        WorkloadOpts {
+            bvh,
+            order,
+            width: 16,
+            height: 12,
+            spp: 1,
+            max_bounces: 2,
+            seed,
+            path_end: PathEnd::Always,
+        }
     }
 
     const KINDS: [BvhKind; 3] = [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh];
@@ -488,12 +498,22 @@ mod tests {
     fn quad(front: bool) -> Scene {
         use crate::geometry::Primitives;
         use glam::vec3a;
-        let (a, b, c, d) =
-            (vec3a(-50.0, -50.0, 0.0), vec3a(50.0, -50.0, 0.0), vec3a(50.0, 50.0, 0.0), vec3a(-50.0, 50.0, 0.0));
+        let (a, b, c, d) = (
+            vec3a(-50.0, -50.0, 0.0),
+            vec3a(50.0, -50.0, 0.0),
+            vec3a(50.0, 50.0, 0.0),
+            vec3a(-50.0, 50.0, 0.0),
+        );
         let tris = if front {
-            vec![obvhs::triangle::Triangle { v0: a, v1: b, v2: c }, obvhs::triangle::Triangle { v0: a, v1: c, v2: d }]
+            vec![
+                obvhs::triangle::Triangle { v0: a, v1: b, v2: c },
+                obvhs::triangle::Triangle { v0: a, v1: c, v2: d },
+            ]
         } else {
-            vec![obvhs::triangle::Triangle { v0: a, v1: c, v2: b }, obvhs::triangle::Triangle { v0: a, v1: d, v2: c }]
+            vec![
+                obvhs::triangle::Triangle { v0: a, v1: c, v2: b },
+                obvhs::triangle::Triangle { v0: a, v1: d, v2: c },
+            ]
         };
         Scene {
             name: "quad".into(),

@@ -50,7 +50,8 @@ pub const MECHANISMS: &[Mechanism] = &[
     },
     Mechanism {
         name: "lumibench-res",
-        what: "LumiBench's workload: 128x128 pixels, 2 spp, 16 rays per path (RayTracingInVulkan lumibench.sh, \
+        what:
+            "LumiBench's workload: 128x128 pixels, 2 spp, 16 rays per path (RayTracingInVulkan lumibench.sh, \
                src/Options.cpp:22)",
         off_means: "the reduced workload of the sweep before issue 12: 3/4 of the resolution (96x96 at \
                     LumiBench's), 1 spp, 2 bounces",
@@ -68,7 +69,8 @@ pub const MECHANISMS: &[Mechanism] = &[
     },
     Mechanism {
         name: "l1d-hit-latency",
-        what: "L1D hit latency of 20 cycles (Vulkan-Sim MOBILE gpgpusim.config: -gpgpu_l1_latency 20; SPEC 7)",
+        what:
+            "L1D hit latency of 20 cycles (Vulkan-Sim MOBILE gpgpusim.config: -gpgpu_l1_latency 20; SPEC 7)",
         off_means: "an ideal 1-cycle L1D hit",
         off: |hw, _| hw.mem.l1d_hit_latency = 1,
     },
@@ -123,7 +125,8 @@ pub fn run(
             m.name, m.off_means
         )));
     }
-    let tweaks: Vec<Option<Tweak>> = std::iter::once(None).chain(mechanisms.iter().map(|m| Some(m.off))).collect();
+    let tweaks: Vec<Option<Tweak>> =
+        std::iter::once(None).chain(mechanisms.iter().map(|m| Some(m.off))).collect();
     let mut sweeps = super::run_arms(req, &tweaks, library, progress)?.into_iter();
     let reference = sweeps.next().expect("the reference arm");
     Ok(Ablation { reference, arms: mechanisms.iter().copied().zip(sweeps).collect() })
@@ -183,11 +186,8 @@ impl Ablation {
                         .into_iter()
                         .chain(v.iter().zip(&r).flat_map(|(&x, &y)| [f4(x), delta(x, y)])),
                 );
-                let cells: Vec<Value> = HEADLINE
-                    .iter()
-                    .zip(&v)
-                    .map(|((c, _), x)| json!({ "config": c, "speedup": x }))
-                    .collect();
+                let cells: Vec<Value> =
+                    HEADLINE.iter().zip(&v).map(|((c, _), x)| json!({ "config": c, "speedup": x })).collect();
                 scenes_json.push(json!({ "scene": sc.name, "speedups": cells }));
             }
             let cells: Vec<Value> =
@@ -211,8 +211,11 @@ impl Ablation {
             .iter()
             .map(|(m, _)| json!({ "name": m.name, "what": m.what, "off_means": m.off_means }))
             .collect();
-        let list: String =
-            self.arms.iter().map(|(m, _)| format!("\n- **{}**: {}. Off: {}.", m.name, m.what, m.off_means)).collect();
+        let list: String = self
+            .arms
+            .iter()
+            .map(|(m, _)| format!("\n- **{}**: {}. Off: {}.", m.name, m.what, m.off_means))
+            .collect();
         Figure {
             name: "ablation",
             title: format!("Headline speed-ups over {BASELINE} with one mechanism off ({kb} KB L1D)"),

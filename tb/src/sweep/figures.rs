@@ -71,7 +71,8 @@ impl Sweep {
 /// Speed-ups over RB_8 per scene (rows: `configs` at `l1d_kb`, columns: scenes, then geomean).
 fn speedup_table(s: &Sweep, configs: &[(String, u32)], label: &str) -> Table {
     let scenes = s.scene_names();
-    let mut t = Table::new(std::iter::once(label.to_string()).chain(scenes.clone()).chain(["geomean".into()]));
+    let mut t =
+        Table::new(std::iter::once(label.to_string()).chain(scenes.clone()).chain(["geomean".into()]));
     for (c, kb) in configs {
         let name = if *kb == s.base_kb() { c.clone() } else { format!("{c}@{kb}KB") };
         t.row(
@@ -470,8 +471,12 @@ pub fn l1d_sweep(s: &Sweep) -> Figure {
             ],
         },
         per_scene: {
-            let configs: Vec<(String, u32)> =
-                s.plan.l1d_kb.iter().flat_map(|&kb| [(BASELINE.to_string(), kb), (sms_name.clone(), kb)]).collect();
+            let configs: Vec<(String, u32)> = s
+                .plan
+                .l1d_kb
+                .iter()
+                .flat_map(|&kb| [(BASELINE.to_string(), kb), (sms_name.clone(), kb)])
+                .collect();
             Some(speedup_table(s, &configs, "config@unified KB"))
         },
     }

@@ -161,8 +161,11 @@ impl Settings {
     /// "each scene's own" or the override, for summaries.
     pub fn describe(&self) -> String {
         let res = self.res.map_or("each scene's own resolution".into(), |(w, h)| format!("{w}x{h} pixels"));
-        let spp = self.spp.map_or("each scene's samples per pixel".into(), |n| format!("{n} sample(s) per pixel"));
-        let b = self.bounces.map_or("each scene's bounce limit".into(), |n| format!("{n} bounce(s) after the primary ray"));
+        let spp =
+            self.spp.map_or("each scene's samples per pixel".into(), |n| format!("{n} sample(s) per pixel"));
+        let b = self
+            .bounces
+            .map_or("each scene's bounce limit".into(), |n| format!("{n} bounce(s) after the primary ray"));
         format!(
             "{res}, {spp}, {b}, {:?} hierarchy, {:?} child order, path end {:?}, seed {}",
             self.bvh, self.order, self.path_end, self.seed
@@ -386,17 +389,21 @@ fn scene_result(
     }
 }
 
+/// A variant's whole-frame counts and, when sampled, how.
+type Measured = (Outcome, Option<RunSample>);
+
 /// One variant on `workload`: every pixel warp, or the request's sample scaled to the frame.
 fn simulate_variant(
     req: &Request,
     spec: &RunSpec,
     workload: &Workload,
     progress: &Progress,
-) -> Result<(Outcome, Option<RunSample>)> {
+) -> Result<Measured> {
     // A sample that would hold every warp (small frames: at least one warp per batch) is the
     // full run.
     let n = workload.num_warps();
-    let partial = |p: &SamplePlan| p.fraction < 1.0 && ((f64::from(n) * p.fraction).round() as u32).max(p.batches) < n;
+    let partial =
+        |p: &SamplePlan| p.fraction < 1.0 && ((f64::from(n) * p.fraction).round() as u32).max(p.batches) < n;
     match req.sample.filter(partial) {
         None => Ok((simulate(spec, workload, None, &mut NullSink, |_| progress.tick())?, None)),
         Some(plan) => {
@@ -430,11 +437,11 @@ fn run_scene(
     variants: &[Variant],
     scene: &str,
     progress: &Progress,
-) -> Result<(Vec<(Outcome, Option<RunSample>)>, DepthHistogram)> {
+) -> Result<(Vec<Measured>, DepthHistogram)> {
     // Index `variants.len()` is the depth pass.
     let next = AtomicUsize::new(0);
     let failed = AtomicBool::new(false);
-    let slots: Mutex<Vec<Option<(Outcome, Option<RunSample>)>>> = Mutex::new(vec![None; variants.len()]);
+    let slots: Mutex<Vec<Option<Measured>>> = Mutex::new(vec![None; variants.len()]);
     let depth = Mutex::new(DepthHistogram::default());
     let error: Mutex<Option<Error>> = Mutex::new(None);
     let worker = || loop {

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-use super::figures::{self, Figure};
 use super::ablate::Ablation;
+use super::figures::{self, Figure};
 use super::Sweep;
 use crate::error::{Error, Result};
 
