@@ -174,7 +174,8 @@ impl Settings {
 }
 
 /// Changes a sweep arm makes to the hardware and to each scene's workload (the ablation turns
-/// one mechanism off this way).
+/// one mechanism off this way). The hardware change is made once, with a default workload, and
+/// the workload change per scene with default hardware: neither may depend on the other.
 pub type Tweak = fn(&mut Hardware, &mut WorkloadOpts);
 
 /// Everything a sweep needs.
