@@ -263,3 +263,45 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
     let _ = std::fs::remove_dir_all(&abl);
     let _ = std::fs::remove_dir_all(&sw);
 }
+
+/// A sampled sweep simulates a part of each frame, scales it to the whole frame and says so,
+/// with the measured error, in its summary.
+#[test]
+fn a_sampled_sweep_reports_its_sample_and_error() {
+    let out = out_dir("sampled");
+    let o = sms(&[
+        "sweep",
+        "--scenes",
+        "clutter",
+        "--res",
+        "64x32",
+        "--spp",
+        "1",
+        "--bounces",
+        "1",
+        "-c",
+        "RB_8",
+        "--rb-sizes",
+        "8",
+        "--l1d-sizes",
+        "64",
+        "--sample",
+        "0.25",
+        "--batches",
+        "4",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = json(&out.join("report.json"));
+    let runs = report["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 2, "RB_8 and SMS");
+    for r in runs {
+        assert_eq!(r["sample"]["sampled_warps"], 16, "a quarter of 64 warps");
+        assert_eq!(r["outcome"]["pixel_warps"], 64, "counts stand for the whole frame");
+    }
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("Sampled: 25 %") && summary.contains(tb::cli::sweep::SAMPLE_ERROR), "{summary}");
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -16,18 +16,20 @@ use crate::sweep::{self, Plan, Progress, Request};
 pub const QUICK_RES: (u32, u32) = (16, 16);
 
 /// Fraction of each scene's pixel warps a sweep simulates by default, chosen from a measurement
-/// (`sms run --sample F` against full runs at LumiBench's settings, see [`SAMPLE_ERROR`]): 25 %
-/// and 50 % samples err alike on speed-ups (up to 1.8 % and 1.0 %), so the cheaper one. A
-/// sweep of one mid-sized scene at 25 % takes about a quarter of the full run.
-pub const DEFAULT_SAMPLE: f64 = 0.25;
+/// (see [`SAMPLE_ERROR`]): every warp. A 25 % sample costs about a sixth of the time
+/// (sprng-partial, 25 runs: 39 s against 228 s) but errs on speed-ups by up to 1.8 %, as much
+/// as the speed-ups themselves, and swaps the paper's ranking (SMS against +SK); 50 % errs as
+/// much (1.0 %). `--sample F` still gives a cheap preview with that error printed.
+pub const DEFAULT_SAMPLE: f64 = 1.0;
 
 /// What the measurement behind [`DEFAULT_SAMPLE`] found, printed in every sampled report.
-pub const SAMPLE_ERROR: &str = "measured on party-partial and sprng-partial at LumiBench's 128x128, 2 spp, \
-     16 rays per path, RB_8 and SMS, a 25 % tile sample against every warp: whole-frame cycles within \
-     1.6 %, off-chip accesses within 3.2 %, and SMS's speed-up over RB_8 off by up to 1.8 % (1.0183 \
-     estimated as 1.0001; a 50 % sample: up to 1.0 %, 1.0055 estimated as 0.9954). That is as large as \
-     the speed-ups themselves: a speed-up within 2 % of 1 is not resolved by a sampled sweep, use \
-     --sample 1 for it. Frames too small to sample (wknd: 512 warps, 82k cycles) err more (cycles +23 %)";
+pub const SAMPLE_ERROR: &str = "measured at LumiBench's 128x128, 2 spp, 16 rays per path with 25 % tile \
+     samples against every warp: on party-partial and sprng-partial whole-frame cycles within 1.6 % and \
+     off-chip accesses within 3.2 % for RB_8 and SMS; on sprng-partial's 17 sweep configurations the \
+     speed-ups over RB_8 off by up to 0.018 (SMS: 1.0001 sampled, 1.0183 in full), enough to reorder \
+     designs whose speed-ups differ by less than 2 %; a 50 % sample errs up to 0.010 (party-partial SMS: \
+     0.9954 against 1.0055). Frames too small to sample (wknd: 82k cycles) err more (cycles +23 %). Use \
+     --sample 1 (the default) for conclusions";
 
 /// What `sms sweep` and `sms ablate` share.
 #[derive(Clone, Debug, clap::Args)]
@@ -39,8 +41,9 @@ pub struct SweepArgs {
     #[command(flatten)]
     pub workload: WorkloadArgs,
     /// Simulate this fraction (0 < f ≤ 1) of each scene's pixel warps, drawn by --sample-mode, as
-    /// one launch whose counts are scaled to the whole frame; 1 simulates every warp [default:
-    /// 0.25, measured error printed in the summary; --quick: 1].
+    /// one launch whose counts are scaled to the whole frame: a cheap preview (0.25: about a
+    /// sixth of the time), whose measured error the summary prints; speed-ups err by up to 2 %
+    /// [default: 1, every warp].
     #[arg(long, value_name = "FRACTION")]
     pub sample: Option<f64>,
     /// How sampled warps are drawn.
@@ -49,8 +52,7 @@ pub struct SweepArgs {
     /// Batches of a sampled run (at least 2): they give the cycle estimate's interval.
     #[arg(long, default_value_t = 8)]
     pub batches: u32,
-    /// Smoke run: the built-in scenes at 16x16 pixels, every warp (--scenes, --res and --sample
-    /// still apply).
+    /// Smoke run: the built-in scenes at 16x16 pixels (--scenes and --res still apply).
     #[arg(long)]
     pub quick: bool,
     /// Worker threads [default: the available cores]. Results do not depend on it.
@@ -87,7 +89,7 @@ impl SweepArgs {
         if settings.spp == Some(0) {
             bail!("--spp 0: nothing to trace");
         }
-        let fraction = self.sample.unwrap_or(if self.quick { 1.0 } else { DEFAULT_SAMPLE });
+        let fraction = self.sample.unwrap_or(DEFAULT_SAMPLE);
         let sample =
             SamplePlan { fraction, mode: self.sample_mode, batches: self.batches, seed: settings.seed };
         sample.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
