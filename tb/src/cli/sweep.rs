@@ -8,8 +8,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 use rtl::config::Config;
 
-use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
-use crate::sampling::{SampleMode, SamplePlan};
+use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
 use crate::sweep::{self, Plan, Progress, Request};
 
 /// `--quick`: the built-in scenes, tiny.
@@ -40,18 +39,8 @@ pub struct SweepArgs {
     pub scenes: Vec<String>,
     #[command(flatten)]
     pub workload: WorkloadArgs,
-    /// Simulate this fraction (0 < f ≤ 1) of each scene's pixel warps, drawn by --sample-mode, as
-    /// one launch whose counts are scaled to the whole frame: a cheap preview (0.25: about a
-    /// sixth of the time), whose measured error the summary prints; speed-ups err by up to 2 %
-    /// [default: 1, every warp].
-    #[arg(long, value_name = "FRACTION")]
-    pub sample: Option<f64>,
-    /// How sampled warps are drawn.
-    #[arg(long, value_enum, default_value = "tile")]
-    pub sample_mode: SampleMode,
-    /// Batches of a sampled run (at least 2): they give the cycle estimate's interval.
-    #[arg(long, default_value_t = 8)]
-    pub batches: u32,
+    #[command(flatten)]
+    pub sampling: SampleArgs,
     /// Smoke run: the built-in scenes at 16x16 pixels (--scenes and --res still apply).
     #[arg(long)]
     pub quick: bool,
@@ -89,10 +78,9 @@ impl SweepArgs {
         if settings.spp == Some(0) {
             bail!("--spp 0: nothing to trace");
         }
-        let fraction = self.sample.unwrap_or(DEFAULT_SAMPLE);
-        let sample =
-            SamplePlan { fraction, mode: self.sample_mode, batches: self.batches, seed: settings.seed };
-        sample.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
+        let sampling =
+            SampleArgs { sample: Some(self.sampling.sample.unwrap_or(DEFAULT_SAMPLE)), ..self.sampling };
+        let sample = sampling.plan(settings.seed)?.filter(|p| p.fraction < 1.0);
         let jobs = match self.jobs {
             Some(0) => bail!("--jobs must be at least 1"),
             Some(n) => n,
@@ -102,7 +90,7 @@ impl SweepArgs {
         if hw.mem.l1d_bytes % 1024 != 0 {
             bail!("the unified L1D/shared array must be a whole number of KB");
         }
-        let req = Request { scenes, settings, hw, plan, jobs, sample: (fraction < 1.0).then_some(sample) };
+        let req = Request { scenes, settings, hw, plan, jobs, sample };
         req.plan.variants(req.base_kb())?;
         Ok(req)
     }

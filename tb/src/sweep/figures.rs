@@ -96,6 +96,47 @@ fn offchip_total(o: &Outcome) -> u64 {
     offchip_node(o) + offchip_stack(o)
 }
 
+/// A count of one run.
+type Count = fn(&Outcome) -> u64;
+
+fn global(o: &Outcome) -> u64 {
+    o.stack.global()
+}
+
+fn dram_total(o: &Outcome) -> u64 {
+    dram_node(o) + dram_stack(o)
+}
+
+/// Columns of the off-chip figure, whole scene set or one scene.
+const OFFCHIP_COLUMNS: [&str; 9] = [
+    "off-chip node",
+    "off-chip stack",
+    "off-chip total",
+    "off-chip vs RB_8",
+    "DRAM node",
+    "DRAM stack",
+    "DRAM total",
+    "DRAM vs RB_8",
+    "stack entries to/from global",
+];
+
+/// The [`OFFCHIP_COLUMNS`] of a set of runs: `sum(f)` is `f` summed over them, `base(f)` over
+/// RB_8's runs of the same scenes.
+fn offchip_cells(sum: &dyn Fn(Count) -> Option<u64>, base: &dyn Fn(Count) -> Option<u64>) -> Vec<String> {
+    let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
+    vec![
+        cell(sum(offchip_node)),
+        cell(sum(offchip_stack)),
+        cell(sum(offchip_total)),
+        f4(ratio(sum(offchip_total), base(offchip_total))),
+        cell(sum(dram_node)),
+        cell(sum(dram_stack)),
+        cell(sum(dram_total)),
+        f4(ratio(sum(dram_total), base(dram_total))),
+        cell(sum(global)),
+    ]
+}
+
 fn dram_node(o: &Outcome) -> u64 {
     o.gpu.map_or(0, |g| g.dram_node)
 }
@@ -160,52 +201,16 @@ pub fn performance(s: &Sweep) -> Figure {
 pub fn offchip(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let configs: Vec<String> = s.base_variants().iter().map(|v| v.config.name()).collect();
-    let mut table = Table::new([
-        "config",
-        "off-chip node",
-        "off-chip stack",
-        "off-chip total",
-        "off-chip vs RB_8",
-        "DRAM node",
-        "DRAM stack",
-        "DRAM total",
-        "DRAM vs RB_8",
-        "stack entries to/from global",
-    ]);
-    let mut per_scene_table = Table::new([
-        "scene",
-        "config",
-        "off-chip node",
-        "off-chip stack",
-        "off-chip total",
-        "off-chip vs RB_8",
-        "DRAM node",
-        "DRAM stack",
-        "stack entries to/from global",
-    ]);
-    let total = |c: &str| s.sum(c, kb, offchip_total);
-    let dram = |c: &str| s.sum(c, kb, |o| dram_node(o) + dram_stack(o));
-    let global = |c: &str| s.sum(c, kb, |o| o.stack.global());
-    let (base_total, base_dram) = (total(BASELINE), dram(BASELINE));
-    let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
+    let mut table = Table::new(std::iter::once("config").chain(OFFCHIP_COLUMNS));
+    let mut per_scene_table = Table::new(["scene", "config"].into_iter().chain(OFFCHIP_COLUMNS));
     let mut rows = Vec::new();
     let (mut stacked, mut node_bars) = (Vec::new(), Vec::new());
+    let base = |f: Count| s.sum(BASELINE, kb, f);
     for c in &configs {
-        let (node, stack) = (s.sum(c, kb, offchip_node), s.sum(c, kb, offchip_stack));
-        table.row([
-            c.clone(),
-            cell(node),
-            cell(stack),
-            cell(total(c)),
-            f4(ratio(total(c), base_total)),
-            cell(s.sum(c, kb, dram_node)),
-            cell(s.sum(c, kb, dram_stack)),
-            cell(dram(c)),
-            f4(ratio(dram(c), base_dram)),
-            cell(global(c)),
-        ]);
-        stacked.push(ratio(total(c), base_total));
-        node_bars.push(ratio(node, base_total));
+        let sum = |f: Count| s.sum(c, kb, f);
+        table.row(std::iter::once(c.clone()).chain(offchip_cells(&sum, &base)));
+        stacked.push(ratio(sum(offchip_total), base(offchip_total)));
+        node_bars.push(ratio(sum(offchip_node), base(offchip_total)));
         let per_scene: Vec<Value> = s
             .scenes
             .iter()
@@ -222,28 +227,16 @@ pub fn offchip(s: &Sweep) -> Figure {
             })
             .collect();
         rows.push(json!({
-            "config": c, "offchip_node": node, "offchip_stack": stack,
-            "dram_node": s.sum(c, kb, dram_node), "dram_stack": s.sum(c, kb, dram_stack),
-            "stack_global": global(c), "per_scene": per_scene,
+            "config": c, "offchip_node": sum(offchip_node), "offchip_stack": sum(offchip_stack),
+            "dram_node": sum(dram_node), "dram_stack": sum(dram_stack),
+            "stack_global": sum(global), "per_scene": per_scene,
         }));
     }
     for sc in &s.scenes {
-        let base = s.run(&sc.name, BASELINE, kb).map(|r| offchip_total(&r.outcome));
-        for c in &configs {
-            if let Some(r) = s.run(&sc.name, c, kb) {
-                let o = &r.outcome;
-                per_scene_table.row([
-                    sc.name.clone(),
-                    c.clone(),
-                    offchip_node(o).to_string(),
-                    offchip_stack(o).to_string(),
-                    offchip_total(o).to_string(),
-                    f4(ratio(Some(offchip_total(o)), base)),
-                    dram_node(o).to_string(),
-                    dram_stack(o).to_string(),
-                    o.stack.global().to_string(),
-                ]);
-            }
+        let one = |c: &str, f: Count| s.run(&sc.name, c, kb).map(|r| f(&r.outcome));
+        for c in configs.iter().filter(|c| s.run(&sc.name, c, kb).is_some()) {
+            let cells = offchip_cells(&|f| one(c, f), &|f| one(BASELINE, f));
+            per_scene_table.row([sc.name.clone(), c.clone()].into_iter().chain(cells));
         }
     }
     Figure {
