@@ -58,6 +58,12 @@ pub struct GpuReport {
     /// Off-chip accesses caused by stack spills and reloads (including write-backs of spilled
     /// lines).
     pub dram_stack: u64,
+    /// Requests leaving the SMs for L2 caused by node fetches (L1D fill requests): the paper's
+    /// "off-chip memory accesses", which count L2 as off-chip.
+    pub l2_node: u64,
+    /// Requests leaving the SMs for L2 caused by stack spills (write-through stores) and reloads
+    /// (L1D fill requests).
+    pub l2_stack: u64,
     pub l1d_hit_rate: f64,
     pub l2_hit_rate: f64,
     /// Stack manager counters summed over SMs.
@@ -254,6 +260,8 @@ impl Gpu {
 
     fn report(&self) -> GpuReport {
         let dram = self.mem.dram().counters();
+        // Every L2 access is a request an SM's L1D sent down (the L2 serves nothing else).
+        let l2 = self.mem.l2().counters();
         let mut stack = StackStats::default();
         for u in &self.units {
             stack.add(&u.stack.stats);
@@ -268,6 +276,8 @@ impl Gpu {
             node_fetches: sum(|u| u.fetch.requests),
             dram_node: dram.kind(ReqKind::NodeFetch).accesses,
             dram_stack: dram.kind(ReqKind::StackSpill).accesses + dram.kind(ReqKind::StackReload).accesses,
+            l2_node: l2.kind(ReqKind::NodeFetch).accesses,
+            l2_stack: l2.kind(ReqKind::StackSpill).accesses + l2.kind(ReqKind::StackReload).accesses,
             l1d_hit_rate: hit_rate(&self.mem.l1d_counters()),
             l2_hit_rate: hit_rate(self.mem.l2().counters()),
             stack,

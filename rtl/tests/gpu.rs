@@ -612,4 +612,38 @@ fn sh_accesses_take_the_shared_memory_latency() {
     assert_eq!(pushes(20), [5, 6, 7, 29]);
     let e = RtParams { sh_latency: 1, ..RtParams::default() }.validate().unwrap_err();
     assert_eq!(e.parameter, "sh_latency");
+/// The paper's "off-chip accesses" are requests leaving the SM for L2. A ray that fetches `n`
+/// distinct 32-byte sectors sends exactly `n` requests down; the same ray again on the same SM
+/// hits its L1D and sends none. Pushes beyond RB_1 spill: with a write-through L1D every spilled
+/// entry's store leaves the SM, so the stack's L2 requests are at least the entries spilled.
+#[test]
+fn l2_requests_count_what_leaves_the_sm() {
+    let visits: Vec<RayOp> = (0..6)
+        .map(|i| RayOp::Visit { addr: 0x10_0000 + i * 0x1000, kind: NodeKind::Internal, bytes: 32 })
+        .collect();
+    let once = run_with("RB_8", one_sm(), RtParams::default(), vec![single_warp(visits.clone())]).unwrap();
+    assert_eq!((once.l2_node, once.l2_stack, once.dram_node), (6, 0, 6));
+    let twice = run_with(
+        "RB_8",
+        one_sm(),
+        RtParams::default(),
+        vec![single_warp(visits.clone()), single_warp(visits.clone())],
+    )
+    .unwrap();
+    assert_eq!(twice.l2_node, 6, "the second ray hits the L1D: nothing more leaves the SM");
+    assert_eq!(twice.node_fetches, 12);
+
+    let mut deep = vec![visits[0]];
+    deep.extend((1..=4).map(|i| RayOp::Push(0x20_0000 + i * 0x1000)));
+    deep.extend((1..=4).rev().flat_map(|i| {
+        let a = 0x20_0000 + i * 0x1000;
+        [RayOp::Pop(a), RayOp::Visit { addr: a, kind: NodeKind::Triangle, bytes: 32 }]
+    }));
+    let r = run_with("RB_1", one_sm(), RtParams::default(), vec![single_warp(deep.clone())]).unwrap();
+    let spilled = r.stack.rb_to_global;
+    assert!(spilled >= 3, "4 pushes into 1 entry spill at least 3: {spilled}");
+    assert!(r.l2_stack >= spilled, "every spill store leaves the SM: {} < {spilled}", r.l2_stack);
+    assert_eq!(r.l2_node, 5, "root and four triangles, each a distinct sector");
+    let full = run_with("RB_FULL", one_sm(), RtParams::default(), vec![single_warp(deep)]).unwrap();
+    assert_eq!((full.l2_stack, full.l2_node), (0, 5), "no spills, no stack requests");
 }

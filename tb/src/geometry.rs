@@ -180,14 +180,21 @@ impl Primitives {
 
     /// Unit geometric normal at `point` on primitive `prim`, facing against `dir`.
     pub fn normal(&self, prim: usize, point: Vec3A, dir: Vec3A) -> Vec3A {
-        let n = match self {
-            Primitives::Triangles(t) => t[prim].compute_normal(),
-            Primitives::Spheres(s) => (point - s[prim].center).normalize_or_zero(),
-        };
+        let n = self.outward_normal(prim, point);
         if n.dot(dir) > 0.0 {
             -n
         } else {
             n
+        }
+    }
+
+    /// The unit normal of primitive `prim` at `point` as its geometry defines it, not turned
+    /// towards any ray: a triangle's by its winding (counter-clockwise front), a sphere's
+    /// outwards.
+    pub fn outward_normal(&self, prim: usize, point: Vec3A) -> Vec3A {
+        match self {
+            Primitives::Triangles(t) => t[prim].compute_normal(),
+            Primitives::Spheres(s) => (point - s[prim].center).normalize_or_zero(),
         }
     }
 

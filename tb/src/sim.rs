@@ -171,6 +171,11 @@ pub struct GpuCounts {
     pub node_fetches: u64,
     pub dram_node: u64,
     pub dram_stack: u64,
+    /// Off-chip accesses as the paper counts them (it counts L2 as off-chip): requests leaving
+    /// the SMs for L2, caused by node fetches.
+    pub offchip_node: u64,
+    /// Requests leaving the SMs for L2 caused by stack spills and reloads.
+    pub offchip_stack: u64,
     pub l1d_hit_rate: f64,
     pub l2_hit_rate: f64,
     pub bank_conflict_cycles: u64,
@@ -189,6 +194,8 @@ impl From<&GpuReport> for GpuCounts {
             node_fetches: r.node_fetches,
             dram_node: r.dram_node,
             dram_stack: r.dram_stack,
+            offchip_node: r.l2_node,
+            offchip_stack: r.l2_stack,
             l1d_hit_rate: r.l1d_hit_rate,
             l2_hit_rate: r.l2_hit_rate,
             bank_conflict_cycles: r.bank_conflict_cycles,
@@ -209,6 +216,12 @@ pub enum Metric {
     DramStack,
     /// DRAM accesses of node fetches (cycle level).
     DramNode,
+    /// Off-chip accesses as the paper counts them: requests leaving the SMs for L2 (cycle level).
+    Offchip,
+    /// Of which node fetches.
+    OffchipNode,
+    /// Of which stack spills and reloads.
+    OffchipStack,
     /// RB → SH spills.
     ShSpills,
     Borrows,
@@ -218,11 +231,14 @@ pub enum Metric {
 }
 
 impl Metric {
-    pub const ALL: [Metric; 8] = [
+    pub const ALL: [Metric; 11] = [
         Metric::Cycles,
         Metric::StackGlobal,
         Metric::DramStack,
         Metric::DramNode,
+        Metric::Offchip,
+        Metric::OffchipNode,
+        Metric::OffchipStack,
         Metric::ShSpills,
         Metric::Borrows,
         Metric::Flushes,
@@ -235,6 +251,9 @@ impl Metric {
             Metric::StackGlobal => "stack_global",
             Metric::DramStack => "dram_stack",
             Metric::DramNode => "dram_node",
+            Metric::Offchip => "offchip",
+            Metric::OffchipNode => "offchip_node",
+            Metric::OffchipStack => "offchip_stack",
             Metric::ShSpills => "sh_spills",
             Metric::Borrows => "borrows",
             Metric::Flushes => "flushes",
@@ -250,6 +269,9 @@ impl Metric {
             Metric::StackGlobal => o.stack.global() as f64,
             Metric::DramStack => g?.dram_stack as f64,
             Metric::DramNode => g?.dram_node as f64,
+            Metric::Offchip => (g?.offchip_node + g?.offchip_stack) as f64,
+            Metric::OffchipNode => g?.offchip_node as f64,
+            Metric::OffchipStack => g?.offchip_stack as f64,
             Metric::ShSpills => o.stack.rb_to_sh as f64,
             Metric::Borrows => o.stack.borrows as f64,
             Metric::Flushes => o.stack.flushes as f64,
@@ -487,7 +509,7 @@ pub fn simulate_sampled(
 }
 
 /// `share` of a launch's counts, for a batch of `pixel_warps` warps (rates unchanged).
-fn share_of(o: &Outcome, share: f64, pixel_warps: u32) -> Outcome {
+pub(crate) fn share_of(o: &Outcome, share: f64, pixel_warps: u32) -> Outcome {
     let x = |v: u64| (v as f64 * share).round() as u64;
     let c = &o.stack;
     Outcome {
@@ -517,6 +539,8 @@ fn share_of(o: &Outcome, share: f64, pixel_warps: u32) -> Outcome {
             node_fetches: x(g.node_fetches),
             dram_node: x(g.dram_node),
             dram_stack: x(g.dram_stack),
+            offchip_node: x(g.offchip_node),
+            offchip_stack: x(g.offchip_stack),
             bank_conflict_cycles: x(g.bank_conflict_cycles),
             ..g
         }),
@@ -606,6 +630,25 @@ mod tests {
             );
             assert_eq!(f.pops_checked, c.pops_checked);
             assert!(c.gpu.unwrap().cycles > 0);
+        }
+    }
+
+    #[test]
+    fn offchip_accesses_are_the_requests_between_l1d_and_dram() {
+        let scene = crate::load_scene("clutter").unwrap();
+        let w = workload(&scene, 24);
+        for name in ["RB_1", "RB_8", "RB_4+SH_4+SK+RA"] {
+            let o = simulate_all(&spec(name, Fidelity::Cycle), &w).unwrap();
+            let g = o.gpu.unwrap();
+            let m = |k: Metric| k.of(&o).unwrap();
+            assert_eq!(m(Metric::Offchip), m(Metric::OffchipNode) + m(Metric::OffchipStack), "{name}");
+            // The L1D filters node fetches before L2, the L2 filters requests before DRAM.
+            assert!(g.offchip_node > 0 && g.offchip_node <= g.node_fetches, "{name}: {g:?}");
+            assert!(g.offchip_node >= g.dram_node, "{name}: {g:?}");
+            assert!(
+                g.offchip_stack >= o.stack.rb_to_global + o.stack.sh_to_global,
+                "{name}: every spill leaves"
+            );
         }
     }
 

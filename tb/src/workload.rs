@@ -190,6 +190,22 @@ impl Accel {
     }
 }
 
+/// When a path ends besides a miss and the bounce limit. Neither has Russian roulette.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum PathEnd {
+    /// As LumiBench's path tracer: a Lambertian surface scatters only a ray arriving at its
+    /// front (`isScattered = dot(direction, normal) < 0`, RayTracingInVulkan
+    /// assets/shaders/Scatter.glsl:17), and the ray generation shader ends the path when a hit
+    /// does not scatter (RayTracing.rgen:71-75). Front is the side the triangle's winding
+    /// (LumiBench: the interpolated vertex normal) faces; a sphere's outside. Emitters, which
+    /// also end a path there (Scatter.glsl:56-63), do not exist here: no scene has materials.
+    #[default]
+    Lumibench,
+    /// Every hit scatters, from either side (the model before issue 12).
+    Always,
+}
+
 /// What to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct WorkloadOpts {
@@ -204,6 +220,8 @@ pub struct WorkloadOpts {
     /// Diffuse bounces after the primary ray.
     pub max_bounces: u32,
     pub seed: u64,
+    /// When a hit ends the path.
+    pub path_end: PathEnd,
 }
 
 impl WorkloadOpts {
@@ -222,6 +240,7 @@ impl WorkloadOpts {
             spp: r.spp,
             max_bounces: r.max_bounces,
             seed: 0,
+            path_end: PathEnd::default(),
         }
     }
 }
@@ -372,6 +391,13 @@ impl<'s> Workload<'s> {
                                 None
                             }
                             Some(_) if bounce == o.max_bounces => None,
+                            Some(h)
+                                if o.path_end == PathEnd::Lumibench
+                                    && prims.outward_normal(h.prim as usize, ray.at(h.t)).dot(ray.dir)
+                                        >= 0.0 =>
+                            {
+                                None
+                            }
                             Some(h) => {
                                 let point = ray.at(h.t);
                                 let normal = hit_normal(self.scene, &h, point, ray.dir);
@@ -396,7 +422,17 @@ mod tests {
     use crate::scene::load_scene;
 
     fn small(bvh: BvhKind, order: ChildOrder, seed: u64) -> WorkloadOpts {
-        WorkloadOpts { bvh, accel: Accel::Flat, order, width: 16, height: 12, spp: 1, max_bounces: 2, seed }
+        WorkloadOpts {
+            bvh,
+            accel: Accel::Flat,
+            order,
+            width: 16,
+            height: 12,
+            spp: 1,
+            max_bounces: 2,
+            seed,
+            path_end: PathEnd::Always,
+        }
     }
 
     const KINDS: [BvhKind; 3] = [BvhKind::Bvh2, BvhKind::Bvh6, BvhKind::Cwbvh];
@@ -530,6 +566,61 @@ mod tests {
         let last_warp_jobs = jobs.iter().rev().take_while(|j| j.lanes[18..].iter().all(Option::is_none));
         assert!(last_warp_jobs.count() >= opts.spp as usize);
         assert!(jobs.iter().all(|j| j.lanes.iter().any(Option::is_some)));
+    }
+
+    /// A quad filling the view, wound to face the camera (`front`) or away from it.
+    fn quad(front: bool) -> Scene {
+        use crate::geometry::Primitives;
+        use glam::vec3a;
+        let (a, b, c, d) = (
+            vec3a(-50.0, -50.0, 0.0),
+            vec3a(50.0, -50.0, 0.0),
+            vec3a(50.0, 50.0, 0.0),
+            vec3a(-50.0, 50.0, 0.0),
+        );
+        let tris = if front {
+            vec![
+                obvhs::triangle::Triangle { v0: a, v1: b, v2: c },
+                obvhs::triangle::Triangle { v0: a, v1: c, v2: d },
+            ]
+        } else {
+            vec![
+                obvhs::triangle::Triangle { v0: a, v1: c, v2: b },
+                obvhs::triangle::Triangle { v0: a, v1: d, v2: c },
+            ]
+        };
+        Scene {
+            name: "quad".into(),
+            primitives: Primitives::Triangles(tris),
+            camera: crate::scene::Camera::look_at([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 45.0),
+            render: crate::scene::RenderSettings { width: 8, height: 8, spp: 1, max_bounces: 3 },
+            dropped_degenerate: 0,
+        }
+    }
+
+    /// LumiBench's Lambertian scatters only rays that arrive at a surface's front
+    /// (Scatter.glsl:17), and a hit that does not scatter ends the path (RayTracing.rgen:71-75).
+    #[test]
+    fn a_back_face_hit_ends_a_lumibench_path_and_scatters_otherwise() {
+        let rays = |front: bool, path_end: PathEnd| {
+            let scene = quad(front);
+            let opts = WorkloadOpts { path_end, ..WorkloadOpts::for_scene(&scene) };
+            Workload::new(&scene, opts).unwrap().num_rays()
+        };
+        // Every primary ray hits the quad; a bounce off its front leaves it and misses.
+        assert_eq!(rays(true, PathEnd::Lumibench), 2 * 64);
+        assert_eq!(rays(true, PathEnd::Always), 2 * 64);
+        // Seen from behind: the path ends at the primary hit, unless every hit scatters.
+        assert_eq!(rays(false, PathEnd::Lumibench), 64);
+        assert_eq!(rays(false, PathEnd::Always), 2 * 64);
+        assert_eq!(WorkloadOpts::default().path_end, PathEnd::Lumibench);
+    }
+
+    #[test]
+    fn the_default_workload_is_lumibench_s() {
+        let o = WorkloadOpts::default();
+        // 16 traceRay calls per path at most: the primary ray and 15 bounces.
+        assert_eq!((o.width, o.height, o.spp, o.max_bounces + 1), (128, 128, 2, 16));
     }
 
     #[test]

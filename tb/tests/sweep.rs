@@ -85,6 +85,12 @@ fn a_sweep_writes_every_file_and_does_not_depend_on_thread_count() {
             assert_eq!(a, std::fs::read(two.join("depth").join(&name)).unwrap(), "depth/{name} differs");
         }
     }
+    for f in FIGURES {
+        let md = std::fs::read_to_string(one.join(format!("{f}.md"))).unwrap();
+        for scene in SCENES {
+            assert!(md.contains(&format!("| {scene} |")), "{f}.md has no table row for {scene}");
+        }
+    }
     let summary = std::fs::read_to_string(one.join("summary.md")).unwrap();
     assert!(summary.contains("16x16 pixels"), "summary states the render settings");
     for f in FIGURES {
@@ -205,4 +211,97 @@ fn bad_input_is_an_error_not_a_panic() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
     assert!(!out.exists(), "nothing is written when the input is bad");
+}
+
+/// The ablation on two tiny scenes: one row per mechanism after the reference, and the
+/// reference row's speed-ups are bit-identical to a plain sweep's with the same settings.
+#[test]
+fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
+    let (abl, sw) = (out_dir("ablate"), out_dir("ablate-sweep"));
+    let tiny = ["--scenes", "wknd,clutter", "--res", "8x8", "--spp", "1", "--bounces", "1", "--quiet"];
+    let run = |args: &[&str]| {
+        let o = sms(args);
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&[&["ablate", "--out", abl.to_str().unwrap()], &tiny[..]].concat());
+    let headline = "RB_16,RB_FULL,RB_8+SH_8,RB_8+SH_8+SK,RB_8+SH_8+SK+RA,RB_2";
+    run(&[
+        &["sweep", "--order", "vulkansim", "-c", headline, "--rb-sizes", "8", "--l1d-sizes", "64"],
+        &tiny[..],
+        &["--out", sw.to_str().unwrap()],
+    ]
+    .concat());
+
+    let csv = std::fs::read_to_string(abl.join("ablation.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    assert_eq!(rows[0], "all on");
+    let mechanisms = tb::sweep::ablate::MECHANISMS;
+    assert_eq!(rows.len(), 1 + mechanisms.len(), "{csv}");
+    for (row, m) in rows[1..].iter().zip(mechanisms) {
+        assert_eq!(*row, format!("{} off", m.name));
+    }
+    let per_scene = std::fs::read_to_string(abl.join("ablation_per_scene.csv")).unwrap();
+    assert_eq!(per_scene.lines().count(), 1 + 2 * (1 + mechanisms.len()));
+
+    let ablation = json(&abl.join("ablation.json"));
+    let reference = &ablation["data"]["rows"][0];
+    assert_eq!(reference["arm"], "all on");
+    let perf = json(&sw.join("performance.json"));
+    let sweep_speedup = |config: &str, scene: &str| {
+        let row = perf["data"]["rows"].as_array().unwrap().iter().find(|r| r["config"] == config).unwrap();
+        row["per_scene"].as_array().unwrap().iter().find(|p| p["scene"] == scene).unwrap()["speedup"].clone()
+    };
+    let mut compared = 0;
+    for scene in reference["per_scene"].as_array().unwrap() {
+        for cell in scene["speedups"].as_array().unwrap() {
+            let (config, name) = (cell["config"].as_str().unwrap(), scene["scene"].as_str().unwrap());
+            assert_eq!(cell["speedup"], sweep_speedup(config, name), "{config} on {name}");
+            compared += 1;
+        }
+    }
+    assert_eq!(compared, 2 * 6);
+    let _ = std::fs::remove_dir_all(&abl);
+    let _ = std::fs::remove_dir_all(&sw);
+}
+
+/// A sampled sweep simulates a part of each frame, scales it to the whole frame and says so,
+/// with the measured error, in its summary.
+#[test]
+fn a_sampled_sweep_reports_its_sample_and_error() {
+    let out = out_dir("sampled");
+    let o = sms(&[
+        "sweep",
+        "--scenes",
+        "clutter",
+        "--res",
+        "64x32",
+        "--spp",
+        "1",
+        "--bounces",
+        "1",
+        "-c",
+        "RB_8",
+        "--rb-sizes",
+        "8",
+        "--l1d-sizes",
+        "64",
+        "--sample",
+        "0.25",
+        "--batches",
+        "4",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = json(&out.join("report.json"));
+    let runs = report["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 2, "RB_8 and SMS");
+    for r in runs {
+        assert_eq!(r["sample"]["sampled_warps"], 16, "a quarter of 64 warps");
+        assert_eq!(r["outcome"]["pixel_warps"], 64, "counts stand for the whole frame");
+    }
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("Sampled: 25 %") && summary.contains(tb::cli::sweep::SAMPLE_ERROR), "{summary}");
+    let _ = std::fs::remove_dir_all(&out);
 }

@@ -24,6 +24,8 @@ enum Command {
     Check(cli::check::Args),
     /// Run the paper's experiments over a scene set and write the report.
     Sweep(cli::sweep::Args),
+    /// Turn each simulator mechanism off in turn and report how the headline speed-ups move.
+    Ablate(cli::ablate::Args),
     /// Run time against error of each level and sample rate, throughput, savings of skipped work.
     Bench(cli::bench::Args),
 }
@@ -36,6 +38,7 @@ fn main() -> std::process::ExitCode {
         Command::Check(args) => cli::check::run(args),
         Command::Run(args) => cli::run::run(args),
         Command::Sweep(args) => cli::sweep::run(args),
+        Command::Ablate(args) => cli::ablate::run(args),
         Command::Bench(args) => cli::bench::run(args),
     };
     match result {

@@ -1,6 +1,7 @@
 //! The `sms` subcommands, one module each: a clap `Args` struct and `run(args)`. The binary only
 //! dispatches, so new subcommands are added here without touching the others.
 
+pub mod ablate;
 pub mod bench;
 pub mod check;
 pub mod cost;
@@ -31,49 +32,91 @@ impl SceneArgs {
     }
 }
 
-/// What to trace: scene, hierarchy, child order, resolution, samples, bounces, seed. Shared by
-/// the subcommands that simulate a workload.
+/// What to trace: scene, hierarchy, child order, resolution, samples, bounces, path end, seed.
+/// Shared by the subcommands that simulate a workload.
 #[derive(Clone, Debug, clap::Args)]
 pub struct WorkloadArgs {
     /// Hierarchy: bvh6 (Vulkan-Sim's 6-wide layout, 64-byte nodes), bvh2 or cwbvh (obvhs).
     #[arg(long, value_enum, default_value = "bvh6")]
     pub bvh: crate::workload::BvhKind,
-    /// Child order: nearest hit child first, others pushed far to near; or vulkansim (index
-    /// order).
-    #[arg(long, value_enum, default_value = "nearest")]
+    /// Child order: vulkansim (Vulkan-Sim's: hit children in index order, the first hit internal
+    /// child descended, every other hit child pushed, leaves included) or nearest (the nearest
+    /// hit child descended, the others pushed far to near).
+    #[arg(long, value_enum, default_value = "vulkansim")]
     pub order: crate::workload::ChildOrder,
-    /// Acceleration structure: flat (one BVH over every primitive, instances flattened) or
-    /// two-level (a TLAS over one BLAS per mesh, one stack across both levels; needs --bvh bvh6).
-    #[arg(long, value_enum, default_value = "flat")]
-    pub accel: crate::workload::Accel,
-    /// Resolution as WIDTHxHEIGHT (default: the scene's).
+    /// Acceleration structure: two-level (a TLAS over one BLAS per mesh, as the Vulkan pipeline
+    /// builds it, one stack across both levels; bvh6 only) or flat (one BVH over every
+    /// primitive, instances flattened) [default: two-level with bvh6, else flat].
+    #[arg(long, value_enum)]
+    pub accel: Option<crate::workload::Accel>,
+    /// Resolution as WIDTHxHEIGHT (default: the scene's; LumiBench's 128x128 unless its
+    /// description says otherwise).
     #[arg(long, value_parser = parse_res)]
     pub res: Option<(u32, u32)>,
-    /// Samples per pixel (default: the scene's).
+    /// Samples per pixel (default: the scene's; LumiBench's 2).
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Diffuse bounces after the primary ray (default: the scene's).
+    /// Diffuse bounces after the primary ray (default: the scene's; LumiBench's 16 rays per
+    /// path, i.e. 15).
     #[arg(long)]
     pub bounces: Option<u32>,
+    /// When a hit ends a path besides a miss and the bounce limit: lumibench (a hit on a
+    /// surface's back does not scatter, as LumiBench's Lambertian material) or always (every
+    /// hit scatters: the model before issue 12). No Russian roulette either way.
+    #[arg(long, value_enum, default_value = "lumibench")]
+    pub path_end: crate::workload::PathEnd,
     /// Seed of the ray generator: the same seed gives bit-identical results.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
 }
 
 impl WorkloadArgs {
+    /// The overrides of every scene's own render settings.
+    pub fn settings(&self) -> crate::sweep::Settings {
+        crate::sweep::Settings {
+            res: self.res,
+            spp: self.spp,
+            bounces: self.bounces,
+            bvh: self.bvh,
+            order: self.order,
+            accel: self.accel,
+            path_end: self.path_end,
+            seed: self.seed,
+        }
+    }
+
     /// `scene`'s own render settings with these arguments applied.
     pub fn opts(&self, scene: &crate::scene::Scene) -> crate::workload::WorkloadOpts {
-        let mut opts = crate::workload::WorkloadOpts::for_scene(scene);
-        opts.bvh = self.bvh;
-        opts.order = self.order;
-        opts.accel = self.accel;
-        if let Some((w, h)) = self.res {
-            (opts.width, opts.height) = (w, h);
-        }
-        opts.spp = self.spp.unwrap_or(opts.spp);
-        opts.max_bounces = self.bounces.unwrap_or(opts.max_bounces);
-        opts.seed = self.seed;
-        opts
+        self.settings().opts(scene)
+    }
+}
+
+/// Sampling of pixel warps, shared by `sms run`, `sms sweep` and `sms ablate`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct SampleArgs {
+    /// Simulate this fraction (0 < f ≤ 1) of the pixel warps and estimate every metric of the
+    /// whole frame with a 95 % confidence interval. At the cycle level the sample is one launch
+    /// and the intervals of cycles, DRAM and conflicts are indicative only: `sms bench` measures
+    /// the real error, and a sampled sweep prints the error measured at LumiBench's settings
+    /// (speed-ups off by up to 2 % at 0.25) [default: every warp].
+    #[arg(long, value_name = "FRACTION")]
+    pub sample: Option<f64>,
+    /// How sampled warps are drawn.
+    #[arg(long, value_enum, default_value = "tile")]
+    pub sample_mode: crate::sampling::SampleMode,
+    /// Independent batches of a sampled run (at least 2).
+    #[arg(long, default_value_t = 8)]
+    pub batches: u32,
+}
+
+impl SampleArgs {
+    /// The sample asked for (`None`: every warp), checked; drawn with `seed`.
+    pub fn plan(&self, seed: u64) -> anyhow::Result<Option<crate::sampling::SamplePlan>> {
+        let Some(fraction) = self.sample else { return Ok(None) };
+        let plan =
+            crate::sampling::SamplePlan { fraction, mode: self.sample_mode, batches: self.batches, seed };
+        plan.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
+        Ok(Some(plan))
     }
 }
 

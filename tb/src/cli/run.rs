@@ -11,8 +11,8 @@ use rtl::trace::NullSink;
 use serde::Serialize;
 
 use crate::cli::stack_config::StackConfigArgs;
-use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
-use crate::sampling::{SampleMode, SamplePlan};
+use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
+use crate::sampling::SamplePlan;
 use crate::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
 use crate::table::Table;
 use crate::vcd::{Selection, VcdOptions, VcdSink};
@@ -33,17 +33,8 @@ pub struct Args {
     /// counted from the traces, no timing (fastest).
     #[arg(long, value_enum, default_value = "cycle")]
     pub fidelity: Fidelity,
-    /// Simulate this fraction of the warps (0 < f ≤ 1) and estimate every metric with a 95 %
-    /// confidence interval. At the cycle level the sample is one launch and the intervals of
-    /// cycles, DRAM and conflicts are indicative only (`sms bench` measures the real error).
-    #[arg(long, value_name = "FRACTION")]
-    pub sample: Option<f64>,
-    /// How sampled warps are drawn.
-    #[arg(long, value_enum, default_value = "tile")]
-    pub sample_mode: SampleMode,
-    /// Independent batches of a sampled run (at least 2).
-    #[arg(long, default_value_t = 8)]
-    pub batches: u32,
+    #[command(flatten)]
+    pub sampling: SampleArgs,
     /// Print the results as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -125,15 +116,7 @@ struct RunReport<'a> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let configs = args.stack.resolve(&["RB_8", "RB_16", "SMS"])?;
     let hw = args.hardware.hardware()?;
-    let plan = args.sample.map(|fraction| SamplePlan {
-        fraction,
-        mode: args.sample_mode,
-        batches: args.batches,
-        seed: args.workload.seed,
-    });
-    if let Some(p) = &plan {
-        p.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
-    }
+    let plan = args.sampling.plan(args.workload.seed)?;
     let vcd = args.vcd.options();
     if let Some(v) = &vcd {
         if configs.len() != 1 {
@@ -266,8 +249,11 @@ fn table(report: &RunReport) -> Table {
         );
     }
     let labelled = [
-        (Metric::DramNode, "off-chip accesses: node fetches"),
-        (Metric::DramStack, "off-chip accesses: stack traffic"),
+        (Metric::Offchip, "off-chip accesses (SM → L2 requests)"),
+        (Metric::OffchipNode, "  of which node fetches"),
+        (Metric::OffchipStack, "  of which stack traffic"),
+        (Metric::DramNode, "DRAM accesses: node fetches"),
+        (Metric::DramStack, "DRAM accesses: stack traffic"),
         (Metric::StackGlobal, "stack entries to/from global memory"),
         (Metric::ShSpills, "RB → SH spills"),
         (Metric::Borrows, "SH stacks borrowed"),

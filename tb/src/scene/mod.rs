@@ -77,9 +77,14 @@ pub struct RenderSettings {
 }
 
 impl Default for RenderSettings {
-    /// SPEC section 8: 128 x 128 pixels, 2 samples per pixel.
+    /// LumiBench's path tracing (SPEC section 8): 128 x 128 pixels, 2 samples per pixel
+    /// (RayTracingInVulkan lumibench.sh: `--width 128 --height 128 --samples 2`), and the
+    /// renderer's default of 16 bounces (src/Options.cpp:22, `--bounces` default 16). Its ray
+    /// generation shader traces at bounce b = 0..15 and stops before tracing at b == 16
+    /// (assets/shaders/RayTracing.rgen:47-58): at most 16 rays per path, the primary ray and 15
+    /// more, which is `max_bounces = 15` here.
     fn default() -> Self {
-        RenderSettings { width: 128, height: 128, spp: 2, max_bounces: 3 }
+        RenderSettings { width: 128, height: 128, spp: 2, max_bounces: LUMIBENCH_MAX_BOUNCES }
     }
 }
 
@@ -143,6 +148,9 @@ impl Objects {
         self.instances.iter().map(|i| self.meshes[i.mesh as usize].range().len() as u64).sum()
     }
 }
+/// LumiBench's 16 bounces as diffuse bounces after the primary ray (see
+/// [`RenderSettings::default`]).
+pub const LUMIBENCH_MAX_BOUNCES: u32 = 15;
 
 /// Everything needed to trace a scene.
 #[derive(Clone, Debug)]

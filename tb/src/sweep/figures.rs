@@ -23,6 +23,8 @@ pub struct Figure {
     /// What the figure shows and how its numbers were computed.
     pub note: String,
     pub table: Table,
+    /// The figure's numbers scene by scene, when `table` does not already give them per scene.
+    pub per_scene: Option<Table>,
     pub json: Value,
     pub chart: Chart,
 }
@@ -64,6 +66,75 @@ impl Sweep {
     fn scene_names(&self) -> Vec<String> {
         self.scenes.iter().map(|s| s.name.clone()).collect()
     }
+}
+
+/// Speed-ups over RB_8 per scene (rows: `configs` at `l1d_kb`, columns: scenes, then geomean).
+fn speedup_table(s: &Sweep, configs: &[(String, u32)], label: &str) -> Table {
+    let scenes = s.scene_names();
+    let mut t =
+        Table::new(std::iter::once(label.to_string()).chain(scenes.clone()).chain(["geomean".into()]));
+    for (c, kb) in configs {
+        let name = if *kb == s.base_kb() { c.clone() } else { format!("{c}@{kb}KB") };
+        t.row(
+            std::iter::once(name)
+                .chain(scenes.iter().map(|sc| f4(s.speedup(sc, c, *kb))))
+                .chain([f4(s.geomean_speedup(c, *kb))]),
+        );
+    }
+    t
+}
+
+fn offchip_node(o: &Outcome) -> u64 {
+    o.gpu.map_or(0, |g| g.offchip_node)
+}
+
+fn offchip_stack(o: &Outcome) -> u64 {
+    o.gpu.map_or(0, |g| g.offchip_stack)
+}
+
+fn offchip_total(o: &Outcome) -> u64 {
+    offchip_node(o) + offchip_stack(o)
+}
+
+/// A count of one run.
+type Count = fn(&Outcome) -> u64;
+
+fn global(o: &Outcome) -> u64 {
+    o.stack.global()
+}
+
+fn dram_total(o: &Outcome) -> u64 {
+    dram_node(o) + dram_stack(o)
+}
+
+/// Columns of the off-chip figure, whole scene set or one scene.
+const OFFCHIP_COLUMNS: [&str; 9] = [
+    "off-chip node",
+    "off-chip stack",
+    "off-chip total",
+    "off-chip vs RB_8",
+    "DRAM node",
+    "DRAM stack",
+    "DRAM total",
+    "DRAM vs RB_8",
+    "stack entries to/from global",
+];
+
+/// The [`OFFCHIP_COLUMNS`] of a set of runs: `sum(f)` is `f` summed over them, `base(f)` over
+/// RB_8's runs of the same scenes.
+fn offchip_cells(sum: &dyn Fn(Count) -> Option<u64>, base: &dyn Fn(Count) -> Option<u64>) -> Vec<String> {
+    let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
+    vec![
+        cell(sum(offchip_node)),
+        cell(sum(offchip_stack)),
+        cell(sum(offchip_total)),
+        f4(ratio(sum(offchip_total), base(offchip_total))),
+        cell(sum(dram_node)),
+        cell(sum(dram_stack)),
+        cell(sum(dram_total)),
+        f4(ratio(sum(dram_total), base(dram_total))),
+        cell(sum(global)),
+    ]
 }
 
 fn dram_node(o: &Outcome) -> u64 {
@@ -111,6 +182,7 @@ pub fn performance(s: &Sweep) -> Figure {
              is the geometric mean over the scenes."
         ),
         table,
+        per_scene: None,
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),
         chart: Chart::HBars {
             x_desc: format!("speed-up over {BASELINE} (bars: geomean, dots: scenes)"),
@@ -123,39 +195,22 @@ pub fn performance(s: &Sweep) -> Figure {
     }
 }
 
-/// Figure 2: Off-chip accesses: DRAM accesses of node fetches and of stack traffic, and stack entries
-/// moved to or from global memory.
+/// Figure 2: Off-chip accesses as the paper counts them (requests leaving the SMs for L2, which
+/// it counts as off-chip), split into node fetches and stack traffic, beside DRAM accesses and
+/// the stack entries moved to or from global memory.
 pub fn offchip(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let configs: Vec<String> = s.base_variants().iter().map(|v| v.config.name()).collect();
-    let mut table = Table::new([
-        "config",
-        "DRAM node",
-        "DRAM stack",
-        "DRAM total",
-        "DRAM vs RB_8",
-        "stack entries to/from global",
-        "global entries vs RB_8",
-    ]);
-    let total = |c: &str| s.sum(c, kb, |o| dram_node(o) + dram_stack(o));
-    let global = |c: &str| s.sum(c, kb, |o| o.stack.global());
-    let base_total = total(BASELINE);
+    let mut table = Table::new(std::iter::once("config").chain(OFFCHIP_COLUMNS));
+    let mut per_scene_table = Table::new(["scene", "config"].into_iter().chain(OFFCHIP_COLUMNS));
     let mut rows = Vec::new();
     let (mut stacked, mut node_bars) = (Vec::new(), Vec::new());
+    let base = |f: Count| s.sum(BASELINE, kb, f);
     for c in &configs {
-        let (node, stack) = (s.sum(c, kb, dram_node), s.sum(c, kb, dram_stack));
-        let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
-        table.row([
-            c.clone(),
-            cell(node),
-            cell(stack),
-            cell(total(c)),
-            f4(ratio(total(c), base_total)),
-            cell(global(c)),
-            f4(ratio(global(c), global(BASELINE))),
-        ]);
-        stacked.push(ratio(total(c), base_total));
-        node_bars.push(ratio(node, base_total));
+        let sum = |f: Count| s.sum(c, kb, f);
+        table.row(std::iter::once(c.clone()).chain(offchip_cells(&sum, &base)));
+        stacked.push(ratio(sum(offchip_total), base(offchip_total)));
+        node_bars.push(ratio(sum(offchip_node), base(offchip_total)));
         let per_scene: Vec<Value> = s
             .scenes
             .iter()
@@ -163,6 +218,8 @@ pub fn offchip(s: &Sweep) -> Figure {
             .map(|r| {
                 json!({
                     "scene": r.scene,
+                    "offchip_node": offchip_node(&r.outcome),
+                    "offchip_stack": offchip_stack(&r.outcome),
                     "dram_node": dram_node(&r.outcome),
                     "dram_stack": dram_stack(&r.outcome),
                     "stack_global": r.outcome.stack.global(),
@@ -170,21 +227,32 @@ pub fn offchip(s: &Sweep) -> Figure {
             })
             .collect();
         rows.push(json!({
-            "config": c, "dram_node": node, "dram_stack": stack, "stack_global": global(c),
-            "per_scene": per_scene,
+            "config": c, "offchip_node": sum(offchip_node), "offchip_stack": sum(offchip_stack),
+            "dram_node": sum(dram_node), "dram_stack": sum(dram_stack),
+            "stack_global": sum(global), "per_scene": per_scene,
         }));
+    }
+    for sc in &s.scenes {
+        let one = |c: &str, f: Count| s.run(&sc.name, c, kb).map(|r| f(&r.outcome));
+        for c in configs.iter().filter(|c| s.run(&sc.name, c, kb).is_some()) {
+            let cells = offchip_cells(&|f| one(c, f), &|f| one(BASELINE, f));
+            per_scene_table.row([sc.name.clone(), c.clone()].into_iter().chain(cells));
+        }
     }
     Figure {
         name: "offchip",
         title: format!("Off-chip accesses ({kb} KB L1D, sums over the scenes)"),
-        note: "DRAM accesses split into node fetches and stack spills/reloads (with write-backs of spilled \
-               lines), and the stack entries moved to or from global memory before any cache filters them. \
-               Ratios are sums over the scenes relative to RB_8's."
+        note: "Off-chip accesses as the paper counts them (L2 is off-chip): requests leaving the SMs for L2 \
+               (L1D fills and write-through stores), split into node fetches and stack spills/reloads. \
+               Beside them the DRAM accesses (with write-backs of spilled lines) and the stack entries moved \
+               to or from global memory before any cache filters them. Ratios are sums over the scenes \
+               relative to RB_8's; the per-scene table gives each scene's counts."
             .into(),
         table,
+        per_scene: Some(per_scene_table),
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),
         chart: Chart::HBars {
-            x_desc: format!("DRAM accesses relative to {BASELINE}'s total"),
+            x_desc: format!("off-chip (SM to L2) requests relative to {BASELINE}'s total"),
             labels: configs,
             bars: vec![
                 Bars { name: "stack".into(), values: stacked },
@@ -250,6 +318,7 @@ pub fn bank_conflicts(s: &Sweep) -> Figure {
         title: format!("Bank-conflict delay cycles ({kb} KB L1D)"),
         note: format!("{note} Only configurations with SH stacks use shared memory."),
         table,
+        per_scene: None,
         json: json!({ "l1d_kb": kb, "rows": rows }),
         chart: Chart::HBars {
             x_desc: "bank-conflict delay cycles (bars: sum over scenes, dots: scenes)".into(),
@@ -317,6 +386,11 @@ pub fn rb_sweep(s: &Sweep) -> Figure {
             log2_x: true,
             zoom: true,
             series: vec![Line { name: "RB_N".into(), points: plain }, Line { name: "RB_N+SMS".into(), points: sms }],
+        },
+        per_scene: {
+            let configs: Vec<(String, u32)> =
+                s.plan.rb_sizes.iter().flat_map(|&n| [(format!("RB_{n}"), kb), (with_sms(n), kb)]).collect();
+            Some(speedup_table(s, &configs, "config"))
         },
     }
 }
@@ -389,6 +463,15 @@ pub fn l1d_sweep(s: &Sweep) -> Figure {
                 Line { name: sms_name.clone(), points: sms },
             ],
         },
+        per_scene: {
+            let configs: Vec<(String, u32)> = s
+                .plan
+                .l1d_kb
+                .iter()
+                .flat_map(|&kb| [(BASELINE.to_string(), kb), (sms_name.clone(), kb)])
+                .collect();
+            Some(speedup_table(s, &configs, "config@unified KB"))
+        },
     }
 }
 
@@ -439,6 +522,7 @@ pub fn depth(s: &Sweep) -> Figure {
                every ray; 'deeper than 8' is the share beyond what RB_8 holds. Per-scene histograms: depth/*.svg."
             .into(),
         table,
+        per_scene: None,
         json: json!({ "scenes": reports }),
         chart: Chart::Lines {
             x_desc: "stack depth at push/pop".into(),
@@ -523,6 +607,11 @@ pub fn cost(s: &Sweep) -> Result<Figure> {
              and as fast and strictly better in one."
         ),
         table,
+        per_scene: Some(speedup_table(
+            s,
+            &designs.iter().map(|(name, _, _)| (name.clone(), kb)).collect::<Vec<_>>(),
+            "config",
+        )),
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "full_depth": full_depth, "rows": rows }),
         chart: Chart::Scatter {
             x_desc: format!("bytes added per SM over {BASELINE}"),

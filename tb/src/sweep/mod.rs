@@ -17,6 +17,7 @@
 //! result is stored at its place in the plan, so the report does not depend on thread count or
 //! scheduling.
 
+pub mod ablate;
 pub mod figures;
 pub mod plot;
 mod progress;
@@ -34,9 +35,10 @@ pub use progress::Progress;
 
 use crate::depth::{DepthHistogram, DepthReport};
 use crate::error::{Error, Result};
-use crate::scene::SceneLibrary;
-use crate::sim::{simulate, Fidelity, Hardware, Outcome, RunSpec};
-use crate::workload::{BvhKind, ChildOrder, Workload, WorkloadOpts};
+use crate::sampling::SamplePlan;
+use crate::scene::{Scene, SceneLibrary};
+use crate::sim::{share_of, simulate, simulate_sampled, Fidelity, Hardware, Metric, Outcome, RunSpec};
+use crate::workload::{Accel, BvhKind, ChildOrder, PathEnd, Workload, WorkloadOpts};
 
 /// The configuration every performance figure is normalised to.
 pub const BASELINE: &str = "RB_8";
@@ -122,32 +124,67 @@ impl Plan {
     }
 }
 
-/// What every scene is rendered with: the same settings for all scenes.
+/// What every scene is rendered with: each scene's own render settings (its description's
+/// `[render]`, LumiBench's by default), with `res`, `spp` and `bounces` overriding them for every
+/// scene when given.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct Settings {
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    pub bounces: u32,
+    pub res: Option<(u32, u32)>,
+    pub spp: Option<u32>,
+    pub bounces: Option<u32>,
     pub bvh: BvhKind,
     pub order: ChildOrder,
+    /// `None`: two-level with BVH6 (as the Vulkan pipeline builds it), flat otherwise.
+    pub accel: Option<Accel>,
+    pub path_end: PathEnd,
     pub seed: u64,
 }
 
 impl Settings {
-    pub fn opts(&self) -> WorkloadOpts {
-        WorkloadOpts {
-            bvh: self.bvh,
-            accel: Default::default(),
-            order: self.order,
-            width: self.width,
-            height: self.height,
-            spp: self.spp,
-            max_bounces: self.bounces,
-            seed: self.seed,
+    /// `scene`'s workload under these settings.
+    pub fn opts(&self, scene: &Scene) -> WorkloadOpts {
+        self.apply(WorkloadOpts::for_scene(scene))
+    }
+
+    /// `opts` (a scene's own) with these settings applied.
+    pub fn apply(&self, mut opts: WorkloadOpts) -> WorkloadOpts {
+        if let Some((w, h)) = self.res {
+            (opts.width, opts.height) = (w, h);
         }
+        opts.spp = self.spp.unwrap_or(opts.spp);
+        opts.max_bounces = self.bounces.unwrap_or(opts.max_bounces);
+        opts.bvh = self.bvh;
+        opts.order = self.order;
+        opts.accel =
+            self.accel.unwrap_or(if self.bvh == BvhKind::Bvh6 { Accel::TwoLevel } else { Accel::Flat });
+        opts.path_end = self.path_end;
+        opts.seed = self.seed;
+        opts
+    }
+
+    /// "each scene's own" or the override, for summaries.
+    pub fn describe(&self) -> String {
+        let res = self.res.map_or("each scene's own resolution".into(), |(w, h)| format!("{w}x{h} pixels"));
+        let spp =
+            self.spp.map_or("each scene's samples per pixel".into(), |n| format!("{n} sample(s) per pixel"));
+        let b = self
+            .bounces
+            .map_or("each scene's bounce limit".into(), |n| format!("{n} bounce(s) after the primary ray"));
+        format!(
+            "{res}, {spp}, {b}, {:?} hierarchy, {} acceleration structure, {:?} child order, path end {:?}, seed {}",
+            self.bvh,
+            self.accel.map_or("default (two-level with BVH6)".to_string(), |a| format!("{a:?}")),
+            self.order,
+            self.path_end,
+            self.seed
+        )
     }
 }
+
+/// Changes a sweep arm makes to the hardware and to each scene's workload (the ablation turns
+/// one mechanism off this way). The hardware change is made once, with a default workload, and
+/// the workload change per scene with default hardware: neither may depend on the other.
+pub type Tweak = fn(&mut Hardware, &mut WorkloadOpts);
 
 /// Everything a sweep needs.
 #[derive(Clone, Debug)]
@@ -159,6 +196,9 @@ pub struct Request {
     pub plan: Plan,
     /// Worker threads.
     pub jobs: usize,
+    /// Simulate a sample of each scene's pixel warps (cycle level: one launch of the sample,
+    /// counts scaled to the whole frame); `None` simulates every warp.
+    pub sample: Option<SamplePlan>,
 }
 
 impl Request {
@@ -173,13 +213,28 @@ pub struct Run {
     pub scene: String,
     pub config: String,
     pub l1d_kb: u32,
+    /// The whole frame's counts: measured, or estimated from a sample.
     pub outcome: Outcome,
+    /// How the counts were estimated, for a sampled run.
+    pub sample: Option<RunSample>,
+}
+
+/// A sampled run: what was simulated and the 95 % half width of the cycle estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct RunSample {
+    pub fraction: f64,
+    pub sampled_warps: u32,
+    /// Half width of the cycles' 95 % interval relative to the estimate (indicative: see
+    /// `crate::sampling`).
+    pub cycles_rel_half_width: f64,
 }
 
 /// What a scene is, and its stack-depth statistics.
 #[derive(Clone, Debug, Serialize)]
 pub struct SceneResult {
     pub name: String,
+    /// The workload the scene was rendered with.
+    pub opts: WorkloadOpts,
     pub primitives: usize,
     pub triangles: usize,
     pub rays: u64,
@@ -203,6 +258,7 @@ pub struct Sweep {
     /// Sorted by scene (in request order), then by variant (in plan order).
     pub runs: Vec<Run>,
     pub jobs: usize,
+    pub sample: Option<SamplePlan>,
     pub wall: Duration,
 }
 
@@ -237,64 +293,164 @@ pub fn check_scenes(library: &SceneLibrary, scenes: &[String]) -> Result<()> {
 /// Runs the sweep. `progress` shows runs done, what is running, elapsed time and an estimate
 /// of the rest.
 pub fn run(req: &Request, library: &SceneLibrary, progress: &Progress) -> Result<Sweep> {
+    let mut arms = run_arms(req, &[None], library, progress)?;
+    Ok(arms.pop().expect("one arm"))
+}
+
+/// Runs the sweep once per arm, each with its tweak applied to the hardware and to every
+/// scene's workload (`None`: as requested). Scenes are the outer loop, so each is loaded once;
+/// arms whose workloads are equal share one. One [`Sweep`] per arm, in order; `wall` is the
+/// whole run's.
+pub fn run_arms(
+    req: &Request,
+    arms: &[Option<Tweak>],
+    library: &SceneLibrary,
+    progress: &Progress,
+) -> Result<Vec<Sweep>> {
     check_scenes(library, &req.scenes)?;
-    let variants = req.plan.variants(req.base_kb())?;
+    let hws: Vec<Hardware> = arms
+        .iter()
+        .map(|t| {
+            let mut hw = req.hw;
+            if let Some(t) = t {
+                t(&mut hw, &mut WorkloadOpts::default());
+            }
+            hw
+        })
+        .collect();
+    let variants: Vec<Vec<Variant>> =
+        hws.iter().map(|hw| req.plan.variants(hw.mem.l1d_bytes / 1024)).collect::<Result<_>>()?;
     let start = Instant::now();
-    let mut scenes = Vec::with_capacity(req.scenes.len());
-    let mut runs = Vec::with_capacity(req.scenes.len() * variants.len());
+    let mut out: Vec<Sweep> = hws
+        .iter()
+        .zip(&variants)
+        .map(|(&hw, v)| Sweep {
+            settings: req.settings,
+            hw,
+            plan: req.plan.clone(),
+            variants: v.clone(),
+            scenes: Vec::with_capacity(req.scenes.len()),
+            runs: Vec::with_capacity(req.scenes.len() * v.len()),
+            jobs: req.jobs,
+            sample: req.sample,
+            wall: Duration::ZERO,
+        })
+        .collect();
     for name in &req.scenes {
         progress.status(&format!("loading {name}"));
         let t = Instant::now();
         let scene = library.load(name)?;
         let load_secs = t.elapsed().as_secs_f64();
-        progress.status(&format!("building {name}"));
-        let t = Instant::now();
-        let workload = Workload::new(&scene, req.settings.opts())?;
-        let workload_secs = t.elapsed().as_secs_f64();
-        let (outcomes, depth) = run_scene(req, &workload, &variants, name, progress)?;
-        runs.extend(outcomes.into_iter().zip(&variants).map(|(outcome, v)| Run {
-            scene: name.clone(),
-            config: v.config.name(),
-            l1d_kb: v.l1d_kb,
-            outcome,
-        }));
-        scenes.push(SceneResult {
-            name: name.clone(),
-            primitives: scene.primitives.len(),
-            triangles: scene.primitives.triangle_count(),
-            rays: workload.num_rays(),
-            pixel_warps: workload.num_warps(),
-            depth: DepthReport::new(name, *workload.opts(), workload.num_rays(), depth),
-            load_secs,
-            workload_secs,
-        });
+        let mut built: Vec<(WorkloadOpts, Workload, f64)> = Vec::new();
+        for (a, tweak) in arms.iter().enumerate() {
+            let mut opts = req.settings.opts(&scene);
+            if let Some(t) = tweak {
+                t(&mut Hardware::default(), &mut opts);
+            }
+            let i = match built.iter().position(|b| b.0 == opts) {
+                Some(i) => i,
+                None => {
+                    progress.status(&format!("building {name}"));
+                    let t = Instant::now();
+                    let w = Workload::new(&scene, opts)?;
+                    built.push((opts, w, t.elapsed().as_secs_f64()));
+                    built.len() - 1
+                }
+            };
+            let (_, workload, workload_secs) = &built[i];
+            let sw = &mut out[a];
+            let (outcomes, depth) = run_scene(req, &sw.hw, workload, &sw.variants, name, progress)?;
+            sw.runs.extend(outcomes.into_iter().zip(&sw.variants).map(|((outcome, sample), v)| Run {
+                scene: name.clone(),
+                config: v.config.name(),
+                l1d_kb: v.l1d_kb,
+                outcome,
+                sample,
+            }));
+            sw.scenes.push(scene_result(&scene, workload, depth, load_secs, *workload_secs));
+        }
     }
     progress.finish();
-    Ok(Sweep {
-        settings: req.settings,
-        hw: req.hw,
-        plan: req.plan.clone(),
-        variants,
-        scenes,
-        runs,
-        jobs: req.jobs,
-        wall: start.elapsed(),
-    })
+    let wall = start.elapsed();
+    for sw in &mut out {
+        sw.wall = wall;
+    }
+    Ok(out)
+}
+
+fn scene_result(
+    scene: &Scene,
+    workload: &Workload,
+    depth: DepthHistogram,
+    load_secs: f64,
+    workload_secs: f64,
+) -> SceneResult {
+    SceneResult {
+        name: scene.name.clone(),
+        opts: *workload.opts(),
+        primitives: scene.primitives.len(),
+        triangles: scene.primitives.triangle_count(),
+        rays: workload.num_rays(),
+        pixel_warps: workload.num_warps(),
+        depth: DepthReport::new(&scene.name, *workload.opts(), workload.num_rays(), depth),
+        load_secs,
+        workload_secs,
+    }
+}
+
+/// A variant's whole-frame counts and, when sampled, how.
+type Measured = (Outcome, Option<RunSample>);
+
+/// One variant on `workload`: every pixel warp, or the request's sample scaled to the frame.
+fn simulate_variant(
+    req: &Request,
+    spec: &RunSpec,
+    workload: &Workload,
+    progress: &Progress,
+) -> Result<Measured> {
+    // A sample that would hold every warp (small frames: at least one warp per batch) is the
+    // full run.
+    let n = workload.num_warps();
+    let partial =
+        |p: &SamplePlan| p.fraction < 1.0 && ((f64::from(n) * p.fraction).round() as u32).max(p.batches) < n;
+    match req.sample.filter(partial) {
+        None => Ok((simulate(spec, workload, None, &mut NullSink, |_| progress.tick())?, None)),
+        Some(plan) => {
+            let s = simulate_sampled(spec, workload, &plan, |_| progress.tick())?;
+            let launch = s.launch.expect("a cycle-level sample has one launch");
+            let total = workload.num_warps();
+            // Every count scaled by total/sampled warps (the launch's ratio estimate), cycles
+            // from their estimate (dispatch phase scaled, drain kept).
+            let mut o = share_of(&launch, f64::from(total) / f64::from(launch.pixel_warps.max(1)), total);
+            o.wall = s.wall;
+            let cycles = s.get(Metric::Cycles).expect("cycle level estimates cycles");
+            if let Some(g) = o.gpu.as_mut() {
+                g.cycles = cycles.value.round() as u64;
+            }
+            let info = RunSample {
+                fraction: plan.fraction,
+                sampled_warps: launch.pixel_warps,
+                cycles_rel_half_width: cycles.relative(),
+            };
+            Ok((o, Some(info)))
+        }
+    }
 }
 
 /// Every variant of one scene on `req.jobs` threads, plus the depth pass; outcomes in plan
 /// order.
 fn run_scene(
     req: &Request,
+    hw: &Hardware,
     workload: &Workload,
     variants: &[Variant],
     scene: &str,
     progress: &Progress,
-) -> Result<(Vec<Outcome>, DepthHistogram)> {
+) -> Result<(Vec<Measured>, DepthHistogram)> {
     // Index `variants.len()` is the depth pass.
     let next = AtomicUsize::new(0);
     let failed = AtomicBool::new(false);
-    let slots: Mutex<Vec<Option<Outcome>>> = Mutex::new(vec![None; variants.len()]);
+    let slots: Mutex<Vec<Option<Measured>>> = Mutex::new(vec![None; variants.len()]);
     let depth = Mutex::new(DepthHistogram::default());
     let error: Mutex<Option<Error>> = Mutex::new(None);
     let worker = || loop {
@@ -317,9 +473,9 @@ fn run_scene(
         let v = variants[i];
         let label = format!("{scene} {}", v.name());
         progress.started(&label);
-        let hw = Hardware { mem: rtl::mem::MemParams { l1d_bytes: v.l1d_kb * 1024, ..req.hw.mem }, ..req.hw };
+        let hw = Hardware { mem: rtl::mem::MemParams { l1d_bytes: v.l1d_kb * 1024, ..hw.mem }, ..*hw };
         let spec = RunSpec { config: v.config, hw, fidelity: Fidelity::Cycle };
-        match simulate(&spec, workload, None, &mut NullSink, |_| progress.tick()) {
+        match simulate_variant(req, &spec, workload, progress) {
             Ok(o) => slots.lock().expect("slots lock")[i] = Some(o),
             Err(e) => {
                 failed.store(true, Ordering::Relaxed);

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
+use super::ablate::Ablation;
 use super::figures::{self, Figure};
 use super::Sweep;
 use crate::error::{Error, Result};
@@ -35,14 +36,69 @@ fn pretty(v: &Value) -> String {
 }
 
 fn figure_markdown(f: &Figure, heading: &str) -> String {
-    format!(
+    let mut md = format!(
         "{heading} {}\n\n{}\n\n![{}]({}.svg)\n\n{}",
         f.title,
         f.note,
         f.title,
         f.name,
         f.table.to_markdown()
-    )
+    );
+    if let Some(t) = &f.per_scene {
+        md += &format!("\nPer scene (also `{}_per_scene.csv`):\n\n{}", f.name, t.to_markdown());
+    }
+    md
+}
+
+/// A figure's Markdown, CSV (and per-scene CSV), JSON and SVG.
+fn write_figure(f: &Figure, dir: &Path, written: &mut Vec<PathBuf>) -> Result<()> {
+    write(dir.join(format!("{}.md", f.name)), &figure_markdown(f, "#"), written)?;
+    write(dir.join(format!("{}.csv", f.name)), &f.table.to_csv(), written)?;
+    if let Some(t) = &f.per_scene {
+        write(dir.join(format!("{}_per_scene.csv", f.name)), &t.to_csv(), written)?;
+    }
+    let v = json!({
+        "title": f.title, "note": f.note, "table": f.table, "per_scene_table": f.per_scene, "data": f.json,
+    });
+    write(dir.join(format!("{}.json", f.name)), &pretty(&v), written)?;
+    let svg = dir.join(format!("{}.svg", f.name));
+    f.chart.write_svg(&svg, &f.title)?;
+    written.push(svg);
+    Ok(())
+}
+
+/// Writes an ablation's report into `dir`: the ablation figure, `summary.md`, `report.json`
+/// with every arm's raw runs and `timing.json`. Returns the files written.
+pub fn write_ablation(a: &Ablation, dir: &Path) -> Result<Vec<PathBuf>> {
+    prepare(dir)?;
+    let mut written = Vec::new();
+    let f = a.figure();
+    write_figure(&f, dir, &mut written)?;
+    let r = &a.reference;
+    let mut summary = format!(
+        "# SMS ablation: {} mechanisms on {} scenes\n\nRendered at {} (each mechanism's row says what it \
+         changes).\n\n",
+        a.arms.len(),
+        r.scenes.len(),
+        r.settings.describe()
+    );
+    summary += &sampling_note(r);
+    summary += &format!(
+        "{} simulations per scene and arm, {} arms; {} worker thread(s), {:.1} s wall time.\n\n",
+        r.variants.len(),
+        a.arms.len() + 1,
+        r.jobs,
+        r.wall.as_secs_f64()
+    );
+    summary += &figure_markdown(&f, "##");
+    write(dir.join("summary.md"), &summary, &mut written)?;
+    let mut arms = vec![json!({ "arm": "all on", "report": report_json(r)? })];
+    for (m, s) in &a.arms {
+        arms.push(json!({ "arm": m.name, "off_means": m.off_means, "report": report_json(s)? }));
+    }
+    write(dir.join("report.json"), &pretty(&json!({ "arms": arms })), &mut written)?;
+    write(dir.join("timing.json"), &pretty(&timing_json(r)), &mut written)?;
+    Ok(written)
 }
 
 /// Writes the whole report into `dir` and returns the files written.
@@ -51,13 +107,7 @@ pub fn write_all(s: &Sweep, dir: &Path) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     let figures = figures::all(s)?;
     for f in &figures {
-        write(dir.join(format!("{}.md", f.name)), &figure_markdown(f, "#"), &mut written)?;
-        write(dir.join(format!("{}.csv", f.name)), &f.table.to_csv(), &mut written)?;
-        let v = json!({ "title": f.title, "note": f.note, "table": f.table, "data": f.json });
-        write(dir.join(format!("{}.json", f.name)), &pretty(&v), &mut written)?;
-        let svg = dir.join(format!("{}.svg", f.name));
-        f.chart.write_svg(&svg, &f.title)?;
-        written.push(svg);
+        write_figure(f, dir, &mut written)?;
     }
     let depth_dir = dir.join("depth");
     std::fs::create_dir_all(&depth_dir).map_err(|e| Error::io(&depth_dir, e))?;
@@ -82,10 +132,15 @@ pub fn report_json(s: &Sweep) -> Result<Value> {
         if let Some(o) = outcome.as_object_mut() {
             o.remove("wall");
         }
-        runs.push(json!({ "scene": r.scene, "config": r.config, "l1d_kb": r.l1d_kb, "outcome": outcome }));
+        runs.push(json!({
+            "scene": r.scene, "config": r.config, "l1d_kb": r.l1d_kb, "outcome": outcome, "sample": r.sample,
+        }));
     }
     Ok(json!({
         "settings": to_value(&s.settings)?,
+        "sample": s.sample.map(|p| json!({
+            "fraction": p.fraction, "mode": p.mode, "batches": p.batches, "seed": p.seed,
+        })),
         "hardware": format!("{:?}", s.hw),
         "plan": {
             "configs": s.plan.configs.iter().map(|c| c.name()).collect::<Vec<_>>(),
@@ -116,14 +171,13 @@ fn timing_json(s: &Sweep) -> Value {
 }
 
 fn summary(s: &Sweep, figures: &[Figure]) -> String {
-    let st = &s.settings;
     let mut out = format!("# SMS sweep: the paper's experiments on {} scenes\n\n", s.scenes.len());
     let _ = writeln!(
         out,
-        "Rendered at {}x{} pixels, {} sample(s) per pixel, {} bounce(s) after the primary ray, {:?} hierarchy, \
-         {:?} child order, seed {}. Every scene uses these settings.\n",
-        st.width, st.height, st.spp, st.bounces, st.bvh, st.order, st.seed
+        "Rendered at {} (the scene table below gives each scene's workload).\n",
+        s.settings.describe()
     );
+    out += &sampling_note(s);
     let m = &s.hw.mem;
     let _ = writeln!(
         out,
@@ -139,10 +193,22 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
         s.jobs,
         s.wall.as_secs_f64()
     );
-    let mut scenes = crate::table::Table::new(["scene", "primitives", "triangles", "pixel warps", "rays"]);
+    let mut scenes = crate::table::Table::new([
+        "scene",
+        "resolution",
+        "spp",
+        "max bounces",
+        "primitives",
+        "triangles",
+        "pixel warps",
+        "rays",
+    ]);
     for sc in &s.scenes {
         scenes.row([
             sc.name.clone(),
+            format!("{}x{}", sc.opts.width, sc.opts.height),
+            sc.opts.spp.to_string(),
+            sc.opts.max_bounces.to_string(),
             sc.primitives.to_string(),
             sc.triangles.to_string(),
             sc.pixel_warps.to_string(),
@@ -157,4 +223,29 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
         out += &figure_markdown(f, &format!("## {}.", i + 1));
     }
     out
+}
+
+/// How the counts were obtained: every warp, or a sample with its measured and estimated error.
+pub fn sampling_note(s: &Sweep) -> String {
+    match s.sample {
+        None => "Every pixel warp of every scene was simulated.\n\n".into(),
+        Some(p) => {
+            let widths: Vec<f64> =
+                s.runs.iter().filter_map(|r| r.sample.map(|x| x.cycles_rel_half_width)).collect();
+            let mean = widths.iter().sum::<f64>() / widths.len().max(1) as f64;
+            let max = widths.iter().copied().fold(0.0, f64::max);
+            format!(
+                "Sampled: {:.0} % of each scene's pixel warps ({:?} mode, {} batches), simulated as one launch \
+                 whose counts are scaled to the whole frame. Expected error: {}. The cycle estimates' own 95 % \
+                 intervals are ±{:.2} % on average, ±{:.2} % at most (indicative). `--sample 1` simulates \
+                 every warp.\n\n",
+                p.fraction * 100.0,
+                p.mode,
+                p.batches,
+                crate::cli::sweep::SAMPLE_ERROR,
+                mean * 100.0,
+                max * 100.0
+            )
+        }
+    }
 }

@@ -1,0 +1,329 @@
+//! What a conclusion rests on: the headline speed-ups over RB_8 with each simulator mechanism
+//! turned off in turn, the engine behind `sms ablate`.
+//!
+//! ```text
+//!   reference (everything as requested) + one arm per mechanism (that mechanism off)
+//!        │  sweep::run_arms: scenes outer, so each scene is loaded once; arms with equal
+//!        ▼  workloads share one
+//!   one Sweep per arm (RB_8 and the headline configurations on the base L1D)
+//!        │
+//!        ▼
+//!   table: rows = arm, columns = configuration (speed-up geomean, delta vs the reference);
+//!   per scene; chart
+//! ```
+//!
+//! A mechanism is one entry of [`MECHANISMS`]: a name, a one-line description with its source,
+//! what "off" means and a function that turns it off. Adding a mechanism is adding one entry.
+
+use serde_json::{json, Value};
+
+use super::figures::Figure;
+use super::plot::{Bars, Chart};
+use super::{Plan, Request, Sweep, Tweak, BASELINE};
+use crate::error::{Error, Result};
+use crate::scene::SceneLibrary;
+use crate::sim::Hardware;
+use crate::table::Table;
+use crate::workload::{ChildOrder, PathEnd, WorkloadOpts};
+
+/// One switchable simulator mechanism.
+#[derive(Clone, Copy, Debug)]
+pub struct Mechanism {
+    /// Short name (report rows, chart labels).
+    pub name: &'static str,
+    /// What the mechanism models, with its source.
+    pub what: &'static str,
+    /// What the simulator does with it off.
+    pub off_means: &'static str,
+    /// Turns it off.
+    pub off: Tweak,
+}
+
+/// Every mechanism the ablation turns off, in report order (issue 12 items 1 to 5 and 7). "Off" is
+/// always the model's behaviour before that item (the `legacy` preset's value, or the old
+/// workload), so each row says what one simulator assumption is worth.
+pub const MECHANISMS: &[Mechanism] = &[
+    Mechanism {
+        name: "blocking-stack",
+        what: "stack requests on the ray's critical path: the next node fetch waits for the thread's stack \
+               sequencer, global stores complete at the L2's acknowledgement (the paper's RT unit; SPEC 3; \
+               vulkan-sim shader.cc ~3090 retires a warp only without pending writes)",
+        off_means: "overlapped: posted stores, the refill runs beside the next node fetch",
+        off: |hw, _| hw.rt.stack_timing = rtl::rt_unit::StackTiming::Overlapped,
+    },
+    Mechanism {
+        name: "sh-latency",
+        what: "shared-memory (SH) accesses take Vulkan-Sim's 20-cycle shared-memory latency after bank \
+               serialisation (MOBILE gpgpusim.config:108 -gpgpu_smem_latency 20)",
+        off_means: "2 cycles: issue, bank grant, done",
+        off: |hw, _| hw.rt.sh_latency = rtl::bank_arbiter::MIN_SH_LATENCY,
+    },
+    Mechanism {
+        name: "address-map",
+        what: "GPGPU-Sim's address mapping: local memory interleaved across threads (shader.cc:2029 \
+               translate_local_memaddr), L2 slices by 256-byte chunks (dramid@8), IPOLY set index \
+               (gpu-cache.cc:121-165)",
+        off_means: "a private spill region per thread, L2 interleaved by line, set = line mod sets",
+        off: |hw, _| {
+            hw.mem.local_layout = rtl::mem::LocalLayout::Linear;
+            hw.mem.l2_set_index = rtl::mem::SetIndex::Linear;
+            hw.mem.l2_interleave_bytes = hw.mem.line_bytes;
+        },
+    },
+    Mechanism {
+        name: "rt-l1d",
+        what: "the L1D as Vulkan-Sim's RT unit uses it: write-evict, no write-allocate (dl1 L:L:s:N, \
+               gpu-cache.cc:1295-1305, 1559), streaming with 4096 MSHRs merging 64 and a 16-entry miss \
+               queue (gpu-cache.h:548-566), hits used in the cycle after the lookup (shader.cc:3557)",
+        off_means: "write-through (a store hit updates), 32 MSHRs merging 8, miss queue 8, 20-cycle hits",
+        off: |hw, _| {
+            hw.mem.l1d_write = rtl::mem::L1dWrite::WriteThrough;
+            (hw.mem.l1d_mshrs, hw.mem.l1d_mshr_merge, hw.mem.l1d_miss_queue) = (32, 8, 8);
+            hw.mem.l1d_hit_latency = 20;
+        },
+    },
+    Mechanism {
+        name: "two-level",
+        what: "a TLAS over one BLAS per object or glTF mesh, 128-byte instance leaves, one stack across both \
+               levels (vulkan_ray_tracing.cc:540-1100; RayTracingInVulkan builds one BLAS per model)",
+        off_means: "one flat BVH over every primitive",
+        off: |_, w| w.accel = crate::workload::Accel::Flat,
+    },
+    Mechanism {
+        name: "child-order",
+        what: "Vulkan-Sim's child order: hit children in index order, the first hit internal child descended, \
+               every other hit child pushed, leaves included (vulkan_ray_tracing.cc:648-675, 'TODO: sort by \
+               thit')",
+        off_means: "nearest hit child first, the others pushed far to near",
+        off: |_, w| w.order = ChildOrder::Nearest,
+    },
+    Mechanism {
+        name: "lumibench",
+        what: "LumiBench's workload: 128x128 pixels, 2 spp, 16 rays per path, a hit on a surface's back ends \
+               the path (RayTracingInVulkan lumibench.sh, src/Options.cpp:22, assets/shaders/Scatter.glsl:17, \
+               RayTracing.rgen:71-75)",
+        off_means: "the reduced workload of the sweep before issue 12: 3/4 of the resolution (96x96 at \
+                    LumiBench's), 1 spp, 2 bounces, every hit scatters",
+        off: |_, w| {
+            (w.width, w.height) = ((w.width * 3 / 4).max(1), (w.height * 3 / 4).max(1));
+            (w.spp, w.max_bounces) = (1, 2);
+            w.path_end = PathEnd::Always;
+        },
+    },
+];
+
+/// The configurations whose speed-up over RB_8 the paper's conclusions rest on, with the short
+/// names the report uses.
+pub const HEADLINE: [(&str, &str); 6] = [
+    ("RB_16", "RB_16"),
+    ("RB_FULL", "RB_FULL"),
+    ("RB_8+SH_8", "RB_8+SH_8"),
+    ("RB_8+SH_8+SK", "+SK"),
+    ("RB_8+SH_8+SK+RA", "SMS"),
+    ("RB_2", "RB_2"),
+];
+
+/// The plan of every arm: RB_8 (always run) and the headline configurations on the base L1D.
+pub fn plan() -> Result<Plan> {
+    let configs = HEADLINE
+        .iter()
+        .map(|(c, _)| c.parse().map_err(|e| Error::Invalid(format!("{c}: {e}"))))
+        .collect::<Result<_>>()?;
+    Ok(Plan { configs, rb_sizes: Vec::new(), l1d_kb: Vec::new() })
+}
+
+/// Whether turning `m` off changes the hardware or the workload `opts` (a scene's, under the
+/// reference settings). An entry that changes nothing would report its mechanism as irrelevant.
+pub fn changes(m: &Mechanism, hw: &Hardware, opts: &WorkloadOpts) -> bool {
+    let (mut h, mut o) = (*hw, *opts);
+    (m.off)(&mut h, &mut o);
+    h != *hw || o != *opts
+}
+
+/// A finished ablation: the reference and one sweep per mechanism.
+pub struct Ablation {
+    pub reference: Sweep,
+    pub arms: Vec<(Mechanism, Sweep)>,
+}
+
+/// Runs the reference and every mechanism of `mechanisms` off. Each mechanism must change
+/// something in the reference (checked on the settings applied to the default workload).
+pub fn run(
+    req: &Request,
+    mechanisms: &[Mechanism],
+    library: &SceneLibrary,
+    progress: &super::Progress,
+) -> Result<Ablation> {
+    let opts = req.settings.apply(WorkloadOpts::default());
+    if let Some(m) = mechanisms.iter().find(|m| !changes(m, &req.hw, &opts)) {
+        return Err(Error::Invalid(format!(
+            "mechanism {} is already off in the reference ({}): nothing to compare",
+            m.name, m.off_means
+        )));
+    }
+    let tweaks: Vec<Option<Tweak>> =
+        std::iter::once(None).chain(mechanisms.iter().map(|m| Some(m.off))).collect();
+    let mut sweeps = super::run_arms(req, &tweaks, library, progress)?.into_iter();
+    let reference = sweeps.next().expect("the reference arm");
+    Ok(Ablation { reference, arms: mechanisms.iter().copied().zip(sweeps).collect() })
+}
+
+fn f4(v: Option<f64>) -> String {
+    v.map_or(String::new(), |v| format!("{v:.4}"))
+}
+
+/// The change from the reference, signed.
+fn delta(v: Option<f64>, reference: Option<f64>) -> String {
+    match (v, reference) {
+        (Some(v), Some(r)) => format!("{:+.4}", v - r),
+        _ => String::new(),
+    }
+}
+
+impl Ablation {
+    /// (row name, sweep) for the reference and every arm.
+    fn rows(&self) -> Vec<(String, &Sweep)> {
+        std::iter::once(("all on".to_string(), &self.reference))
+            .chain(self.arms.iter().map(|(m, s)| (format!("{} off", m.name), s)))
+            .collect()
+    }
+
+    /// The ablation table (geomeans), its per-scene table, JSON and chart, as one figure.
+    pub fn figure(&self) -> Figure {
+        let kb = self.reference.base_kb();
+        let mut table = Table::new(
+            std::iter::once("mechanism".to_string())
+                .chain(HEADLINE.iter().flat_map(|(_, short)| [short.to_string(), format!("{short} Δ")])),
+        );
+        let mut per_scene = Table::new(
+            ["mechanism".to_string(), "scene".to_string()]
+                .into_iter()
+                .chain(HEADLINE.iter().flat_map(|(_, short)| [short.to_string(), format!("{short} Δ")])),
+        );
+        let mut rows_json = Vec::new();
+        let rows = self.rows();
+        for (name, s) in &rows {
+            let arm_kb = s.base_kb();
+            let geo: Vec<Option<f64>> = HEADLINE.iter().map(|(c, _)| s.geomean_speedup(c, arm_kb)).collect();
+            let refs: Vec<Option<f64>> =
+                HEADLINE.iter().map(|(c, _)| self.reference.geomean_speedup(c, kb)).collect();
+            table.row(
+                std::iter::once(name.clone())
+                    .chain(geo.iter().zip(&refs).flat_map(|(&g, &r)| [f4(g), delta(g, r)])),
+            );
+            let mut scenes_json = Vec::new();
+            for sc in &s.scenes {
+                let v: Vec<Option<f64>> =
+                    HEADLINE.iter().map(|(c, _)| s.speedup(&sc.name, c, arm_kb)).collect();
+                let r: Vec<Option<f64>> =
+                    HEADLINE.iter().map(|(c, _)| self.reference.speedup(&sc.name, c, kb)).collect();
+                per_scene.row(
+                    [name.clone(), sc.name.clone()]
+                        .into_iter()
+                        .chain(v.iter().zip(&r).flat_map(|(&x, &y)| [f4(x), delta(x, y)])),
+                );
+                let cells: Vec<Value> =
+                    HEADLINE.iter().zip(&v).map(|((c, _), x)| json!({ "config": c, "speedup": x })).collect();
+                scenes_json.push(json!({ "scene": sc.name, "speedups": cells }));
+            }
+            let cells: Vec<Value> =
+                HEADLINE.iter().zip(&geo).map(|((c, _), g)| json!({ "config": c, "geomean": g })).collect();
+            rows_json.push(json!({ "arm": name, "geomean": cells, "per_scene": scenes_json }));
+        }
+        // Chart: one row per (configuration, arm), grouped by configuration; one colour per arm.
+        let mut labels = Vec::new();
+        let mut bars: Vec<Bars> =
+            rows.iter().map(|(name, _)| Bars { name: name.clone(), values: Vec::new() }).collect();
+        for (c, short) in HEADLINE {
+            for (a, (name, s)) in rows.iter().enumerate() {
+                labels.push(format!("{short} · {}", name.trim_end_matches(" off")));
+                for (b, set) in bars.iter_mut().enumerate() {
+                    set.values.push(if a == b { s.geomean_speedup(c, s.base_kb()) } else { None });
+                }
+            }
+        }
+        let mechanisms: Vec<Value> = self
+            .arms
+            .iter()
+            .map(|(m, _)| json!({ "name": m.name, "what": m.what, "off_means": m.off_means }))
+            .collect();
+        let list: String = self
+            .arms
+            .iter()
+            .map(|(m, _)| format!("\n- **{}**: {}. Off: {}.", m.name, m.what, m.off_means))
+            .collect();
+        Figure {
+            name: "ablation",
+            title: format!("Headline speed-ups over {BASELINE} with one mechanism off ({kb} KB L1D)"),
+            note: format!(
+                "Each row turns one simulator mechanism off, everything else as in the reference ('all on'); \
+                 cells are geometric means over the scenes of {BASELINE}'s whole-frame cycles over the \
+                 configuration's, Δ the change from the reference. A conclusion that holds in every row does not \
+                 rest on any of these mechanisms.{list}"
+            ),
+            table,
+            per_scene: Some(per_scene),
+            json: json!({ "baseline": BASELINE, "l1d_kb": kb, "mechanisms": mechanisms, "rows": rows_json }),
+            chart: Chart::HBars {
+                x_desc: format!("speed-up over {BASELINE} (geomean over scenes)"),
+                labels,
+                bars,
+                dots: Vec::new(),
+                rule: Some(1.0),
+                zoom: true,
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paper preset the ablation's reference stands for: LumiBench's workload, path end and
+    /// Vulkan-Sim's child order on the SPEC hardware.
+    fn paper_reference() -> (Hardware, WorkloadOpts) {
+        let opts = WorkloadOpts {
+            order: ChildOrder::VulkanSim,
+            accel: crate::workload::Accel::TwoLevel,
+            ..WorkloadOpts::default()
+        };
+        (Hardware::default(), opts)
+    }
+
+    #[test]
+    fn every_mechanism_changes_an_input_of_the_reference() {
+        let (hw, opts) = paper_reference();
+        for m in MECHANISMS {
+            assert!(changes(m, &hw, &opts), "{} changes nothing: its row would be the reference's", m.name);
+        }
+        let mut names: Vec<&str> = MECHANISMS.iter().map(|m| m.name).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), MECHANISMS.len(), "names are unique");
+    }
+
+    #[test]
+    fn an_entry_that_changes_nothing_is_caught() {
+        let (hw, opts) = paper_reference();
+        let planted = Mechanism { name: "planted", what: "", off_means: "", off: |_, _| {} };
+        assert!(!changes(&planted, &hw, &opts));
+        // Turning off what is already off changes nothing either.
+        let child_order = MECHANISMS.iter().find(|m| m.name == "child-order").unwrap();
+        let nearest = WorkloadOpts { order: ChildOrder::Nearest, ..opts };
+        assert!(!changes(child_order, &hw, &nearest));
+        let legacy = crate::hw::preset("legacy").unwrap();
+        for name in ["blocking-stack", "sh-latency", "address-map", "rt-l1d"] {
+            let m = MECHANISMS.iter().find(|m| m.name == name).unwrap();
+            assert!(!changes(m, &legacy, &opts), "{name} is already off in the legacy preset");
+        }
+    }
+
+    #[test]
+    fn the_plan_is_the_headline_set() {
+        let v = plan().unwrap().variants(64).unwrap();
+        let names: Vec<String> = v.iter().map(|v| v.config.name()).collect();
+        assert_eq!(names[0], BASELINE);
+        assert_eq!(names.len(), 1 + HEADLINE.len());
+    }
+}
