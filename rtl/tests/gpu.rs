@@ -612,6 +612,8 @@ fn sh_accesses_take_the_shared_memory_latency() {
     assert_eq!(pushes(20), [5, 6, 7, 29]);
     let e = RtParams { sh_latency: 1, ..RtParams::default() }.validate().unwrap_err();
     assert_eq!(e.parameter, "sh_latency");
+}
+
 /// The paper's "off-chip accesses" are requests leaving the SM for L2. A ray that fetches `n`
 /// distinct 32-byte sectors sends exactly `n` requests down; the same ray again on the same SM
 /// hits its L1D and sends none. Pushes beyond RB_1 spill: with a write-through L1D every spilled
