@@ -591,6 +591,7 @@ mod tests {
         };
         Scene {
             name: "quad".into(),
+            objects: crate::scene::Objects::single(tris.len()),
             primitives: Primitives::Triangles(tris),
             camera: crate::scene::Camera::look_at([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 45.0),
             render: crate::scene::RenderSettings { width: 8, height: 8, spp: 1, max_bounces: 3 },
