@@ -38,7 +38,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let workload = Workload::new(&scene, opts)?;
     eprintln!(
-        "built {:?} ({} nodes) and rendered {} rays in {:.2} s",
+        "built {:?} {:?} ({} nodes) and rendered {} rays in {:.2} s",
+        opts.accel,
         opts.bvh,
         workload.bvh().node_count(),
         workload.num_rays(),

@@ -148,7 +148,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let w = Workload::new(&scene, opts)?;
     log(format!(
-        "built {:?} ({} nodes) and path-traced {}x{} x {} spp, ≤ {} bounces: {} rays in {} pixel warps, {:.2} s",
+        "built {:?} {:?} ({} nodes) and path-traced {}x{} x {} spp, ≤ {} bounces: {} rays in {} pixel warps, {:.2} s",
+        opts.accel,
         opts.bvh,
         w.bvh().node_count(),
         opts.width,
