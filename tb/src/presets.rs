@@ -59,6 +59,6 @@ pub fn text_of(spec: &str) -> Result<(String, String), String> {
     let path = Path::new(spec);
     match std::fs::read_to_string(path) {
         Ok(text) => Ok((path.display().to_string(), text)),
-        Err(e) => Err(format!("--hw {spec}: not a preset ({}) and cannot read it as a file: {e}", names())),
+        Err(e) => Err(format!("{spec}: not a preset ({}) and cannot read it as a file: {e}", names())),
     }
 }
