@@ -15,20 +15,19 @@ use crate::sweep::{self, Plan, Progress, Request};
 pub const QUICK_RES: (u32, u32) = (16, 16);
 
 /// Fraction of each scene's pixel warps a sweep simulates by default, chosen from a measurement
-/// (see [`SAMPLE_ERROR`]): every warp. A 25 % sample costs about a sixth of the time
-/// (sprng-partial, 25 runs: 39 s against 228 s) but errs on speed-ups by up to 1.8 %, as much
-/// as the speed-ups themselves, and swaps the paper's ranking (SMS against +SK); 50 % errs as
-/// much (1.0 %). `--sample F` still gives a cheap preview with that error printed.
+/// (see [`SAMPLE_ERROR`]): every warp. A 25 % sample takes a quarter of the time (the 18-scene
+/// sweep: 346 s against 1407 s) but underestimates the speed-ups over RB_8 by 1–3 points in the
+/// geomean and by up to 18 points on one scene. `--sample F` still gives a cheap preview with
+/// that error printed.
 pub const DEFAULT_SAMPLE: f64 = 1.0;
 
-/// What the measurement behind [`DEFAULT_SAMPLE`] found, printed in every sampled report.
-pub const SAMPLE_ERROR: &str = "measured at LumiBench's 128x128, 2 spp, 16 rays per path with 25 % tile \
-     samples against every warp: on party-partial and sprng-partial whole-frame cycles within 1.6 % and \
-     off-chip accesses within 3.2 % for RB_8 and SMS; on sprng-partial's 17 sweep configurations the \
-     speed-ups over RB_8 off by up to 0.018 (SMS: 1.0001 sampled, 1.0183 in full), enough to reorder \
-     designs whose speed-ups differ by less than 2 %; a 50 % sample errs up to 0.010 (party-partial SMS: \
-     0.9954 against 1.0055). Frames too small to sample (wknd: 82k cycles) err more (cycles +23 %). Use \
-     --sample 1 (the default) for conclusions";
+/// What the measurement behind [`DEFAULT_SAMPLE`] found, printed in every sampled report
+/// (`scripts/sample-error.py` on a 25 % and a full `sms sweep` of the 18 scenes, paper hardware).
+pub const SAMPLE_ERROR: &str = "measured on the 18 scenes at LumiBench's settings on the paper hardware, a \
+     25 % tile sample against every warp: geomean speed-ups over RB_8 off by up to 0.035 (RB_FULL 1.210 \
+     sampled, 1.241 in full; SMS 1.160, 1.181: sampling underestimates the gains), one scene's speed-up \
+     by up to 0.18 (lamborghini-huracan RB_FULL). Differences between designs sampled alike err less, \
+     but use --sample 1 (the default) for conclusions";
 
 /// What `sms sweep` and `sms ablate` share.
 #[derive(Clone, Debug, clap::Args)]
