@@ -11,8 +11,9 @@ exe() {
     cargo bench -p tb --bench throughput --no-run "$@" 2>&1 |
         sed -n 's/.*Executable .*(\(.*\))$/\1/p' | tail -n 1
 }
-traced=$(exe)
+# Untraced first: building the bench also relinks target/release/sms, which must end up traced.
 untraced=$(exe --features untraced)
+traced=$(exe)
 [ -x "$traced" ] && [ -x "$untraced" ] || { echo "could not build the benches" >&2; exit 1; }
 log=$(mktemp)
 i=0
