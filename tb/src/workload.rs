@@ -167,7 +167,7 @@ pub enum ChildOrder {
     #[default]
     Nearest,
     /// Vulkan-Sim's rule: descend the first hit internal child in index order, push every other
-    /// hit child (leaves included) in index order, pop leaves LIFO (see `traverse`).
+    /// hit child (leaves included) in index order, pop leaves LIFO.
     #[value(name = "vulkansim")]
     VulkanSim,
 }
@@ -179,8 +179,7 @@ pub enum Accel {
     /// One BVH over every primitive of the scene, instances flattened.
     #[default]
     Flat,
-    /// A TLAS over one BLAS per mesh, as the Vulkan pipeline builds them (BVH6 only); see
-    /// [`crate::bvh::TwoLevel`].
+    /// A TLAS over one BLAS per mesh, as the Vulkan pipeline builds them (BVH6 only).
     TwoLevel,
 }
 
