@@ -11,6 +11,31 @@
 //!
 //! No I/O lives in this crate.
 
+/// `NAMES`, `name` and `from_name` (and `Display`) for a fieldless enum spelled by name in
+/// hardware descriptions.
+macro_rules! named_enum {
+    ($t:ty, $($v:path => $n:literal),+) => {
+        impl $t {
+            /// Names accepted by [`Self::from_name`], in declaration order.
+            pub const NAMES: &'static [&'static str] = &[$($n),+];
+
+            pub fn name(self) -> &'static str {
+                match self { $($v => $n),+ }
+            }
+
+            pub fn from_name(s: &str) -> Option<Self> {
+                match s { $($n => Some($v),)+ _ => None }
+            }
+        }
+
+        impl std::fmt::Display for $t {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+    };
+}
+
 pub mod bank_arbiter;
 pub mod config;
 pub mod gpu;

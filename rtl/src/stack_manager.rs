@@ -59,24 +59,12 @@ pub enum StackTiming {
     Overlapped,
 }
 
-impl StackTiming {
-    /// The TOML spelling.
-    pub fn name(self) -> &'static str {
-        match self {
-            StackTiming::Blocking => "blocking",
-            StackTiming::Overlapped => "overlapped",
-        }
-    }
-}
+named_enum!(StackTiming, StackTiming::Blocking => "blocking", StackTiming::Overlapped => "overlapped");
 
 impl std::str::FromStr for StackTiming {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "blocking" => Ok(StackTiming::Blocking),
-            "overlapped" => Ok(StackTiming::Overlapped),
-            _ => Err(format!("'{s}': expected \"blocking\" or \"overlapped\"")),
-        }
+        StackTiming::from_name(s).ok_or_else(|| format!("'{s}': expected \"blocking\" or \"overlapped\""))
     }
 }
 

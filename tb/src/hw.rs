@@ -111,8 +111,7 @@ pub fn apply_toml(hw: &mut Hardware, text: &str) -> Result<(), String> {
                 ("rt", "procedural") => rt.procedural = uint()?,
                 ("rt", "idle_skip") => rt.idle_skip = boolean()?,
                 ("stack", "timing") => {
-                    rt.stack_timing =
-                        choice(&name, v, &["blocking", "overlapped"], |s| s.parse::<StackTiming>().ok())?
+                    rt.stack_timing = choice(&name, v, StackTiming::NAMES, StackTiming::from_name)?
                 }
                 ("stack", "sh_latency") => rt.sh_latency = uint()?,
                 ("mem", "sms") => m.sms = uint()?,
@@ -158,35 +157,68 @@ mod tests {
     #[test]
     fn every_preset_is_valid_and_sets_every_parameter() {
         // Applied to two bases that differ in every value a file can set, a complete file gives
-        // the same hardware: a key it forgot would keep the base's value.
-        let other = {
-            let mut h = base();
-            apply_toml(&mut h, presets::find("rtx2060").unwrap().toml).unwrap();
-            h.rt.stack_timing = StackTiming::Overlapped;
-            h.shared_carveout = !h.shared_carveout;
-            h.rt = RtParams {
-                bvh_header: 99,
-                internal: 99,
-                instance_leaf: 99,
-                leaf_descriptor: 99,
-                triangle: 99,
-                procedural: 99,
-                sh_latency: 99,
-                ..h.rt
-            };
-            h
+        // the same hardware: a key it forgot would keep the base's value. The second base names
+        // every field, so a new parameter must be added here (and to every preset) to compile.
+        let a = base();
+        let (r, m) = (a.rt, a.mem);
+        let b = Hardware {
+            rt: RtParams {
+                bvh_header: r.bvh_header + 1,
+                internal: r.internal + 1,
+                instance_leaf: r.instance_leaf + 1,
+                leaf_descriptor: r.leaf_descriptor + 1,
+                triangle: r.triangle + 1,
+                procedural: r.procedural + 1,
+                idle_skip: r.idle_skip, // a run option, not hardware: no preset sets it
+                stack_timing: StackTiming::Overlapped,
+                sh_latency: r.sh_latency + 1,
+            },
+            mem: MemParams {
+                sms: m.sms + 1,
+                sector_bytes: m.sector_bytes * 2,
+                line_bytes: m.line_bytes * 2,
+                l1d_bytes: m.l1d_bytes + 1,
+                l1d_assoc: Assoc::Ways(3),
+                l1d_hit_latency: m.l1d_hit_latency + 1,
+                l1d_mshrs: m.l1d_mshrs + 1,
+                l1d_mshr_merge: m.l1d_mshr_merge + 1,
+                l1d_miss_queue: m.l1d_miss_queue + 1,
+                l1d_write: L1dWrite::WriteThrough,
+                l2_bytes: m.l2_bytes + 1,
+                l2_assoc: Assoc::Ways(5),
+                l2_latency: m.l2_latency + 1,
+                l2_banks: m.l2_banks + 1,
+                l2_interleave_bytes: m.l2_interleave_bytes * 2,
+                l2_set_index: SetIndex::Linear,
+                l2_bank_queue: m.l2_bank_queue + 1,
+                l2_mshrs: m.l2_mshrs + 1,
+                l2_mshr_merge: m.l2_mshr_merge + 1,
+                l2_dram_queue: m.l2_dram_queue + 1,
+                dram_latency: m.dram_latency + 1,
+                dram_bytes_per_cycle: m.dram_bytes_per_cycle + 1,
+                dram_queue: m.dram_queue + 1,
+                local_layout: LocalLayout::Linear,
+            },
+            shared_carveout: !a.shared_carveout,
         };
+        assert_eq!(
+            (a.rt.stack_timing, a.mem.l1d_write, a.mem.l2_set_index, a.mem.local_layout),
+            (StackTiming::Blocking, L1dWrite::WriteEvict, SetIndex::Ipoly, LocalLayout::Interleaved),
+            "the two bases differ in the enums too"
+        );
         for p in presets::PRESETS {
-            let hw = preset(p.name).unwrap();
-            let mut on_other = other;
-            apply_toml(&mut on_other, p.toml).unwrap();
-            assert_eq!(
-                on_other,
-                Hardware { rt: RtParams { idle_skip: hw.rt.idle_skip, ..on_other.rt }, ..hw },
-                "{}",
-                p.name
-            );
+            let (mut on_a, mut on_b) = (a, b);
+            apply_toml(&mut on_a, p.toml).unwrap();
+            apply_toml(&mut on_b, p.toml).unwrap();
+            assert_eq!(on_a, on_b, "{} leaves a parameter unset", p.name);
+            assert_eq!(on_a, preset(p.name).unwrap());
         }
+        // A file that forgets one key is caught.
+        let forgetful = presets::find("paper").unwrap().toml.replace("\ndram_queue", "\n# dram_queue");
+        let (mut on_a, mut on_b) = (a, b);
+        apply_toml(&mut on_a, &forgetful).unwrap();
+        apply_toml(&mut on_b, &forgetful).unwrap();
+        assert_ne!(on_a, on_b);
     }
 
     #[test]

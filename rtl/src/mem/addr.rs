@@ -22,8 +22,6 @@
 //!   cache sees a dense address space; the MOBILE L2 (`-gpgpu_cache:dl2 S:64:128:16,L:B:m:L:P`)
 //!   hashes it with IPOLY (`gpu-cache.cc:121-125`, `hashing.cc:9-104`).
 
-use std::fmt;
-
 /// How the spill slots of the GPU's threads are laid out in the device address space.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum LocalLayout {
@@ -46,29 +44,6 @@ pub enum SetIndex {
     /// `partition line mod sets`; with `l2_interleave_bytes == line_bytes` this is the old
     /// single-array mapping `line mod sets` (banks `line mod banks`).
     Linear,
-}
-
-macro_rules! named_enum {
-    ($t:ty, $($v:path => $n:literal),+) => {
-        impl $t {
-            /// Names accepted by [`Self::from_name`], in declaration order.
-            pub const NAMES: &'static [&'static str] = &[$($n),+];
-
-            pub fn name(self) -> &'static str {
-                match self { $($v => $n),+ }
-            }
-
-            pub fn from_name(s: &str) -> Option<Self> {
-                match s { $($n => Some($v),)+ _ => None }
-            }
-        }
-
-        impl fmt::Display for $t {
-            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                f.write_str(self.name())
-            }
-        }
-    };
 }
 
 named_enum!(LocalLayout, LocalLayout::Interleaved => "interleaved", LocalLayout::Linear => "linear");

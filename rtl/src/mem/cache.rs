@@ -72,6 +72,15 @@ impl Geometry {
         }
     }
 
+    /// L2 bank (memory sub-partition) of `addr` among `banks`: the banked mapping's, else the old
+    /// `line mod banks`.
+    pub fn bank_of(&self, addr: u64, banks: u32) -> u32 {
+        match &self.banked {
+            Some(map) => map.bank_of(addr),
+            None => (self.line_of(addr) % u64::from(banks)) as u32,
+        }
+    }
+
     /// One-hot sector bit of `addr` within its line.
     pub fn sector_bit(&self, addr: u64) -> u32 {
         1 << ((addr % u64::from(self.line_bytes)) / u64::from(self.sector_bytes))

@@ -99,10 +99,7 @@ impl L2 {
     }
 
     fn bank_of(&self, addr: u64) -> usize {
-        match &self.tags.geometry().banked {
-            Some(map) => map.bank_of(addr) as usize,
-            None => ((addr / u64::from(self.params.line_bytes)) % u64::from(self.params.l2_banks)) as usize,
-        }
+        self.tags.geometry().bank_of(addr, self.params.l2_banks) as usize
     }
 
     /// Responses for SM `sm` visible this cycle.

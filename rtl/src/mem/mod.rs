@@ -222,24 +222,7 @@ pub enum L1dWrite {
     WriteThrough,
 }
 
-impl L1dWrite {
-    pub const NAMES: &'static [&'static str] = &["evict", "through"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            L1dWrite::WriteEvict => "evict",
-            L1dWrite::WriteThrough => "through",
-        }
-    }
-
-    pub fn from_name(s: &str) -> Option<L1dWrite> {
-        match s {
-            "evict" => Some(L1dWrite::WriteEvict),
-            "through" => Some(L1dWrite::WriteThrough),
-            _ => None,
-        }
-    }
-}
+named_enum!(L1dWrite, L1dWrite::WriteEvict => "evict", L1dWrite::WriteThrough => "through");
 
 /// Associativity of a cache.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -479,14 +462,6 @@ impl MemParams {
         })
     }
 
-    /// L2 bank of `addr`.
-    pub fn l2_bank_of(&self, addr: u64) -> u32 {
-        match self.l2_map() {
-            Some(m) => m.bank_of(addr),
-            None => (addr / u64::from(self.line_bytes) % u64::from(self.l2_banks)) as u32,
-        }
-    }
-
     /// Address of the sector holding `addr`.
     pub fn sector_of(&self, addr: u64) -> u64 {
         addr - addr % u64::from(self.sector_bytes)
@@ -588,7 +563,7 @@ mod tests {
                 m.set_local_layout(p.local_layout, p.sms);
                 (0..cfg.threads()).map(move |t| m.spill_addr(t, 0)).collect::<Vec<_>>()
             })
-            .map(|a| (p.l2_bank_of(a), g.set_of(a)))
+            .map(|a| (g.bank_of(a, p.l2_banks), g.set_of(a)))
             .collect()
     }
 

@@ -341,7 +341,9 @@ pub fn run_arms(
         let t = Instant::now();
         let scene = library.load(name)?;
         let load_secs = t.elapsed().as_secs_f64();
-        let mut built: Vec<(WorkloadOpts, Workload, f64)> = Vec::new();
+        // Arms with equal workloads share one, and its depth histogram (it depends on the traces
+        // alone), recorded by the first arm that runs on it.
+        let mut built: Vec<(WorkloadOpts, Workload, f64, Option<DepthHistogram>)> = Vec::new();
         for (a, tweak) in arms.iter().enumerate() {
             let mut opts = req.settings.opts(&scene);
             if let Some(t) = tweak {
@@ -353,13 +355,15 @@ pub fn run_arms(
                     progress.status(&format!("building {name}"));
                     let t = Instant::now();
                     let w = Workload::new(&scene, opts)?;
-                    built.push((opts, w, t.elapsed().as_secs_f64()));
+                    built.push((opts, w, t.elapsed().as_secs_f64(), None));
                     built.len() - 1
                 }
             };
-            let (_, workload, workload_secs) = &built[i];
+            let (_, workload, workload_secs, known_depth) = &mut built[i];
             let sw = &mut out[a];
-            let (outcomes, depth) = run_scene(req, &sw.hw, workload, &sw.variants, name, progress)?;
+            let (outcomes, depth) =
+                run_scene(req, &sw.hw, workload, &sw.variants, known_depth.clone(), name, progress)?;
+            *known_depth = Some(depth.clone());
             sw.runs.extend(outcomes.into_iter().zip(&sw.variants).map(|((outcome, sample), v)| Run {
                 scene: name.clone(),
                 config: v.config.name(),
@@ -437,13 +441,14 @@ fn simulate_variant(
     }
 }
 
-/// Every variant of one scene on `req.jobs` threads, plus the depth pass; outcomes in plan
-/// order.
+/// Every variant of one scene on `req.jobs` threads, plus the depth pass unless the workload's
+/// histogram is `known`; outcomes in plan order.
 fn run_scene(
     req: &Request,
     hw: &Hardware,
     workload: &Workload,
     variants: &[Variant],
+    known: Option<DepthHistogram>,
     scene: &str,
     progress: &Progress,
 ) -> Result<(Vec<Measured>, DepthHistogram)> {
@@ -460,6 +465,11 @@ fn run_scene(
         }
         if i == variants.len() {
             let label = format!("{scene} depth");
+            if known.is_some() {
+                // Counted as a run of the progress total, with nothing to do.
+                progress.done(&format!("{label} (shared workload)"));
+                continue;
+            }
             progress.started(&label);
             let mut h = DepthHistogram::default();
             for jobs in workload.warps() {
@@ -494,7 +504,7 @@ fn run_scene(
     }
     let outcomes =
         slots.into_inner().expect("slots lock").into_iter().map(|o| o.expect("every run finished")).collect();
-    Ok((outcomes, depth.into_inner().expect("depth lock")))
+    Ok((outcomes, known.unwrap_or_else(|| depth.into_inner().expect("depth lock"))))
 }
 
 /// Geometric mean; `None` for no values or a value that is not positive.
