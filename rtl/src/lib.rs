@@ -37,6 +37,7 @@ macro_rules! named_enum {
 }
 
 pub mod bank_arbiter;
+pub mod clock;
 pub mod config;
 pub mod gpu;
 pub mod mem;
