@@ -12,16 +12,36 @@
 //! exactly `dram_latency` more than an L2 hit). Reads are answered; writes are posted: they use
 //! the bus but produce no response. One channel carries the whole bandwidth: there are no bank or
 //! row-buffer effects.
+//!
+//! Clocking: `ready` and `resp` are register outputs; [`Dram::eval`] (pure) decides whether the
+//! offered request fires, and [`Dram::commit`] applies that at the clock edge.
 
-use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS, ID_BITS};
-use crate::config::bits_for;
-use crate::trace::{Probe, Sink};
+use super::{Counters, MemParams, MemReq, MemResp, MemWidths, ADDR_BITS, FLAG_BITS, ID_BITS};
+use crate::trace::Sink;
 use std::collections::VecDeque;
 
-#[derive(Clone, Copy, Debug, Default)]
-struct Step {
+/// This cycle's inputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DramIn {
+    /// The L2's request ([`super::l2::L2::dram_req`], a register output of the L2), if valid.
+    pub req: Option<MemReq>,
+}
+
+/// This cycle's combinational outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DramOut {
+    /// `req_valid && req_ready`: the request is accepted at this clock edge.
+    pub req_fire: bool,
+}
+
+/// One cycle's evaluation: the outputs and the decisions [`Dram::commit`] applies.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DramStep {
+    /// The cycle this step was evaluated in ([`Dram::commit`] refuses a stale step).
+    at: u64,
+    pub out: DramOut,
+    /// The offered request (accepted iff `out.req_fire`).
     req: Option<MemReq>,
-    fire: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -29,17 +49,17 @@ pub struct Dram {
     latency: u64,
     bytes_per_cycle: u64,
     queue_cap: usize,
+    widths: MemWidths,
     /// Start cycles of accepted requests not yet on the bus.
     waiting: VecDeque<u64>,
     /// First cycle the bus is free.
     bus_free: u64,
     /// Reads in flight: (cycle the response is visible, response), in order.
     in_flight: VecDeque<(u64, MemResp)>,
-    /// Responses visible this cycle.
+    /// Responses visible this cycle (the response register).
     out: Vec<MemResp>,
     now: u64,
     counters: Counters,
-    d: Step,
 }
 
 impl Dram {
@@ -48,21 +68,22 @@ impl Dram {
             latency: u64::from(p.dram_latency),
             bytes_per_cycle: u64::from(p.dram_bytes_per_cycle),
             queue_cap: p.dram_queue as usize,
+            widths: p.widths(),
             waiting: VecDeque::new(),
             bus_free: 0,
             in_flight: VecDeque::new(),
             out: Vec::new(),
             now: 0,
             counters: Counters::default(),
-            d: Step::default(),
         }
     }
 
+    /// Register output: the DRAM accepts a request this cycle.
     pub fn ready(&self) -> bool {
         self.waiting.len() < self.queue_cap
     }
 
-    /// Read responses visible this cycle.
+    /// Register output: read responses visible this cycle.
     pub fn resp(&self) -> &[MemResp] {
         &self.out
     }
@@ -76,17 +97,18 @@ impl Dram {
         &self.counters
     }
 
-    /// Returns whether `req` was accepted this cycle.
-    pub fn eval(&mut self, req: Option<MemReq>) -> bool {
-        let fire = req.is_some() && self.ready();
-        self.d = Step { req, fire };
-        fire
+    /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
+    /// `d` (every field overwritten).
+    pub fn eval(&self, i: &DramIn, d: &mut DramStep) {
+        let req_fire = i.req.is_some() && self.ready();
+        *d = DramStep { at: self.now, out: DramOut { req_fire }, req: i.req };
     }
 
-    pub fn commit(&mut self) {
-        let step = std::mem::take(&mut self.d);
+    /// Clock edge: applies `d`, the step [`Dram::eval`] produced this cycle.
+    pub fn commit(&mut self, d: &DramStep) {
+        assert_eq!(d.at, self.now, "DRAM committed a step evaluated in another cycle");
         let next = self.now + 1;
-        if let (true, Some(req)) = (step.fire, step.req) {
+        if let (true, Some(req)) = (d.out.req_fire, d.req) {
             let start = self.now.max(self.bus_free);
             let xfer = u64::from(req.bytes).div_ceil(self.bytes_per_cycle);
             self.bus_free = start + xfer;
@@ -124,20 +146,19 @@ impl Dram {
     pub(crate) fn skip_to(&mut self, cycle: u64) {
         self.now = cycle;
     }
-}
 
-impl Probe for Dram {
-    fn probe<S: Sink>(&self, sink: &mut S) {
+    /// Shows the registers and `d`, this cycle's step, to `sink`.
+    pub fn probe<S: Sink>(&self, d: &DramStep, sink: &mut S) {
         if !sink.enabled() {
             return;
         }
-        let req = self.d.req;
-        sink.signal("req_valid", 1, u64::from(req.is_some()));
-        sink.signal("req_ready", 1, u64::from(self.ready()));
+        let req = d.req;
+        sink.signal("req_valid", FLAG_BITS, u64::from(req.is_some()));
+        sink.signal("req_ready", FLAG_BITS, u64::from(self.ready()));
         sink.signal("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr));
-        sink.signal("req_write", 1, u64::from(req.is_some_and(|r| r.write)));
-        sink.signal("queue_depth", bits_for(self.queue_cap as u64), self.waiting.len() as u64);
-        sink.signal("resp_valid", 1, u64::from(!self.out.is_empty()));
+        sink.signal("req_write", FLAG_BITS, u64::from(req.is_some_and(|r| r.write)));
+        sink.signal("queue_depth", self.widths.dram_queue_depth, self.waiting.len() as u64);
+        sink.signal("resp_valid", FLAG_BITS, u64::from(!self.out.is_empty()));
         sink.signal("resp_id", ID_BITS, self.out.first().map_or(0, |r| r.id));
     }
 }
@@ -175,10 +196,12 @@ mod tests {
             for r in dram.resp() {
                 resps.push((r.id, cycle));
             }
-            if dram.eval(pending.front().copied()) {
+            let mut d = DramStep::default();
+            dram.eval(&DramIn { req: pending.front().copied() }, &mut d);
+            if d.out.req_fire {
                 accepts.push((pending.pop_front().unwrap().id, cycle));
             }
-            dram.commit();
+            dram.commit(&d);
             cycle += 1;
         }
         (resps, accepts)
@@ -246,21 +269,23 @@ mod tests {
         let p = params(10, 1, 2);
         let mut dram = Dram::new(&p);
         let r = |id| Some(MemReq::read(id, 0, 32, ReqKind::NodeFetch));
+        let mut d = DramStep::default();
         // Each request holds the bus for 32 cycles: the first starts at once, two more wait.
-        assert!(dram.eval(r(0)));
-        dram.commit();
-        assert!(dram.eval(r(1)));
-        dram.commit();
-        assert!(dram.eval(r(2)));
-        dram.commit();
+        for id in 0..3 {
+            dram.eval(&DramIn { req: r(id) }, &mut d);
+            assert!(d.out.req_fire);
+            dram.commit(&d);
+        }
         assert_eq!(dram.queue_depth(), 2);
         assert!(!dram.ready());
-        assert!(!dram.eval(r(3)));
+        dram.eval(&DramIn { req: r(3) }, &mut d);
+        assert!(!d.out.req_fire);
         let mut snap = Snapshot::default();
-        dram.probe(&mut snap);
+        dram.probe(&d, &mut snap);
+        assert_eq!(snap.get("req_valid"), Some(1));
         assert_eq!(snap.get("req_ready"), Some(0));
         assert_eq!(snap.get("queue_depth"), Some(2));
-        dram.commit();
+        dram.commit(&d);
         assert_eq!(dram.counters().accesses, 3);
     }
 }

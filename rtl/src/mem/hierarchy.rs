@@ -1,33 +1,106 @@
 //! The whole memory system: one L1D per SM, the shared L2 and DRAM.
 //!
 //! ```text
-//!   reqs[sm] ─► L1D[sm] ─ down ─► L2 ─ dram_req ─► DRAM
-//!   out[sm]  ◄─ L1D[sm] ◄─ fill ── L2 ◄── fill ──── DRAM
+//!   reqs[sm] ─► L1D[sm] ─ down_req ─► L2 ─ dram_req ─► DRAM
+//!               L1D[sm] ◄─ granted ── L2                        (combinational, this cycle)
+//!   out[sm]  ◄─ L1D[sm] ◄─ resp ───── L2 ◄─── resp ──── DRAM    (registered)
 //! ```
 //!
-//! Per cycle the caller calls [`MemSystem::eval`] with each SM's optional request and gets each
-//! SM's ready flag (its request, if any, was accepted) and the responses visible this cycle, then
-//! [`MemSystem::commit`]. Every signal crossing between units comes from the sender's registers,
-//! so the units' `eval`s may run in any order; the order below is only dataflow convenience.
+//! # One cycle
+//!
+//! Each unit has register outputs (functions of its registers alone: the L1D's `ready`,
+//! `down_req` and `resp`, the L2's `resp` and `dram_req`, DRAM's `ready` and `resp`), a pure
+//! `eval(&self, &In, &mut Step)` that computes the cycle's combinational outputs (`Step::out`)
+//! and next-state decisions from the registers and the inputs, and `commit(&mut self, &Step)`,
+//! the clock edge, which applies the step and nothing else. `eval` takes `&self`, so no unit's
+//! registers change before the edge and no value of this cycle can be read out of a unit's
+//! state: values of this cycle travel only as one unit's `Step::out` passed in another's `In`.
+//!
+//! Dataflow order, wired by hand in [`MemSystem::eval_step`]:
+//! 1. The L2: its inputs are register outputs only (each L1D's `down_req`, DRAM's `ready` and
+//!    `resp`).
+//! 2. The L1Ds and DRAM, siblings, in any order: an L1D's inputs are the SM's request, the L2's
+//!    combinational grant for it ([`super::l2::L2Out::granted`], which depends on every SM's
+//!    request through the banks' round-robin arbiters) and the L2's registered responses;
+//!    DRAM's input is the L2's `dram_req`, a register output. No sibling reads another's step.
+//!
+//! The L1Ds cannot be evaluated before the L2: their `In` takes the grant from the value the L2's
+//! evaluation returns, so moving them before it does not compile. (Before issue 13
+//! the L1Ds read the grant out of the L2 between its eval and its commit, and evaluating them
+//! first made later responses arrive for unknown ids.) [`MemSystem::set_eval_check`] evaluates the
+//! siblings in a seeded random order every cycle, or every kernel twice, and the tests below show
+//! both give the same responses, counters and cycle counts as the dataflow order.
 //!
 //! When no SM has anything to offer, [`MemSystem::next_event_cycle`] tells the first cycle in
 //! which anything happens, and [`MemSystem::skip_to`] jumps there: the skipped cycles would have
 //! changed nothing (tested against stepping every cycle).
 
-use super::dram::Dram;
-use super::l1d::L1d;
-use super::l2::L2;
+use super::dram::{Dram, DramIn, DramStep};
+use super::l1d::{L1d, L1dIn, L1dStep};
+use super::l2::{L2In, L2Step, L2};
 use super::{Counters, MemParams, MemReq, MemResp};
+use crate::clock::EvalCheck;
 use crate::config::ConfigError;
 use crate::trace::{Probe, Sink};
+use std::fmt::Debug;
 
 /// What one SM sees in one cycle.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SmOut {
-    /// The L1D accepts a request this cycle (if one was offered, it was taken).
+    /// The L1D accepts a request this cycle (if one was offered, it was taken): the L1D's
+    /// register output `ready`.
     pub ready: bool,
-    /// Responses completed this cycle.
+    /// Responses completed this cycle (the L1D's response register).
     pub resp: Vec<MemResp>,
+}
+
+/// One cycle's evaluation of the memory system: what each SM sees, every unit's step (its
+/// combinational outputs and the decisions its commit applies) and the wires between them. A
+/// buffer reused from cycle to cycle, so evaluating a cycle allocates nothing once warm.
+#[derive(Clone, Debug, Default)]
+pub struct MemStep {
+    /// The cycle this step was evaluated in ([`MemSystem::commit_step`] refuses a stale step).
+    at: u64,
+    out: Vec<SmOut>,
+    l1d: Vec<L1dStep>,
+    l2: L2Step,
+    dram: DramStep,
+    /// Wires: each L1D's down request (its register output), the L2's input.
+    down: Vec<Option<MemReq>>,
+    /// This cycle's evaluation order of the siblings: L1D `sm` is `sm`, DRAM is `sms`.
+    order: Vec<usize>,
+    /// [`EvalCheck::Twice`]: where the first evaluation of a kernel goes, to be compared with the
+    /// second.
+    first_l1d: L1dStep,
+    first_l2: L2Step,
+    first_dram: DramStep,
+}
+
+impl MemStep {
+    /// What each SM sees this cycle.
+    pub fn out(&self) -> &[SmOut] {
+        &self.out
+    }
+}
+
+/// Evaluates one kernel into `d`, or with two passes first into `first` and then into `d`, and
+/// panics if they differ (a kernel that reads its own output or hidden state).
+/// Returns the result.
+fn eval_kernel<'a, T: PartialEq + Debug>(
+    passes: u32,
+    what: &str,
+    d: &'a mut T,
+    first: &mut T,
+    mut eval: impl FnMut(&mut T),
+) -> &'a T {
+    if passes > 1 {
+        eval(first);
+        eval(d);
+        assert!(first == d, "{what}: two evaluations of one cycle differ:\n{first:?}\n{d:?}");
+    } else {
+        eval(d);
+    }
+    d
 }
 
 #[derive(Clone, Debug)]
@@ -37,9 +110,11 @@ pub struct MemSystem {
     l2: L2,
     dram: Dram,
     now: u64,
-    /// Scratch for the L1Ds' down requests (no allocation per cycle).
-    down: Vec<Option<MemReq>>,
-    out: Vec<SmOut>,
+    check: EvalCheck,
+    /// The step of [`MemSystem::eval`] and [`MemSystem::commit`], kept for the probe.
+    step: MemStep,
+    #[cfg(test)]
+    planted: tests::Planted,
 }
 
 impl MemSystem {
@@ -52,8 +127,10 @@ impl MemSystem {
             l2: L2::new(&params),
             dram: Dram::new(&params),
             now: 0,
-            down: vec![None; sms],
-            out: vec![SmOut::default(); sms],
+            check: EvalCheck::Dataflow,
+            step: MemStep::default(),
+            #[cfg(test)]
+            planted: tests::Planted::None,
         })
     }
 
@@ -61,41 +138,130 @@ impl MemSystem {
         &self.params
     }
 
+    /// How each cycle is evaluated: in dataflow order (the default), with the siblings (the L1Ds
+    /// and DRAM) in a seeded random order, or every kernel twice (panicking if the two differ).
+    /// All three give the same results.
+    pub fn set_eval_check(&mut self, check: EvalCheck) {
+        self.check = check;
+    }
+
+    pub fn eval_check(&self) -> EvalCheck {
+        self.check
+    }
+
     /// The current cycle.
     pub fn cycle(&self) -> u64 {
         self.now
     }
 
-    /// Whether SM `sm`'s L1D would accept a request this cycle.
+    /// Whether SM `sm`'s L1D would accept a request this cycle (a register output).
     pub fn ready(&self, sm: usize) -> bool {
         self.l1d[sm].ready()
     }
 
-    /// One cycle of combinational logic: `reqs[sm]` is SM `sm`'s request, if valid.
+    /// One cycle of combinational logic: `reqs[sm]` is SM `sm`'s request, if valid. Returns what
+    /// each SM sees. The step is kept for [`MemSystem::commit`] and the probe (the convenience
+    /// form of [`MemSystem::eval_step`]).
     pub fn eval(&mut self, reqs: &[Option<MemReq>]) -> &[SmOut] {
-        assert_eq!(reqs.len(), self.l1d.len(), "one request slot per SM");
-        self.dram.eval(self.l2.dram_req());
-        for (d, l1) in self.down.iter_mut().zip(&self.l1d) {
-            *d = l1.down_req();
-        }
-        self.l2.eval(&self.down, self.dram.ready(), self.dram.resp());
-        for (sm, l1) in self.l1d.iter_mut().enumerate() {
-            let out = &mut self.out[sm];
-            out.ready = l1.ready();
-            l1.eval(reqs[sm], self.l2.granted(sm), self.l2.resp(sm));
-            out.resp.clear();
-            out.resp.extend_from_slice(l1.resp());
-        }
-        &self.out
+        let mut d = std::mem::take(&mut self.step);
+        self.eval_step(reqs, &mut d);
+        self.step = d;
+        &self.step.out
     }
 
-    /// Clock edge.
+    /// Clock edge for the step of the last [`MemSystem::eval`].
     pub fn commit(&mut self) {
-        for l1 in &mut self.l1d {
-            l1.commit();
+        let d = std::mem::take(&mut self.step);
+        self.commit_step(&d);
+        self.step = d;
+    }
+
+    /// One cycle of combinational logic, a pure function of the registers and `reqs`, written
+    /// into `d` (see the module documentation for the dataflow order).
+    pub fn eval_step(&self, reqs: &[Option<MemReq>], d: &mut MemStep) {
+        let sms = self.l1d.len();
+        assert_eq!(reqs.len(), sms, "one request slot per SM");
+        let passes = self.check.passes();
+        d.at = self.now;
+        d.out.resize_with(sms, SmOut::default);
+        d.l1d.resize_with(sms, L1dStep::default);
+        d.down.clear();
+        d.down.extend(self.l1d.iter().map(L1d::down_req));
+
+        // 1. The L2, from register outputs only.
+        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
+        let l2 = eval_kernel(passes, "L2", &mut d.l2, &mut d.first_l2, |s| self.l2.eval(&l2_in, s));
+        let granted = &l2.out.granted;
+
+        // 2. The siblings: the L1Ds (after the L2, whose grant they take) and DRAM.
+        self.check.order(self.now, sms + 1, &mut d.order);
+        for &k in &d.order {
+            if k == sms {
+                let dram_in = DramIn { req: self.l2.dram_req() };
+                eval_kernel(passes, "DRAM", &mut d.dram, &mut d.first_dram, |s| self.dram.eval(&dram_in, s));
+                continue;
+            }
+            let req = self.l1d_req(&d.l1d, k, reqs[k]);
+            let l1_in = L1dIn { req, down_ready: granted[k], fills: self.l2.resp(k) };
+            eval_kernel(passes, "L1D", &mut d.l1d[k], &mut d.first_l1d, |s| self.eval_l1d(k, &l1_in, s));
         }
-        self.l2.commit();
-        self.dram.commit();
+
+        // What the SMs see: the L1Ds' register outputs (`ready` is `req_fire` when a request was
+        // offered: the same unless a test withholds a request from an L1D).
+        for (sm, (o, l1)) in d.out.iter_mut().zip(&self.l1d).enumerate() {
+            o.ready = l1.ready() && (reqs[sm].is_none() || d.l1d[sm].out.req_fire);
+            o.resp.clear();
+            o.resp.extend_from_slice(l1.resp());
+        }
+    }
+
+    /// L1D `sm`'s request input: SM `sm`'s request.
+    #[cfg(not(test))]
+    fn l1d_req(&self, _steps: &[L1dStep], _sm: usize, req: Option<MemReq>) -> Option<MemReq> {
+        req
+    }
+
+    #[cfg(not(test))]
+    fn eval_l1d(&self, sm: usize, i: &L1dIn, s: &mut L1dStep) {
+        self.l1d[sm].eval(i, s)
+    }
+
+    /// As the normal build, unless a test planted a wiring bug.
+    #[cfg(test)]
+    fn l1d_req(&self, steps: &[L1dStep], sm: usize, req: Option<MemReq>) -> Option<MemReq> {
+        match self.planted {
+            // Holds the request back while the next SM's step shows its request taken: this
+            // cycle's step or last cycle's, depending on which L1D was evaluated first.
+            tests::Planted::SiblingStep if steps[(sm + 1) % steps.len()].out.req_fire => None,
+            _ => req,
+        }
+    }
+
+    #[cfg(test)]
+    fn eval_l1d(&self, sm: usize, i: &L1dIn, s: &mut L1dStep) {
+        let i = match self.planted {
+            // Holds the request back while its own step shows a request taken: reads its output
+            // back (a combinational loop through the step buffer).
+            tests::Planted::OwnStep if s.out.req_fire => L1dIn { req: None, ..*i },
+            _ => *i,
+        };
+        self.l1d[sm].eval(&i, s)
+    }
+
+    /// Clock edge: every unit applies its part of `d`, the step [`MemSystem::eval_step`] produced
+    /// this cycle. Each commit writes only its own unit's registers, so their order does not
+    /// matter either (shuffled commits in the shuffled order).
+    pub fn commit_step(&mut self, d: &MemStep) {
+        assert_eq!(d.at, self.now, "memory system committed a step evaluated in another cycle");
+        let sms = self.l1d.len();
+        for &k in &d.order {
+            if k == sms {
+                self.dram.commit(&d.dram);
+            } else {
+                self.l1d[k].commit(&d.l1d[k]);
+            }
+        }
+        self.l2.commit(&d.l2);
         self.now += 1;
     }
 
@@ -149,24 +315,32 @@ impl MemSystem {
         }
         total
     }
-}
 
-impl Probe for MemSystem {
-    fn probe<S: Sink>(&self, sink: &mut S) {
+    /// Shows the registers and `d`, this cycle's step, to `sink` (sampled between eval and
+    /// commit, a probe shows the cycle's inputs and decisions).
+    pub fn probe_step<S: Sink>(&self, d: &MemStep, sink: &mut S) {
         if !sink.enabled() {
             return;
         }
+        let idle = L1dStep::default();
         for (sm, l1) in self.l1d.iter().enumerate() {
             sink.push_scope(&format!("l1d{sm}"));
-            l1.probe(sink);
+            l1.probe(d.l1d.get(sm).unwrap_or(&idle), sink);
             sink.pop_scope();
         }
         sink.push_scope("l2");
-        self.l2.probe(sink);
+        self.l2.probe(&d.l2, sink);
         sink.pop_scope();
         sink.push_scope("dram");
-        self.dram.probe(sink);
+        self.dram.probe(&d.dram, sink);
         sink.pop_scope();
+    }
+}
+
+impl Probe for MemSystem {
+    /// Probes with the step of the last [`MemSystem::eval`].
+    fn probe<S: Sink>(&self, sink: &mut S) {
+        self.probe_step(&self.step, sink);
     }
 }
 
@@ -181,6 +355,31 @@ mod tests {
     use std::collections::VecDeque;
 
     type Log = Vec<(u64, usize, MemResp)>;
+
+    /// A wiring bug a test plants in [`MemSystem::eval_step`].
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub(super) enum Planted {
+        None,
+        /// An L1D's input depends on a sibling's step: order-dependent.
+        SiblingStep,
+        /// An L1D's input depends on its own step: not the same when evaluated twice.
+        OwnStep,
+    }
+
+    /// Every way of evaluating a cycle; all must give the same results.
+    const CHECKS: [EvalCheck; 5] = [
+        EvalCheck::Dataflow,
+        EvalCheck::Shuffled { seed: 1 },
+        EvalCheck::Shuffled { seed: 2 },
+        EvalCheck::Shuffled { seed: 0xDEAD_BEEF },
+        EvalCheck::Twice,
+    ];
+
+    fn system(p: MemParams, check: EvalCheck) -> MemSystem {
+        let mut sys = MemSystem::new(p).unwrap();
+        sys.set_eval_check(check);
+        sys
+    }
 
     #[derive(Clone, Copy, PartialEq, Eq)]
     enum Skip {
@@ -282,7 +481,13 @@ mod tests {
 
     #[test]
     fn latency_of_each_level() {
-        let mut sys = MemSystem::new(MemParams::default()).unwrap();
+        for check in CHECKS {
+            latency_of_each_level_with(check);
+        }
+    }
+
+    fn latency_of_each_level_with(check: EvalCheck) {
+        let mut sys = system(MemParams::default(), check);
         let one = |sm: usize, req: MemReq| {
             let mut t: Vec<VecDeque<(u64, MemReq)>> = vec![VecDeque::new(); 8];
             t[sm].push_back((0, req));
@@ -309,17 +514,23 @@ mod tests {
     #[test]
     fn dram_bandwidth_adds_transfer_cycles() {
         let p = MemParams { dram_bytes_per_cycle: 8, ..MemParams::default() };
-        let mut sys = MemSystem::new(p).unwrap();
-        let mut t: Vec<VecDeque<(u64, MemReq)>> = vec![VecDeque::new(); 8];
-        t[0].push_back((0, MemReq::read(1, 0, 8, ReqKind::NodeFetch)));
-        let (log, _) = drive(&mut sys, t, Skip::Never);
-        // A 32-byte sector at 8 B/cycle holds the bus 4 cycles: 3 more than one.
-        assert_eq!(log[0].0, 263);
+        for check in CHECKS {
+            let mut sys = system(p, check);
+            let mut t: Vec<VecDeque<(u64, MemReq)>> = vec![VecDeque::new(); 8];
+            t[0].push_back((0, MemReq::read(1, 0, 8, ReqKind::NodeFetch)));
+            let (log, _) = drive(&mut sys, t, Skip::Never);
+            // A 32-byte sector at 8 B/cycle holds the bus 4 cycles: 3 more than one.
+            assert_eq!(log[0].0, 263, "{check:?}");
+        }
     }
 
     /// Every request answered exactly once, and the counters agree with each other.
     fn check_run(p: MemParams, seed: u64, n: usize) -> (Log, MemSystem) {
-        let mut sys = MemSystem::new(p).unwrap();
+        check_run_with(p, seed, n, EvalCheck::Dataflow)
+    }
+
+    fn check_run_with(p: MemParams, seed: u64, n: usize, check: EvalCheck) -> (Log, MemSystem) {
+        let mut sys = system(p, check);
         let sms = p.sms as usize;
         let t = traffic(seed, sms, n);
         let all: Vec<(usize, MemReq)> =
@@ -347,9 +558,18 @@ mod tests {
         (log, sys)
     }
 
+    /// Everything a run's report is made of.
+    fn results(sys: &MemSystem) -> (u64, Counters, Counters, Counters) {
+        (sys.cycle(), sys.l1d_counters(), *sys.l2().counters(), *sys.dram().counters())
+    }
+
     #[test]
     fn random_traffic_is_answered_and_counted_consistently() {
-        let (_, sys) = check_run(small(), 1, 400);
+        let (log, sys) = check_run(small(), 1, 400);
+        for check in &CHECKS[1..] {
+            let (l, s) = check_run_with(small(), 1, 400, *check);
+            assert_eq!((&l, results(&s)), (&log, results(&sys)), "{check:?}");
+        }
         let l1 = sys.l1d_counters();
         // The run must exercise what it claims to check.
         assert!(l1.hits > 0 && l1.merged > 0 && l1.stall_cycles > 0);
@@ -380,8 +600,13 @@ mod tests {
                 .map(|q| q.into_iter().map(|(t, r)| (t * 20, r)).collect())
                 .collect();
             let stepped = drive(&mut MemSystem::new(small()).unwrap(), t.clone(), Skip::Never);
+            for check in CHECKS {
+                let skipped = drive(&mut system(small(), check), t.clone(), Skip::ToNextEvent);
+                assert_eq!(stepped.0, skipped.0, "seed {seed} {check:?}");
+                let stepped_too = drive(&mut system(small(), check), t.clone(), Skip::Never);
+                assert_eq!(stepped, stepped_too, "seed {seed} {check:?}");
+            }
             let skipped = drive(&mut MemSystem::new(small()).unwrap(), t.clone(), Skip::ToNextEvent);
-            assert_eq!(stepped.0, skipped.0, "seed {seed}");
             assert!(skipped.1 * 2 < stepped.1, "idle cycles were skipped: {} of {}", skipped.1, stepped.1);
             let planted = drive(&mut MemSystem::new(small()).unwrap(), t, Skip::PastNextEvent);
             assert_ne!(stepped.0, planted.0, "skipping past an event must show");
@@ -411,7 +636,7 @@ mod tests {
         fifo_l2: bool,
         evict_ref: bool,
     ) -> Result<(), String> {
-        caches_against(p, fifo_l1d, fifo_l2, evict_ref, Geometry::l2(&p))
+        caches_against(p, fifo_l1d, fifo_l2, evict_ref, Geometry::l2(&p), EvalCheck::Dataflow)
     }
 
     /// As [`caches_against_reference`], the reference L2 shaped as `l2_ref`.
@@ -421,8 +646,9 @@ mod tests {
         fifo_l2: bool,
         evict_ref: bool,
         l2_ref: Geometry,
+        check: EvalCheck,
     ) -> Result<(), String> {
-        let mut sys = MemSystem::new(p).unwrap();
+        let mut sys = system(p, check);
         let mut r1 = RefLru::new(sys.l1d(0).tags().geometry());
         let mut r2 = RefLru::new(l2_ref);
         r1.fifo = fifo_l1d;
@@ -505,7 +731,10 @@ mod tests {
 
     #[test]
     fn cache_hits_and_latencies_match_reference_lru() {
-        caches_against_reference(ref_params(), false, false, true).unwrap();
+        for check in CHECKS {
+            let p = ref_params();
+            caches_against(p, false, false, true, Geometry::l2(&p), check).unwrap();
+        }
         caches_against_reference(old(ref_params()), false, false, false).unwrap();
         // Linear index within 256-byte sub-partitions.
         let linear = MemParams { l2_set_index: crate::mem::SetIndex::Linear, ..ref_params() };
@@ -526,10 +755,10 @@ mod tests {
         let p = ref_params();
         let mut linear = Geometry::l2(&p);
         linear.banked.as_mut().expect("banked L2").index = crate::mem::SetIndex::Linear;
-        assert!(caches_against(p, false, false, true, linear).is_err());
+        assert!(caches_against(p, false, false, true, linear, EvalCheck::Dataflow).is_err());
         // And the old single array against the new mapping.
         let old_ref = Geometry::l2(&old(p));
-        assert!(caches_against(p, false, false, true, old_ref).is_err());
+        assert!(caches_against(p, false, false, true, old_ref, EvalCheck::Dataflow).is_err());
     }
 
     #[test]
@@ -543,6 +772,128 @@ mod tests {
         assert_eq!(s.get("l1d1.req_valid"), Some(0));
         assert!(s.get("l2.mshr_occupancy").is_some());
         assert!(s.get("dram.queue_depth").is_some());
+    }
+
+    #[test]
+    fn eight_busy_sms_give_the_same_results_in_any_order_and_evaluated_twice() {
+        let p = MemParams { sms: 8, ..small() };
+        let (log, sys) = check_run(p, 21, 300);
+        assert!(sys.l1d_counters().stall_cycles > 0 && sys.l2().counters().stall_cycles > 0, "busy");
+        for check in &CHECKS[1..] {
+            let (l, s) = check_run_with(p, 21, 300, *check);
+            assert_eq!((&l, results(&s)), (&log, results(&sys)), "{check:?}");
+        }
+    }
+
+    /// Drives random traffic through `small()` with `planted` wiring.
+    fn planted_run(check: EvalCheck, planted: Planted) -> (Log, u64) {
+        let mut sys = system(small(), check);
+        sys.planted = planted;
+        let (log, _) = drive(&mut sys, traffic(5, 4, 300), Skip::Never);
+        (log, sys.cycle())
+    }
+
+    #[test]
+    fn shuffling_the_siblings_catches_an_input_read_from_a_siblings_step() {
+        let clean = planted_run(EvalCheck::Dataflow, Planted::None);
+        let planted = planted_run(EvalCheck::Dataflow, Planted::SiblingStep);
+        assert_eq!(planted.0.len(), clean.0.len(), "the planted wiring loses nothing");
+        let differs = (1..=3)
+            .filter(|&seed| planted_run(EvalCheck::Shuffled { seed }, Planted::SiblingStep) != planted);
+        assert!(differs.count() > 0, "a shuffled order must change the planted run");
+        for seed in 1..=3 {
+            assert_eq!(planted_run(EvalCheck::Shuffled { seed }, Planted::None), clean);
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "L1D: two evaluations of one cycle differ")]
+    fn evaluating_twice_catches_an_input_read_from_the_units_own_step() {
+        // The planted run completes in dataflow order and in a shuffled order (an own step does
+        // not depend on the siblings' order), ...
+        let planted = planted_run(EvalCheck::Dataflow, Planted::OwnStep);
+        assert_eq!(planted_run(EvalCheck::Shuffled { seed: 1 }, Planted::OwnStep), planted);
+        assert_ne!(planted, planted_run(EvalCheck::Dataflow, Planted::None));
+        // ... and evaluating twice shows it.
+        planted_run(EvalCheck::Twice, Planted::OwnStep);
+    }
+
+    #[test]
+    fn the_pure_step_api_matches_the_convenience_wrappers() {
+        let mut a = MemSystem::new(small()).unwrap();
+        let mut b = MemSystem::new(small()).unwrap();
+        let mut d = MemStep::default();
+        let mut t = traffic(9, 4, 100);
+        for _ in 0..3000 {
+            let c = a.cycle();
+            let offers: Vec<Option<MemReq>> =
+                t.iter().map(|q| q.front().filter(|(at, _)| *at <= c).map(|x| x.1)).collect();
+            b.eval_step(&offers, &mut d);
+            // Evaluating again changes nothing: the kernel is a function of registers and inputs.
+            let again = {
+                let mut e = MemStep::default();
+                b.eval_step(&offers, &mut e);
+                e.out
+            };
+            assert_eq!(again, d.out);
+            let out = a.eval(&offers);
+            assert_eq!(out, d.out());
+            for (sm, o) in out.iter().enumerate() {
+                if o.ready && offers[sm].is_some() {
+                    t[sm].pop_front();
+                }
+            }
+            a.commit();
+            b.commit_step(&d);
+        }
+        assert_eq!(results(&a), results(&b));
+        assert!(a.l2().counters().accesses > 0);
+    }
+
+    #[test]
+    #[should_panic(expected = "committed a step evaluated in another cycle")]
+    fn committing_a_step_twice_is_refused() {
+        let mut sys = MemSystem::new(small()).unwrap();
+        let mut d = MemStep::default();
+        sys.eval_step(&[Some(MemReq::read(1, 0, 8, ReqKind::NodeFetch)), None, None, None], &mut d);
+        sys.commit_step(&d);
+        sys.commit_step(&d);
+    }
+
+    /// Runs random traffic, probing every cycle; returns the first probed value that does not fit
+    /// its width with `spare` bits fewer.
+    fn probed_overflow(spare: u32) -> Option<(String, u32, u64)> {
+        let mut sys = MemSystem::new(small()).unwrap();
+        let mut t = traffic(2, 4, 300);
+        while sys.cycle() < 20_000 {
+            let c = sys.cycle();
+            let offers: Vec<Option<MemReq>> =
+                t.iter().map(|q| q.front().filter(|(at, _)| *at <= c).map(|x| x.1)).collect();
+            let out = sys.eval(&offers).to_vec();
+            for (sm, o) in out.iter().enumerate() {
+                if o.ready && offers[sm].is_some() {
+                    t[sm].pop_front();
+                }
+            }
+            let mut s = Snapshot::default();
+            sys.probe(&mut s);
+            let bad = s.signals.into_iter().find(|(_, w, v)| {
+                let w = w.saturating_sub(spare);
+                w < 64 && *v >> w != 0
+            });
+            if bad.is_some() {
+                return bad;
+            }
+            sys.commit();
+        }
+        None
+    }
+
+    #[test]
+    fn probed_values_fit_their_declared_widths() {
+        assert_eq!(probed_overflow(0), None);
+        // The check can fail: one bit fewer does not hold what the run shows.
+        assert!(probed_overflow(1).is_some());
     }
 
     #[test]

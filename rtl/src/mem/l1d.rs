@@ -9,6 +9,11 @@
 //!             └────────────────────────────────────────────────────────────┘
 //! ```
 //!
+//! Clocking: `ready`, `down_req` and `resp` are register outputs; [`L1d::eval`] (pure) takes the
+//! SM's request, the L2's grant of `down_req` (`down_ready`, combinational: the L2 is evaluated
+//! first) and the L2's responses, and returns the cycle's decisions, which [`L1d::commit`]
+//! applies at the clock edge.
+//!
 //! Handshake: `ready` is high unless a request is parked. A request accepted in cycle `t` is
 //! looked up in cycle `t`: a read hit answers at `t + hit_latency`; a read miss merges into the
 //! MSHR entry of its sector or allocates one and queues a sector read for L2; a store goes on to
@@ -23,9 +28,8 @@
 
 use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
-use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, ADDR_BITS};
-use crate::config::bits_for;
-use crate::trace::{Probe, Sink};
+use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, MemWidths, ReqKind, ADDR_BITS, FLAG_BITS};
+use crate::trace::Sink;
 use std::collections::{BTreeMap, VecDeque};
 
 /// What the tag-check stage does with its request this cycle.
@@ -47,20 +51,46 @@ enum Pending {
     Write(MemResp),
 }
 
-/// Next-state decisions of one cycle.
-#[derive(Clone, Debug, Default)]
-struct Step {
-    /// The offered request (shown by the probe).
+/// This cycle's inputs.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct L1dIn<'a> {
+    /// The SM's request, if valid.
+    pub req: Option<MemReq>,
+    /// The L2 grants [`L1d::down_req`] this cycle: the L2's combinational output
+    /// ([`super::l2::L2Out::granted`]), so the L2 is evaluated before the L1Ds.
+    pub down_ready: bool,
+    /// The L2's responses for this L1D ([`super::l2::L2::resp`], a register output of the L2).
+    pub fills: &'a [MemResp],
+}
+
+/// This cycle's combinational outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct L1dOut {
+    /// `req_valid && req_ready`: the SM's request is taken at this clock edge.
+    pub req_fire: bool,
+    /// `down_valid && down_ready`: the head of the miss queue goes to the L2.
+    pub down_fire: bool,
+}
+
+/// One cycle's evaluation: the outputs and the decisions [`L1d::commit`] applies. Its buffer is
+/// reused from cycle to cycle; [`L1d::eval`] overwrites all of it.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct L1dStep {
+    /// The cycle this step was evaluated in ([`L1d::commit`] refuses a stale step).
+    at: u64,
+    pub out: L1dOut,
+    /// The offered request: an input kept for the probe (a copy, no logic).
     req: Option<MemReq>,
     /// The request in the tag-check stage (parked or newly accepted) and its fate.
     work: Option<(MemReq, Action)>,
-    down_fire: bool,
+    /// The L2's responses, latched at the edge.
     fills: Vec<MemResp>,
 }
 
 #[derive(Clone, Debug)]
 pub struct L1d {
     params: MemParams,
+    widths: MemWidths,
     tags: TagStore,
     mshr: Mshr,
     /// Hits in flight: (cycle visible, response), in order.
@@ -71,17 +101,17 @@ pub struct L1d {
     pending: BTreeMap<u64, Pending>,
     next_down_id: u64,
     parked: Option<MemReq>,
-    /// Responses visible this cycle.
+    /// Responses visible this cycle (the response register).
     out: Vec<MemResp>,
     now: u64,
     counters: Counters,
-    d: Step,
 }
 
 impl L1d {
     pub fn new(p: &MemParams) -> L1d {
         L1d {
             params: *p,
+            widths: p.widths(),
             tags: TagStore::new(Geometry::new(p.l1d_bytes, p.l1d_assoc, p.line_bytes, p.sector_bytes)),
             mshr: Mshr::new(p.l1d_mshrs, p.l1d_mshr_merge),
             hit_pipe: VecDeque::new(),
@@ -92,20 +122,20 @@ impl L1d {
             out: Vec::new(),
             now: 0,
             counters: Counters::default(),
-            d: Step::default(),
         }
     }
 
+    /// Register output: the L1D takes a request this cycle.
     pub fn ready(&self) -> bool {
         self.parked.is_none()
     }
 
-    /// Request offered to L2 this cycle.
+    /// Register output: the request offered to L2 this cycle.
     pub fn down_req(&self) -> Option<MemReq> {
         self.miss_queue.front().copied()
     }
 
-    /// Responses visible this cycle.
+    /// Register output: responses visible this cycle.
     pub fn resp(&self) -> &[MemResp] {
         &self.out
     }
@@ -122,22 +152,27 @@ impl L1d {
         &self.tags
     }
 
-    /// One cycle of combinational logic. `req`: the SM's request, if valid. `down_ready`: L2
-    /// accepts [`L1d::down_req`] this cycle. `fills`: L2's responses for this L1D. Returns
-    /// whether `req` was accepted.
-    pub fn eval(&mut self, req: Option<MemReq>, down_ready: bool, fills: &[MemResp]) -> bool {
+    /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
+    /// `d` (every field overwritten; the fills buffer is reused, so no allocation once warm).
+    pub fn eval(&self, i: &L1dIn, d: &mut L1dStep) {
         let ready = self.ready();
-        if let (true, Some(r)) = (ready, &req) {
+        if let (true, Some(r)) = (ready, &i.req) {
             self.params.check_request(r);
         }
         let work = match self.parked {
             Some(parked) => Some(parked),
-            None => req,
+            None => i.req,
         }
         .map(|r| (r, self.classify(&r)));
-        self.d =
-            Step { req, work, down_fire: down_ready && !self.miss_queue.is_empty(), fills: fills.to_vec() };
-        ready && req.is_some()
+        d.at = self.now;
+        d.out = L1dOut {
+            req_fire: ready && i.req.is_some(),
+            down_fire: i.down_ready && !self.miss_queue.is_empty(),
+        };
+        d.req = i.req;
+        d.work = work;
+        d.fills.clear();
+        d.fills.extend_from_slice(i.fills);
     }
 
     fn classify(&self, r: &MemReq) -> Action {
@@ -162,14 +197,16 @@ impl L1d {
         self.pending.insert(id, pending);
     }
 
-    /// Clock edge.
-    pub fn commit(&mut self) {
-        let step = std::mem::take(&mut self.d);
+    /// Clock edge: applies `d`, the step [`L1d::eval`] produced this cycle. The tag array, the
+    /// MSHR table and the queues are RAM-like: `d` holds the cycle's decisions and this writes
+    /// them, as a register file's write port does, without deciding anything new.
+    pub fn commit(&mut self, d: &L1dStep) {
+        assert_eq!(d.at, self.now, "L1D committed a step evaluated in another cycle");
         let next = self.now + 1;
-        if step.down_fire {
+        if d.out.down_fire {
             self.miss_queue.pop_front();
         }
-        if let Some((r, action)) = step.work {
+        if let Some((r, action)) = d.work {
             self.parked = None;
             let key = self.params.sector_of(r.addr);
             let waiter = Waiter { port: 0, id: r.id, addr: r.addr };
@@ -216,7 +253,7 @@ impl L1d {
             self.out.push(resp);
             self.hit_pipe.pop_front();
         }
-        for f in &step.fills {
+        for f in &d.fills {
             match self.pending.remove(&f.id) {
                 Some(Pending::Fill(key)) => {
                     // Write-through: L1D lines are never dirty, so a victim needs no write-back.
@@ -242,33 +279,30 @@ impl L1d {
     pub(crate) fn skip_to(&mut self, cycle: u64) {
         self.now = cycle;
     }
-}
 
-impl Probe for L1d {
-    fn probe<S: Sink>(&self, sink: &mut S) {
+    /// Shows the registers and `d`, this cycle's step, to `sink`; the decision flags (`hit`,
+    /// `merge`, `park`) are derived here from the step, not computed by [`L1d::eval`].
+    pub fn probe<S: Sink>(&self, d: &L1dStep, sink: &mut S) {
         if !sink.enabled() {
             return;
         }
-        let req = self.d.req;
-        let action = self.d.work.map(|(_, a)| a);
+        let req = d.req;
+        let action = d.work.map(|(_, a)| a);
         let down = self.down_req();
-        sink.signal("req_valid", 1, u64::from(req.is_some()));
-        sink.signal("req_ready", 1, u64::from(self.ready()));
+        let w = &self.widths;
+        sink.signal("req_valid", FLAG_BITS, u64::from(req.is_some()));
+        sink.signal("req_ready", FLAG_BITS, u64::from(self.ready()));
         sink.signal("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr));
-        sink.signal("req_write", 1, u64::from(req.is_some_and(|r| r.write)));
-        sink.signal("req_kind", 2, req.map_or(0, |r| r.kind.code()));
-        sink.signal("hit", 1, u64::from(action == Some(Action::Hit)));
-        sink.signal("merge", 1, u64::from(action == Some(Action::Merge)));
-        sink.signal("park", 1, u64::from(action == Some(Action::Park)));
-        sink.signal("mshr_occupancy", bits_for(u64::from(self.params.l1d_mshrs)), self.mshr.len() as u64);
-        sink.signal(
-            "miss_queue_depth",
-            bits_for(u64::from(self.params.l1d_miss_queue)),
-            self.miss_queue.len() as u64,
-        );
-        sink.signal("down_valid", 1, u64::from(down.is_some()));
+        sink.signal("req_write", FLAG_BITS, u64::from(req.is_some_and(|r| r.write)));
+        sink.signal("req_kind", ReqKind::BITS, req.map_or(0, |r| r.kind.code()));
+        sink.signal("hit", FLAG_BITS, u64::from(action == Some(Action::Hit)));
+        sink.signal("merge", FLAG_BITS, u64::from(action == Some(Action::Merge)));
+        sink.signal("park", FLAG_BITS, u64::from(action == Some(Action::Park)));
+        sink.signal("mshr_occupancy", w.l1d_mshr_occupancy, self.mshr.len() as u64);
+        sink.signal("miss_queue_depth", w.l1d_miss_queue_depth, self.miss_queue.len() as u64);
+        sink.signal("down_valid", FLAG_BITS, u64::from(down.is_some()));
         sink.signal("down_addr", ADDR_BITS, down.map_or(0, |r| r.addr));
-        sink.signal("resp_valid", 1, u64::from(!self.out.is_empty()));
+        sink.signal("resp_valid", FLAG_BITS, u64::from(!self.out.is_empty()));
     }
 }
 
@@ -276,7 +310,6 @@ impl Probe for L1d {
 mod tests {
     use super::*;
     use crate::mem::cache::Lookup;
-    use crate::mem::ReqKind;
     use crate::trace::Snapshot;
 
     /// An L1D in front of a stand-in L2 that accepts one request per cycle and answers every
@@ -311,8 +344,10 @@ mod tests {
             }
             let down = self.l1.down_req();
             let fills = std::mem::take(&mut self.l2_out);
-            let fire = self.l1.eval(req, true, &fills);
-            self.l1.commit();
+            let mut d = L1dStep::default();
+            self.l1.eval(&L1dIn { req, down_ready: true, fills: &fills }, &mut d);
+            let fire = d.out.req_fire;
+            self.l1.commit(&d);
             if let Some(d) = down {
                 self.down_log.push(d);
                 self.l2.push_back((self.cycle + self.delay, d.response()));
@@ -502,15 +537,16 @@ mod tests {
     #[test]
     fn probe_shows_the_cycle() {
         let mut l1 = L1d::new(&MemParams::default());
-        l1.eval(read(1, 0x80), false, &[]);
+        let mut d = L1dStep::default();
+        l1.eval(&L1dIn { req: read(1, 0x80), down_ready: false, fills: &[] }, &mut d);
         let mut s = Snapshot::default();
-        l1.probe(&mut s);
+        l1.probe(&d, &mut s);
         assert_eq!(s.get("req_valid"), Some(1));
         assert_eq!(s.get("req_addr"), Some(0x80));
         assert_eq!(s.get("hit"), Some(0));
-        l1.commit();
+        l1.commit(&d);
         let mut s = Snapshot::default();
-        l1.probe(&mut s);
+        l1.probe(&d, &mut s);
         assert_eq!(s.get("mshr_occupancy"), Some(1));
         assert_eq!(s.get("down_valid"), Some(1));
         let widths: Vec<u32> = s.signals.iter().map(|x| x.1).collect();

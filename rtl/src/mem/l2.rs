@@ -21,12 +21,16 @@
 //! acknowledged at the tag check; a store that allocates over a dirty line queues a write-back
 //! even if the DRAM queue is momentarily over its limit (a store is only checked in when there is
 //! room for one), and so does a fill.
+//!
+//! Clocking: `resp` and `dram_req` are register outputs; [`L2::eval`] (pure) takes the L1Ds'
+//! down requests and DRAM's `ready` and responses (all register outputs) and returns the per-SM
+//! grants ([`L2Out::granted`], the L1Ds' `down_ready`) with the cycle's decisions, which
+//! [`L2::commit`] applies at the clock edge.
 
 use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
-use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS};
-use crate::config::bits_for;
-use crate::trace::{Probe, Sink};
+use super::{Counters, MemParams, MemReq, MemResp, MemWidths, ADDR_BITS};
+use crate::trace::Sink;
 use std::collections::{BTreeMap, VecDeque};
 
 /// A request travelling through a bank pipeline.
@@ -48,20 +52,50 @@ enum Check {
     Stall,
 }
 
-#[derive(Clone, Debug, Default)]
-struct Step {
-    granted: Vec<bool>,
+/// This cycle's inputs.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct L2In<'a> {
+    /// Each SM's L1D down request ([`super::l1d::L1d::down_req`], a register output of the
+    /// L1D), if valid.
+    pub reqs: &'a [Option<MemReq>],
+    /// DRAM takes [`L2::dram_req`] this cycle ([`super::dram::Dram::ready`], a register output).
+    pub dram_ready: bool,
+    /// DRAM's read responses ([`super::dram::Dram::resp`], a register output).
+    pub fills: &'a [MemResp],
+}
+
+/// This cycle's combinational outputs.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct L2Out {
+    /// Per SM: its down request is granted (`down_ready` of that SM's L1D). Depends on this
+    /// cycle's requests through the banks' round-robin arbiters, so the L1Ds, which need it, are
+    /// evaluated after the L2.
+    pub granted: Vec<bool>,
+    /// `dram_req_valid && dram_ready`: the head of the DRAM queue goes to DRAM.
+    pub dram_fire: bool,
+}
+
+/// One cycle's evaluation: the outputs and the decisions [`L2::commit`] applies. Its buffers are
+/// reused from cycle to cycle; [`L2::eval`] overwrites all of it.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct L2Step {
+    /// The cycle this step was evaluated in ([`L2::commit`] refuses a stale step).
+    at: u64,
+    pub out: L2Out,
+    /// Per SM: the bank of its request (`u32::MAX`: none); wires of the grant logic.
+    bank_of: Vec<u32>,
     /// (bank, sm, request) entering bank pipelines.
     accepted: Vec<(usize, u32, MemReq)>,
     /// (bank, fate) of each bank head checked this cycle.
     checks: Vec<(usize, Check)>,
-    dram_fire: bool,
+    /// DRAM's responses, latched at the edge.
     fills: Vec<MemResp>,
 }
 
 #[derive(Clone, Debug)]
 pub struct L2 {
     params: MemParams,
+    widths: MemWidths,
     tags: TagStore,
     mshr: Mshr,
     banks: Vec<VecDeque<Lane>>,
@@ -72,11 +106,10 @@ pub struct L2 {
     /// DRAM reads in flight: id → sector.
     pending: BTreeMap<u64, u64>,
     next_dram_id: u64,
-    /// Per SM: responses visible this cycle.
+    /// Per SM: responses visible this cycle (the response registers).
     out: Vec<Vec<MemResp>>,
     now: u64,
     counters: Counters,
-    d: Step,
 }
 
 impl L2 {
@@ -84,6 +117,7 @@ impl L2 {
         let sms = p.sms as usize;
         L2 {
             params: *p,
+            widths: p.widths(),
             tags: TagStore::new(Geometry::l2(p)),
             mshr: Mshr::new(p.l2_mshrs, p.l2_mshr_merge),
             banks: vec![VecDeque::new(); p.l2_banks as usize],
@@ -94,7 +128,6 @@ impl L2 {
             out: vec![Vec::new(); sms],
             now: 0,
             counters: Counters::default(),
-            d: Step { granted: vec![false; sms], ..Step::default() },
         }
     }
 
@@ -102,19 +135,14 @@ impl L2 {
         self.tags.geometry().bank_of(addr, self.params.l2_banks) as usize
     }
 
-    /// Responses for SM `sm` visible this cycle.
+    /// Register output: responses for SM `sm` visible this cycle.
     pub fn resp(&self, sm: usize) -> &[MemResp] {
         &self.out[sm]
     }
 
-    /// Request offered to DRAM this cycle.
+    /// Register output: the request offered to DRAM this cycle.
     pub fn dram_req(&self) -> Option<MemReq> {
         self.dram_queue.front().copied()
-    }
-
-    /// Whether SM `sm`'s request is accepted this cycle (valid between `eval` and `commit`).
-    pub fn granted(&self, sm: usize) -> bool {
-        self.d.granted.get(sm).copied().unwrap_or(false)
     }
 
     pub fn counters(&self) -> &Counters {
@@ -129,27 +157,30 @@ impl L2 {
         self.dram_queue.len()
     }
 
-    /// One cycle of combinational logic. `reqs[sm]`: each L1D's down request. `dram_ready`:
-    /// DRAM accepts [`L2::dram_req`]. `fills`: DRAM's read responses.
-    pub fn eval(&mut self, reqs: &[Option<MemReq>], dram_ready: bool, fills: &[MemResp]) {
+    /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
+    /// `d` (every field overwritten; its buffers are reused, so no allocation once warm).
+    pub fn eval(&self, i: &L2In, d: &mut L2Step) {
         let sms = self.out.len();
-        assert_eq!(reqs.len(), sms, "one down port per SM");
-        let mut step = Step {
-            granted: vec![false; sms],
-            dram_fire: dram_ready && !self.dram_queue.is_empty(),
-            fills: fills.to_vec(),
-            ..Step::default()
-        };
-        let bank_of: Vec<Option<usize>> = reqs.iter().map(|r| r.map(|r| self.bank_of(r.addr))).collect();
+        assert_eq!(i.reqs.len(), sms, "one down port per SM");
+        d.at = self.now;
+        d.out.granted.clear();
+        d.out.granted.resize(sms, false);
+        d.out.dram_fire = i.dram_ready && !self.dram_queue.is_empty();
+        d.fills.clear();
+        d.fills.extend_from_slice(i.fills);
+        d.accepted.clear();
+        d.checks.clear();
+        d.bank_of.clear();
+        d.bank_of.extend(i.reqs.iter().map(|r| r.map_or(u32::MAX, |r| self.bank_of(r.addr) as u32)));
         for (b, bank) in self.banks.iter().enumerate() {
             if bank.len() >= self.params.l2_bank_queue as usize {
                 continue;
             }
             let first = self.rr[b] as usize;
-            let pick = (0..sms).map(|k| (first + k) % sms).find(|&sm| bank_of[sm] == Some(b));
+            let pick = (0..sms).map(|k| (first + k) % sms).find(|&sm| d.bank_of[sm] == b as u32);
             if let Some(sm) = pick {
-                step.granted[sm] = true;
-                step.accepted.push((b, sm as u32, reqs[sm].expect("picked")));
+                d.out.granted[sm] = true;
+                d.accepted.push((b, sm as u32, i.reqs[sm].expect("picked")));
             }
         }
         // Allocations this cycle share the MSHR and the DRAM queue, in bank order.
@@ -182,9 +213,8 @@ impl L2 {
                     _ => Check::Stall,
                 }
             };
-            step.checks.push((b, check));
+            d.checks.push((b, check));
         }
-        self.d = step;
     }
 
     fn write_back(&mut self, victim: Option<Victim>) {
@@ -195,21 +225,23 @@ impl L2 {
         }
     }
 
-    /// Clock edge.
-    pub fn commit(&mut self) {
-        let step = std::mem::take(&mut self.d);
+    /// Clock edge: applies `d`, the step [`L2::eval`] produced this cycle. The tag array, the
+    /// MSHR table and the queues are RAM-like: `d` holds the cycle's decisions and this writes
+    /// them, as a register file's write port does, without deciding anything new.
+    pub fn commit(&mut self, d: &L2Step) {
+        assert_eq!(d.at, self.now, "L2 committed a step evaluated in another cycle");
         let delay = u64::from(self.params.l2_latency - 3);
-        if step.dram_fire {
+        if d.out.dram_fire {
             self.dram_queue.pop_front();
         }
         for out in &mut self.out {
             out.clear();
         }
-        for &(b, sm, req) in &step.accepted {
+        for &(b, sm, req) in &d.accepted {
             self.banks[b].push_back(Lane { due: self.now + delay, sm, req });
             self.rr[b] = (sm + 1) % self.params.sms;
         }
-        for &(b, check) in &step.checks {
+        for &(b, check) in &d.checks {
             if check == Check::Stall {
                 self.counters.stall_cycles += 1;
                 continue;
@@ -244,7 +276,7 @@ impl L2 {
                 Check::Stall => unreachable!("stalls skipped above"),
             }
         }
-        for f in &step.fills {
+        for f in &d.fills {
             let key = self
                 .pending
                 .remove(&f.id)
@@ -270,33 +302,27 @@ impl L2 {
     pub(crate) fn skip_to(&mut self, cycle: u64) {
         self.now = cycle;
     }
-}
 
-impl Probe for L2 {
-    fn probe<S: Sink>(&self, sink: &mut S) {
+    /// Shows the registers and `d`, this cycle's step, to `sink`; the counts are derived here
+    /// from the step, not computed by [`L2::eval`].
+    pub fn probe<S: Sink>(&self, d: &L2Step, sink: &mut S) {
         if !sink.enabled() {
             return;
         }
-        let p = &self.params;
-        let count = |c: Check| self.d.checks.iter().filter(|x| x.1 == c).count() as u64;
-        let bank_bits = bits_for(u64::from(p.l2_banks));
-        sink.signal("accept_count", bank_bits, self.d.accepted.len() as u64);
-        sink.signal("accept_addr", ADDR_BITS, self.d.accepted.first().map_or(0, |a| a.2.addr));
-        sink.signal("hit_count", bank_bits, count(Check::Hit));
-        sink.signal("miss_count", bank_bits, count(Check::Merge) + count(Check::Allocate));
-        sink.signal("stall_count", bank_bits, count(Check::Stall));
-        sink.signal("mshr_occupancy", bits_for(u64::from(p.l2_mshrs)), self.mshr.len() as u64);
+        let w = &self.widths;
+        let count = |c: Check| d.checks.iter().filter(|x| x.1 == c).count() as u64;
+        sink.signal("accept_count", w.l2_bank_count, d.accepted.len() as u64);
+        sink.signal("accept_addr", ADDR_BITS, d.accepted.first().map_or(0, |a| a.2.addr));
+        sink.signal("hit_count", w.l2_bank_count, count(Check::Hit));
+        sink.signal("miss_count", w.l2_bank_count, count(Check::Merge) + count(Check::Allocate));
+        sink.signal("stall_count", w.l2_bank_count, count(Check::Stall));
+        sink.signal("mshr_occupancy", w.l2_mshr_occupancy, self.mshr.len() as u64);
         sink.signal(
             "pipeline_depth_max",
-            bits_for(u64::from(p.l2_bank_queue)),
+            w.l2_pipeline_depth,
             self.banks.iter().map(VecDeque::len).max().unwrap_or(0) as u64,
         );
-        // Write-backs may push the DRAM queue past its limit by a few: size for twice the limit.
-        sink.signal(
-            "dram_queue_depth",
-            bits_for(2 * u64::from(p.l2_dram_queue) + u64::from(p.l2_banks)),
-            self.dram_queue.len() as u64,
-        );
+        sink.signal("dram_queue_depth", w.l2_dram_queue_depth, self.dram_queue.len() as u64);
     }
 }
 
@@ -338,9 +364,10 @@ mod tests {
             }
             let to_dram = self.l2.dram_req();
             let fills = std::mem::take(&mut self.dram_out);
-            self.l2.eval(reqs, true, &fills);
-            let granted = (0..reqs.len()).map(|sm| self.l2.granted(sm)).collect();
-            self.l2.commit();
+            let mut d = L2Step::default();
+            self.l2.eval(&L2In { reqs, dram_ready: true, fills: &fills }, &mut d);
+            let granted = d.out.granted.clone();
+            self.l2.commit(&d);
             if let Some(r) = to_dram {
                 self.dram_log.push(r);
                 if !r.write {
@@ -458,7 +485,7 @@ mod tests {
         // Misses: the first store, the second (same line, other sector) and both reads.
         assert_eq!(b.l2.counters().misses, 4);
         let mut s = Snapshot::default();
-        b.l2.probe(&mut s);
+        b.l2.probe(&L2Step::default(), &mut s);
         assert_eq!(s.get("mshr_occupancy"), Some(0));
     }
 }

@@ -11,14 +11,21 @@
 //! registers), [`l1d`], [`l2`], [`dram`], and [`hierarchy`] which composes them into
 //! [`hierarchy::MemSystem`].
 //!
-//! Clocking: every unit has `eval`, which reads only its current registers and its inputs and
-//! records its decisions in a next-state step `d`, and `commit`, the clock edge, which applies `d`.
-//! The state here is RAM-like (tag arrays, MSHR tables, queues), so `d` holds the cycle's
+//! Clocking (see [`hierarchy`] for the wiring and rtl/DESIGN.md "Memory hierarchy: one cycle"):
+//! every unit has register outputs (`ready`, `down_req`, `dram_req`, `resp`: functions of its
+//! registers alone), `eval(&self, &In, &mut Step)`, a pure function of its registers and this
+//! cycle's inputs that writes the cycle's combinational outputs (`Step::out`) and next-state
+//! decisions into a step, and `commit(&mut self, &Step)`, the clock edge, which applies the step.
+//! The state here is RAM-like (tag arrays, MSHR tables, queues), so a step holds the cycle's
 //! decisions (accept, hit, merge, allocate, park, pop) rather than a copy of the state, and
-//! `commit` writes them into the arrays without deciding anything new. Every output a unit shows
-//! another unit (ready, downstream request, responses) is a function of its registers alone, so
-//! the order in which units are evaluated within a cycle does not matter. Probes show the cycle's
-//! inputs and decisions when sampled between `eval` and `commit`.
+//! `commit` writes them into the arrays as a register file's write port does, without deciding
+//! anything new. One output is combinational: the L2's per-SM grant depends on this cycle's
+//! requests (the banks' round-robin arbiters), so the L2 is evaluated before the L1Ds, which take
+//! the grant as their `down_ready` input. Every other value a unit passes another in a cycle is a
+//! register output, so the L1Ds and DRAM are siblings whose evaluation order does not matter
+//! (tested by evaluating them in a random order each cycle, and every kernel twice). Probes show
+//! a unit's registers and a step: sampled between `eval` and `commit`, the cycle's inputs and
+//! decisions.
 //!
 //! Unloaded latencies, measured from the cycle a request is accepted to the cycle its response is
 //! visible to the SM, with the defaults: L1D hit 1 (`l1d_hit_latency`, see below); L1D miss, L2
@@ -68,13 +75,37 @@ pub mod mshr;
 
 pub use addr::{LocalLayout, SetIndex};
 
-use crate::config::ConfigError;
+use crate::config::{bits_for, ConfigError};
 use std::fmt;
 
 /// Width of an address signal in the waveform.
 pub const ADDR_BITS: u32 = 64;
 /// Width of a request id signal in the waveform.
 pub const ID_BITS: u32 = 64;
+/// Width of a one-bit signal (valid, ready, hit…) in the waveform.
+pub const FLAG_BITS: u32 = 1;
+
+/// Widths of the memory units' counter and occupancy signals, derived from [`MemParams`]: each is
+/// the width of the largest value the register can hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemWidths {
+    /// L1D MSHR entries in use, 0..=`l1d_mshrs`.
+    pub l1d_mshr_occupancy: u32,
+    /// L1D miss-queue depth, 0..=`l1d_miss_queue`.
+    pub l1d_miss_queue_depth: u32,
+    /// A count of L2 banks (accepts, hits, misses or stalls in one cycle), 0..=`l2_banks`.
+    pub l2_bank_count: u32,
+    /// L2 MSHR entries in use, 0..=`l2_mshrs`.
+    pub l2_mshr_occupancy: u32,
+    /// Depth of one L2 bank pipeline, 0..=`l2_bank_queue`.
+    pub l2_pipeline_depth: u32,
+    /// L2 DRAM-queue depth. Write-backs may push the queue past `l2_dram_queue` (a store or a
+    /// fill over a dirty line queues its write-back regardless), so the register is sized for
+    /// `2 × l2_dram_queue + l2_banks`.
+    pub l2_dram_queue_depth: u32,
+    /// Requests waiting for the DRAM bus, 0..=`dram_queue`.
+    pub dram_queue_depth: u32,
+}
 
 /// What a request is for, so traffic can be counted separately.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -97,7 +128,10 @@ impl ReqKind {
         self as usize
     }
 
-    /// Waveform encoding (2 bits).
+    /// Width of [`ReqKind::code`].
+    pub const BITS: u32 = bits_for(ReqKind::COUNT as u64 - 1);
+
+    /// Waveform encoding ([`ReqKind::BITS`] bits).
     pub fn code(self) -> u64 {
         self as u64
     }
@@ -460,6 +494,20 @@ impl MemParams {
             sets_per_bank,
             index: self.l2_set_index,
         })
+    }
+
+    /// Widths of the memory units' signals.
+    pub fn widths(&self) -> MemWidths {
+        let w = |max: u32| bits_for(u64::from(max));
+        MemWidths {
+            l1d_mshr_occupancy: w(self.l1d_mshrs),
+            l1d_miss_queue_depth: w(self.l1d_miss_queue),
+            l2_bank_count: w(self.l2_banks),
+            l2_mshr_occupancy: w(self.l2_mshrs),
+            l2_pipeline_depth: w(self.l2_bank_queue),
+            l2_dram_queue_depth: bits_for(2 * u64::from(self.l2_dram_queue) + u64::from(self.l2_banks)),
+            dram_queue_depth: w(self.dram_queue),
+        }
     }
 
     /// Address of the sector holding `addr`.

@@ -9,7 +9,9 @@
 //!   fill(key) ─► release: every waiter of key, oldest first; the entry frees
 //! ```
 //!
-//! Entries live in a `BTreeMap` so nothing depends on hash order.
+//! Entries live in a `BTreeMap` so nothing depends on hash order. The table is RAM-like state of
+//! its owner (an L1D or the L2): [`Mshr::check`] is a pure read, used by the owner's `eval`;
+//! [`Mshr::insert`] and [`Mshr::release`] are the write port, used only by the owner's `commit`.
 
 use std::collections::BTreeMap;
 
