@@ -48,7 +48,7 @@ use std::fmt::Debug;
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SmOut {
     /// The L1D accepts a request this cycle (if one was offered, it was taken): the L1D's
-    /// register output `ready`.
+    /// register output `ready` (with a request offered, the L1D's `req_fire`).
     pub ready: bool,
     /// Responses completed this cycle (the L1D's response register).
     pub resp: Vec<MemResp>,
@@ -83,9 +83,8 @@ impl MemStep {
     }
 }
 
-/// Evaluates one kernel into `d`, or with two passes first into `first` and then into `d`, and
-/// panics if they differ (a kernel that reads its own output or hidden state).
-/// Returns the result.
+/// Evaluates one kernel into `d`, or with two passes first into `first` and then into `d`,
+/// panicking if they differ (a kernel that reads its own output or hidden state); returns `d`.
 fn eval_kernel<'a, T: PartialEq + Debug>(
     passes: u32,
     what: &str,
@@ -215,7 +214,7 @@ impl MemSystem {
         }
     }
 
-    /// L1D `sm`'s request input: SM `sm`'s request.
+    /// L1D `sm`'s request input: SM `sm`'s request (a hook where tests plant wiring bugs).
     #[cfg(not(test))]
     fn l1d_req(&self, _steps: &[L1dStep], _sm: usize, req: Option<MemReq>) -> Option<MemReq> {
         req
@@ -583,10 +582,11 @@ mod tests {
     #[test]
     fn runs_are_deterministic() {
         let (a, sa) = check_run(small(), 7, 200);
-        let (b, sb) = check_run(small(), 7, 200);
-        assert_eq!(a, b);
-        assert_eq!(sa.l1d_counters(), sb.l1d_counters());
-        assert_eq!(sa.l2().counters(), sb.l2().counters());
+        for check in CHECKS {
+            let (b, sb) = check_run_with(small(), 7, 200, check);
+            assert_eq!(a, b, "{check:?}");
+            assert_eq!(results(&sa), results(&sb), "{check:?}");
+        }
         let (c, _) = check_run(small(), 8, 200);
         assert_ne!(a, c, "a different seed differs");
     }
@@ -860,33 +860,61 @@ mod tests {
         sys.commit_step(&d);
     }
 
-    /// Runs random traffic, probing every cycle; returns the first probed value that does not fit
-    /// its width with `spare` bits fewer.
-    fn probed_overflow(spare: u32) -> Option<(String, u32, u64)> {
-        let mut sys = MemSystem::new(small()).unwrap();
+    /// Runs random traffic with `check`, probing every cycle between eval and commit, until
+    /// `visit` returns false or everything is answered.
+    fn probe_each_cycle(check: EvalCheck, mut visit: impl FnMut(&Snapshot) -> bool) {
+        let mut sys = system(small(), check);
         let mut t = traffic(2, 4, 300);
-        while sys.cycle() < 20_000 {
+        while t.iter().any(|q| !q.is_empty()) || sys.next_event_cycle().is_some() {
+            assert!(sys.cycle() < 100_000, "runaway");
             let c = sys.cycle();
             let offers: Vec<Option<MemReq>> =
                 t.iter().map(|q| q.front().filter(|(at, _)| *at <= c).map(|x| x.1)).collect();
-            let out = sys.eval(&offers).to_vec();
-            for (sm, o) in out.iter().enumerate() {
+            for (sm, o) in sys.eval(&offers).iter().enumerate() {
                 if o.ready && offers[sm].is_some() {
                     t[sm].pop_front();
                 }
             }
             let mut s = Snapshot::default();
             sys.probe(&mut s);
-            let bad = s.signals.into_iter().find(|(_, w, v)| {
-                let w = w.saturating_sub(spare);
-                w < 64 && *v >> w != 0
-            });
-            if bad.is_some() {
-                return bad;
+            if !visit(&s) {
+                return;
             }
             sys.commit();
         }
-        None
+    }
+
+    /// The first probed value that does not fit its width with `spare` bits fewer.
+    fn probed_overflow(spare: u32) -> Option<(String, u32, u64)> {
+        let mut bad = None;
+        probe_each_cycle(EvalCheck::Dataflow, |s| {
+            bad = s
+                .signals
+                .iter()
+                .find(|(_, w, v)| w.saturating_sub(spare) < 64 && *v >> w.saturating_sub(spare) != 0)
+                .cloned();
+            bad.is_none()
+        });
+        bad
+    }
+
+    #[test]
+    fn waveforms_are_the_same_in_any_order_and_evaluated_twice() {
+        use std::hash::{DefaultHasher, Hash, Hasher};
+        let waveform = |check| {
+            let mut h = DefaultHasher::new();
+            let mut cycles = 0;
+            probe_each_cycle(check, |s| {
+                s.signals.hash(&mut h);
+                cycles += 1;
+                true
+            });
+            (cycles, h.finish())
+        };
+        let reference = waveform(EvalCheck::Dataflow);
+        for check in &CHECKS[1..] {
+            assert_eq!(waveform(*check), reference, "{check:?}");
+        }
     }
 
     #[test]
