@@ -924,6 +924,83 @@ mod tests {
         assert!(probed_overflow(1).is_some());
     }
 
+    /// Counts this thread's heap allocations (the test binary's allocator).
+    mod allocations {
+        use std::alloc::{GlobalAlloc, Layout, System};
+        use std::cell::Cell;
+
+        thread_local! {
+            static COUNT: Cell<u64> = const { Cell::new(0) };
+        }
+
+        struct Counting;
+
+        fn count() {
+            let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+        }
+
+        // SAFETY: every call is forwarded to the system allocator unchanged.
+        unsafe impl GlobalAlloc for Counting {
+            unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+                count();
+                unsafe { System.alloc(layout) }
+            }
+            unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+                count();
+                unsafe { System.alloc_zeroed(layout) }
+            }
+            unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+                count();
+                unsafe { System.realloc(ptr, layout, new_size) }
+            }
+            unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+                unsafe { System.dealloc(ptr, layout) }
+            }
+        }
+
+        #[global_allocator]
+        static ALLOCATOR: Counting = Counting;
+
+        /// Allocations made by this thread so far.
+        pub fn so_far() -> u64 {
+            COUNT.with(Cell::get)
+        }
+    }
+
+    /// Allocations in 200 cycles in which every SM's request hits in its L1D, after warming up.
+    fn allocations_per_hit_cycles(check: EvalCheck) -> u64 {
+        let mut sys = system(small(), check);
+        let mut offers: Vec<Option<MemReq>> =
+            (0..4).map(|sm| Some(MemReq::read(0, sm * 0x1000, 8, ReqKind::NodeFetch))).collect();
+        let mut run = |sys: &mut MemSystem, cycles: u64| {
+            for _ in 0..cycles {
+                let out = sys.eval(&offers);
+                for (o, r) in out.iter().zip(&mut offers) {
+                    if let (true, Some(r)) = (o.ready, r) {
+                        r.id += 1;
+                    }
+                }
+                sys.commit();
+            }
+        };
+        // Misses, fills, then hits that fill the buffers to their steady size. The misses
+        // allocate (MSHR entries, pending-request maps): the counter counts.
+        let start = allocations::so_far();
+        run(&mut sys, 1000);
+        assert!(allocations::so_far() > start);
+        assert!(sys.l1d_counters().hits > 100);
+        let before = allocations::so_far();
+        run(&mut sys, 200);
+        allocations::so_far() - before
+    }
+
+    #[test]
+    fn cycles_of_hits_allocate_nothing() {
+        for check in CHECKS {
+            assert_eq!(allocations_per_hit_cycles(check), 0, "{check:?}");
+        }
+    }
+
     #[test]
     fn bad_parameters_are_rejected() {
         let e = MemSystem::new(MemParams { l1d_bytes: 0, ..MemParams::default() }).unwrap_err();
