@@ -11,8 +11,8 @@
 //!
 //! Clocking: `ready`, `down_req` and `resp` are register outputs; [`L1d::eval`] (pure) takes the
 //! SM's request, the L2's grant of `down_req` (`down_ready`, combinational: the L2 is evaluated
-//! first) and the L2's responses, and returns the cycle's decisions, which [`L1d::commit`]
-//! applies at the clock edge.
+//! first) and the L2's responses, and writes the cycle's outputs and decisions into a step,
+//! which [`L1d::commit`] applies at the clock edge.
 //!
 //! Handshake: `ready` is high unless a request is parked. A request accepted in cycle `t` is
 //! looked up in cycle `t`: a read hit answers at `t + hit_latency`; a read miss merges into the

@@ -23,9 +23,9 @@
 //! room for one), and so does a fill.
 //!
 //! Clocking: `resp` and `dram_req` are register outputs; [`L2::eval`] (pure) takes the L1Ds'
-//! down requests and DRAM's `ready` and responses (all register outputs) and returns the per-SM
-//! grants ([`L2Out::granted`], the L1Ds' `down_ready`) with the cycle's decisions, which
-//! [`L2::commit`] applies at the clock edge.
+//! down requests and DRAM's `ready` and responses (all register outputs) and writes the per-SM
+//! grants ([`L2Out::granted`], the L1Ds' `down_ready`) and the cycle's decisions into a step,
+//! which [`L2::commit`] applies at the clock edge.
 
 use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
