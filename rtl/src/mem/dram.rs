@@ -15,7 +15,7 @@
 
 use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS, ID_BITS};
 use crate::config::bits_for;
-use crate::trace::{Probe, Sink};
+use crate::trace::{Kind, Probe, Sink};
 use std::collections::VecDeque;
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -134,11 +134,11 @@ impl Probe for Dram {
         let req = self.d.req;
         sink.signal("req_valid", 1, u64::from(req.is_some()));
         sink.signal("req_ready", 1, u64::from(self.ready()));
-        sink.signal("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr));
+        sink.signal_kind("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr), Kind::Address);
         sink.signal("req_write", 1, u64::from(req.is_some_and(|r| r.write)));
         sink.signal("queue_depth", bits_for(self.queue_cap as u64), self.waiting.len() as u64);
         sink.signal("resp_valid", 1, u64::from(!self.out.is_empty()));
-        sink.signal("resp_id", ID_BITS, self.out.first().map_or(0, |r| r.id));
+        sink.signal_kind("resp_id", ID_BITS, self.out.first().map_or(0, |r| r.id), Kind::Data);
     }
 }
 

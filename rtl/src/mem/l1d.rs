@@ -25,7 +25,7 @@ use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, ADDR_BITS};
 use crate::config::bits_for;
-use crate::trace::{Probe, Sink};
+use crate::trace::{Kind, Probe, Sink};
 use std::collections::{BTreeMap, VecDeque};
 
 /// What the tag-check stage does with its request this cycle.
@@ -254,9 +254,9 @@ impl Probe for L1d {
         let down = self.down_req();
         sink.signal("req_valid", 1, u64::from(req.is_some()));
         sink.signal("req_ready", 1, u64::from(self.ready()));
-        sink.signal("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr));
+        sink.signal_kind("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr), Kind::Address);
         sink.signal("req_write", 1, u64::from(req.is_some_and(|r| r.write)));
-        sink.signal("req_kind", 2, req.map_or(0, |r| r.kind.code()));
+        sink.signal_kind("req_kind", 2, req.map_or(0, |r| r.kind.code()), crate::mem::ReqKind::KIND);
         sink.signal("hit", 1, u64::from(action == Some(Action::Hit)));
         sink.signal("merge", 1, u64::from(action == Some(Action::Merge)));
         sink.signal("park", 1, u64::from(action == Some(Action::Park)));
@@ -267,7 +267,7 @@ impl Probe for L1d {
             self.miss_queue.len() as u64,
         );
         sink.signal("down_valid", 1, u64::from(down.is_some()));
-        sink.signal("down_addr", ADDR_BITS, down.map_or(0, |r| r.addr));
+        sink.signal_kind("down_addr", ADDR_BITS, down.map_or(0, |r| r.addr), Kind::Address);
         sink.signal("resp_valid", 1, u64::from(!self.out.is_empty()));
     }
 }

@@ -26,7 +26,7 @@ use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, MemParams, MemReq, MemResp, ADDR_BITS};
 use crate::config::bits_for;
-use crate::trace::{Probe, Sink};
+use crate::trace::{Kind, Probe, Sink};
 use std::collections::{BTreeMap, VecDeque};
 
 /// A request travelling through a bank pipeline.
@@ -281,7 +281,12 @@ impl Probe for L2 {
         let count = |c: Check| self.d.checks.iter().filter(|x| x.1 == c).count() as u64;
         let bank_bits = bits_for(u64::from(p.l2_banks));
         sink.signal("accept_count", bank_bits, self.d.accepted.len() as u64);
-        sink.signal("accept_addr", ADDR_BITS, self.d.accepted.first().map_or(0, |a| a.2.addr));
+        sink.signal_kind(
+            "accept_addr",
+            ADDR_BITS,
+            self.d.accepted.first().map_or(0, |a| a.2.addr),
+            Kind::Address,
+        );
         sink.signal("hit_count", bank_bits, count(Check::Hit));
         sink.signal("miss_count", bank_bits, count(Check::Merge) + count(Check::Allocate));
         sink.signal("stall_count", bank_bits, count(Check::Stall));

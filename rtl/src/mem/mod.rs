@@ -97,7 +97,12 @@ impl ReqKind {
         self as usize
     }
 
-    /// Waveform encoding (2 bits).
+    /// The kinds by waveform code ([`ReqKind::code`]): the names of the variants.
+    pub const NAMES: &'static [&'static str] = &["node_fetch", "stack_spill", "stack_reload"];
+    /// How a waveform shows the kind.
+    pub const KIND: crate::trace::Kind = crate::trace::Kind::Enum { name: "req_kind", names: ReqKind::NAMES };
+
+    /// Waveform encoding (2 bits): an index into [`ReqKind::NAMES`].
     pub fn code(self) -> u64 {
         self as u64
     }
