@@ -16,7 +16,8 @@ pub const DEFAULT_RES: (u32, u32) = (64, 64);
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
-    /// Scenes, comma-separated (default: the built-in ones).
+    /// Scenes, comma-separated: names, or paths to meshes or TOML descriptions, as `sms run
+    /// --scene` takes (default: the built-in ones).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
     /// Stack configurations, comma-separated; RB_8 (the baseline) is always added.

@@ -12,7 +12,7 @@ use crate::workload::Workload;
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
-    #[arg(long)]
+    #[arg(long, help = crate::cli::SCENE_HELP)]
     pub scene: String,
     #[command(flatten)]
     pub workload: WorkloadArgs,

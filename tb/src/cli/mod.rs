@@ -15,22 +15,50 @@ use std::path::PathBuf;
 
 use crate::scene::SceneLibrary;
 
-/// Where scene descriptions and data are, shared by subcommands that load scenes.
+/// Where scene data are and how scenes are seen, shared by subcommands that load scenes.
 #[derive(Clone, Debug, clap::Args)]
 pub struct SceneArgs {
-    /// Folder of the shared mesh files (default: ../shared/scenes beside the project).
-    #[arg(long)]
+    /// Folder of the shared mesh files the shipped scene descriptions read [env: SMS_SCENES_DIR;
+    /// default: the nearest shared/scenes folder in the current folder or a parent, else in the
+    /// executable's folder or a parent]. Meshes and descriptions given by path do not need it.
+    #[arg(long, value_name = "DIR")]
     pub scenes_dir: Option<PathBuf>,
+    /// Camera position x,y,z, replacing the scene's (a mesh or description without a camera
+    /// is framed from its bounds).
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::scene::parse_vec3, allow_hyphen_values = true)]
+    pub camera_eye: Option<[f32; 3]>,
+    /// Point the camera looks at, x,y,z.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::scene::parse_vec3, allow_hyphen_values = true)]
+    pub camera_look_at: Option<[f32; 3]>,
+    /// Camera up vector x,y,z [default: the scene's; 0,1,0 for meshes].
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::scene::parse_vec3, allow_hyphen_values = true)]
+    pub camera_up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees [default: the scene's; 45 for meshes].
+    #[arg(long, value_name = "DEGREES")]
+    pub vfov: Option<f32>,
 }
 
 impl SceneArgs {
     pub fn library(&self) -> SceneLibrary {
-        match &self.scenes_dir {
+        let mut library = match &self.scenes_dir {
             Some(dir) => SceneLibrary::with_data_dir(dir),
             None => SceneLibrary::default(),
-        }
+        };
+        library.camera = crate::scene::CameraOverride {
+            eye: self.camera_eye,
+            look_at: self.camera_look_at,
+            up: self.camera_up,
+            vfov: self.vfov,
+        };
+        library
     }
 }
+
+/// Help text of every `--scene` flag.
+pub const SCENE_HELP: &str =
+    "Scene: a built-in or described name (`sms scenes` lists them), or a path to a mesh \
+(.obj, .ply, .glb, .gltf, each optionally .gz; the camera frames it, see --camera-eye) or to a TOML scene \
+description (its mesh paths relative to it)";
 
 /// What to trace: scene, hierarchy, child order, resolution, samples, bounces, path end, seed.
 /// Shared by the subcommands that simulate a workload.

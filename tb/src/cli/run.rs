@@ -20,8 +20,7 @@ use crate::workload::{Workload, WorkloadOpts};
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
-    /// Scene name (`sms scenes` lists them).
-    #[arg(long, default_value = "clutter")]
+    #[arg(long, default_value = "clutter", help = crate::cli::SCENE_HELP)]
     pub scene: String,
     #[command(flatten)]
     pub stack: StackConfigArgs,

@@ -32,8 +32,9 @@ pub const SAMPLE_ERROR: &str = "measured on the 18 scenes at LumiBench's setting
 /// What `sms sweep` and `sms ablate` share.
 #[derive(Clone, Debug, clap::Args)]
 pub struct SweepArgs {
-    /// Scenes, comma-separated (default: every built-in and described scene; with --quick, the
-    /// built-in ones).
+    /// Scenes, comma-separated: names, or paths to meshes or TOML descriptions, as `sms run
+    /// --scene` takes (default: every built-in and described scene; with --quick, the built-in
+    /// ones).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
     #[command(flatten)]

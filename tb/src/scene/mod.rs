@@ -1,13 +1,22 @@
 //! Scenes: geometry, a camera and render settings, loaded by name.
 //!
-//! A name is either built in (see [`procedural`]) or the stem of a TOML description in the
-//! project's `scenes/` folder, whose mesh files live in the shared read-only scene folder
-//! (`../shared/scenes` from the project root) and are never copied into the project.
+//! A scene is given ([`SceneLibrary::resolve`]) by
+//! - a built-in name (see [`procedural`]),
+//! - the name of a shipped description: the project's `scenes/*.toml`, embedded in the binary
+//!   at build time ([`SHIPPED`]), whose mesh files live in the shared read-only scene folder
+//!   ([`SceneLibrary::locate`]: `--scenes-dir`, `SMS_SCENES_DIR`, or a `shared/scenes` folder
+//!   found above the current folder or the executable) and are never copied into the project,
+//! - a path to a mesh file (`.obj`, `.ply`, `.glb`, `.gltf`, each optionally `.gz`): one mesh,
+//!   the camera framing its bounds, LumiBench's render settings,
+//! - a path to a TOML description, whose mesh paths are relative to the description's folder.
+//!
+//! [`CameraOverride`] replaces any scene's camera (the `--camera-*` and `--vfov` flags).
 //!
 //! A description looks like this (every table but `[[mesh]]` is optional):
 //! ```toml
 //! [[mesh]]
-//! file = "karimSchooner.obj.gz"          # relative to the data folder
+//! file = "karimSchooner.obj.gz"          # relative to the data folder (shipped descriptions)
+//!                                        # or to the description's folder (given by path)
 //! transform = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]   # row-major, p_world = M * p
 //! [camera]                               # no eye/look_at: frame the bounding box
 //! eye = [378, 278, 500]
@@ -208,60 +217,163 @@ struct SceneDesc {
     render: RenderSettings,
 }
 
-/// Where scene descriptions and mesh files are found.
-#[derive(Clone, Debug)]
-pub struct SceneLibrary {
-    /// Folder of `<name>.toml` descriptions.
-    pub descriptions: PathBuf,
-    /// Folder the descriptions' mesh paths are relative to.
-    pub data: PathBuf,
+/// The scene descriptions shipped with sms (`scenes/*.toml`), embedded at build time (see
+/// `tb/build.rs`): `(name, text)` sorted by name. Their mesh paths are relative to the shared
+/// data folder ([`SceneLibrary::data`]).
+pub const SHIPPED: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/shipped_scenes.rs"));
+
+/// The environment variable naming the shared scene data folder.
+pub const SCENES_DIR_ENV: &str = "SMS_SCENES_DIR";
+
+/// How [`SceneLibrary::data`] was chosen: named in the error when a mesh is missing.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DataOrigin {
+    /// `--scenes-dir` (or [`SceneLibrary::with_data_dir`]).
+    Flag,
+    /// [`SCENES_DIR_ENV`].
+    Env,
+    /// A `shared/scenes` folder found in the current folder or one of its parents.
+    BesideCurrentDir,
+    /// A `shared/scenes` folder found in the executable's folder or one of its parents.
+    BesideExecutable,
+    /// None of those: described scenes cannot find their meshes.
+    NotFound,
 }
 
-impl Default for SceneLibrary {
-    /// The project's `scenes/` and the shared scene folder: `$SMS_SCENES_DIR` if set, else the
-    /// first `shared/scenes` beside the project or beside one of its parent folders (a clone
-    /// anywhere under the machine's work folder finds it), else `/work/shared/scenes`.
-    fn default() -> Self {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        SceneLibrary { descriptions: root.join("scenes"), data: shared_scenes_dir(&root) }
-    }
+/// Camera settings that replace a scene's own (`--camera-eye`, `--camera-look-at`,
+/// `--camera-up`, `--vfov`). A mesh or description without a camera is framed with the given
+/// up vector and field of view; then a given eye or look-at point replaces the framed one.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraOverride {
+    pub eye: Option<[f32; 3]>,
+    pub look_at: Option<[f32; 3]>,
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees.
+    pub vfov: Option<f32>,
 }
 
-/// See [`SceneLibrary::default`]. Falls back to `../shared/scenes` of the project (named in the
-/// error when a mesh is missing) when no candidate exists.
-fn shared_scenes_dir(root: &Path) -> PathBuf {
-    if let Some(dir) = std::env::var_os("SMS_SCENES_DIR") {
-        return PathBuf::from(dir);
-    }
-    let beside = root.join("../shared/scenes");
-    let root = root.canonicalize().unwrap_or_else(|_| root.to_path_buf());
-    root.ancestors()
-        .map(|a| a.join("shared/scenes"))
-        .chain(std::iter::once(PathBuf::from("/work/shared/scenes")))
-        .find(|d| d.join("MANIFEST.md").is_file())
-        .unwrap_or(beside)
-}
-
-impl SceneLibrary {
-    /// A library reading mesh files from `data` instead of the default shared folder.
-    pub fn with_data_dir(data: impl Into<PathBuf>) -> Self {
-        SceneLibrary { data: data.into(), ..SceneLibrary::default() }
-    }
-
-    /// Names of the described scenes (sorted), without the built-in ones.
-    pub fn described(&self) -> Result<Vec<String>> {
-        let dir = std::fs::read_dir(&self.descriptions).map_err(|e| Error::io(&self.descriptions, e))?;
-        let mut names = Vec::new();
-        for entry in dir {
-            let path = entry.map_err(|e| Error::io(&self.descriptions, e))?.path();
-            if path.extension().is_some_and(|e| e == "toml") {
-                if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
-                    names.push(stem.to_owned());
+impl CameraOverride {
+    /// Every given value is finite, the field of view is in (0, 180) degrees and `up` is not
+    /// zero; errors name the flag.
+    pub fn validate(&self) -> Result<()> {
+        let vectors =
+            [("--camera-eye", self.eye), ("--camera-look-at", self.look_at), ("--camera-up", self.up)];
+        for (flag, v) in vectors {
+            if let Some(v) = v {
+                if !v.iter().all(|x| x.is_finite()) {
+                    return Err(Error::Invalid(format!("{flag} {v:?} is not finite")));
                 }
             }
         }
-        names.sort();
-        Ok(names)
+        if self.up.is_some_and(|u| u == [0.0; 3]) {
+            return Err(Error::Invalid("--camera-up must not be zero".into()));
+        }
+        if let Some(f) = self.vfov {
+            if !(f > 0.0 && f < 180.0) {
+                return Err(Error::Invalid(format!("--vfov {f} is not between 0 and 180 degrees")));
+            }
+        }
+        Ok(())
+    }
+
+    /// `camera` with the given values replaced, refusing an eye on the look-at point.
+    fn apply(&self, camera: Camera) -> Result<Camera> {
+        let c = Camera {
+            eye: self.eye.map_or(camera.eye, Vec3A::from),
+            look_at: self.look_at.map_or(camera.look_at, Vec3A::from),
+            up: self.up.map_or(camera.up, Vec3A::from),
+            vfov: self.vfov.unwrap_or(camera.vfov),
+        };
+        if c.eye == c.look_at {
+            return Err(Error::Invalid(format!("the camera's eye and look-at point are both {}", c.eye)));
+        }
+        Ok(c)
+    }
+}
+
+/// Parses `x,y,z` (a camera flag's value).
+pub fn parse_vec3(s: &str) -> std::result::Result<[f32; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [x, y, z] = parts[..] else { return Err(format!("'{s}' is not x,y,z")) };
+    let num = |t: &str| t.parse::<f32>().map_err(|_| format!("'{t}' in '{s}' is not a number"));
+    Ok([num(x)?, num(y)?, num(z)?])
+}
+
+/// Where a `--scene` value leads ([`SceneLibrary::resolve`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SceneSource {
+    /// A built-in scene ([`procedural`]).
+    BuiltIn(String),
+    /// A shipped description: its name and text.
+    Described(String, &'static str),
+    /// A description file given by path (its mesh paths are relative to it).
+    Description(PathBuf),
+    /// A mesh file given by path.
+    Mesh(PathBuf),
+}
+
+/// Mesh file name endings accepted by path.
+const MESH_EXTENSIONS: [&str; 4] = ["obj", "ply", "glb", "gltf"];
+
+/// Whether `spec` names a mesh file by its ending (`.obj`, `.ply`, `.glb`, `.gltf`, each
+/// optionally `.gz`).
+fn is_mesh_name(spec: &str) -> bool {
+    let lower = spec.to_ascii_lowercase();
+    let base = lower.strip_suffix(".gz").unwrap_or(&lower);
+    MESH_EXTENSIONS.iter().any(|e| base.ends_with(&format!(".{e}")))
+}
+
+/// Where scenes come from: the built-in ones, the shipped descriptions (embedded), the shared
+/// folder their meshes are read from, and files given by path.
+#[derive(Clone, Debug)]
+pub struct SceneLibrary {
+    /// Folder the shipped descriptions' mesh paths are relative to.
+    pub data: PathBuf,
+    /// How `data` was chosen.
+    pub origin: DataOrigin,
+    /// Camera settings replacing every loaded scene's own.
+    pub camera: CameraOverride,
+}
+
+impl Default for SceneLibrary {
+    /// The shared data folder found as [`SceneLibrary::locate`] describes.
+    fn default() -> Self {
+        let (data, origin) = SceneLibrary::locate();
+        SceneLibrary { data, origin, camera: CameraOverride::default() }
+    }
+}
+
+impl SceneLibrary {
+    /// A library reading mesh files from `data` (what `--scenes-dir` gives).
+    pub fn with_data_dir(data: impl Into<PathBuf>) -> Self {
+        SceneLibrary { data: data.into(), origin: DataOrigin::Flag, camera: CameraOverride::default() }
+    }
+
+    /// The default shared data folder, in this order: `$SMS_SCENES_DIR` if set; else the
+    /// nearest folder `shared/scenes` in the current folder or one of its parents (a clone
+    /// beside the shared folder, `<work>/<clone>` and `<work>/shared/scenes`, finds it from
+    /// anywhere inside the clone); else the same search from the executable's folder (a binary
+    /// built in the clone, run from anywhere). Nothing is compiled in: an installed binary with
+    /// none of these has no data folder, and a described scene's missing mesh says how to give
+    /// one (`--scenes-dir` or `SMS_SCENES_DIR`).
+    pub fn locate() -> (PathBuf, DataOrigin) {
+        if let Some(dir) = std::env::var_os(SCENES_DIR_ENV).filter(|d| !d.is_empty()) {
+            return (PathBuf::from(dir), DataOrigin::Env);
+        }
+        let find = |start: &Path| start.ancestors().map(|a| a.join("shared/scenes")).find(|d| d.is_dir());
+        if let Some(dir) = std::env::current_dir().ok().as_deref().and_then(find) {
+            return (dir, DataOrigin::BesideCurrentDir);
+        }
+        let exe = std::env::current_exe().ok().and_then(|e| e.canonicalize().ok());
+        if let Some(dir) = exe.as_deref().and_then(Path::parent).and_then(find) {
+            return (dir, DataOrigin::BesideExecutable);
+        }
+        (PathBuf::from("shared/scenes"), DataOrigin::NotFound)
+    }
+
+    /// Names of the shipped descriptions (sorted), without the built-in ones.
+    pub fn described(&self) -> Result<Vec<String>> {
+        Ok(SHIPPED.iter().map(|(n, _)| n.to_string()).collect())
     }
 
     /// Built-in names followed by the described ones.
@@ -271,21 +383,111 @@ impl SceneLibrary {
         Ok(names)
     }
 
-    pub fn load(&self, name: &str) -> Result<Scene> {
-        if let Some(scene) = procedural::build(name) {
-            return Ok(scene);
+    /// What `spec` names: a built-in scene, a shipped description, or else a file by path: a
+    /// `.toml` description or a mesh (`.obj`, `.ply`, `.glb`, `.gltf`, optionally `.gz`).
+    /// Anything else, or a file that does not exist, is an error naming it.
+    pub fn resolve(&self, spec: &str) -> Result<SceneSource> {
+        if procedural::NAMES.contains(&spec) {
+            return Ok(SceneSource::BuiltIn(spec.to_owned()));
         }
-        let path = self.descriptions.join(format!("{name}.toml"));
-        if !self.described()?.iter().any(|n| n == name) {
-            return Err(Error::UnknownScene { name: name.to_owned(), known: self.names()? });
+        if let Some((name, text)) = SHIPPED.iter().find(|(n, _)| *n == spec) {
+            return Ok(SceneSource::Described(name.to_string(), text));
         }
-        self.load_description(name, &path)
+        let path = PathBuf::from(spec);
+        let toml = spec.to_ascii_lowercase().ends_with(".toml");
+        if !toml && !is_mesh_name(spec) {
+            if path.is_file() {
+                return Err(Error::format(
+                    &path,
+                    "file name",
+                    "unknown scene file type (expected .toml, or a mesh: .obj, .ply, .glb or .gltf, optionally .gz)",
+                ));
+            }
+            return Err(Error::UnknownScene { name: spec.to_owned(), known: self.names()? });
+        }
+        std::fs::metadata(&path).map_err(|e| Error::io(&path, e))?;
+        Ok(if toml { SceneSource::Description(path) } else { SceneSource::Mesh(path) })
     }
 
-    /// Loads a scene from a description file (its mesh paths are relative to `self.data`).
+    /// Loads a scene by built-in name, described name or path ([`SceneLibrary::resolve`]),
+    /// with [`SceneLibrary::camera`] applied.
+    pub fn load(&self, spec: &str) -> Result<Scene> {
+        self.camera.validate()?;
+        match self.resolve(spec)? {
+            SceneSource::BuiltIn(name) => {
+                let mut scene =
+                    procedural::build(&name).ok_or(Error::UnknownScene { name, known: self.names()? })?;
+                scene.camera = self.camera.apply(scene.camera)?;
+                Ok(scene)
+            }
+            SceneSource::Described(name, text) => {
+                let origin = format!("shipped description '{name}'");
+                self.load_text(&name, Path::new(&format!("{name}.toml")), text, &self.data, Some(&origin))
+            }
+            SceneSource::Description(path) => self.load_description(&file_stem(&path), &path),
+            SceneSource::Mesh(path) => self.load_mesh_file(&path),
+        }
+    }
+
+    /// Loads a scene from a description file; its mesh paths are relative to the file's folder.
     pub fn load_description(&self, name: &str, path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let desc: SceneDesc = toml::from_str(&text).map_err(|e| {
+        let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+        self.load_text(name, path, &text, &dir, None)
+    }
+
+    /// One mesh file, identity transform, camera framing its bounds, LumiBench render settings.
+    fn load_mesh_file(&self, path: &Path) -> Result<Scene> {
+        let mut triangles = Vec::new();
+        let mut sink = mesh::TriangleSink::new(&mut triangles);
+        mesh::load_mesh(path, &Affine3A::IDENTITY, &mut sink)?;
+        let (dropped_degenerate, objects) = (sink.dropped, std::mem::take(&mut sink.objects));
+        let primitives = Primitives::Triangles(triangles);
+        let camera = self.camera(path, CameraDesc::default(), &primitives)?;
+        Ok(Scene {
+            name: file_stem(path),
+            primitives,
+            objects,
+            camera,
+            render: RenderSettings::default(),
+            dropped_degenerate,
+        })
+    }
+
+    /// The camera of a description (or of a bare mesh: `CameraDesc::default()`), with the
+    /// override applied; framing uses the overridden up vector and field of view.
+    fn camera(&self, path: &Path, c: CameraDesc, primitives: &Primitives) -> Result<Camera> {
+        let up: Vec3A = self.camera.up.unwrap_or(c.up).into();
+        let vfov = self.camera.vfov.unwrap_or(c.vfov);
+        let camera = match (c.eye, c.look_at) {
+            (Some(eye), Some(look_at)) => Camera { eye: eye.into(), look_at: look_at.into(), up, vfov },
+            (None, None) => {
+                let b = primitives.bounds();
+                Camera::framing(b.min, b.max, up, vfov)
+            }
+            _ => {
+                return Err(Error::format(
+                    path,
+                    "camera",
+                    "give both eye and look_at, or neither to frame the scene",
+                ))
+            }
+        };
+        self.camera.apply(camera)
+    }
+
+    /// Loads the description `text` (read from `path`, named in errors) whose mesh paths are
+    /// relative to `base`. `shipped` names a shipped description: its missing meshes are
+    /// reported with how to point sms at the shared data.
+    fn load_text(
+        &self,
+        name: &str,
+        path: &Path,
+        text: &str,
+        base: &Path,
+        shipped: Option<&str>,
+    ) -> Result<Scene> {
+        let desc: SceneDesc = toml::from_str(text).map_err(|e| {
             let line = e.span().map_or(1, |s| text[..s.start].matches('\n').count() + 1);
             Error::format(path, format!("line {line}"), e.message().to_owned())
         })?;
@@ -309,28 +511,25 @@ impl SceneLibrary {
                 }
                 None => Affine3A::IDENTITY,
             };
-            mesh::load_mesh(&self.data.join(&m.file), &xf, &mut sink)?;
+            let file = base.join(&m.file);
+            if let Some(scene) = shipped {
+                if !file.exists() {
+                    // Without a data folder, the joined path would be made up: name the file.
+                    let file =
+                        if self.origin == DataOrigin::NotFound { PathBuf::from(&m.file) } else { file };
+                    return Err(Error::MissingData {
+                        file,
+                        scene: scene.to_owned(),
+                        origin: self.describe_origin(),
+                    });
+                }
+            }
+            mesh::load_mesh(&file, &xf, &mut sink)?;
         }
         let dropped_degenerate = sink.dropped;
         let objects = std::mem::take(&mut sink.objects);
         let primitives = Primitives::Triangles(triangles);
-        let c = desc.camera;
-        let camera = match (c.eye, c.look_at) {
-            (Some(eye), Some(look_at)) => {
-                Camera { eye: eye.into(), look_at: look_at.into(), up: c.up.into(), vfov: c.vfov }
-            }
-            (None, None) => {
-                let b = primitives.bounds();
-                Camera::framing(b.min, b.max, c.up.into(), c.vfov)
-            }
-            _ => {
-                return Err(Error::format(
-                    path,
-                    "camera",
-                    "give both eye and look_at, or neither to frame the scene",
-                ))
-            }
-        };
+        let camera = self.camera(path, desc.camera, &primitives)?;
         Ok(Scene {
             name: name.to_owned(),
             primitives,
@@ -340,6 +539,26 @@ impl SceneLibrary {
             dropped_degenerate,
         })
     }
+
+    /// How the data folder was chosen, for [`Error::MissingData`].
+    fn describe_origin(&self) -> String {
+        let dir = self.data.display();
+        match self.origin {
+            DataOrigin::Flag => format!("the scenes folder {dir} given by --scenes-dir"),
+            DataOrigin::Env => format!("the scenes folder {dir} given by {SCENES_DIR_ENV}"),
+            DataOrigin::BesideCurrentDir => format!("the scenes folder {dir}, found above the current folder"),
+            DataOrigin::BesideExecutable => format!("the scenes folder {dir}, found above the executable"),
+            DataOrigin::NotFound => format!(
+                "no scenes folder: neither --scenes-dir nor {SCENES_DIR_ENV} is set, and no shared/scenes folder is in the current folder, the executable's or one of their parents"
+            ),
+        }
+    }
+}
+
+/// A file's name without its extensions (`cube.obj.gz` → `cube`).
+fn file_stem(path: &Path) -> String {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("scene");
+    name.split('.').next().filter(|s| !s.is_empty()).unwrap_or(name).to_owned()
 }
 
 /// Loads a scene by name from the default library.

@@ -276,13 +276,11 @@ impl Sweep {
     }
 }
 
-/// Checks scene names before any work, so a typo costs nothing.
+/// Checks scene names (and that scene files given by path exist) before any work, so a typo
+/// costs nothing.
 pub fn check_scenes(library: &SceneLibrary, scenes: &[String]) -> Result<()> {
-    let known = library.names()?;
     for name in scenes {
-        if !known.contains(name) {
-            return Err(Error::UnknownScene { name: name.clone(), known });
-        }
+        library.resolve(name)?;
     }
     if scenes.is_empty() {
         return Err(Error::Invalid("no scenes to sweep".into()));
