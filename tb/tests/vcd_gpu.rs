@@ -13,7 +13,7 @@ use std::process::Command;
 
 use rtl::config::Config;
 use rtl::trace::Sink;
-use tb::sim::{simulate, simulate_all, Fidelity, GpuCounts, Hardware, Outcome, RunSpec};
+use tb::run::sim::{simulate, simulate_all, Fidelity, GpuCounts, Hardware, Outcome, RunSpec};
 use tb::vcd::check::{compare, read, Mode, Recorder, Waves};
 use tb::vcd::{Selection, Tee, VcdError, VcdOptions, VcdSink};
 use tb::workload::{Workload, WorkloadOpts};

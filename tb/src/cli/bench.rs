@@ -7,9 +7,9 @@ use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::bench::{bench_scene, BenchOpts, Report};
 use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
-use crate::sampling::SampleMode;
+use crate::report::bench::{bench_scene, BenchOpts, Report};
+use crate::run::sampling::SampleMode;
 
 /// Resolution when `--res` is not given: the whole default run takes about a minute on one core.
 pub const DEFAULT_RES: (u32, u32) = (64, 64);
@@ -69,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         more_bounces: args.more_bounces,
     };
     let scenes: Vec<String> = if args.scenes.is_empty() {
-        crate::scene::procedural::NAMES.iter().map(|s| s.to_string()).collect()
+        crate::workload::scene::procedural::NAMES.iter().map(|s| s.to_string()).collect()
     } else {
         args.scenes.clone()
     };

@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::Context;
 
 use crate::cli::{SceneArgs, WorkloadArgs};
-use crate::depth::{DepthHistogram, DepthReport};
+use crate::workload::depth::{DepthHistogram, DepthReport};
 use crate::workload::Workload;
 
 #[derive(Clone, Debug, clap::Args)]

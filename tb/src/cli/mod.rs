@@ -13,7 +13,7 @@ pub mod sweep;
 
 use std::path::PathBuf;
 
-use crate::scene::SceneLibrary;
+use crate::workload::scene::SceneLibrary;
 
 /// Where scene data are and how scenes are seen, shared by subcommands that load scenes.
 #[derive(Clone, Debug, clap::Args)]
@@ -71,7 +71,7 @@ pub struct WorkloadArgs {
     /// child descended, every other hit child pushed, leaves included) or nearest (the nearest
     /// hit child descended, the others pushed far to near).
     #[arg(long, value_enum, default_value = "vulkansim")]
-    pub order: crate::workload::ChildOrder,
+    pub order: crate::workload::traverse::ChildOrder,
     /// Acceleration structure: two-level (a TLAS over one BLAS per mesh, as the Vulkan pipeline
     /// builds it, one stack across both levels; bvh6 only) or flat (one BVH over every
     /// primitive, instances flattened) [default: two-level with bvh6, else flat].
@@ -100,8 +100,8 @@ pub struct WorkloadArgs {
 
 impl WorkloadArgs {
     /// The overrides of every scene's own render settings.
-    pub fn settings(&self) -> crate::sweep::Settings {
-        crate::sweep::Settings {
+    pub fn settings(&self) -> crate::run::sweep::Settings {
+        crate::run::sweep::Settings {
             res: self.res,
             spp: self.spp,
             bounces: self.bounces,
@@ -114,7 +114,7 @@ impl WorkloadArgs {
     }
 
     /// `scene`'s own render settings with these arguments applied.
-    pub fn opts(&self, scene: &crate::scene::Scene) -> crate::workload::WorkloadOpts {
+    pub fn opts(&self, scene: &crate::workload::scene::Scene) -> crate::workload::WorkloadOpts {
         self.settings().opts(scene)
     }
 }
@@ -131,7 +131,7 @@ pub struct SampleArgs {
     pub sample: Option<f64>,
     /// How sampled warps are drawn.
     #[arg(long, value_enum, default_value = "tile")]
-    pub sample_mode: crate::sampling::SampleMode,
+    pub sample_mode: crate::run::sampling::SampleMode,
     /// Independent batches of a sampled run (at least 2).
     #[arg(long, default_value_t = 8)]
     pub batches: u32,
@@ -139,10 +139,14 @@ pub struct SampleArgs {
 
 impl SampleArgs {
     /// The sample asked for (`None`: every warp), checked; drawn with `seed`.
-    pub fn plan(&self, seed: u64) -> anyhow::Result<Option<crate::sampling::SamplePlan>> {
+    pub fn plan(&self, seed: u64) -> anyhow::Result<Option<crate::run::sampling::SamplePlan>> {
         let Some(fraction) = self.sample else { return Ok(None) };
-        let plan =
-            crate::sampling::SamplePlan { fraction, mode: self.sample_mode, batches: self.batches, seed };
+        let plan = crate::run::sampling::SamplePlan {
+            fraction,
+            mode: self.sample_mode,
+            batches: self.batches,
+            seed,
+        };
         plan.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
         Ok(Some(plan))
     }

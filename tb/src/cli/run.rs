@@ -12,9 +12,9 @@ use serde::Serialize;
 
 use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
-use crate::sampling::SamplePlan;
-use crate::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
-use crate::table::Table;
+use crate::report::table::Table;
+use crate::run::sampling::SamplePlan;
+use crate::run::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
 use crate::vcd::{Selection, VcdOptions, VcdSink};
 use crate::workload::{Workload, WorkloadOpts};
 

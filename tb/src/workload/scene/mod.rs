@@ -44,7 +44,7 @@ use obvhs::triangle::Triangle;
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
-use crate::geometry::Primitives;
+use crate::workload::geometry::Primitives;
 
 /// A pinhole camera (`glm::lookAt` + vertical field of view, as LumiBench defines them).
 #[derive(Clone, Copy, Debug, PartialEq)]
