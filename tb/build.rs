@@ -1,6 +1,6 @@
 //! Embeds the shipped scene descriptions (`../scenes/*.toml`) in the library, so an installed
 //! `sms` knows the described scenes without its source tree: `$OUT_DIR/shipped_scenes.rs` is
-//! a `&[(name, text)]` list sorted by name, read by `tb::scene::SHIPPED`.
+//! a `&[(name, text)]` list sorted by name, read by `tb::workload::scene::SHIPPED`.
 
 use std::path::Path;
 

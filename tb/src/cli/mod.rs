@@ -25,13 +25,13 @@ pub struct SceneArgs {
     pub scenes_dir: Option<PathBuf>,
     /// Camera position x,y,z, replacing the scene's (a mesh or description without a camera
     /// is framed from its bounds).
-    #[arg(long, value_name = "X,Y,Z", value_parser = crate::scene::parse_vec3, allow_hyphen_values = true)]
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::workload::scene::parse_vec3, allow_hyphen_values = true)]
     pub camera_eye: Option<[f32; 3]>,
     /// Point the camera looks at, x,y,z.
-    #[arg(long, value_name = "X,Y,Z", value_parser = crate::scene::parse_vec3, allow_hyphen_values = true)]
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::workload::scene::parse_vec3, allow_hyphen_values = true)]
     pub camera_look_at: Option<[f32; 3]>,
     /// Camera up vector x,y,z [default: the scene's; 0,1,0 for meshes].
-    #[arg(long, value_name = "X,Y,Z", value_parser = crate::scene::parse_vec3, allow_hyphen_values = true)]
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::workload::scene::parse_vec3, allow_hyphen_values = true)]
     pub camera_up: Option<[f32; 3]>,
     /// Vertical field of view in degrees [default: the scene's; 45 for meshes].
     #[arg(long, value_name = "DEGREES")]
@@ -44,7 +44,7 @@ impl SceneArgs {
             Some(dir) => SceneLibrary::with_data_dir(dir),
             None => SceneLibrary::default(),
         };
-        library.camera = crate::scene::CameraOverride {
+        library.camera = crate::workload::scene::CameraOverride {
             eye: self.camera_eye,
             look_at: self.camera_look_at,
             up: self.camera_up,
