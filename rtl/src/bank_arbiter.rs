@@ -22,7 +22,7 @@
 //! access enters only after `shared_cycle` (~2261) has stalled it for its bank conflicts, so the
 //! latency comes after the serialization, as here.
 
-use crate::trace::{Probe, Sink};
+use crate::trace::{Kind, Probe, Sink};
 
 /// Most words one entry can span (8-byte entries over 1-byte banks).
 pub const MAX_WORDS: usize = 8;
@@ -172,8 +172,8 @@ impl Probe for BankArbiter {
             return;
         }
         s.push_scope("bank_arbiter");
-        s.signal("grant", self.banks, self.grant_mask);
-        s.signal("conflict", self.banks, self.conflict_mask);
+        s.signal_kind("grant", self.banks, self.grant_mask, Kind::Mask);
+        s.signal_kind("conflict", self.banks, self.conflict_mask, Kind::Mask);
         s.signal("pending", 16, self.pending.len() as u64);
         s.signal("pipe", 16, self.pipe.len() as u64);
         s.signal("delay_cycles", 64, self.conflict_cycles);

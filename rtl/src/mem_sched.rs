@@ -16,7 +16,7 @@
 
 use std::collections::VecDeque;
 
-use crate::trace::{Probe, Sink};
+use crate::trace::{Kind, Probe, Sink};
 
 /// A global-memory request of the stack manager.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -79,7 +79,7 @@ impl Probe for MemSched {
         s.push_scope("mem_sched");
         s.signal("req_valid", 1, u64::from(self.issued.is_some()));
         s.signal("req_write", 1, self.issued.map_or(0, |r| u64::from(r.write)));
-        s.signal("req_addr", 64, self.issued.map_or(0, |r| r.addr));
+        s.signal_kind("req_addr", 64, self.issued.map_or(0, |r| r.addr), Kind::Address);
         s.signal("req_thread", 16, self.issued.map_or(0, |r| r.thread as u64));
         s.signal("queue", 16, self.queue.len() as u64);
         s.pop_scope();

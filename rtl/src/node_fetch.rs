@@ -19,7 +19,7 @@
 use std::collections::VecDeque;
 
 use crate::mem::{MemReq, ReqKind};
-use crate::trace::{Probe, Sink};
+use crate::trace::{Kind, Probe, Sink};
 
 /// One queued sector request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -143,7 +143,12 @@ impl Probe for NodeFetch {
         }
         s.push_scope("node_fetch");
         s.signal("queue", 16, self.queue.len() as u64);
-        s.signal("head_addr", crate::mem::ADDR_BITS, self.queue.front().map_or(0, |p| p.addr));
+        s.signal_kind(
+            "head_addr",
+            crate::mem::ADDR_BITS,
+            self.queue.front().map_or(0, |p| p.addr),
+            Kind::Address,
+        );
         s.signal("outstanding", 16, self.outstanding() as u64);
         s.pop_scope();
     }

@@ -59,7 +59,7 @@ use crate::node_fetch::{pieces, NodeFetch};
 use crate::ray_op::{NodeKind, RayOp, WarpJob};
 pub use crate::stack_manager::StackTiming;
 use crate::stack_manager::{Cmd, StackError, StackManager};
-use crate::trace::{Probe, Sink};
+use crate::trace::{Kind, Probe, Sink};
 
 /// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and run options.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -212,7 +212,12 @@ pub enum ThreadState {
 }
 
 impl ThreadState {
-    /// Waveform encoding (3 bits).
+    /// The states by waveform code ([`ThreadState::code`]): the names of the variants.
+    pub const NAMES: &'static [&'static str] = &["done", "busy", "fetch", "wait_mem", "stack"];
+    /// How a waveform shows the state.
+    pub const KIND: Kind = Kind::Enum { name: "thread_state", names: ThreadState::NAMES };
+
+    /// Waveform encoding (3 bits): an index into [`ThreadState::NAMES`].
     pub fn code(self) -> u64 {
         match self {
             ThreadState::Done => 0,
@@ -719,14 +724,14 @@ impl Probe for RtUnit {
             s.signal("age", 32, slot.map_or(0, |x| x.age));
             let m = self.lanes[w as usize];
             s.signal("live", 6, u64::from(m.live));
-            s.signal("fetch_mask", ws, u64::from(m.fetch));
-            s.signal("wait_mask", ws, u64::from(m.wait));
-            s.signal("busy_mask", ws, u64::from(m.busy));
-            s.signal("stack_mask", ws, u64::from(m.stack));
+            s.signal_kind("fetch_mask", ws, u64::from(m.fetch), Kind::Mask);
+            s.signal_kind("wait_mask", ws, u64::from(m.wait), Kind::Mask);
+            s.signal_kind("busy_mask", ws, u64::from(m.busy), Kind::Mask);
+            s.signal_kind("stack_mask", ws, u64::from(m.stack), Kind::Mask);
             for l in 0..ws {
                 let th = self.threads[(w * ws + l) as usize];
                 s.push_scope(&format!("thread[{l}]"));
-                s.signal("state", 3, th.state.code());
+                s.signal_kind("state", 3, th.state.code(), ThreadState::KIND);
                 s.pop_scope();
             }
             s.pop_scope();
@@ -737,7 +742,7 @@ impl Probe for RtUnit {
         s.signal("greedy", wbits, u64::from(self.greedy.unwrap_or(0)));
         s.signal("issue_valid", 1, u64::from(self.scheduled.is_some()));
         s.signal("issue_warp", wbits, u64::from(self.scheduled.unwrap_or(0)));
-        s.signal("issue_lanes", ws, u64::from(self.scheduled_lanes));
+        s.signal_kind("issue_lanes", ws, u64::from(self.scheduled_lanes), Kind::Mask);
         s.pop_scope();
         s.push_scope("port");
         s.signal("node", 1, u64::from(self.port == Port::Node));

@@ -27,7 +27,7 @@ use crate::bank_arbiter::{ShReq, MAX_WORDS};
 use crate::config::{Config, ConfigError, Widths};
 use crate::mem::addr::{LocalLayout, LocalMap};
 use crate::mem_sched::GReq;
-use crate::trace::{Probe, Sink};
+use crate::trace::{Kind, Probe, Sink};
 
 /// A stack entry: a node address.
 pub type Entry = u64;
@@ -77,6 +77,23 @@ pub enum Cmd {
     Pop,
     /// The traversal ended: the stack must be empty; with reallocation the SH stack turns idle.
     Finish,
+}
+
+impl Cmd {
+    /// The command kinds by waveform code ([`Cmd::code`]): the names of the variants.
+    pub const KIND_NAMES: &'static [&'static str] = &["none", "push", "pop", "finish"];
+    /// How a waveform shows the command's kind (2 bits).
+    pub const KIND: Kind = Kind::Enum { name: "cmd_kind", names: Cmd::KIND_NAMES };
+
+    /// Waveform encoding of the kind (2 bits): an index into [`Cmd::KIND_NAMES`].
+    pub fn code(self) -> u64 {
+        match self {
+            Cmd::None => 0,
+            Cmd::Push(_) => 1,
+            Cmd::Pop => 2,
+            Cmd::Finish => 3,
+        }
+    }
 }
 
 /// Per-thread registers of the ray buffer (besides the RB entries themselves).
@@ -152,6 +169,30 @@ pub enum Uop {
     Release {
         stack: u32,
     },
+}
+
+impl Uop {
+    /// The micro-ops by waveform code ([`Uop::code`]): `none` (no micro-op in flight), then
+    /// the names of the variants.
+    pub const NAMES: &'static [&'static str] =
+        &["none", "sh_load", "sh_store", "global_load", "global_store", "rb_bottom", "release"];
+    /// How a waveform shows the micro-op in flight (3 bits).
+    pub const KIND: Kind = Kind::Enum { name: "uop", names: Uop::NAMES };
+    /// Width of the waveform encoding.
+    pub const CODE_BITS: u32 = 3;
+
+    /// Waveform encoding of `uop` (0: none): an index into [`Uop::NAMES`].
+    pub fn code(uop: Option<Uop>) -> u64 {
+        match uop {
+            None => 0,
+            Some(Uop::ShLoad { .. }) => 1,
+            Some(Uop::ShStore { .. }) => 2,
+            Some(Uop::GlobalLoad { .. }) => 3,
+            Some(Uop::GlobalStore { .. }) => 4,
+            Some(Uop::RbBottom) => 5,
+            Some(Uop::Release { .. }) => 6,
+        }
+    }
 }
 
 /// Commands the stack manager refuses. Each is a bug in whoever sent the command, or (spill
@@ -1119,19 +1160,24 @@ impl Probe for StackManager {
                 let lane = t % self.cfg.warp_size;
                 s.push_scope(&format!("thread[{lane}]"));
                 let cmd = self.cmds_seen.iter().find(|c| c.0 == t).map_or(Cmd::None, |c| c.1);
-                let (kind, data) = match cmd {
-                    Cmd::None => (0, 0),
-                    Cmd::Push(v) => (1, v),
-                    Cmd::Pop => (2, self.pops_out.iter().find(|p| p.0 == t).map_or(0, |p| p.1)),
-                    Cmd::Finish => (3, 0),
+                let data = match cmd {
+                    Cmd::Push(v) => v,
+                    Cmd::Pop => self.pops_out.iter().find(|p| p.0 == t).map_or(0, |p| p.1),
+                    Cmd::None | Cmd::Finish => 0,
                 };
-                s.signal("cmd_valid", 1, u64::from(kind != 0));
-                s.signal("cmd_kind", 2, kind);
-                s.signal("cmd_data", w.entry, data);
+                s.signal("cmd_valid", 1, u64::from(cmd != Cmd::None));
+                s.signal_kind("cmd_kind", 2, cmd.code(), Cmd::KIND);
+                s.signal_kind("cmd_data", w.entry, data, Kind::Data);
+                s.signal_kind("uop", Uop::CODE_BITS, Uop::code(self.seq[t as usize].inflight), Uop::KIND);
                 let th = &self.threads[t as usize];
                 let st = &self.stacks[t as usize];
                 s.signal("rb_count", w.rb_count, self.rb[t as usize].len() as u64);
-                s.signal("rb_top", w.entry, self.rb[t as usize].back().copied().unwrap_or(0));
+                s.signal_kind(
+                    "rb_top",
+                    w.entry,
+                    self.rb[t as usize].back().copied().unwrap_or(0),
+                    Kind::Data,
+                );
                 if w.top > 0 {
                     s.signal("top", w.top, st.top as u64);
                     s.signal("bottom", w.bottom, st.bottom as u64);

@@ -10,8 +10,8 @@
 
 use std::time::Duration;
 
-use tb::bench::throughput;
-use tb::sim::{simulate_all, Fidelity, Hardware, RunSpec};
+use tb::report::bench::throughput;
+use tb::run::sim::{simulate_all, Fidelity, Hardware, RunSpec};
 use tb::workload::{Workload, WorkloadOpts};
 
 const SCENE: &str = "clutter";

@@ -6,22 +6,28 @@ use std::path::PathBuf;
 /// Errors from loading scenes and building workloads.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A file could not be opened or read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file could not be opened or read. The cause is in the message, not chained as a
+    /// source, so `{:#}` does not print it twice.
+    #[error("{}: {error}", path.display())]
+    Io { path: PathBuf, error: std::io::Error },
     /// A file was read but its content is wrong; `at` names the line or element.
     #[error("{}: {at}: {what}", path.display())]
     Format { path: PathBuf, at: String, what: String },
     /// A mesh (or a whole scene) has no usable primitive.
     #[error("{}: no triangles left ({dropped} degenerate dropped)", path.display())]
     EmptyMesh { path: PathBuf, dropped: usize },
-    /// `load_scene` was given a name that is neither built in nor described in the scenes folder.
-    #[error("unknown scene '{name}'; known scenes: {}", known.join(", "))]
+    /// `load_scene` was given a name that is neither built in nor described, nor a scene file.
+    #[error(
+        "unknown scene '{name}': not a scene name ({}), nor a path to a mesh (.obj, .ply, .glb, .gltf, optionally .gz) or a .toml description",
+        known.join(", ")
+    )]
     UnknownScene { name: String, known: Vec<String> },
+    /// A shipped description's mesh is not in the shared scene folder.
+    #[error(
+        "{}: no such mesh file; the {scene} reads it from {origin}. Point sms at the folder holding it with --scenes-dir DIR or the SMS_SCENES_DIR environment variable",
+        file.display()
+    )]
+    MissingData { file: PathBuf, scene: String, origin: String },
     /// An option combination that cannot produce a workload.
     #[error("invalid option: {0}")]
     Invalid(String),
@@ -29,7 +35,7 @@ pub enum Error {
 
 impl Error {
     pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io { path: path.into(), error: source }
     }
 
     pub(crate) fn format(path: impl Into<PathBuf>, at: impl Into<String>, what: impl Into<String>) -> Self {

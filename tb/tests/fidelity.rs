@@ -3,11 +3,12 @@
 //! difference is measured), and sampled runs' 95 % intervals cover the full run's totals.
 
 use rtl::config::Config;
-use tb::sampling::{SampleMode, SamplePlan};
-use tb::sim::{
+use tb::run::sampling::{SampleMode, SamplePlan};
+use tb::run::sim::{
     simulate_all, simulate_sampled, Counts, Fidelity, Hardware, Metric, Outcome, RunSpec, Sampled,
 };
-use tb::workload::{ChildOrder, Workload};
+use tb::workload::traverse::ChildOrder;
+use tb::workload::Workload;
 
 mod common;
 use common::small_workload as workload;

@@ -5,8 +5,9 @@
 use std::collections::BTreeMap;
 
 use serde_json::Value;
-use tb::sim::{simulate_all, Fidelity, Hardware, Outcome, RunSpec};
-use tb::workload::{ChildOrder, Workload};
+use tb::run::sim::{simulate_all, Fidelity, Hardware, Outcome, RunSpec};
+use tb::workload::traverse::ChildOrder;
+use tb::workload::Workload;
 
 mod common;
 use common::small_workload as workload;

@@ -4,8 +4,9 @@
 //! say.
 
 use tb::hw::{preset, Hardware};
-use tb::sim::{simulate_all, Fidelity, Outcome, RunSpec};
-use tb::workload::{Accel, ChildOrder, PathEnd, Workload, WorkloadOpts};
+use tb::run::sim::{simulate_all, Fidelity, Outcome, RunSpec};
+use tb::workload::traverse::ChildOrder;
+use tb::workload::{Accel, PathEnd, Workload, WorkloadOpts};
 
 fn old_workload(scene: &tb::Scene) -> Workload<'_> {
     let opts = WorkloadOpts {

@@ -6,8 +6,9 @@ use rtl::config::Config;
 use rtl::stack_unit::StackUnit;
 use rtl::trace::NullSink;
 use tb::load_scene;
-use tb::stack_tb::run_jobs;
-use tb::workload::{ChildOrder, Workload, WorkloadOpts};
+use tb::run::stack_tb::run_jobs;
+use tb::workload::traverse::ChildOrder;
+use tb::workload::{Workload, WorkloadOpts};
 
 fn check_scene(name: &str, res: u32, order: ChildOrder) {
     let scene = load_scene(name).unwrap();

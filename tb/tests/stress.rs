@@ -6,10 +6,10 @@ use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::triangle::Triangle;
 use proptest::prelude::*;
-use tb::bvh::{Bvh, BvhKind};
-use tb::geometry::{hit_triangle, Primitives, Ray};
-use tb::traverse::trace;
-use tb::workload::ChildOrder;
+use tb::workload::bvh::{Bvh, BvhKind};
+use tb::workload::geometry::{hit_triangle, Primitives, Ray};
+use tb::workload::traverse::trace;
+use tb::workload::traverse::ChildOrder;
 
 /// A closed cube surface, each face split into `n × n` quads of two triangles: every interior
 /// edge is shared by two triangles and every interior vertex by six.

@@ -235,7 +235,7 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
     let csv = std::fs::read_to_string(abl.join("ablation.csv")).unwrap();
     let rows: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
     assert_eq!(rows[0], "all on");
-    let mechanisms = tb::sweep::ablate::MECHANISMS;
+    let mechanisms = tb::report::ablate::MECHANISMS;
     assert_eq!(rows.len(), 1 + mechanisms.len(), "{csv}");
     for (row, m) in rows[1..].iter().zip(mechanisms) {
         assert_eq!(*row, format!("{} off", m.name));
@@ -302,6 +302,6 @@ fn a_sampled_sweep_reports_its_sample_and_error() {
         assert_eq!(r["outcome"]["pixel_warps"], 64, "counts stand for the whole frame");
     }
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
-    assert!(summary.contains("Sampled: 25 %") && summary.contains(tb::cli::sweep::SAMPLE_ERROR), "{summary}");
+    assert!(summary.contains("Sampled: 25 %") && summary.contains(tb::run::sweep::SAMPLE_ERROR), "{summary}");
     let _ = std::fs::remove_dir_all(&out);
 }

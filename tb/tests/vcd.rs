@@ -206,8 +206,96 @@ fn save_file_opens_the_dump_with_grouped_signals() {
         .filter_map(|l| l.strip_prefix("rt_unit.warp[0].thread[0]."))
         .map(|l| l.split('[').next().unwrap())
         .collect();
-    assert_eq!(&thread0[..4], ["cmd_valid", "cmd_kind", "cmd_data", "rb_count"]);
+    assert_eq!(&thread0[..5], ["cmd_valid", "cmd_kind", "cmd_data", "uop", "rb_count"]);
     assert_eq!(thread0.last(), Some(&"done"));
+}
+
+/// Each trace of a save file with the flag word in force and the filter line before it.
+fn traces(save: &str) -> Vec<(String, u32, Option<String>)> {
+    let (mut flags, mut filter, mut out) = (0, None, Vec::new());
+    for line in save.lines() {
+        if let Some(hex) = line.strip_prefix('@') {
+            flags = u32::from_str_radix(hex, 16).unwrap();
+        } else if let Some(f) = line.strip_prefix('^') {
+            filter = Some(f.to_string());
+        } else if line.starts_with("rt_unit.") {
+            let path = line.rsplit_once('[').filter(|(_, bits)| bits.contains(':')).map_or(line, |(p, _)| p);
+            out.push((path.to_string(), flags, filter.take()));
+        }
+    }
+    out
+}
+
+const TR_HEX: u32 = 1 << 1;
+const TR_DEC: u32 = 1 << 2;
+const TR_BIN: u32 = 1 << 3;
+const TR_FTRANSLATED: u32 = 1 << 13;
+const FORMATS: u32 = TR_HEX | TR_DEC | TR_BIN;
+
+/// Addresses and data in hex, masks in binary, counts in decimal, encoded enumerations by name
+/// through a filter file that lists every value of the rtl enum; chosen from the kind each probe
+/// declares (issue 15).
+#[test]
+fn save_file_formats_follow_the_declared_kinds() {
+    use rtl::stack_manager::{Cmd, Uop};
+    use rtl::trace::Kind;
+    use tb::vcd::gtkw::{filter_file, filter_text};
+    let ex = sms_small();
+    let tmp = TmpDir::new("vcd", "formats");
+    let opts = VcdOptions { path: tmp.join("formats.vcd"), select: Selection::default() };
+    let mut sink = VcdSink::create(&opts, &ex.config).unwrap();
+    ex.run(&mut sink).unwrap();
+    sink.finish().unwrap();
+    let save = std::fs::read_to_string(opts.path.with_extension("gtkw")).unwrap();
+    let traces = traces(&save);
+    let flags_of = |path: &str| {
+        let t = traces.iter().find(|t| t.0 == path).unwrap_or_else(|| panic!("{path} not in the save file"));
+        (t.1, t.2.clone())
+    };
+    let thread = "rt_unit.warp[0].thread[0]";
+    assert_eq!(flags_of(&format!("{thread}.cmd_data")).0 & FORMATS, TR_HEX, "data in hex");
+    assert_eq!(flags_of("rt_unit.mem_sched.req_addr").0 & FORMATS, TR_HEX, "addresses in hex");
+    assert_eq!(flags_of("rt_unit.bank_arbiter.grant").0 & FORMATS, TR_BIN, "masks in binary");
+    assert_eq!(flags_of(&format!("{thread}.rb_count")).0 & FORMATS, TR_DEC, "counts in decimal");
+    assert_eq!(flags_of(&format!("{thread}.rb_count")).1, None);
+    let dir = std::fs::canonicalize(tmp.path()).unwrap();
+    for (field, kind) in [("cmd_kind", Cmd::KIND), ("uop", Uop::KIND)] {
+        let Kind::Enum { name, names } = kind else { unreachable!() };
+        let (flags, filter) = flags_of(&format!("{thread}.{field}"));
+        assert_eq!(flags & (FORMATS | TR_FTRANSLATED), TR_DEC | TR_FTRANSLATED, "{field} translated");
+        let filter = filter.unwrap_or_else(|| panic!("{field} has no filter line"));
+        let (index, path) = filter.split_once(' ').unwrap();
+        assert!(index.parse::<u32>().unwrap() >= 1, "{filter}");
+        assert_eq!(Path::new(path), dir.join(filter_file(name)));
+        // The file GTKWave reads names every code of the enum, in decimal as GTKWave prints it.
+        let text = std::fs::read_to_string(path).unwrap();
+        let lines: Vec<(u64, &str)> = text
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| l.split_once(' ').map(|(v, n)| (v.parse().unwrap(), n)).unwrap())
+            .collect();
+        assert_eq!(lines.len(), names.len(), "{name}: one line per value");
+        for (code, n) in names.iter().enumerate() {
+            assert!(lines.contains(&(code as u64, n)), "{name}: {code} {n} missing");
+        }
+    }
+    // Every thread's cmd_kind uses the same filter (one `^N` index per enum).
+    let cmd_filters: Vec<_> =
+        traces.iter().filter(|t| t.0.ends_with(".cmd_kind")).map(|t| t.2.clone()).collect();
+    assert!(cmd_filters.len() > 1 && cmd_filters.windows(2).all(|w| w[0] == w[1]));
+    // The shipped copies in waves/ are the generated files.
+    let waves = Path::new(env!("CARGO_MANIFEST_DIR")).join("../waves");
+    for kind in tb::vcd::gtkw::ENUMS {
+        let Kind::Enum { name, names } = kind else { unreachable!() };
+        let shipped = std::fs::read_to_string(waves.join(filter_file(name)))
+            .unwrap_or_else(|e| panic!("waves/{}: {e}", filter_file(name)));
+        assert_eq!(
+            shipped,
+            filter_text(name, names),
+            "waves/{} is stale: cargo run -p tb --example waves",
+            filter_file(name)
+        );
+    }
 }
 
 fn have(tool: &str) -> bool {

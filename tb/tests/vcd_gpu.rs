@@ -13,7 +13,7 @@ use std::process::Command;
 
 use rtl::config::Config;
 use rtl::trace::Sink;
-use tb::sim::{simulate, simulate_all, Fidelity, GpuCounts, Hardware, Outcome, RunSpec};
+use tb::run::sim::{simulate, simulate_all, Fidelity, GpuCounts, Hardware, Outcome, RunSpec};
 use tb::vcd::check::{compare, read, Mode, Recorder, Waves};
 use tb::vcd::{Selection, Tee, VcdError, VcdOptions, VcdSink};
 use tb::workload::{Workload, WorkloadOpts};
@@ -183,6 +183,16 @@ fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
         assert!(save.lines().any(|l| l == trace), "{trace} missing from the save file");
     }
     assert_eq!(save.lines().filter(|l| l.starts_with('-')).count() % 2, 0, "groups open and close");
+    // Every translate filter the dump uses is written beside it and shipped in waves/.
+    let filters: Vec<&str> =
+        save.lines().filter_map(|l| l.strip_prefix('^')?.split_once(' ').map(|f| f.1)).collect();
+    assert!(filters.iter().any(|f| f.ends_with("thread_state.filter")), "lane states by name");
+    assert!(filters.iter().any(|f| f.ends_with("req_kind.filter")), "L1D request kinds by name");
+    let waves = Path::new(env!("CARGO_MANIFEST_DIR")).join("../waves");
+    for f in filters {
+        let name = Path::new(f).file_name().unwrap();
+        assert_eq!(std::fs::read(f).unwrap(), std::fs::read(waves.join(name)).unwrap(), "{f} not shipped");
+    }
 
     // The comparison can fail: one value flipped after the first timestamp is found.
     let second = text.match_indices("\n#").nth(1).unwrap().0;

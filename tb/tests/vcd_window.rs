@@ -1,7 +1,7 @@
 //! A windowed dump of a whole-GPU run skips idle cycles outside its window and still shows, in
 //! the window, exactly the values a dump of every cycle shows.
 
-use tb::sim::{simulate, Fidelity, Hardware, Outcome, RunSpec};
+use tb::run::sim::{simulate, Fidelity, Hardware, Outcome, RunSpec};
 use tb::vcd::check::{read, Mode, Waves};
 use tb::vcd::{Selection, VcdSink};
 use tb::workload::{Workload, WorkloadOpts};

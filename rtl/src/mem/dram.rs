@@ -17,7 +17,7 @@
 //! offered request fires, and [`Dram::commit`] applies that at the clock edge.
 
 use super::{Counters, MemParams, MemReq, MemResp, MemWidths, ADDR_BITS, FLAG_BITS, ID_BITS};
-use crate::trace::Sink;
+use crate::trace::{Kind, Sink};
 use std::collections::VecDeque;
 
 /// This cycle's inputs.
@@ -155,11 +155,11 @@ impl Dram {
         let req = d.req;
         sink.signal("req_valid", FLAG_BITS, u64::from(req.is_some()));
         sink.signal("req_ready", FLAG_BITS, u64::from(self.ready()));
-        sink.signal("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr));
+        sink.signal_kind("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr), Kind::Address);
         sink.signal("req_write", FLAG_BITS, u64::from(req.is_some_and(|r| r.write)));
         sink.signal("queue_depth", self.widths.dram_queue_depth, self.waiting.len() as u64);
         sink.signal("resp_valid", FLAG_BITS, u64::from(!self.out.is_empty()));
-        sink.signal("resp_id", ID_BITS, self.out.first().map_or(0, |r| r.id));
+        sink.signal_kind("resp_id", ID_BITS, self.out.first().map_or(0, |r| r.id), Kind::Data);
     }
 }
 

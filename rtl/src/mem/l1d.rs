@@ -29,7 +29,7 @@
 use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, MemWidths, ReqKind, ADDR_BITS, FLAG_BITS};
-use crate::trace::Sink;
+use crate::trace::{Kind, Sink};
 use std::collections::{BTreeMap, VecDeque};
 
 /// What the tag-check stage does with its request this cycle.
@@ -292,16 +292,16 @@ impl L1d {
         let w = &self.widths;
         sink.signal("req_valid", FLAG_BITS, u64::from(req.is_some()));
         sink.signal("req_ready", FLAG_BITS, u64::from(self.ready()));
-        sink.signal("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr));
+        sink.signal_kind("req_addr", ADDR_BITS, req.map_or(0, |r| r.addr), Kind::Address);
         sink.signal("req_write", FLAG_BITS, u64::from(req.is_some_and(|r| r.write)));
-        sink.signal("req_kind", ReqKind::BITS, req.map_or(0, |r| r.kind.code()));
+        sink.signal_kind("req_kind", ReqKind::BITS, req.map_or(0, |r| r.kind.code()), ReqKind::KIND);
         sink.signal("hit", FLAG_BITS, u64::from(action == Some(Action::Hit)));
         sink.signal("merge", FLAG_BITS, u64::from(action == Some(Action::Merge)));
         sink.signal("park", FLAG_BITS, u64::from(action == Some(Action::Park)));
         sink.signal("mshr_occupancy", w.l1d_mshr_occupancy, self.mshr.len() as u64);
         sink.signal("miss_queue_depth", w.l1d_miss_queue_depth, self.miss_queue.len() as u64);
         sink.signal("down_valid", FLAG_BITS, u64::from(down.is_some()));
-        sink.signal("down_addr", ADDR_BITS, down.map_or(0, |r| r.addr));
+        sink.signal_kind("down_addr", ADDR_BITS, down.map_or(0, |r| r.addr), Kind::Address);
         sink.signal("resp_valid", FLAG_BITS, u64::from(!self.out.is_empty()));
     }
 }

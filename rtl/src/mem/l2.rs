@@ -30,7 +30,7 @@
 use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, MemParams, MemReq, MemResp, MemWidths, ADDR_BITS};
-use crate::trace::Sink;
+use crate::trace::{Kind, Sink};
 use std::collections::{BTreeMap, VecDeque};
 
 /// A request travelling through a bank pipeline.
@@ -312,7 +312,7 @@ impl L2 {
         let w = &self.widths;
         let count = |c: Check| d.checks.iter().filter(|x| x.1 == c).count() as u64;
         sink.signal("accept_count", w.l2_bank_count, d.accepted.len() as u64);
-        sink.signal("accept_addr", ADDR_BITS, d.accepted.first().map_or(0, |a| a.2.addr));
+        sink.signal_kind("accept_addr", ADDR_BITS, d.accepted.first().map_or(0, |a| a.2.addr), Kind::Address);
         sink.signal("hit_count", w.l2_bank_count, count(Check::Hit));
         sink.signal("miss_count", w.l2_bank_count, count(Check::Merge) + count(Check::Allocate));
         sink.signal("stall_count", w.l2_bank_count, count(Check::Stall));

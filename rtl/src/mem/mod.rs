@@ -130,8 +130,12 @@ impl ReqKind {
 
     /// Width of [`ReqKind::code`].
     pub const BITS: u32 = bits_for(ReqKind::COUNT as u64 - 1);
+    /// The kinds by waveform code ([`ReqKind::code`]): the names of the variants.
+    pub const NAMES: &'static [&'static str] = &["node_fetch", "stack_spill", "stack_reload"];
+    /// How a waveform shows the kind.
+    pub const KIND: crate::trace::Kind = crate::trace::Kind::Enum { name: "req_kind", names: ReqKind::NAMES };
 
-    /// Waveform encoding ([`ReqKind::BITS`] bits).
+    /// Waveform encoding ([`ReqKind::BITS`] bits): an index into [`ReqKind::NAMES`].
     pub fn code(self) -> u64 {
         self as u64
     }

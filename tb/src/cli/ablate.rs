@@ -1,6 +1,6 @@
 //! `sms ablate`: the headline speed-ups over RB_8 (RB_16, RB_FULL, RB_8+SH_8, +SK, SMS, RB_2)
 //! with each simulator mechanism turned off in turn, per scene and as the geometric mean. See
-//! [`crate::sweep::ablate`].
+//! [`crate::report::ablate`].
 //!
 //! A subcommand rather than `sms sweep --ablate`: its plan is fixed (the headline set on the
 //! base L1D, no RB or L1D sweeps), it runs one arm per mechanism and writes one table of
@@ -10,8 +10,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::cli::sweep::{start, SweepArgs, SAMPLE_ERROR};
-use crate::sweep::{self, ablate};
+use crate::cli::sweep::{start, SweepArgs};
+use crate::report::ablate;
+use crate::run::sweep::SAMPLE_ERROR;
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
@@ -27,12 +28,13 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let req = args.common.request(ablate::plan()?)?;
-    sweep::report::prepare(&args.out).with_context(|| format!("report folder {}", args.out.display()))?;
+    crate::report::sweep::prepare(&args.out)
+        .with_context(|| format!("report folder {}", args.out.display()))?;
     let per_scene = req.plan.variants(req.base_kb())?.len();
     let mechanisms = ablate::MECHANISMS;
     let progress = start("ablate", &req, per_scene, mechanisms.len() + 1, &args.out, args.common.quiet);
     let result = ablate::run(&req, mechanisms, &args.common.library.library(), &progress)?;
-    let written = sweep::report::write_ablation(&result, &args.out)?;
+    let written = crate::report::sweep::write_ablation(&result, &args.out)?;
     println!("{}", result.figure().table.to_text());
     eprintln!(
         "{} arms in {:.1} s wall time; wrote {} files, summary: {}",

@@ -7,16 +7,17 @@ use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::bench::{bench_scene, BenchOpts, Report};
 use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
-use crate::sampling::SampleMode;
+use crate::report::bench::{bench_scene, BenchOpts, Report};
+use crate::run::sampling::SampleMode;
 
 /// Resolution when `--res` is not given: the whole default run takes about a minute on one core.
 pub const DEFAULT_RES: (u32, u32) = (64, 64);
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
-    /// Scenes, comma-separated (default: the built-in ones).
+    /// Scenes, comma-separated: names, or paths to meshes or TOML descriptions, as `sms run
+    /// --scene` takes (default: the built-in ones).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
     /// Stack configurations, comma-separated; RB_8 (the baseline) is always added.
@@ -68,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         more_bounces: args.more_bounces,
     };
     let scenes: Vec<String> = if args.scenes.is_empty() {
-        crate::scene::procedural::NAMES.iter().map(|s| s.to_string()).collect()
+        crate::workload::scene::procedural::NAMES.iter().map(|s| s.to_string()).collect()
     } else {
         args.scenes.clone()
     };

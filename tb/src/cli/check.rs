@@ -10,7 +10,7 @@ use rtl::trace::{Probe, Sink};
 
 use crate::vcd::{Selection, VcdOptions, VcdSink};
 
-use crate::table::Table;
+use crate::report::table::Table;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {

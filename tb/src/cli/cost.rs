@@ -3,7 +3,7 @@
 use anyhow::{bail, Result};
 
 use super::stack_config::StackConfigArgs;
-use crate::cost::{comparison, CostReport};
+use crate::report::cost::{comparison, CostReport};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {

@@ -7,12 +7,12 @@ use std::time::Instant;
 use anyhow::Context;
 
 use crate::cli::{SceneArgs, WorkloadArgs};
-use crate::depth::{DepthHistogram, DepthReport};
+use crate::workload::depth::{DepthHistogram, DepthReport};
 use crate::workload::Workload;
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
-    #[arg(long)]
+    #[arg(long, help = crate::cli::SCENE_HELP)]
     pub scene: String,
     #[command(flatten)]
     pub workload: WorkloadArgs,

@@ -13,24 +13,52 @@ pub mod sweep;
 
 use std::path::PathBuf;
 
-use crate::scene::SceneLibrary;
+use crate::workload::scene::SceneLibrary;
 
-/// Where scene descriptions and data are, shared by subcommands that load scenes.
+/// Where scene data are and how scenes are seen, shared by subcommands that load scenes.
 #[derive(Clone, Debug, clap::Args)]
 pub struct SceneArgs {
-    /// Folder of the shared mesh files (default: ../shared/scenes beside the project).
-    #[arg(long)]
+    /// Folder of the shared mesh files the shipped scene descriptions read [env: SMS_SCENES_DIR;
+    /// default: the nearest shared/scenes folder in the current folder or a parent, else in the
+    /// executable's folder or a parent]. Meshes and descriptions given by path do not need it.
+    #[arg(long, value_name = "DIR")]
     pub scenes_dir: Option<PathBuf>,
+    /// Camera position x,y,z, replacing the scene's (a mesh or description without a camera
+    /// is framed from its bounds).
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::workload::scene::parse_vec3, allow_hyphen_values = true)]
+    pub camera_eye: Option<[f32; 3]>,
+    /// Point the camera looks at, x,y,z.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::workload::scene::parse_vec3, allow_hyphen_values = true)]
+    pub camera_look_at: Option<[f32; 3]>,
+    /// Camera up vector x,y,z [default: the scene's; 0,1,0 for meshes].
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::workload::scene::parse_vec3, allow_hyphen_values = true)]
+    pub camera_up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees [default: the scene's; 45 for meshes].
+    #[arg(long, value_name = "DEGREES")]
+    pub vfov: Option<f32>,
 }
 
 impl SceneArgs {
     pub fn library(&self) -> SceneLibrary {
-        match &self.scenes_dir {
+        let mut library = match &self.scenes_dir {
             Some(dir) => SceneLibrary::with_data_dir(dir),
             None => SceneLibrary::default(),
-        }
+        };
+        library.camera = crate::workload::scene::CameraOverride {
+            eye: self.camera_eye,
+            look_at: self.camera_look_at,
+            up: self.camera_up,
+            vfov: self.vfov,
+        };
+        library
     }
 }
+
+/// Help text of every `--scene` flag.
+pub const SCENE_HELP: &str =
+    "Scene: a built-in or described name (`sms scenes` lists them), or a path to a mesh \
+(.obj, .ply, .glb, .gltf, each optionally .gz; the camera frames it, see --camera-eye) or to a TOML scene \
+description (its mesh paths relative to it)";
 
 /// What to trace: scene, hierarchy, child order, resolution, samples, bounces, path end, seed.
 /// Shared by the subcommands that simulate a workload.
@@ -43,7 +71,7 @@ pub struct WorkloadArgs {
     /// child descended, every other hit child pushed, leaves included) or nearest (the nearest
     /// hit child descended, the others pushed far to near).
     #[arg(long, value_enum, default_value = "vulkansim")]
-    pub order: crate::workload::ChildOrder,
+    pub order: crate::workload::traverse::ChildOrder,
     /// Acceleration structure: two-level (a TLAS over one BLAS per mesh, as the Vulkan pipeline
     /// builds it, one stack across both levels; bvh6 only) or flat (one BVH over every
     /// primitive, instances flattened) [default: two-level with bvh6, else flat].
@@ -72,8 +100,8 @@ pub struct WorkloadArgs {
 
 impl WorkloadArgs {
     /// The overrides of every scene's own render settings.
-    pub fn settings(&self) -> crate::sweep::Settings {
-        crate::sweep::Settings {
+    pub fn settings(&self) -> crate::run::sweep::Settings {
+        crate::run::sweep::Settings {
             res: self.res,
             spp: self.spp,
             bounces: self.bounces,
@@ -86,7 +114,7 @@ impl WorkloadArgs {
     }
 
     /// `scene`'s own render settings with these arguments applied.
-    pub fn opts(&self, scene: &crate::scene::Scene) -> crate::workload::WorkloadOpts {
+    pub fn opts(&self, scene: &crate::workload::scene::Scene) -> crate::workload::WorkloadOpts {
         self.settings().opts(scene)
     }
 }
@@ -103,7 +131,7 @@ pub struct SampleArgs {
     pub sample: Option<f64>,
     /// How sampled warps are drawn.
     #[arg(long, value_enum, default_value = "tile")]
-    pub sample_mode: crate::sampling::SampleMode,
+    pub sample_mode: crate::run::sampling::SampleMode,
     /// Independent batches of a sampled run (at least 2).
     #[arg(long, default_value_t = 8)]
     pub batches: u32,
@@ -111,10 +139,14 @@ pub struct SampleArgs {
 
 impl SampleArgs {
     /// The sample asked for (`None`: every warp), checked; drawn with `seed`.
-    pub fn plan(&self, seed: u64) -> anyhow::Result<Option<crate::sampling::SamplePlan>> {
+    pub fn plan(&self, seed: u64) -> anyhow::Result<Option<crate::run::sampling::SamplePlan>> {
         let Some(fraction) = self.sample else { return Ok(None) };
-        let plan =
-            crate::sampling::SamplePlan { fraction, mode: self.sample_mode, batches: self.batches, seed };
+        let plan = crate::run::sampling::SamplePlan {
+            fraction,
+            mode: self.sample_mode,
+            batches: self.batches,
+            seed,
+        };
         plan.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
         Ok(Some(plan))
     }

@@ -12,16 +12,15 @@ use serde::Serialize;
 
 use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
-use crate::sampling::SamplePlan;
-use crate::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
-use crate::table::Table;
+use crate::report::table::Table;
+use crate::run::sampling::SamplePlan;
+use crate::run::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
 use crate::vcd::{Selection, VcdOptions, VcdSink};
 use crate::workload::{Workload, WorkloadOpts};
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
-    /// Scene name (`sms scenes` lists them).
-    #[arg(long, default_value = "clutter")]
+    #[arg(long, default_value = "clutter", help = crate::cli::SCENE_HELP)]
     pub scene: String,
     #[command(flatten)]
     pub stack: StackConfigArgs,

@@ -2,8 +2,8 @@
 
 use std::time::Instant;
 
-use crate::bvh::{Bvh, BvhKind};
 use crate::cli::SceneArgs;
+use crate::workload::bvh::{Bvh, BvhKind};
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {

@@ -1,5 +1,5 @@
 //! `sms sweep`: the paper's experiments (SPEC section 8) over a scene set at the cycle level,
-//! written as one report folder. See [`crate::sweep`]. The arguments every sweep-like command
+//! written as one report folder. See [`crate::run::sweep`]. The arguments every sweep-like command
 //! shares (scenes, workload, hardware, sampling, threads, report folder) are [`SweepArgs`];
 //! `sms ablate` uses them too.
 
@@ -9,31 +9,17 @@ use anyhow::{bail, Context};
 use rtl::config::Config;
 
 use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
-use crate::sweep::{self, Plan, Progress, Request};
+use crate::run::sweep::{self, Plan, Progress, Request, DEFAULT_SAMPLE, SAMPLE_ERROR};
 
 /// `--quick`: the built-in scenes, tiny.
 pub const QUICK_RES: (u32, u32) = (16, 16);
 
-/// Fraction of each scene's pixel warps a sweep simulates by default, chosen from a measurement
-/// (see [`SAMPLE_ERROR`]): every warp. A 25 % sample takes a quarter of the time (the 18-scene
-/// sweep: 346 s against 1407 s) but underestimates the speed-ups over RB_8 by 1–3 points in the
-/// geomean and by up to 18 points on one scene. `--sample F` still gives a cheap preview with
-/// that error printed.
-pub const DEFAULT_SAMPLE: f64 = 1.0;
-
-/// What the measurement behind [`DEFAULT_SAMPLE`] found, printed in every sampled report
-/// (`scripts/sample-error.py` on a 25 % and a full `sms sweep` of the 18 scenes, paper hardware).
-pub const SAMPLE_ERROR: &str = "measured on the 18 scenes at LumiBench's settings on the paper hardware, a \
-     25 % tile sample against every warp: geomean speed-ups over RB_8 off by up to 0.035 (RB_FULL 1.210 \
-     sampled, 1.241 in full; SMS 1.160, 1.181: sampling underestimates the gains), one scene's speed-up \
-     by up to 0.18 (lamborghini-huracan RB_FULL). Differences between designs sampled alike err less, \
-     but use --sample 1 (the default) for conclusions";
-
 /// What `sms sweep` and `sms ablate` share.
 #[derive(Clone, Debug, clap::Args)]
 pub struct SweepArgs {
-    /// Scenes, comma-separated (default: every built-in and described scene; with --quick, the
-    /// built-in ones).
+    /// Scenes, comma-separated: names, or paths to meshes or TOML descriptions, as `sms run
+    /// --scene` takes (default: every built-in and described scene; with --quick, the built-in
+    /// ones).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
     #[command(flatten)]
@@ -61,7 +47,7 @@ impl SweepArgs {
         let library = self.library.library();
         let scenes = match (&self.scenes[..], self.quick) {
             ([], false) => library.names()?,
-            ([], true) => crate::scene::procedural::NAMES.iter().map(|s| s.to_string()).collect(),
+            ([], true) => crate::workload::scene::procedural::NAMES.iter().map(|s| s.to_string()).collect(),
             (names, _) => names.to_vec(),
         };
         sweep::check_scenes(&library, &scenes)?;
@@ -170,12 +156,13 @@ pub fn start(
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let req = args.request()?;
-    sweep::report::prepare(&args.out).with_context(|| format!("report folder {}", args.out.display()))?;
+    crate::report::sweep::prepare(&args.out)
+        .with_context(|| format!("report folder {}", args.out.display()))?;
     let variants = req.plan.variants(req.base_kb())?.len();
     let progress = start("sweep", &req, variants, 1, &args.out, args.common.quiet);
     let result = sweep::run(&req, &args.common.library.library(), &progress)?;
-    let written = sweep::report::write_all(&result, &args.out)?;
-    let cost = sweep::figures::cost(&result)?;
+    let written = crate::report::sweep::write_all(&result, &args.out)?;
+    let cost = crate::report::figures::cost(&result)?;
     println!("{}", cost.table.to_text());
     eprintln!(
         "{} simulations in {:.1} s wall time; wrote {} files, summary: {}",

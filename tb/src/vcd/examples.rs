@@ -99,9 +99,11 @@ pub fn examples() -> Vec<Example> {
     ]
 }
 
-/// Writes every example as `dir/NAME.vcd` with its `dir/NAME.gtkw`; returns the dump paths.
+/// Writes every example as `dir/NAME.vcd` with its `dir/NAME.gtkw`, and the translate filter
+/// file of every enumeration ([`super::gtkw::write_filters`]); returns the dump paths.
 pub fn write_examples(dir: &Path) -> Result<Vec<PathBuf>, Box<dyn Error>> {
     std::fs::create_dir_all(dir)?;
+    super::gtkw::write_filters(dir)?;
     let mut written = Vec::new();
     for ex in examples() {
         let opts = VcdOptions { path: dir.join(format!("{}.vcd", ex.name)), select: ex.select.clone() };

@@ -10,6 +10,17 @@
 //! thread's group open, the others closed), then the unit-level scopes (bank arbiter, memory
 //! scheduler, response FIFO, and in a GPU dump the RT unit's and memory system's), then the RT
 //! unit's per-lane traversal states. The zoom shows the whole written window.
+//!
+//! Each trace's display format follows the [`Kind`] its probe declares ([`Format::of`]), not
+//! its name: addresses and data words in hex, masks (and one-bit signals) in binary, counts in
+//! decimal, and encoded enumerations (command kinds, micro-ops, thread states, request kinds)
+//! by name through a GTKWave translate filter file. Those files ([`filter_text`]: one `value
+//! name` line per code, from the rtl enum's own name list) are written next to the save file as
+//! `NAME.filter`, and the save file attaches them per trace the way GTKWave writes its own: the
+//! flag word carries `TR_FTRANSLATED` and a `^N PATH` line before the trace names filter `N`.
+//! `waves/*.filter` are the shipped copies (a test keeps them equal to the generated ones).
+
+use rtl::trace::Kind;
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -17,10 +28,11 @@ use std::path::Path;
 
 /// The per-thread stack fields in display order: command, RB, SH queue, spill, RA, status.
 /// Fields not listed (a future probe) follow in walk order.
-pub const FIELD_ORDER: [&str; 16] = [
+pub const FIELD_ORDER: [&str; 17] = [
     "cmd_valid",
     "cmd_kind",
     "cmd_data",
+    "uop",
     "rb_count",
     "rb_top",
     "top",
@@ -36,9 +48,6 @@ pub const FIELD_ORDER: [&str; 16] = [
     "done",
 ];
 
-/// Shown in hex (addresses, data and bank masks); every other vector in decimal.
-const HEX: [&str; 5] = ["cmd_data", "rb_top", "grant", "conflict", "req_addr"];
-
 // GTKWave trace flags (gtkwave's `TR_*` bits).
 const TR_HEX: u32 = 1 << 1;
 const TR_DEC: u32 = 1 << 2;
@@ -46,6 +55,7 @@ const TR_BIN: u32 = 1 << 3;
 const TR_RJUSTIFY: u32 = 1 << 5;
 const TR_BLANK: u32 = 1 << 9;
 const TR_COLLAPSED: u32 = 1 << 12;
+const TR_FTRANSLATED: u32 = 1 << 13;
 const TR_CLOSED: u32 = 1 << 22;
 const TR_GRP_BEGIN: u32 = 1 << 23;
 const TR_GRP_END: u32 = 1 << 24;
@@ -58,9 +68,103 @@ const WAVE_PIXELS: f64 = 780.0;
 /// on a 1 ns timescale (zoom -5 shows 32 times the span of zoom 0).
 const UNITS_PER_PIXEL_AT_ZOOM_0: f64 = 1.0 / 200.0;
 
+/// How GTKWave shows a trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Binary,
+    Decimal,
+    Hex,
+    /// Decimal codes translated to names by the filter file of this enumeration.
+    Names {
+        name: &'static str,
+        names: &'static [&'static str],
+    },
+}
+
+impl Format {
+    /// The format of a `width`-bit signal declared as `kind`.
+    pub fn of(width: u32, kind: Kind) -> Format {
+        match kind {
+            _ if width == 1 => Format::Binary,
+            Kind::Number => Format::Decimal,
+            Kind::Address | Kind::Data => Format::Hex,
+            Kind::Mask => Format::Binary,
+            Kind::Enum { name, names } => Format::Names { name, names },
+        }
+    }
+
+    /// GTKWave's trace flags for this format.
+    pub fn flags(self) -> u32 {
+        TR_RJUSTIFY
+            | match self {
+                Format::Binary => TR_BIN,
+                Format::Decimal => TR_DEC,
+                Format::Hex => TR_HEX,
+                Format::Names { .. } => TR_DEC | TR_FTRANSLATED,
+            }
+    }
+}
+
+/// The translate filter file of an enumeration whose value `i` is `names[i]`: one line per
+/// value, the value as GTKWave prints it in decimal, then the name.
+pub fn filter_text(name: &str, names: &[&str]) -> String {
+    let mut text = format!(
+        "# {name}: GTKWave translate filter file, written by tb::vcd from the rtl enum
+"
+    );
+    for (code, n) in names.iter().enumerate() {
+        text.push_str(&format!(
+            "{code} {n}
+"
+        ));
+    }
+    text
+}
+
+/// Every encoded enumeration the probes declare, for the shipped filter files (`waves/`; the
+/// GPU dump test checks that each filter a dump uses is among them).
+pub const ENUMS: [Kind; 4] = [
+    rtl::stack_manager::Cmd::KIND,
+    rtl::stack_manager::Uop::KIND,
+    rtl::rt_unit::ThreadState::KIND,
+    rtl::mem::ReqKind::KIND,
+];
+
+/// Writes the filter file of every enumeration of [`ENUMS`] into `dir`.
+pub fn write_filters(dir: &Path) -> io::Result<()> {
+    for kind in ENUMS {
+        if let Kind::Enum { name, names } = kind {
+            std::fs::write(dir.join(filter_file(name)), filter_text(name, names))?;
+        }
+    }
+    Ok(())
+}
+
+/// The file name of an enumeration's filter, next to the save file.
+pub fn filter_file(name: &str) -> String {
+    format!("{name}.filter")
+}
+
 /// Writes the save file `save` for the dump `dump` whose declared signals are `signals`
-/// (`(path, width)` in walk order) and whose written cycles are `from..end`.
-pub fn write(save: &Path, dump: &Path, signals: &[(String, u32)], from: u64, end: u64) -> io::Result<()> {
+/// (`(path, width, kind)` in walk order) and whose written cycles are `from..end`, and the
+/// translate filter file of every enumeration among them next to it.
+pub fn write(
+    save: &Path,
+    dump: &Path,
+    signals: &[(String, u32, Kind)],
+    from: u64,
+    end: u64,
+) -> io::Result<()> {
+    let dir = save.parent().unwrap_or(Path::new("."));
+    let mut filters: Vec<&'static str> = Vec::new();
+    for (_, width, kind) in signals {
+        if let Format::Names { name, names } = Format::of(*width, *kind) {
+            if !filters.contains(&name) {
+                filters.push(name);
+                std::fs::write(dir.join(filter_file(name)), filter_text(name, names))?;
+            }
+        }
+    }
     let mut f = BufWriter::new(File::create(save)?);
     writeln!(f, "[*] sms waves, written by tb::vcd")?;
     writeln!(f, "[dumpfile] \"{}\"", dump.display())?;
@@ -87,14 +191,13 @@ pub fn write(save: &Path, dump: &Path, signals: &[(String, u32)], from: u64, end
         let closed_bits = if closed { TR_CLOSED } else { 0 };
         set_flags(&mut f, TR_GRP_BEGIN | TR_BLANK | closed_bits)?;
         writeln!(f, "-{label}")?;
-        for (path, width) in group {
-            let name = path.rsplit('.').next().unwrap_or(path);
-            let format = match *width {
-                1 => TR_BIN,
-                _ if HEX.contains(&name) => TR_HEX,
-                _ => TR_DEC,
-            };
-            set_flags(&mut f, format | TR_RJUSTIFY)?;
+        for (path, width, kind) in group {
+            let format = Format::of(*width, *kind);
+            set_flags(&mut f, format.flags())?;
+            if let Format::Names { name, .. } = format {
+                let index = filters.iter().position(|n| *n == name).unwrap_or(0) + 1;
+                writeln!(f, "^{index} {}", dir.join(filter_file(name)).display())?;
+            }
             if *width == 1 {
                 writeln!(f, "{path}")?;
             } else {
@@ -110,8 +213,10 @@ pub fn write(save: &Path, dump: &Path, signals: &[(String, u32)], from: u64, end
 
 /// Signals grouped by their scope: stack threads, unit-level scopes, lane states, each in walk
 /// order; thread fields sorted by [`FIELD_ORDER`].
-fn groups(signals: &[(String, u32)]) -> Vec<(String, Vec<&(String, u32)>)> {
-    let mut groups: Vec<(String, Vec<&(String, u32)>)> = Vec::new();
+type Signal = (String, u32, Kind);
+
+fn groups(signals: &[Signal]) -> Vec<(String, Vec<&Signal>)> {
+    let mut groups: Vec<(String, Vec<&Signal>)> = Vec::new();
     for s in signals {
         let scope = s.0.rsplit_once('.').map_or("", |(scope, _)| scope);
         match groups.iter_mut().find(|g| g.0 == scope) {

@@ -24,7 +24,7 @@ use std::io::{self, BufWriter, Write};
 use std::path::PathBuf;
 
 use rtl::config::Config;
-use rtl::trace::{Sink, Snapshot};
+use rtl::trace::{Kind, Sink, Snapshot};
 use vcd::{IdCode, TimescaleUnit};
 
 /// Which cycles and which threads go into the dump.
@@ -187,6 +187,8 @@ pub struct VcdSink<W: Write> {
     slots: Vec<Slot>,
     /// Declared signals, `(path, width)` in walk order.
     declared: Vec<(String, u32)>,
+    /// Their declared kinds.
+    kinds: Vec<Kind>,
     pos: usize,
     cycle: Option<u64>,
     /// A timestamp for the current cycle has been written.
@@ -228,6 +230,7 @@ impl<W: Write> VcdSink<W> {
             first: Some(Snapshot::default()),
             slots: Vec::new(),
             declared: Vec::new(),
+            kinds: Vec::new(),
             pos: 0,
             cycle: None,
             stamped: false,
@@ -260,8 +263,9 @@ impl<W: Write> VcdSink<W> {
         r.map_err(io_error(&self.name))?;
         if let Some((save, dump)) = &self.gtkw {
             let from = self.select.from.unwrap_or(0);
-            gtkw::write(save, dump, &self.declared, from, end)
-                .map_err(io_error(&save.display().to_string()))?;
+            let signals: Vec<_> =
+                self.declared.iter().zip(&self.kinds).map(|((p, w), k)| (p.clone(), *w, *k)).collect();
+            gtkw::write(save, dump, &signals, from, end).map_err(io_error(&save.display().to_string()))?;
         }
         Ok(self.out)
     }
@@ -315,7 +319,7 @@ impl<W: Write> VcdSink<W> {
         w.comment("one time unit = one clock cycle")?;
         w.timescale(1, TimescaleUnit::NS)?;
         let mut open: Vec<&str> = Vec::new();
-        for (path, width, _) in &first.signals {
+        for (i, (path, width, _)) in first.signals.iter().enumerate() {
             // Zero-width fields do not exist in this configuration; VCD has no such wire.
             if !self.select.selects(path) || *width == 0 {
                 self.slots.push(Slot { id: None, width: *width, last: 0 });
@@ -335,6 +339,7 @@ impl<W: Write> VcdSink<W> {
             let id = w.add_wire(*width, name)?;
             self.slots.push(Slot { id: Some(id), width: *width, last: 0 });
             self.declared.push((path.clone(), *width));
+            self.kinds.push(first.kinds.get(i).copied().unwrap_or_default());
         }
         for _ in &open {
             w.upscope()?;
@@ -416,8 +421,12 @@ impl<W: Write> Sink for VcdSink<W> {
     }
 
     fn signal(&mut self, name: &str, width: u32, value: u64) {
+        self.signal_kind(name, width, value, Kind::Number);
+    }
+
+    fn signal_kind(&mut self, name: &str, width: u32, value: u64, kind: Kind) {
         if let Some(first) = &mut self.first {
-            return first.signal(name, width, value);
+            return first.signal_kind(name, width, value, kind);
         }
         let Some(cycle) = self.cycle else { return };
         if self.pos < self.slots.len() {
@@ -464,5 +473,9 @@ impl<A: Sink, B: Sink> Sink for Tee<'_, A, B> {
     fn signal(&mut self, name: &str, width: u32, value: u64) {
         self.0.signal(name, width, value);
         self.1.signal(name, width, value);
+    }
+    fn signal_kind(&mut self, name: &str, width: u32, value: u64, kind: Kind) {
+        self.0.signal_kind(name, width, value, kind);
+        self.1.signal_kind(name, width, value, kind);
     }
 }

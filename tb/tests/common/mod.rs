@@ -32,9 +32,9 @@ impl Drop for TmpDir {
 
 /// A small square workload of `scene`: `res × res` pixels, 1 spp, 1 bounce, child order `order`.
 pub fn small_workload(
-    scene: &tb::scene::Scene,
+    scene: &tb::workload::scene::Scene,
     res: u32,
-    order: tb::workload::ChildOrder,
+    order: tb::workload::traverse::ChildOrder,
 ) -> tb::workload::Workload<'_> {
     use tb::workload::{Workload, WorkloadOpts};
     let opts = WorkloadOpts {

@@ -7,170 +7,31 @@
 //! [`WarpJob`]. A job whose lanes are all finished is not issued. Warps are traced lazily, one at
 //! a time, when [`Workload::warp_jobs`] is iterated, so no more than one warp's traces are held.
 //!
-//! Traces are packed one `u64` per operation: 2 bits of operation, 3 bits of node kind and a
-//! 59-bit address.
+//! The layer's modules, in dependency order (each uses only those before it): [`trace`](mod@trace) (the
+//! recorded operations), [`geometry`], [`scene`], [`bvh`], [`raygen`], [`traverse`], then this
+//! module (warps in launch order) and [`depth`].
+
+pub mod bvh;
+pub mod depth;
+pub mod geometry;
+pub mod raygen;
+mod rng;
+pub mod scene;
+pub mod trace;
+pub mod traverse;
 
 use glam::Vec3A;
 use serde::Serialize;
 
-pub use crate::bvh::BvhKind;
-use crate::bvh::{Bvh, TwoLevel};
+pub use bvh::BvhKind;
+use bvh::{Bvh, TwoLevel};
+use geometry::Ray;
+use raygen::{Image, RayGen, ALBEDO};
+use scene::Scene;
+use trace::{NodeKind, RayTrace, WarpJob, WARP_SIZE};
+use traverse::{hit_normal, trace, ChildOrder, Recorder};
+
 use crate::error::{Error, Result};
-use crate::geometry::Ray;
-use crate::raygen::{Image, RayGen, ALBEDO};
-use crate::scene::Scene;
-use crate::traverse::{hit_normal, trace, Recorder};
-
-/// Threads per warp.
-pub const WARP_SIZE: usize = 32;
-
-/// What a node fetch is for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
-pub enum NodeKind {
-    Internal,
-    Leaf,
-    Triangle,
-    Procedural,
-    /// A TLAS instance leaf (two-level, 128 bytes).
-    Instance,
-    /// An acceleration structure's header (two-level, 64 bytes): the TLAS's at the start of a
-    /// ray, a BLAS's after each instance leaf.
-    BvhHeader,
-}
-
-/// One operation of a traversal.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TraceOp {
-    Visit { addr: u64, kind: NodeKind },
-    Push(u64),
-    Pop(u64),
-}
-
-const OP_SHIFT: u32 = 62;
-const KIND_SHIFT: u32 = 59;
-const ADDR_MASK: u64 = (1 << KIND_SHIFT) - 1;
-const KINDS: [NodeKind; 6] = [
-    NodeKind::Internal,
-    NodeKind::Leaf,
-    NodeKind::Triangle,
-    NodeKind::Procedural,
-    NodeKind::Instance,
-    NodeKind::BvhHeader,
-];
-
-impl TraceOp {
-    fn pack(self) -> u64 {
-        let (op, kind, addr) = match self {
-            TraceOp::Visit { addr, kind } => (0, kind as u64, addr),
-            TraceOp::Push(addr) => (1, 0, addr),
-            TraceOp::Pop(addr) => (2, 0, addr),
-        };
-        debug_assert!(addr <= ADDR_MASK, "device addresses fit in 59 bits");
-        op << OP_SHIFT | kind << KIND_SHIFT | (addr & ADDR_MASK)
-    }
-
-    fn unpack(word: u64) -> Self {
-        let addr = word & ADDR_MASK;
-        match word >> OP_SHIFT {
-            0 => TraceOp::Visit { addr, kind: KINDS[(word >> KIND_SHIFT & 7) as usize] },
-            1 => TraceOp::Push(addr),
-            _ => TraceOp::Pop(addr),
-        }
-    }
-}
-
-/// The recorded traversal of one ray: a valid stack history (every pop takes the most recent
-/// unpopped push, and the stack is empty at the end); the first operation visits the root.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct RayTrace {
-    ops: Vec<u64>,
-    depth: u32,
-    max_depth: u32,
-}
-
-impl RayTrace {
-    pub fn ops(&self) -> impl Iterator<Item = TraceOp> + '_ {
-        self.ops.iter().map(|&w| TraceOp::unpack(w))
-    }
-
-    pub fn len(&self) -> usize {
-        self.ops.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.ops.is_empty()
-    }
-
-    /// Largest number of entries on the stack at any point.
-    pub fn max_depth(&self) -> u32 {
-        self.max_depth
-    }
-
-    /// Checks that the trace is a valid stack history: it starts by visiting a node, every pop
-    /// takes the most recent unpopped push, the stack ends empty, and `max_depth` is right.
-    pub fn check_stack_history(&self) -> Result<(), String> {
-        if !matches!(self.ops().next(), Some(TraceOp::Visit { .. })) {
-            return Err("does not start with a visit of the root".into());
-        }
-        let mut stack = Vec::new();
-        let mut max = 0;
-        for (i, op) in self.ops().enumerate() {
-            match op {
-                TraceOp::Push(addr) => {
-                    stack.push(addr);
-                    max = max.max(stack.len() as u32);
-                }
-                TraceOp::Pop(addr) => match stack.pop() {
-                    Some(top) if top == addr => {}
-                    top => return Err(format!("op {i}: pop of {addr:#x}, stack top {top:x?}")),
-                },
-                TraceOp::Visit { .. } => {}
-            }
-        }
-        if !stack.is_empty() {
-            return Err(format!("{} entries left on the stack", stack.len()));
-        }
-        if max != self.max_depth {
-            return Err(format!("max depth {} recorded, {max} replayed", self.max_depth));
-        }
-        Ok(())
-    }
-}
-
-impl Recorder for RayTrace {
-    fn visit(&mut self, addr: u64, kind: NodeKind) {
-        self.ops.push(TraceOp::Visit { addr, kind }.pack());
-    }
-    fn push(&mut self, addr: u64) {
-        self.ops.push(TraceOp::Push(addr).pack());
-        self.depth += 1;
-        self.max_depth = self.max_depth.max(self.depth);
-    }
-    fn pop(&mut self, addr: u64) {
-        self.ops.push(TraceOp::Pop(addr).pack());
-        // Saturating so that a faulty traversal yields a trace `check_stack_history` rejects.
-        self.depth = self.depth.saturating_sub(1);
-    }
-}
-
-/// One traceRay call of a warp: exactly [`WARP_SIZE`] lanes, `None` for lanes whose path ended.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct WarpJob {
-    pub lanes: Vec<Option<RayTrace>>,
-}
-
-/// How an internal node orders the children it descends into and pushes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum ChildOrder {
-    /// Descend the nearest hit child, push the others far to near (nearest remaining on top).
-    #[default]
-    Nearest,
-    /// Vulkan-Sim's rule: descend the first hit internal child in index order, push every other
-    /// hit child (leaves included) in index order, pop leaves LIFO.
-    #[value(name = "vulkansim")]
-    VulkanSim,
-}
 
 /// Which acceleration structure the rays traverse.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
@@ -229,7 +90,7 @@ impl WorkloadOpts {
         Self::rendering(scene.render)
     }
 
-    fn rendering(r: crate::scene::RenderSettings) -> Self {
+    fn rendering(r: crate::workload::scene::RenderSettings) -> Self {
         WorkloadOpts {
             bvh: BvhKind::Bvh6,
             accel: Accel::Flat,
@@ -247,7 +108,7 @@ impl WorkloadOpts {
 impl Default for WorkloadOpts {
     /// The SPEC's evaluation settings (section 8) on a BVH6.
     fn default() -> Self {
-        Self::rendering(crate::scene::RenderSettings::default())
+        Self::rendering(crate::workload::scene::RenderSettings::default())
     }
 }
 
@@ -418,7 +279,8 @@ impl<'s> Workload<'s> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::load_scene;
+    use crate::workload::scene::load_scene;
+    use crate::workload::trace::TraceOp;
 
     fn small(bvh: BvhKind, order: ChildOrder, seed: u64) -> WorkloadOpts {
         WorkloadOpts {
@@ -457,7 +319,7 @@ mod tests {
                             assert_eq!(
                                 trace.ops().next(),
                                 Some(TraceOp::Visit {
-                                    addr: crate::bvh::INTERNAL_BASE,
+                                    addr: crate::workload::bvh::INTERNAL_BASE,
                                     kind: NodeKind::Internal
                                 })
                             );
@@ -513,7 +375,7 @@ mod tests {
     #[test]
     fn a_wrong_pop_is_caught() {
         let mut good = RayTrace::default();
-        good.visit(crate::bvh::INTERNAL_BASE, NodeKind::Internal);
+        good.visit(crate::workload::bvh::INTERNAL_BASE, NodeKind::Internal);
         good.push(0x40);
         good.push(0x80);
         good.pop(0x80);
@@ -526,16 +388,6 @@ mod tests {
         let mut unbalanced = good.clone();
         unbalanced.ops.pop();
         assert!(unbalanced.check_stack_history().is_err());
-    }
-
-    #[test]
-    fn ops_round_trip_through_packing() {
-        for (i, kind) in super::KINDS.into_iter().enumerate() {
-            let addr = ADDR_MASK - i as u64;
-            for op in [TraceOp::Visit { addr, kind }, TraceOp::Push(addr), TraceOp::Pop(addr)] {
-                assert_eq!(TraceOp::unpack(op.pack()), op);
-            }
-        }
     }
 
     #[test]
@@ -569,7 +421,7 @@ mod tests {
 
     /// A quad filling the view, wound to face the camera (`front`) or away from it.
     fn quad(front: bool) -> Scene {
-        use crate::geometry::Primitives;
+        use crate::workload::geometry::Primitives;
         use glam::vec3a;
         let (a, b, c, d) = (
             vec3a(-50.0, -50.0, 0.0),
@@ -590,10 +442,10 @@ mod tests {
         };
         Scene {
             name: "quad".into(),
-            objects: crate::scene::Objects::single(tris.len()),
+            objects: crate::workload::scene::Objects::single(tris.len()),
             primitives: Primitives::Triangles(tris),
-            camera: crate::scene::Camera::look_at([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 45.0),
-            render: crate::scene::RenderSettings { width: 8, height: 8, spp: 1, max_bounces: 3 },
+            camera: crate::workload::scene::Camera::look_at([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 45.0),
+            render: crate::workload::scene::RenderSettings { width: 8, height: 8, spp: 1, max_bounces: 3 },
             dropped_degenerate: 0,
         }
     }

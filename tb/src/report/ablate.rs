@@ -19,12 +19,13 @@ use serde_json::{json, Value};
 
 use super::figures::Figure;
 use super::plot::{Bars, Chart};
-use super::{Plan, Request, Sweep, Tweak, BASELINE};
 use crate::error::{Error, Result};
-use crate::scene::SceneLibrary;
-use crate::sim::Hardware;
-use crate::table::Table;
-use crate::workload::{ChildOrder, PathEnd, WorkloadOpts};
+use crate::report::table::Table;
+use crate::run::sim::Hardware;
+use crate::run::sweep::{Plan, Request, Sweep, Tweak, BASELINE};
+use crate::workload::scene::SceneLibrary;
+use crate::workload::traverse::ChildOrder;
+use crate::workload::{PathEnd, WorkloadOpts};
 
 /// One switchable simulator mechanism.
 #[derive(Clone, Copy, Debug)]
@@ -152,7 +153,7 @@ pub fn run(
     req: &Request,
     mechanisms: &[Mechanism],
     library: &SceneLibrary,
-    progress: &super::Progress,
+    progress: &crate::run::sweep::Progress,
 ) -> Result<Ablation> {
     let opts = req.settings.apply(WorkloadOpts::default());
     if let Some(m) = mechanisms.iter().find(|m| !changes(m, &req.hw, &opts)) {
@@ -163,7 +164,7 @@ pub fn run(
     }
     let tweaks: Vec<Option<Tweak>> =
         std::iter::once(None).chain(mechanisms.iter().map(|m| Some(m.off))).collect();
-    let mut sweeps = super::run_arms(req, &tweaks, library, progress)?.into_iter();
+    let mut sweeps = crate::run::sweep::run_arms(req, &tweaks, library, progress)?.into_iter();
     let reference = sweeps.next().expect("the reference arm");
     Ok(Ablation { reference, arms: mechanisms.iter().copied().zip(sweeps).collect() })
 }

@@ -14,7 +14,7 @@
 use rtl::config::{bits_for, Config, ConfigError, RbSize};
 use serde::Serialize;
 
-use crate::table::Table;
+use crate::report::table::Table;
 
 /// Where a field's cost belongs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]

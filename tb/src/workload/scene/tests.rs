@@ -17,6 +17,7 @@ fn temp_dir(test: &str) -> PathBuf {
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    std::fs::create_dir_all(dir).expect("dir");
     let path = dir.join(name);
     if name.ends_with(".gz") {
         let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
@@ -88,8 +89,8 @@ fn every_mesh_file_of_a_description_is_its_own_object() {
     let lib = library("desc_objects");
     write(&lib.data, "quad.obj", format!("{QUAD}f 1 2 3 4\n").as_bytes());
     let toml = "[[mesh]]\nfile = \"quad.obj\"\n[[mesh]]\nfile = \"quad.obj\"\n";
-    write(&lib.descriptions, "two.toml", toml.as_bytes());
-    let scene = lib.load("two").expect("loads");
+    let two = write(&lib.data, "two.toml", toml.as_bytes());
+    let scene = lib.load(two.to_str().unwrap()).expect("loads");
     assert_eq!(scene.objects.meshes, [MeshGeometry::World(0..2), MeshGeometry::World(2..4)]);
     assert_eq!(scene.objects.instanced_primitives(), 4);
 }
@@ -290,8 +291,7 @@ fn glb_errors() {
 }
 
 fn library(test: &str) -> SceneLibrary {
-    let dir = temp_dir(test);
-    SceneLibrary { descriptions: dir.clone(), data: dir }
+    SceneLibrary::with_data_dir(temp_dir(test))
 }
 
 #[test]
@@ -300,45 +300,128 @@ fn descriptions_load_and_report_errors() {
     write(&lib.data, "quad.obj", format!("{QUAD}f 1 2 3 4\n").as_bytes());
     let shift = "transform = [[1,0,0,10],[0,1,0,0],[0,0,1,0],[0,0,0,1]]";
     let toml = format!("[[mesh]]\nfile = \"quad.obj\"\n{shift}\n[render]\nwidth = 8\nheight = 4\n");
-    write(&lib.descriptions, "quad.toml", toml.as_bytes());
-    let scene = lib.load("quad").expect("loads");
+    let quad = write(&lib.data, "quad.toml", toml.as_bytes());
+    let scene = lib.load(quad.to_str().unwrap()).expect("loads");
+    assert_eq!(scene.name, "quad");
     assert_eq!(scene.primitives.triangle_count(), 2);
     assert_eq!(scene.primitives.bounds().min.x, 10.0);
     assert_eq!((scene.render.width, scene.render.height, scene.render.spp), (8, 4, 2));
 
-    write(&lib.descriptions, "bad.toml", b"[[mesh]]\nfile = \"quad.obj\"\ncolour = 3\n");
-    let e = lib.load("bad").expect_err("unknown field").to_string();
+    let load = |name: &str, text: &[u8]| {
+        let path = write(&lib.data, name, text);
+        lib.load(path.to_str().unwrap()).expect_err(name).to_string()
+    };
+    let e = load("bad.toml", b"[[mesh]]\nfile = \"quad.obj\"\ncolour = 3\n");
     assert!(e.contains("bad.toml") && e.contains("line 3"), "{e}");
-    write(&lib.descriptions, "eye.toml", b"[[mesh]]\nfile = \"quad.obj\"\n[camera]\neye = [0,0,1]\n");
-    assert!(lib.load("eye").expect_err("eye only").to_string().contains("look_at"));
-    write(&lib.descriptions, "gone.toml", b"[[mesh]]\nfile = \"gone.obj\"\n");
-    assert!(lib.load("gone").expect_err("missing mesh").to_string().contains("gone.obj"));
+    let e = load("eye.toml", b"[[mesh]]\nfile = \"quad.obj\"\n[camera]\neye = [0,0,1]\n");
+    assert!(e.contains("look_at"), "{e}");
+    let e = load("gone.toml", b"[[mesh]]\nfile = \"gone.obj\"\n");
+    assert!(e.contains("gone.obj"), "{e}");
+}
+
+/// Mesh paths of a description given by path are relative to its folder, not to the data
+/// folder or the current folder.
+#[test]
+fn description_meshes_are_relative_to_the_description() {
+    let lib = library("relative");
+    write(&lib.data.join("meshes"), "quad.obj", format!("{QUAD}f 1 2 3 4\n").as_bytes());
+    let desc = write(&lib.data.join("desc"), "quad.toml", b"[[mesh]]\nfile = \"../meshes/quad.obj\"\n");
+    let scene = lib.load(desc.to_str().unwrap()).expect("relative to desc/");
+    assert_eq!(scene.primitives.triangle_count(), 2);
+    let flat = write(&lib.data.join("desc"), "flat.toml", b"[[mesh]]\nfile = \"meshes/quad.obj\"\n");
+    let e = lib.load(flat.to_str().unwrap()).expect_err("not relative to the data folder").to_string();
+    assert!(e.contains("desc/meshes/quad.obj"), "{e}");
+}
+
+/// A mesh given by path is framed by the camera; the override moves it, and bad overrides are
+/// errors naming the flag.
+#[test]
+fn meshes_by_path_and_camera_override() {
+    let mut lib = library("bypath");
+    let quad = write(&lib.data, "quad.obj", format!("{QUAD}f 1 2 3 4\n").as_bytes());
+    let spec = quad.to_str().unwrap();
+    let framed = lib.load(spec).expect("mesh by path");
+    assert_eq!(framed.name, "quad");
+    assert_eq!(framed.render, RenderSettings::default());
+    assert_eq!(framed.camera.vfov, 45.0);
+    lib.camera = CameraOverride { vfov: Some(20.0), ..CameraOverride::default() };
+    let narrow = lib.load(spec).unwrap();
+    assert_eq!(narrow.camera.look_at, framed.camera.look_at);
+    assert!(
+        narrow.camera.eye.distance(narrow.camera.look_at) > framed.camera.eye.distance(framed.camera.look_at)
+    );
+    lib.camera = CameraOverride { eye: Some([0.0, 0.0, 9.0]), ..CameraOverride::default() };
+    let moved = lib.load(spec).unwrap();
+    assert_eq!((moved.camera.eye, moved.camera.look_at), (Vec3A::new(0.0, 0.0, 9.0), framed.camera.look_at));
+    let wknd = lib.load("wknd").unwrap();
+    assert_eq!(wknd.camera.eye, Vec3A::new(0.0, 0.0, 9.0), "built-in scenes too");
+    for (bad, flag) in [
+        (CameraOverride { vfov: Some(180.0), ..CameraOverride::default() }, "--vfov"),
+        (CameraOverride { up: Some([0.0; 3]), ..CameraOverride::default() }, "--camera-up"),
+        (
+            CameraOverride { look_at: Some([f32::NAN, 0.0, 0.0]), ..CameraOverride::default() },
+            "--camera-look-at",
+        ),
+    ] {
+        lib.camera = bad;
+        let e = lib.load(spec).expect_err(flag).to_string();
+        assert!(e.contains(flag), "{e}");
+    }
+    assert_eq!(parse_vec3("1, 2.5,-3"), Ok([1.0, 2.5, -3.0]));
+    assert!(parse_vec3("1,2").is_err() && parse_vec3("1,x,3").unwrap_err().contains("'x'"));
 }
 
 #[test]
 fn unknown_scene_lists_known_names() {
     let lib = library("unknown");
-    write(&lib.descriptions, "mine.toml", b"");
     let e = lib.load("nonesuch").expect_err("unknown").to_string();
     assert!(
-        e.contains("nonesuch") && e.contains("wknd") && e.contains("clutter") && e.contains("mine"),
+        e.contains("nonesuch") && e.contains("wknd") && e.contains("clutter") && e.contains("bunny69k"),
         "{e}"
     );
+    assert!(e.contains(".obj") && e.contains(".toml"), "says paths are accepted: {e}");
+    let e = lib.load("missing/cube.obj").expect_err("no such file").to_string();
+    assert!(e.contains("missing/cube.obj"), "{e}");
+    let stl = write(&lib.data, "cube.stl", b"solid\n");
+    let e = lib.load(stl.to_str().unwrap()).expect_err("stl").to_string();
+    assert!(e.contains("cube.stl") && e.contains("unknown scene file type"), "{e}");
+}
+
+/// Shipped descriptions are embedded; without the data folder their meshes are a clear error
+/// that says how to point sms at the data.
+#[test]
+fn shipped_description_without_data_says_where_to_look() {
+    let lib = library("nodata");
+    let e = lib.load("bunny69k").expect_err("no data").to_string();
+    for needle in
+        ["stanford-bunny-69k.obj.gz", "--scenes-dir", "SMS_SCENES_DIR", "shipped description 'bunny69k'"]
+    {
+        assert!(e.contains(needle), "{needle}: {e}");
+    }
+    let lib = SceneLibrary { origin: DataOrigin::NotFound, ..lib };
+    let e = lib.load("bunny69k").expect_err("no data").to_string();
+    assert!(e.contains("no scenes folder"), "{e}");
 }
 
 #[test]
 fn every_shipped_description_parses() {
     let lib = SceneLibrary::default();
-    let names = lib.described().expect("scenes folder");
+    assert_ne!(lib.origin, DataOrigin::NotFound, "tests run inside the project, beside shared/scenes");
+    let names = lib.described().expect("shipped");
     assert!(names.len() >= 15, "{names:?}");
-    for name in names {
-        let path = lib.descriptions.join(format!("{name}.toml"));
-        let text = std::fs::read_to_string(&path).expect("read");
-        let desc: SceneDesc = toml::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+    // The embedded list is the project's scenes/ folder.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    for (name, text) in SHIPPED {
+        assert_eq!(std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap(), *text, "{name}");
+        let desc: SceneDesc = toml::from_str(text).unwrap_or_else(|e| panic!("{name}: {e}"));
         for m in desc.mesh {
             assert!(lib.data.join(&m.file).exists(), "{name}: {} missing", m.file);
         }
     }
+    let on_disk = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "toml"));
+    assert_eq!(on_disk.count(), SHIPPED.len());
 }
 
 #[test]

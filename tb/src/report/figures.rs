@@ -8,11 +8,11 @@
 use serde_json::{json, Value};
 
 use super::plot::{Bars, Chart, Line, Point};
-use super::{geomean, with_sms, Sweep, Variant, BASELINE};
-use crate::cost::CostReport;
 use crate::error::{Error, Result};
-use crate::sim::Outcome;
-use crate::table::Table;
+use crate::report::cost::CostReport;
+use crate::report::table::Table;
+use crate::run::sim::Outcome;
+use crate::run::sweep::{geomean, with_sms, Sweep, Variant, BASELINE};
 
 /// One figure of the report.
 #[derive(Clone, Debug)]
@@ -376,7 +376,7 @@ pub fn rb_sweep(s: &Sweep) -> Figure {
         note: format!(
             "RB_N alone and RB_N{} (SMS); speed-ups are geometric means over the scenes relative to {BASELINE}; \
              entry and DRAM counts are sums.",
-            super::SMS_SUFFIX
+            crate::run::sweep::SMS_SUFFIX
         ),
         table,
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),

@@ -39,8 +39,8 @@ use obvhs::{
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::geometry::Primitives;
-use crate::scene::{Instance, MeshGeometry, Objects};
+use crate::workload::geometry::Primitives;
+use crate::workload::scene::{Instance, MeshGeometry, Objects};
 
 /// Start of the internal-node region.
 pub const INTERNAL_BASE: u64 = 0x4_0000_0000;
@@ -385,7 +385,7 @@ mod tests {
     use std::collections::HashSet;
 
     use super::*;
-    use crate::scene::load_scene;
+    use crate::workload::scene::load_scene;
 
     fn contains(outer: &Aabb, inner: &Aabb) -> bool {
         outer.min.cmple(inner.min).all() && outer.max.cmpge(inner.max).all()
@@ -438,10 +438,12 @@ mod tests {
                             .map(|s| {
                                 let p = b.prim_indices[s as usize] as usize;
                                 match &scene.primitives {
-                                    crate::geometry::Primitives::Triangles(t) => {
+                                    crate::workload::geometry::Primitives::Triangles(t) => {
                                         obvhs::Boundable::aabb(&t[p])
                                     }
-                                    crate::geometry::Primitives::Spheres(s) => obvhs::Boundable::aabb(&s[p]),
+                                    crate::workload::geometry::Primitives::Spheres(s) => {
+                                        obvhs::Boundable::aabb(&s[p])
+                                    }
                                 }
                             })
                             .collect(),

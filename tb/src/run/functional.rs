@@ -18,8 +18,8 @@ use proofs::invariants::Violation;
 use rtl::config::{Config, ConfigError};
 use rtl::stack_manager::{StackManager, StackStats};
 
-use crate::stack_tb::{lane_ops, warp_work};
-use crate::workload::{TraceOp, WarpJob};
+use crate::run::stack_tb::{lane_ops, warp_work};
+use crate::workload::trace::{TraceOp, WarpJob};
 
 /// Stack counts of a whole workload and of each pixel warp.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -121,7 +121,7 @@ mod tests {
 
     #[test]
     fn fast_path_counts_equal_the_full_run() {
-        for name in crate::scene::procedural::NAMES {
+        for name in crate::workload::scene::procedural::NAMES {
             let scene = crate::load_scene(name).unwrap();
             let opts = WorkloadOpts { width: 24, height: 24, ..WorkloadOpts::for_scene(&scene) };
             let w = Workload::new(&scene, opts).unwrap();

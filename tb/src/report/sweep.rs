@@ -12,8 +12,8 @@ use serde_json::{json, Value};
 
 use super::ablate::Ablation;
 use super::figures::{self, Figure};
-use super::Sweep;
 use crate::error::{Error, Result};
+use crate::run::sweep::Sweep;
 
 /// Creates `dir` and checks that files can be written there, before any simulation starts.
 pub fn prepare(dir: &Path) -> Result<()> {
@@ -193,7 +193,7 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
         s.jobs,
         s.wall.as_secs_f64()
     );
-    let mut scenes = crate::table::Table::new([
+    let mut scenes = crate::report::table::Table::new([
         "scene",
         "resolution",
         "spp",
@@ -242,7 +242,7 @@ pub fn sampling_note(s: &Sweep) -> String {
                 p.fraction * 100.0,
                 p.mode,
                 p.batches,
-                crate::cli::sweep::SAMPLE_ERROR,
+                crate::run::sweep::SAMPLE_ERROR,
                 mean * 100.0,
                 max * 100.0
             )

@@ -46,10 +46,12 @@
 use glam::UVec2;
 use obvhs::{cwbvh::CwBvh, faststack::FastStack, traverse};
 
-use crate::bvh::{Blas, Bvh, NodeRef, TwoLevel, CWBVH_NODE_SIZE, INTERNAL_BASE};
-use crate::geometry::{hit_triangle, Primitives, Ray};
-use crate::scene::{MeshGeometry, Scene};
-use crate::workload::{ChildOrder, NodeKind};
+use crate::workload::bvh::{Blas, Bvh, NodeRef, TwoLevel, CWBVH_NODE_SIZE, INTERNAL_BASE};
+use crate::workload::geometry::{hit_triangle, Primitives, Ray};
+use crate::workload::scene::{MeshGeometry, Scene};
+use serde::Serialize;
+
+use super::trace::{NodeKind, RayTrace, TraceOp};
 
 /// Receives the operations of one traversal. `()` ignores them (for rendering only).
 pub trait Recorder {
@@ -64,6 +66,35 @@ impl Recorder for () {
     fn visit(&mut self, _: u64, _: NodeKind) {}
     fn push(&mut self, _: u64) {}
     fn pop(&mut self, _: u64) {}
+}
+
+impl Recorder for RayTrace {
+    fn visit(&mut self, addr: u64, kind: NodeKind) {
+        self.ops.push(TraceOp::Visit { addr, kind }.pack());
+    }
+    fn push(&mut self, addr: u64) {
+        self.ops.push(TraceOp::Push(addr).pack());
+        self.depth += 1;
+        self.max_depth = self.max_depth.max(self.depth);
+    }
+    fn pop(&mut self, addr: u64) {
+        self.ops.push(TraceOp::Pop(addr).pack());
+        // Saturating so that a faulty traversal yields a trace `check_stack_history` rejects.
+        self.depth = self.depth.saturating_sub(1);
+    }
+}
+
+/// How an internal node orders the children it descends into and pushes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ChildOrder {
+    /// Descend the nearest hit child, push the others far to near (nearest remaining on top).
+    #[default]
+    Nearest,
+    /// Vulkan-Sim's rule: descend the first hit internal child in index order, push every other
+    /// hit child (leaves included) in index order, pop leaves LIFO.
+    #[value(name = "vulkansim")]
+    VulkanSim,
 }
 
 /// A closest hit: the primitive, the distance along the ray and (two-level) the instance. The
@@ -154,7 +185,7 @@ fn trace_tree<R: Recorder>(
     };
     let mut best = None;
     let mut stack: Vec<NodeRef> = Vec::new();
-    let mut hits: Vec<(f32, NodeRef)> = Vec::with_capacity(crate::bvh::BVH6_WIDTH);
+    let mut hits: Vec<(f32, NodeRef)> = Vec::with_capacity(crate::workload::bvh::BVH6_WIDTH);
     let mut current = Some(root);
     while let Some(node) = current {
         match node {
@@ -262,7 +293,7 @@ fn trace_two_level<R: Recorder>(
     rec.visit(tl.header_addr(None), NodeKind::BvhHeader);
     let mut best = None;
     let mut stack: Vec<Entry> = Vec::new();
-    let mut hits: Vec<(f32, NodeRef)> = Vec::with_capacity(crate::bvh::BVH6_WIDTH);
+    let mut hits: Vec<(f32, NodeRef)> = Vec::with_capacity(crate::workload::bvh::BVH6_WIDTH);
     let mut cur: Option<Current> = None;
     let mut next: Option<Entry> = None;
     if ray.hit_box(&tl.world, tmax).is_some() {
@@ -452,10 +483,10 @@ mod tests {
     use obvhs::ray::RayHit;
 
     use super::*;
-    use crate::bvh::BvhKind;
-    use crate::raygen::RayGen;
-    use crate::rng::Rng;
-    use crate::scene::{load_scene, Scene};
+    use crate::workload::bvh::BvhKind;
+    use crate::workload::raygen::RayGen;
+    use crate::workload::rng::Rng;
+    use crate::workload::scene::{load_scene, Scene};
 
     /// Camera rays over a 16x16 image plus rays from random points in the scene's box in random
     /// directions (these start inside the geometry, like bounce rays).
@@ -555,7 +586,8 @@ mod tests {
         let bvh = Bvh::build(&scene.primitives, BvhKind::Bvh6).expect("bvh");
         let mut differing = 0;
         for ray in sample_rays(&scene) {
-            let (mut a, mut b) = (crate::workload::RayTrace::default(), crate::workload::RayTrace::default());
+            let (mut a, mut b) =
+                (crate::workload::trace::RayTrace::default(), crate::workload::trace::RayTrace::default());
             let ha = trace(&bvh, &scene.primitives, &ray, f32::INFINITY, ChildOrder::Nearest, &mut a);
             let hb = trace(&bvh, &scene.primitives, &ray, f32::INFINITY, ChildOrder::VulkanSim, &mut b);
             assert_eq!(ha.map(|h| h.t), hb.map(|h| h.t));
@@ -574,10 +606,10 @@ mod tests {
     /// ```
     #[test]
     fn vulkansim_order_is_vulkan_sims_rule_on_a_hand_built_bvh() {
-        use crate::bvh::{
+        use crate::workload::bvh::{
             Bvh6, Bvh6Child, Bvh6Node, BVH6_LEAF_DESC_SIZE, BVH6_NODE_SIZE, LEAF_BASE, PRIM_BASE,
         };
-        use crate::workload::{RayTrace, TraceOp};
+        use crate::workload::trace::{RayTrace, TraceOp};
         use obvhs::triangle::Triangle;
         let tri = |x: f32, z: f32| Triangle {
             v0: Vec3A::new(x - 1.0, -1.0, z),
@@ -665,7 +697,7 @@ mod tests {
 
     /// Closest hit of `ray` over the instances of `scene` by testing every primitive of every
     /// instance in its object space: the oracle for the two-level walk (same arithmetic).
-    fn instance_brute_force(scene: &Scene, tl: &crate::bvh::TwoLevel, ray: &Ray) -> Option<f32> {
+    fn instance_brute_force(scene: &Scene, tl: &crate::workload::bvh::TwoLevel, ray: &Ray) -> Option<f32> {
         let mut best = f32::INFINITY;
         for (k, inst) in scene.objects.instances.iter().enumerate() {
             let r = match &tl.to_object[k] {
@@ -688,7 +720,7 @@ mod tests {
     /// rounding of the instance transforms (exactly when every instance is the identity).
     fn check_two_level(name: &str) {
         let scene = load_scene(name).expect(name);
-        let tl = crate::bvh::TwoLevel::build(&scene.primitives, &scene.objects).expect("two-level");
+        let tl = crate::workload::bvh::TwoLevel::build(&scene.primitives, &scene.objects).expect("two-level");
         let two = Bvh::TwoLevel(Box::new(tl.clone()));
         let flat = Bvh::build(&scene.primitives, BvhKind::Bvh6).expect("flat");
         let identity = scene.objects.instances.iter().all(|i| i.to_world.is_none());
@@ -699,7 +731,7 @@ mod tests {
             let f = trace(&flat, &scene.primitives, ray, f32::INFINITY, ChildOrder::Nearest, &mut ())
                 .map(|h| h.t);
             for order in [ChildOrder::Nearest, ChildOrder::VulkanSim] {
-                let mut rec = crate::workload::RayTrace::default();
+                let mut rec = crate::workload::trace::RayTrace::default();
                 let got = trace(&two, &scene.primitives, ray, f32::INFINITY, order, &mut rec);
                 rec.check_stack_history().unwrap_or_else(|e| panic!("{name} ray {i}: {e}"));
                 assert_eq!(
@@ -748,9 +780,9 @@ mod tests {
 
     #[test]
     fn two_level_walk_enters_each_blas_through_its_header_and_the_stack() {
-        use crate::workload::{RayTrace, TraceOp};
+        use crate::workload::trace::{RayTrace, TraceOp};
         let scene = load_scene("bath-partial").expect("bath");
-        let tl = crate::bvh::TwoLevel::build(&scene.primitives, &scene.objects).expect("two-level");
+        let tl = crate::workload::bvh::TwoLevel::build(&scene.primitives, &scene.objects).expect("two-level");
         let header = tl.header_addr(None);
         let two = Bvh::TwoLevel(Box::new(tl));
         let mut instances = 0;
@@ -807,7 +839,7 @@ mod tests {
             let ray = Ray::new(Vec3A::new(s, s, 1.0), Vec3A::new(0.0, 0.0, -1.0), 0.0);
             let hits = [&t1, &t2]
                 .iter()
-                .filter(|t| crate::geometry::hit_triangle(&ray, t, f32::INFINITY).is_finite())
+                .filter(|t| crate::workload::geometry::hit_triangle(&ray, t, f32::INFINITY).is_finite())
                 .count();
             assert!(hits >= 1, "ray through the shared edge at {s} fell through");
         }

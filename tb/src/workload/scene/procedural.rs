@@ -9,8 +9,8 @@ use glam::{vec3a, Vec3A};
 use obvhs::triangle::Triangle;
 
 use super::{Camera, RenderSettings, Scene};
-use crate::geometry::{Primitives, Sphere};
-use crate::rng::Rng;
+use crate::workload::geometry::{Primitives, Sphere};
+use crate::workload::rng::Rng;
 
 pub const NAMES: [&str; 3] = ["wknd", "grid", "clutter"];
 

@@ -21,23 +21,23 @@ pub const PRESETS: [Preset; 4] = [
         name: "paper",
         about: "the paper's text (8 SMs, 64 KB unified L1D/shared, 3 MB L2, 160/100-cycle L2/DRAM); \
                 the rest from Vulkan-Sim MOBILE (default)",
-        toml: include_str!("../hw/paper.toml"),
+        toml: include_str!("../../hw/paper.toml"),
     },
     Preset {
         name: "vulkansim-mobile",
         about: "Vulkan-Sim's MOBILE config file as it is (32 KB L1D beside 64 KB shared, 512 KB L2, 56 GB/s)",
-        toml: include_str!("../hw/vulkansim-mobile.toml"),
+        toml: include_str!("../../hw/vulkansim-mobile.toml"),
     },
     Preset {
         name: "rtx2060",
         about: "Vulkan-Sim's RTX 2060 config (30 SMs, 64 KB L1D, 3 MB L2 in 24 slices, 336 GB/s)",
-        toml: include_str!("../hw/rtx2060.toml"),
+        toml: include_str!("../../hw/rtx2060.toml"),
     },
     Preset {
         name: "legacy",
         about: "this model before it adopted Vulkan-Sim's mechanisms: overlapped stack timing, \
                 per-thread spill regions, linear L2, write-through L1D (reproduces its reports)",
-        toml: include_str!("../hw/legacy.toml"),
+        toml: include_str!("../../hw/legacy.toml"),
     },
 ];
 

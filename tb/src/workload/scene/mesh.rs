@@ -89,11 +89,23 @@ pub(crate) fn checked_vertex(
     }
 }
 
+/// A gzip stream whose read errors say they are about the compressed data (a truncated
+/// download otherwise reads as a bare "incomplete deflate stream").
+struct Gz<R>(GzDecoder<R>);
+
+impl<R: Read> Read for Gz<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.0
+            .read(buf)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("corrupt or truncated gzip data ({e})")))
+    }
+}
+
 /// Opens `path` for buffered reading, decompressing it when its name ends in `.gz`.
 fn open(path: &Path) -> Result<Box<dyn BufRead>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     Ok(if path.extension().is_some_and(|e| e == "gz") {
-        Box::new(BufReader::with_capacity(1 << 16, GzDecoder::new(file)))
+        Box::new(BufReader::with_capacity(1 << 16, Gz(GzDecoder::new(file))))
     } else {
         Box::new(BufReader::with_capacity(1 << 16, file))
     })

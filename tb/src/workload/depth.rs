@@ -12,7 +12,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::workload::{RayTrace, TraceOp};
+use crate::workload::trace::{RayTrace, TraceOp};
 
 /// Histogram of stack depths over pushes and pops.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
@@ -175,8 +175,8 @@ impl<Opts: Serialize> DepthReport<Opts> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::traverse::Recorder;
-    use crate::workload::NodeKind;
+    use crate::workload::trace::NodeKind;
+    use crate::workload::traverse::Recorder;
 
     /// Root, push a, push b, pop b, push c, pop c, pop a: depths 1, 2, 2, 2, 2, 1.
     fn trace() -> RayTrace {

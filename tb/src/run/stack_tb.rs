@@ -6,7 +6,7 @@ use proofs::harness::{run_cycle, CycleOpts, Op, RunError, RunSummary, WarpWork};
 use rtl::stack_unit::StackUnit;
 use rtl::trace::Sink;
 
-use crate::workload::{RayTrace, TraceOp, WarpJob};
+use crate::workload::trace::{RayTrace, TraceOp, WarpJob};
 
 /// A warp job's stack operations per lane. Node visits carry no stack work; they become the
 /// driver's gaps between commands.

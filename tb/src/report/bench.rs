@@ -25,18 +25,19 @@ use rtl::config::Config;
 use rtl::trace::{NullSink, Sink};
 use serde::Serialize;
 
-use crate::bvh::{Bvh, BvhKind};
 use crate::error::{Error, Result};
-use crate::functional;
-use crate::geometry::Ray;
-use crate::sampling::{SampleMode, SamplePlan};
-use crate::scene::Scene;
-use crate::sim::{
+use crate::report::table::Table;
+use crate::run::functional;
+use crate::run::sampling::{SampleMode, SamplePlan};
+use crate::run::sim::{
     simulate, simulate_all, simulate_sampled, Fidelity, Hardware, Metric, Outcome, RunSpec, Sampled,
 };
-use crate::table::Table;
-use crate::traverse::trace;
-use crate::workload::{NodeKind, TraceOp, Workload, WorkloadOpts};
+use crate::workload::bvh::{Bvh, BvhKind};
+use crate::workload::geometry::Ray;
+use crate::workload::scene::Scene;
+use crate::workload::trace::{NodeKind, TraceOp};
+use crate::workload::traverse::trace;
+use crate::workload::{Workload, WorkloadOpts};
 
 /// The baseline every cycle count is normalised to, and the RB size "never overflows" refers to.
 pub const BASELINE: &str = "RB_8";
@@ -423,7 +424,7 @@ fn best_of(mut f: impl FnMut()) -> f64 {
 }
 
 /// One closest-hit pass over `rays` with our traversal of `bvh`, recording nothing.
-fn time_plain(bvh: &Bvh, scene: &Scene, rays: &[Ray], order: crate::workload::ChildOrder) -> f64 {
+fn time_plain(bvh: &Bvh, scene: &Scene, rays: &[Ray], order: crate::workload::traverse::ChildOrder) -> f64 {
     best_of(|| {
         let hits =
             rays.iter().filter(|r| trace(bvh, &scene.primitives, r, f32::INFINITY, order, &mut ()).is_some());

@@ -1,5 +1,5 @@
 //! The hardware around the stack, and its description format: the TOML of `--hw` and of the
-//! shipped presets ([`crate::presets`]).
+//! shipped presets ([`presets`]).
 //!
 //! A description has three tables: `[rt]` (operation latencies), `[stack]` (how stack traffic is
 //! timed) and `[mem]` (the memory system). Keys a file does not name keep their value from the
@@ -9,7 +9,7 @@
 use rtl::mem::{Assoc, L1dWrite, LocalLayout, MemParams, SetIndex};
 use rtl::rt_unit::{RtParams, StackTiming};
 
-use crate::presets;
+pub mod presets;
 
 /// Hardware parameters around the stack: operation latencies, stack timing and the memory system.
 /// `mem.l1d_bytes` is the L1D, or with `shared_carveout` the whole unified L1D/shared array from

@@ -9,7 +9,7 @@
 use glam::{DVec3, Vec3, Vec3A};
 use obvhs::{aabb::Aabb, triangle::Triangle, Boundable};
 
-use crate::workload::NodeKind;
+use crate::workload::trace::NodeKind;
 
 /// A ray with its precomputed reciprocal direction. `tmax` is kept by the caller because it
 /// shrinks as closer hits are found.

@@ -13,9 +13,9 @@ use std::path::Path;
 use glam::Vec3A;
 
 use crate::error::{Error, Result};
-use crate::geometry::Ray;
-use crate::rng::Rng;
-use crate::scene::Camera;
+use crate::workload::geometry::Ray;
+use crate::workload::rng::Rng;
+use crate::workload::scene::Camera;
 
 /// Reflectance of every surface.
 pub const ALBEDO: f32 = 0.7;

@@ -29,13 +29,14 @@ use rtl::stack_manager::StackStats;
 use rtl::trace::{NullSink, Sink};
 use serde::Serialize;
 
-use crate::bvh::{
+use crate::error::{Error, Result};
+use crate::run::sampling::{choose, estimate, Estimate, SamplePlan};
+use crate::workload::bvh::{
     BvhKind, BVH2_NODE_SIZE, BVH6_LEAF_DESC_SIZE, BVH6_NODE_SIZE, BVH_HEADER_SIZE, CWBVH_NODE_SIZE,
     INSTANCE_LEAF_SIZE, PRIM_SIZE,
 };
-use crate::error::{Error, Result};
-use crate::sampling::{choose, estimate, Estimate, SamplePlan};
-use crate::workload::{NodeKind, TraceOp, WarpJob, Workload, WARP_SIZE};
+use crate::workload::trace::{NodeKind, TraceOp, WarpJob, WARP_SIZE};
+use crate::workload::Workload;
 
 /// How much of the machine a run models.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
@@ -82,7 +83,7 @@ fn rtl_kind(kind: NodeKind) -> RtlKind {
 
 /// A traceRay call of a warp as the RT unit's stimulus.
 pub fn rtl_job(job: &WarpJob, bvh: BvhKind) -> ray_op::WarpJob {
-    let lane = |t: &crate::workload::RayTrace| {
+    let lane = |t: &crate::workload::trace::RayTrace| {
         t.ops()
             .map(|op| match op {
                 TraceOp::Visit { addr, kind } => {
@@ -365,7 +366,7 @@ fn simulate_inner<S: Sink>(
     let (stack, gpu, pops_checked) = match spec.fidelity {
         Fidelity::Functional => {
             let mut last = Instant::now();
-            let run = crate::functional::run(
+            let run = crate::run::functional::run(
                 spec.config,
                 pixel_warps.inspect(|_| {
                     if last.elapsed() > Duration::from_millis(500) {
@@ -554,7 +555,7 @@ mod tests {
     use super::*;
     use crate::workload::WorkloadOpts;
 
-    fn workload(scene: &crate::scene::Scene, res: u32) -> Workload<'_> {
+    fn workload(scene: &crate::workload::scene::Scene, res: u32) -> Workload<'_> {
         let opts = WorkloadOpts {
             width: res,
             height: res,
@@ -580,8 +581,8 @@ mod tests {
 
     #[test]
     fn instance_leaves_and_headers_cost_their_bytes_and_latencies() {
-        let mut t = crate::workload::RayTrace::default();
-        use crate::traverse::Recorder;
+        let mut t = crate::workload::trace::RayTrace::default();
+        use crate::workload::traverse::Recorder;
         t.visit(0x100, NodeKind::BvhHeader);
         t.visit(0x200, NodeKind::Instance);
         let mut lanes = vec![None; WARP_SIZE];
@@ -597,7 +598,9 @@ mod tests {
     #[test]
     fn two_level_runs_at_both_levels_with_every_pop_checked() {
         let scene = crate::load_scene("clutter").unwrap();
-        for order in [crate::workload::ChildOrder::Nearest, crate::workload::ChildOrder::VulkanSim] {
+        for order in
+            [crate::workload::traverse::ChildOrder::Nearest, crate::workload::traverse::ChildOrder::VulkanSim]
+        {
             let opts = WorkloadOpts {
                 width: 16,
                 height: 16,
@@ -659,7 +662,7 @@ mod tests {
         let s = spec("RB_4+SH_4", Fidelity::Functional);
         let full = simulate_all(&s, &w).unwrap();
         let plan =
-            SamplePlan { fraction: 1.0, mode: crate::sampling::SampleMode::Random, batches: 4, seed: 1 };
+            SamplePlan { fraction: 1.0, mode: crate::run::sampling::SampleMode::Random, batches: 4, seed: 1 };
         let sampled = simulate_sampled(&s, &w, &plan, |_| {}).unwrap();
         let sum: u64 = sampled.batches.iter().map(|b| b.stack.global()).sum();
         assert_eq!(sum, full.stack.global(), "the batches partition the warps");
@@ -686,7 +689,7 @@ mod cycle_sampling_tests {
         };
         let full = simulate_all(&s, &w).unwrap();
         let plan =
-            SamplePlan { fraction: 1.0, mode: crate::sampling::SampleMode::Random, batches: 4, seed: 3 };
+            SamplePlan { fraction: 1.0, mode: crate::run::sampling::SampleMode::Random, batches: 4, seed: 3 };
         let sampled = simulate_sampled(&s, &w, &plan, |_| {}).unwrap();
         let launch = sampled.launch.unwrap();
         assert_eq!(launch.gpu.unwrap().cycles, full.gpu.unwrap().cycles, "one launch of every warp");

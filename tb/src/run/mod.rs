@@ -1,0 +1,9 @@
+//! Running workloads on the model: the cycle-level simulation ([`sim`]), the functional level
+//! ([`functional`]) over the stack testbench ([`stack_tb`]), sampling ([`sampling`]) and sweeps
+//! of configurations over scenes ([`sweep`]).
+
+pub mod functional;
+pub mod sampling;
+pub mod sim;
+pub mod stack_tb;
+pub mod sweep;
