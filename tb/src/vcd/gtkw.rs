@@ -24,7 +24,7 @@ use rtl::trace::Kind;
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The per-thread stack fields in display order: command, RB, SH queue, spill, RA, status.
 /// Fields not listed (a future probe) follow in walk order.
@@ -167,8 +167,13 @@ pub fn write(
     }
     let mut f = BufWriter::new(File::create(save)?);
     writeln!(f, "[*] sms waves, written by tb::vcd")?;
-    writeln!(f, "[dumpfile] \"{}\"", dump.display())?;
-    writeln!(f, "[savefile] \"{}\"", save.display())?;
+    // Beside its dump, a save file names both by file name only, so the pair can be moved
+    // (GTKWave resolves a relative dump path against the save file's folder).
+    let beside = dump.parent() == save.parent();
+    let name =
+        |p: &Path| if beside { p.file_name().map_or(p.into(), PathBuf::from) } else { p.to_path_buf() };
+    writeln!(f, "[dumpfile] \"{}\"", name(dump).display())?;
+    writeln!(f, "[savefile] \"{}\"", name(save).display())?;
     writeln!(f, "[timestart] {from}")?;
     writeln!(f, "[size] {} {}", SIZE.0, SIZE.1)?;
     writeln!(f, "[signals_width] {SIGNALS_WIDTH}")?;
