@@ -111,7 +111,7 @@ impl Gpu {
             .map(|sm| RtUnit::new(sm, cfg, rt, mem.sector_bytes))
             .collect::<Result<Vec<_>, _>>()?;
         for u in &mut units {
-            u.stack.set_local_layout(mem.local_layout, mem.sms);
+            u.stack_unit.manager.set_local_layout(mem.local_layout, mem.sms);
         }
         let n = units.len();
         Ok(Gpu { cfg, rt, units, mem: sys, rr: 0, reqs: vec![None; n], jobs_in: vec![None; n] })
@@ -126,7 +126,7 @@ impl Gpu {
     #[cfg(feature = "mutants")]
     pub fn with_mutant(mut self, m: crate::stack_manager::Mutant) -> Self {
         for u in &mut self.units {
-            u.stack.mutant = Some(m);
+            u.stack_unit.manager.mutant = Some(m);
         }
         self
     }
@@ -264,7 +264,7 @@ impl Gpu {
         let l2 = self.mem.l2().counters();
         let mut stack = StackStats::default();
         for u in &self.units {
-            stack.add(&u.stack.stats);
+            stack.add(&u.stack_unit.manager.stats);
         }
         let sum = |f: fn(&RtUnit) -> u64| self.units.iter().map(f).sum::<u64>();
         GpuReport {
@@ -281,7 +281,7 @@ impl Gpu {
             l1d_hit_rate: hit_rate(&self.mem.l1d_counters()),
             l2_hit_rate: hit_rate(self.mem.l2().counters()),
             stack,
-            bank_conflict_cycles: sum(|u| u.arb.conflict_cycles),
+            bank_conflict_cycles: sum(|u| u.stack_unit.arb.conflict_cycles),
             pops_checked: sum(|u| u.stats.pops_checked),
             last_dispatch: 0,
         }

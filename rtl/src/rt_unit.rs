@@ -51,14 +51,14 @@
 //! - Node data is not modelled, only addresses; stack entries are (the stack manager moves real
 //!   values, which is how every pop is checked).
 
-use crate::bank_arbiter::{BankArbiter, MIN_SH_LATENCY};
+use crate::bank_arbiter::MIN_SH_LATENCY;
 use crate::config::{Config, ConfigError};
 use crate::mem::{MemReq, MemResp, ReqKind};
-use crate::mem_sched::MemSched;
 use crate::node_fetch::{pieces, NodeFetch};
 use crate::ray_op::{NodeKind, RayOp, WarpJob};
 pub use crate::stack_manager::StackTiming;
-use crate::stack_manager::{Cmd, StackError, StackManager};
+use crate::stack_manager::{Cmd, StackError};
+use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
 use crate::trace::{Probe, Sink};
 
 /// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and run options.
@@ -337,9 +337,10 @@ pub struct RtUnit {
     id: u32,
     cfg: Config,
     rt: RtParams,
-    pub stack: StackManager,
-    pub arb: BankArbiter,
-    pub sched: MemSched,
+    /// Stack manager, bank arbiter and memory scheduler.
+    pub stack_unit: StackUnit,
+    /// The stack unit's cycle (its outputs, read by the checks and the probe).
+    stack_d: StackUnitStep,
     pub fetch: NodeFetch,
     slots: Vec<Option<Slot>>,
     threads: Vec<Thread>,
@@ -380,9 +381,8 @@ impl RtUnit {
             id,
             cfg,
             rt,
-            stack: StackManager::new(cfg, id)?.with_acked_stores(rt.stack_timing == StackTiming::Blocking),
-            arb: BankArbiter::with_latency(cfg.banks, rt.sh_latency),
-            sched: MemSched::new(),
+            stack_unit: StackUnit::new(cfg, id, rt.stack_timing, rt.sh_latency)?,
+            stack_d: StackUnitStep::default(),
             fetch: NodeFetch::new(sector_bytes),
             slots: vec![None; warps],
             threads: vec![Thread::default(); threads],
@@ -428,7 +428,7 @@ impl RtUnit {
             return None;
         }
         let bytes = self.cfg.entry_bytes;
-        if let Some(g) = self.sched.head() {
+        if let Some(g) = self.stack_unit.req() {
             self.port = Port::Stack;
             return Some(if g.write {
                 let tag = match self.rt.stack_timing {
@@ -461,16 +461,19 @@ impl RtUnit {
         if accepted && self.port == Port::Node {
             self.fetch.taken();
         }
-        if took_stack && self.sched.head().is_some_and(|g| g.write) {
+        if took_stack && self.stack_unit.req().is_some_and(|g| g.write) {
             self.store_seq += 1;
         }
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
         // must leave nothing behind.
         for w in 0..self.cfg.warps {
-            if self.slots[w as usize].is_some() && self.lanes[w as usize].live == 0 && self.stack.warp_done(w)
+            if self.slots[w as usize].is_some()
+                && self.lanes[w as usize].live == 0
+                && self.stack_unit.manager.warp_done(w)
             {
-                if let Some(thread) = self.stack.warp_threads(w).find(|&t| !self.stack_clear(t)) {
+                if let Some(thread) = self.stack_unit.manager.warp_threads(w).find(|&t| !self.stack_clear(t))
+                {
                     return Err(RunError::ExitNotEmpty { cycle: now, sm: self.id, thread });
                 }
                 if let Some(slot) = self.slots[w as usize].take() {
@@ -574,7 +577,7 @@ impl RtUnit {
                         };
                     }
                     ThreadState::Stack => {
-                        if self.stack.ready(t) {
+                        if self.stack_unit.manager.ready(t) {
                             let cmd = match ops.get(th.pos as usize) {
                                 Some(RayOp::Push(a)) => Cmd::Push(*a),
                                 Some(RayOp::Pop(a)) => {
@@ -610,18 +613,19 @@ impl RtUnit {
         }
 
         // Stack subsystem.
-        self.stack.step(&self.cmds, self.arb.done(), self.sched.delivered());
-        if let Some(&error) = self.stack.errors().first() {
+        let stack_in =
+            StackUnitIn { cmds: &self.cmds, req_ready: took_stack, completions: &self.completions };
+        self.stack_unit.eval(now, &stack_in, &mut self.stack_d);
+        self.stack_unit.commit(&self.stack_d);
+        if let Some(&error) = self.stack_d.manager.errors.first() {
             return Err(RunError::Stack { cycle: now, sm: self.id, error });
         }
-        for (&(thread, expected), &(_, got)) in self.expected_pops.iter().zip(self.stack.pops()) {
+        for (&(thread, expected), &(_, got)) in self.expected_pops.iter().zip(&self.stack_d.manager.pops) {
             if got != expected {
                 return Err(RunError::PopMismatch { cycle: now, sm: self.id, thread, expected, got });
             }
         }
         self.stats.pops_checked += self.expected_pops.len() as u64;
-        self.arb.step(now, self.stack.sh_requests());
-        self.sched.step(self.stack.global_requests(), took_stack, &self.completions);
 
         if let (Some(job), Some(w)) = (job, load_slot) {
             self.load(w, job, now);
@@ -630,20 +634,25 @@ impl RtUnit {
         // Next event: anything that acts next cycle without a memory response, else the first
         // operation unit to finish.
         let acts_next = !self.fetch.queue_empty()
-            || self.arb.busy()
-            || !self.sched.is_idle()
+            || self.stack_unit.arb.busy()
+            || !self.stack_unit.sched.is_idle()
             || (0..self.cfg.warps).any(|w| {
                 let m = &self.lanes[w as usize];
                 self.slots[w as usize].is_some()
                     && (self.fetchable(w) != 0
                         || m.live == 0
-                        || lanes_of(m.stack).any(|l| self.stack.ready(w * ws + l)))
+                        || lanes_of(m.stack).any(|l| self.stack_unit.manager.ready(w * ws + l)))
             })
-            || self.stack.can_issue();
+            || self.stack_unit.manager.can_issue();
         // A lane waiting to fetch on its sequencer (Blocking) moves when the sequencer completes,
         // which one of the events here or a memory response causes.
-        let event =
-            self.lanes.iter().map(|m| m.busy_until).chain(self.arb.pipe_due()).min().unwrap_or(u64::MAX);
+        let event = self
+            .lanes
+            .iter()
+            .map(|m| m.busy_until)
+            .chain(self.stack_unit.arb.pipe_due())
+            .min()
+            .unwrap_or(u64::MAX);
         self.next_event = if acts_next { Some(now + 1) } else { (event != u64::MAX).then_some(event) };
         Ok(())
     }
@@ -656,7 +665,7 @@ impl RtUnit {
             StackTiming::Overlapped => m,
             StackTiming::Blocking => {
                 let ws = self.cfg.warp_size;
-                lanes_of(m).filter(|&l| self.stack.ready(w * ws + l)).fold(0, |a, l| a | 1 << l)
+                lanes_of(m).filter(|&l| self.stack_unit.manager.ready(w * ws + l)).fold(0, |a, l| a | 1 << l)
             }
         }
     }
@@ -664,10 +673,10 @@ impl RtUnit {
     /// Thread `t` holds no stack entry anywhere, and with reallocation its own SH stack is idle
     /// (back from any borrower).
     fn stack_clear(&self, t: u32) -> bool {
-        let st = self.stack.stack(t);
-        self.stack.rb(t).is_empty()
+        let st = self.stack_unit.manager.stack(t);
+        self.stack_unit.manager.rb(t).is_empty()
             && (self.cfg.sh_entries == 0 || st.empty)
-            && self.stack.thread(t).spill_ptr == 0
+            && self.stack_unit.manager.thread(t).spill_ptr == 0
             && (self.cfg.realloc.is_none() || st.idle)
     }
 
@@ -675,7 +684,7 @@ impl RtUnit {
     fn load(&mut self, w: u32, job: WarpJob, now: u64) {
         let ws = self.cfg.warp_size;
         let active = job.active_mask();
-        self.stack.load_warp(w, active);
+        self.stack_unit.manager.load_warp(w, active);
         // A two-level trace fetches the acceleration structure's header as its first visit and
         // pays the header latency there; a flat trace reads it without a fetch, here.
         let header_fetched =
@@ -744,11 +753,7 @@ impl Probe for RtUnit {
         s.signal("stack", 1, u64::from(self.port == Port::Stack));
         s.pop_scope();
         self.fetch.probe(s);
-        s.push_scope("stack_manager");
-        self.stack.probe(s);
-        s.pop_scope();
-        self.arb.probe(s);
-        self.sched.probe(s);
+        self.stack_unit.probe(&self.cmds, &self.stack_d, s);
         s.pop_scope();
     }
 }

@@ -83,7 +83,10 @@ pub fn write(save: &Path, dump: &Path, signals: &[(String, u32)], from: u64, end
     let mut first_thread = true;
     for (scope, group) in groups(signals) {
         let closed = scope.contains("thread[") && !std::mem::take(&mut first_thread);
-        let label = scope.strip_prefix("rt_unit.").unwrap_or(&scope);
+        let label = ["rt_unit.stack_manager.", "rt_unit."]
+            .iter()
+            .find_map(|p| scope.strip_prefix(p))
+            .unwrap_or(&scope);
         let closed_bits = if closed { TR_CLOSED } else { 0 };
         set_flags(&mut f, TR_GRP_BEGIN | TR_BLANK | closed_bits)?;
         writeln!(f, "-{label}")?;
