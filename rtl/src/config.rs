@@ -355,6 +355,8 @@ pub struct Widths {
     pub warp: u32,
     /// Live-lane count of a warp, 0..=warp_size.
     pub live: u32,
+    /// A thread's traversal state ([`crate::thread_fsm::ThreadState`]).
+    pub thread_state: u32,
 }
 
 impl Widths {
@@ -379,6 +381,7 @@ impl Widths {
             sh_requests: bits_for(c.threads() as u64),
             warp: bits_for(u64::from(c.warps.max(2) - 1)),
             live: bits_for(c.warp_size as u64),
+            thread_state: bits_for(crate::thread_fsm::ThreadState::STATES - 1),
         }
     }
 }

@@ -20,11 +20,12 @@
 //! (tested). A sink sees every cycle it wants ([`Sink::next_wanted`]): skipping never jumps over one, so a
 //! dump has every cycle of its window, and cycles outside the window are skipped as usual.
 
+use crate::clock::EvalCheck;
 use crate::config::{Config, ConfigError};
 use crate::mem::hierarchy::MemSystem;
 use crate::mem::{Counters, MemParams, MemReq, ReqKind};
 use crate::ray_op::WarpJob;
-use crate::rt_unit::{RtParams, RtUnit, RunError};
+use crate::rt_unit::{RtIn, RtParams, RtStep, RtUnit, RunError};
 use crate::stack_manager::StackStats;
 use crate::trace::{Probe, Sink};
 
@@ -98,9 +99,32 @@ pub struct Gpu {
     mem: MemSystem,
     /// Next SM the dispatcher tries.
     rr: usize,
-    /// Scratch, reused every cycle.
+    /// How sibling RT units are evaluated each cycle ([`Gpu::with_eval_check`]).
+    eval_check: EvalCheck,
+    #[cfg(feature = "mutants")]
+    order_bug: Option<OrderBug>,
+    /// Per SM: the request offered, whether the L1D was ready for it, the job dispatched, and
+    /// the RT unit's cycle (reused every cycle).
     reqs: Vec<Option<MemReq>>,
+    req_ready: Vec<bool>,
     jobs_in: Vec<Option<WarpJob>>,
+    steps: Vec<RtStep>,
+    /// Evaluation order of the RT units this cycle.
+    order: Vec<usize>,
+}
+
+/// Deliberately order-dependent runners, to show the [`EvalCheck`] runs catch such bugs. Test
+/// builds only.
+#[cfg(feature = "mutants")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OrderBug {
+    /// The dispatcher hands this cycle's jobs to the free RT units in the order they are
+    /// evaluated, instead of round-robin by index: one unit's job depends on when its siblings
+    /// were visited.
+    DispatchInEvalOrder,
+    /// An RT unit's step is not cleared between evaluations: a second evaluation in the same
+    /// cycle counts the visits again.
+    StaleStep,
 }
 
 impl Gpu {
@@ -114,7 +138,21 @@ impl Gpu {
             u.stack_unit.manager.set_local_layout(mem.local_layout, mem.sms);
         }
         let n = units.len();
-        Ok(Gpu { cfg, rt, units, mem: sys, rr: 0, reqs: vec![None; n], jobs_in: vec![None; n] })
+        Ok(Gpu {
+            cfg,
+            rt,
+            units,
+            mem: sys,
+            rr: 0,
+            eval_check: EvalCheck::Dataflow,
+            #[cfg(feature = "mutants")]
+            order_bug: None,
+            reqs: vec![None; n],
+            req_ready: vec![false; n],
+            jobs_in: vec![None; n],
+            steps: vec![RtStep::default(); n],
+            order: Vec::with_capacity(n),
+        })
     }
 
     /// SPEC 7 defaults: 8 SMs, the L1D is 64 KB less the SH stacks' shared memory.
@@ -128,6 +166,21 @@ impl Gpu {
         for u in &mut self.units {
             u.stack_unit.manager.mutant = Some(m);
         }
+        self
+    }
+
+    /// Evaluate the RT units in the order, and as many times per cycle, that `check` says (the
+    /// report must not change: tests compare it with the [`EvalCheck::Dataflow`] run's).
+    pub fn with_eval_check(mut self, check: EvalCheck) -> Self {
+        self.eval_check = check;
+        // The memory system takes the same check once it can (issue 13, part A).
+        self
+    }
+
+    /// A deliberately order-dependent runner (test builds).
+    #[cfg(feature = "mutants")]
+    pub fn with_order_bug(mut self, bug: OrderBug) -> Self {
+        self.order_bug = Some(bug);
         self
     }
 
@@ -180,9 +233,17 @@ impl Gpu {
         let mut evaluated = 0;
         loop {
             let now = self.mem.cycle();
+            self.eval_check.order(now, n, &mut self.order);
             // Dispatch (reads the slots' registers).
             let start = self.rr;
             for k in 0..n {
+                #[cfg(feature = "mutants")]
+                let sm = if self.order_bug == Some(OrderBug::DispatchInEvalOrder) {
+                    self.order[k]
+                } else {
+                    (start + k) % n
+                };
+                #[cfg(not(feature = "mutants"))]
                 let sm = (start + k) % n;
                 if self.units[sm].free_slot().is_none() {
                     continue;
@@ -201,18 +262,44 @@ impl Gpu {
             {
                 break;
             }
-            for (sm, u) in self.units.iter_mut().enumerate() {
-                self.reqs[sm] = u.offer(self.mem.ready(sm));
+            // Dataflow: the RT units' requests come from their registers and the L1Ds' ready
+            // registers; the memory system evaluates on them; the RT units (siblings: none reads
+            // another) evaluate on its outputs; then every unit commits at the clock edge.
+            for (sm, u) in self.units.iter().enumerate() {
+                self.req_ready[sm] = self.mem.ready(sm);
+                self.reqs[sm] = u.req(self.req_ready[sm]);
             }
             let out = self.mem.eval(&self.reqs);
             evaluated += 1;
-            for (sm, u) in self.units.iter_mut().enumerate() {
-                u.step(
+            let mut first_error: Option<(usize, RunError)> = None;
+            for &sm in &self.order {
+                let i = RtIn {
                     now,
-                    out[sm].ready && self.reqs[sm].is_some(),
-                    &out[sm].resp,
-                    self.jobs_in[sm].take(),
-                )?;
+                    req_ready: self.req_ready[sm],
+                    req_fire: out[sm].ready && self.reqs[sm].is_some(),
+                    resp: &out[sm].resp,
+                };
+                for _pass in 0..self.eval_check.passes() {
+                    #[cfg(feature = "mutants")]
+                    let earlier = (self.order_bug == Some(OrderBug::StaleStep) && _pass > 0)
+                        .then(|| self.steps[sm].visits());
+                    if let Err(e) = self.units[sm].eval(&i, &mut self.steps[sm]) {
+                        // The lowest SM's error, whatever the evaluation order.
+                        if first_error.as_ref().is_none_or(|f| sm < f.0) {
+                            first_error = Some((sm, e));
+                        }
+                    }
+                    #[cfg(feature = "mutants")]
+                    if let Some(v) = earlier {
+                        self.steps[sm].count_visits_again(v);
+                    }
+                }
+            }
+            if let Some((_, e)) = first_error {
+                return Err(e);
+            }
+            for &sm in &self.order {
+                self.units[sm].commit(&self.steps[sm], self.jobs_in[sm].take());
             }
             #[cfg(not(feature = "untraced"))]
             if sink.next_wanted(now) == Some(now) {
@@ -293,9 +380,9 @@ impl Probe for Gpu {
         if !s.enabled() {
             return;
         }
-        for (sm, u) in self.units.iter().enumerate() {
+        for (sm, (u, d)) in self.units.iter().zip(&self.steps).enumerate() {
             s.push_scope(&format!("sm{sm}"));
-            u.probe(s);
+            u.probe(d, s);
             s.pop_scope();
         }
         s.push_scope("mem");
