@@ -357,6 +357,9 @@ pub struct Widths {
     pub live: u32,
     /// A thread's traversal state ([`crate::thread_fsm::ThreadState`]).
     pub thread_state: u32,
+    /// Sequencer step: position in the longest micro-op program a command loads (a flush of M
+    /// entries, 2M micro-ops, with the spill and the refill around it): 2M + 4 states.
+    pub seq_step: u32,
 }
 
 impl Widths {
@@ -382,6 +385,7 @@ impl Widths {
             warp: bits_for(u64::from(c.warps.max(2) - 1)),
             live: bits_for(c.warp_size as u64),
             thread_state: bits_for(crate::thread_fsm::ThreadState::STATES - 1),
+            seq_step: bits_for(u64::from(2 * m + 4)),
         }
     }
 }

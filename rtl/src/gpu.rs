@@ -5,10 +5,14 @@
 //!                   │
 //!        ┌──────────┼──────────────┐
 //!        ▼          ▼              ▼
-//!     RT unit 0  RT unit 1  …  RT unit n-1      each: offer ≤ 1 request, then step on responses
+//!     RT unit 0  RT unit 1  …  RT unit n-1      each: req ≤ 1 (from registers), eval on responses
 //!        │          │              │
 //!        └──────────┴── MemSystem ─┘  (eval: ready + responses per SM; commit: clock edge)
 //! ```
+//!
+//! One cycle: the RT units' requests (from registers) go to [`MemSystem::eval`]; the RT units
+//! evaluate on its outputs (siblings: in index order, or as [`Gpu::with_eval_check`] says); then
+//! every RT unit and the memory system commit at the clock edge.
 //!
 //! Dispatch is a kernel launch's: job i goes to the next SM after the one that took job i-1 that
 //! has a free warp slot, so at launch SM k gets jobs k, k + n, k + 2n, … and later jobs go wherever

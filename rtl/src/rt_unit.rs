@@ -1,5 +1,7 @@
-//! One RT unit: warp buffer, GTO warp scheduler, per-thread traversal state, node fetch, and the
-//! stack subsystem (stack manager, bank arbiter, memory scheduler), sharing one memory port.
+//! One RT unit: warp buffer ([`crate::warp_buffer`]), GTO warp scheduler
+//! ([`crate::scheduler`]), per-thread traversal state machine ([`crate::thread_fsm`]), node fetch,
+//! and the stack unit ([`crate::stack_unit`]: stack manager, bank arbiter, memory scheduler),
+//! sharing one memory port.
 //!
 //! ```text
 //!  warp job ──► warp buffer (≤ cfg.warps slots, oldest = lowest age)
@@ -19,24 +21,21 @@
 //! slot empty), and there are few of them, while node fetches are the bulk of the traffic and
 //! simply wait one cycle more.
 //!
-//! Thread states (SPEC 7, "fetch → intersect → stack update → next"): a thread's next operation
-//! decides its state. A Visit waits in Fetch until the scheduler picks its warp, then waits for
-//! one response per sector piece of its node (WaitMem), then spends its kind's latency (Busy).
-//! Push, Pop and the final Finish go to the stack manager one per cycle, each when the stack
-//! manager is `ready` for the thread; a Pop's answer must equal the trace's address, else the run
-//! stops with [`RunError::PopMismatch`]. With [`StackTiming::Blocking`] (the default) a lane
-//! waiting to fetch is scheduled only once its stack sequencer is idle too: the pop's refill and
-//! the pushes' spills (each global store until the L2 acknowledges it) finish before the next
-//! node fetch, as in the paper's RT unit; since Finish also waits for `ready`, a warp cannot leave
-//! with a store unacknowledged. With [`StackTiming::Overlapped`] stores are posted and the refill
-//! overlaps the fetch. A ray spends the BVH-header latency once, when its warp
-//! is loaded (Vulkan-Sim reads the acceleration structure's header before the root).
+//! Thread states ([`crate::thread_fsm`]): a Pop's answer must equal the trace's address, else
+//! the run stops with [`RunError::PopMismatch`]. With [`StackTiming::Blocking`] (the default) a
+//! lane waiting to fetch is scheduled only once its stack sequencer is idle too: the pop's refill
+//! and the pushes' spills (each global store until the L2 acknowledges it) finish before the next
+//! node fetch, as in the paper's RT unit; since Finish also waits for `ready`, a warp cannot
+//! leave with a store unacknowledged. With [`StackTiming::Overlapped`] stores are posted and the
+//! refill overlaps the fetch. A ray spends the BVH-header latency once, when its warp is loaded
+//! (Vulkan-Sim reads the acceleration structure's header before the root).
 //!
-//! Clocking: every decision of a cycle reads registers only (thread states, fetch masks, the
-//! fetch queue, `ready` of the stack manager, last cycle's arbiter and FIFO outputs, the
-//! responses the L1D shows this cycle). Each thread's next state is a function of its own
-//! state and those inputs, so the order in which threads are visited does not matter. A warp
-//! that finished leaves at the start of a cycle; a new job lands in a slot at the end.
+//! Clocking: [`RtUnit::eval`] reads registers only (thread states, lane masks, the fetch queue,
+//! `ready` of the stack manager, the arbiter's and FIFO's registered outputs) and this cycle's
+//! inputs (the L1D's `ready` and responses), and writes an [`RtStep`]; [`RtUnit::commit`]
+//! applies it. Each thread's next state is [`thread_fsm::next`] of its own state and those
+//! inputs, so the order in which threads are visited does not matter. A warp that finished
+//! leaves at the edge of the cycle it is seen done; a new job lands in a slot at the same edge.
 //!
 //! Simplified, and why:
 //! - Threads of a warp advance independently (no SIMT reconvergence): the RT unit works per ray,

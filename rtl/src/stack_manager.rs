@@ -20,7 +20,7 @@
 //! registers and this cycle's inputs and writes a [`StackStep`]: the outputs (SH and global
 //! requests, pops, refusals) and the ordered register writes (the next state as a journal, so a
 //! cycle copies no register array); [`StackManager::commit`] applies them at the clock edge.
-//! Planning a command ([`Planner`]) is pure in the same way: it reads the stack registers as the
+//! Planning a command (`Planner`) is pure in the same way: it reads the stack registers as the
 //! cycle's earlier writes leave them (two threads of a warp may both touch idle stacks in one
 //! cycle) and returns its decisions and micro-ops; a refused command changes nothing.
 //!
@@ -167,11 +167,29 @@ pub enum Uop {
 /// region) a traversal deeper than the configured region.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum StackError {
-    PopEmpty { thread: u32 },
-    FinishNonEmpty { thread: u32 },
-    Busy { thread: u32 },
-    AfterFinish { thread: u32 },
-    SpillRegionFull { thread: u32, entries: u32 },
+    PopEmpty {
+        thread: u32,
+    },
+    FinishNonEmpty {
+        thread: u32,
+    },
+    Busy {
+        thread: u32,
+    },
+    AfterFinish {
+        thread: u32,
+    },
+    SpillRegionFull {
+        thread: u32,
+        entries: u32,
+    },
+    /// A register would take a value its width (from [`Widths`]) cannot hold.
+    Overflow {
+        thread: u32,
+        field: &'static str,
+        value: u64,
+        bits: u32,
+    },
 }
 
 impl std::fmt::Display for StackError {
@@ -186,6 +204,9 @@ impl std::fmt::Display for StackError {
             }
             StackError::AfterFinish { thread } => {
                 write!(f, "thread {thread}: command after finish")
+            }
+            StackError::Overflow { thread, field, value, bits } => {
+                write!(f, "thread {thread}: {field} = {value} does not fit its {bits}-bit register")
             }
             StackError::SpillRegionFull { thread, entries } => {
                 write!(
@@ -206,7 +227,8 @@ impl StackError {
             | StackError::FinishNonEmpty { thread }
             | StackError::Busy { thread }
             | StackError::AfterFinish { thread }
-            | StackError::SpillRegionFull { thread, .. } => thread,
+            | StackError::SpillRegionFull { thread, .. }
+            | StackError::Overflow { thread, .. } => thread,
         }
     }
 }
@@ -367,10 +389,10 @@ pub struct StackIn<'a> {
     /// Commands, at most one per thread, each from a thread that is [`StackManager::ready`].
     pub cmds: &'a [(u32, Cmd)],
     /// Threads whose SH request the bank arbiter completed (its registered `done`).
-    pub sh_done: &'a [u32],
+    pub done: &'a [u32],
     /// Thread whose load data (or, with acknowledged stores, store acknowledgement) the response
     /// FIFO delivered (its registered `deq`).
-    pub g_done: Option<u32>,
+    pub deq: Option<u32>,
 }
 
 /// The stack manager's cycle: its outputs and the writes its registers take at the clock edge
@@ -762,13 +784,13 @@ impl StackManager {
         d.writes.push(Write::Seq { thread: t, issued: head.is_some(), inflight, latch });
     }
 
-    /// One clock cycle at the cycle level, combinational: completions (`sh_done`, `g_done`) land
+    /// One clock cycle at the cycle level, combinational: completions (`done`, `deq`) land
     /// in their sequencers, every sequencer with nothing in flight issues its next micro-op, and
     /// each command is planned (in order: a plan sees the stack registers earlier ones changed).
     /// `d` receives the outputs and the register writes; nothing in `self` changes.
     pub fn eval(&self, i: &StackIn, d: &mut StackStep) {
         d.clear();
-        for &t in i.sh_done.iter().chain(i.g_done.iter()) {
+        for &t in i.done.iter().chain(i.deq.iter()) {
             let (inflight, latch) = match d.completed.iter().find(|c| c.0 == t) {
                 Some(c) => (c.1, c.2),
                 None => (self.seq[t as usize].inflight, self.seq[t as usize].latch),
@@ -917,6 +939,7 @@ impl<'a> Planner<'a> {
             Cmd::Pop => p.pop().map(Some),
             Cmd::Finish => p.finish().map(|_| None),
         };
+        let r = r.and_then(|v| p.check_widths().map(|_| v));
         match r {
             Ok(_) => {
                 let Planner { d, th, stats, .. } = p;
@@ -938,6 +961,32 @@ impl<'a> Planner<'a> {
 
     fn cfg(&self) -> &Config {
         &self.m.cfg
+    }
+
+    /// The registers this plan fills must hold their values: the RB count (unbounded for
+    /// RB_FULL in the model, [`crate::config::RB_FULL_COUNT_BITS`] wide) and the sequencer step
+    /// (the program's length).
+    fn check_widths(&self) -> Result<(), StackError> {
+        let w = &self.m.w;
+        let t = self.t;
+        let writes = &self.d.writes[self.first_write..];
+        let pushed = writes.iter().filter(|x| matches!(x, Write::RbPushBack(..))).count();
+        let popped =
+            writes.iter().filter(|x| matches!(x, Write::RbPopBack(_) | Write::RbPopFront(_))).count();
+        let rb = (self.rb_len() + pushed - popped) as u64;
+        if rb >= 1 << w.rb_count {
+            return Err(StackError::Overflow { thread: t, field: "rb_count", value: rb, bits: w.rb_count });
+        }
+        let steps = writes.iter().filter(|x| matches!(x, Write::Emit(..))).count() as u64;
+        if steps >= 1 << w.seq_step {
+            return Err(StackError::Overflow {
+                thread: t,
+                field: "seq_step",
+                value: steps,
+                bits: w.seq_step,
+            });
+        }
+        Ok(())
     }
 
     fn mutant(&self, tag: MutantTag) -> bool {
@@ -1376,5 +1425,28 @@ impl StackManager {
             }
             s.pop_scope();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// RB_FULL has no hardware bound; its count register is [`crate::config::RB_FULL_COUNT_BITS`]
+    /// wide, and a push past what it holds is refused, not silently counted in a wider integer.
+    #[test]
+    fn a_value_that_does_not_fit_its_register_is_an_error() {
+        let mut m = StackManager::new("RB_FULL".parse().unwrap(), 0).unwrap();
+        let bits = m.widths().rb_count;
+        for v in 0..(1u64 << bits) - 1 {
+            m.apply(0, Cmd::Push(v)).unwrap();
+        }
+        let value = 1 << bits;
+        assert_eq!(
+            m.apply(0, Cmd::Push(7)),
+            Err(StackError::Overflow { thread: 0, field: "rb_count", value, bits })
+        );
+        assert_eq!(m.rb(0).len() as u64, value - 1, "the refused push changed nothing");
+        assert_eq!(m.apply(0, Cmd::Pop), Ok(Some(value - 2)));
     }
 }

@@ -76,7 +76,7 @@ impl StackUnit {
 
     /// Cycle `now`, combinational, in dataflow order; `d` receives every output and decision.
     pub fn eval(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
-        let sm_in = StackIn { cmds: i.cmds, sh_done: self.arb.done(), g_done: self.sched.deq() };
+        let sm_in = StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() };
         self.manager.eval(&sm_in, &mut d.manager);
         self.arb.eval(now, &d.manager.sh_req, &mut d.arb);
         self.sched.eval(&d.manager.g_req, i.req_ready, i.completions, &mut d.sched);
