@@ -106,21 +106,25 @@ impl BankArbiter {
         BankArbiter { banks, stages: sh_latency.saturating_sub(MIN_SH_LATENCY), ..Default::default() }
     }
 
+    #[inline]
     /// Threads whose request completed in the previous cycle (a registered output: the stack
     /// manager reads it this cycle).
     pub fn done(&self) -> &[u32] {
         &self.done
     }
 
+    #[inline]
     pub fn is_idle(&self) -> bool {
         self.pending.is_empty() && self.done.is_empty() && self.pipe.is_empty()
     }
 
+    #[inline]
     /// Acts next cycle (a request at the banks, or a done signal for the stack manager to read).
     pub fn busy(&self) -> bool {
         !self.pending.is_empty() || !self.done.is_empty()
     }
 
+    #[inline]
     /// Cycle whose evaluation reports the oldest request in the pipeline after the banks.
     pub fn pipe_due(&self) -> Option<u64> {
         self.pipe.front().map(|&(at, _)| at)

@@ -55,15 +55,18 @@ impl MemSched {
         MemSched::default()
     }
 
+    #[inline]
     /// Thread whose response the FIFO delivered in the previous cycle (registered output).
     pub fn deq(&self) -> Option<u32> {
         self.deq
     }
 
+    #[inline]
     pub fn is_idle(&self) -> bool {
         self.queue.is_empty() && self.fifo.is_empty() && self.deq.is_none()
     }
 
+    #[inline]
     /// The request offered to the port this cycle (`req_valid` and its data; from registers).
     pub fn head(&self) -> Option<GReq> {
         self.queue.front().copied()

@@ -62,15 +62,18 @@ impl NodeFetch {
         NodeFetch { sector_bytes: u64::from(sector_bytes), ..Default::default() }
     }
 
+    #[inline]
     pub fn sector_bytes(&self) -> u64 {
         self.sector_bytes
     }
 
+    #[inline]
     /// Requests waiting for the port.
     pub fn queue_len(&self) -> usize {
         self.queue.len()
     }
 
+    #[inline]
     /// No request waiting for the port.
     pub fn queue_empty(&self) -> bool {
         self.queue.is_empty()
@@ -132,6 +135,7 @@ impl NodeFetch {
         }
     }
 
+    #[inline]
     /// Who waits for the response to request id `id`: (warp, lanes to wake).
     pub fn waiters(&self, id: u64) -> (u32, u32) {
         let w = self.waiters[(id >> 2) as usize];

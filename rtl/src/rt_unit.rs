@@ -59,7 +59,7 @@ use crate::scheduler::GtoScheduler;
 pub use crate::stack_manager::StackTiming;
 use crate::stack_manager::{Cmd, StackError};
 use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
-use crate::thread_fsm::{self, Thread, ThreadIn};
+use crate::thread_fsm::{self, Thread, ThreadIn, ThreadState};
 use crate::trace::{Probe, Sink};
 use crate::warp_buffer::{lanes_of, WarpBuffer};
 
@@ -357,16 +357,12 @@ impl RtUnit {
     /// The request offered to the L1D this cycle (from registers): the stack's head request
     /// first, else the node fetch queue's head; none unless `req_ready`.
     pub fn req(&self, req_ready: bool) -> Option<MemReq> {
-        self.drive(req_ready).0
-    }
-
-    fn drive(&self, req_ready: bool) -> (Option<MemReq>, Port) {
         if !req_ready {
-            return (None, Port::Idle);
+            return None;
         }
         let bytes = self.cfg.entry_bytes;
         if let Some(g) = self.stack_unit.req() {
-            let r = if g.write {
+            return Some(if g.write {
                 let tag = match self.rt.stack_timing {
                     StackTiming::Blocking => u64::from(g.thread),
                     StackTiming::Overlapped => self.store_seq,
@@ -374,13 +370,9 @@ impl RtUnit {
                 MemReq::write(tag << 2 | TAG_STORE, g.addr, bytes, ReqKind::StackSpill)
             } else {
                 MemReq::read(u64::from(g.thread) << 2 | TAG_LOAD, g.addr, bytes, ReqKind::StackReload)
-            };
-            return (Some(r), Port::Stack);
+            });
         }
-        match self.fetch.head(TAG_NODE) {
-            Some(r) => (Some(r), Port::Node),
-            None => (None, Port::Idle),
-        }
+        self.fetch.head(TAG_NODE)
     }
 
     /// One clock cycle, combinational: reads the registers and `i`, writes the outputs and the
@@ -392,7 +384,12 @@ impl RtUnit {
         d.clear(self.cfg.threads() as usize, warps as usize);
         d.now = now;
         d.load_slot = self.free_slot();
-        d.port = self.drive(i.req_ready).1;
+        d.port = match (i.req_ready, self.stack_unit.req().is_some(), self.fetch.queue_empty()) {
+            (false, ..) => Port::Idle,
+            (true, true, _) => Port::Stack,
+            (true, false, false) => Port::Node,
+            (true, false, true) => Port::Idle,
+        };
         d.node_taken = i.req_fire && d.port == Port::Node;
         d.took_stack = i.req_fire && d.port == Port::Stack;
         d.store_taken = d.took_stack && self.stack_unit.req().is_some_and(|g| g.write);
@@ -401,7 +398,7 @@ impl RtUnit {
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
         // must leave nothing behind.
         for w in 0..warps {
-            if self.warp_buffer.occupied(w) && self.warp_buffer.lanes(w).live == 0 && manager.warp_done(w) {
+            if self.warp_buffer.occupied(w) && self.warp_buffer.lanes(w).live() == 0 && manager.warp_done(w) {
                 if let Some(thread) = manager.warp_threads(w).find(|&t| !self.stack_clear(t)) {
                     return Err(RunError::ExitNotEmpty { cycle: now, sm: self.id, thread });
                 }
@@ -460,16 +457,19 @@ impl RtUnit {
             let todo = q.stack | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
             for l in lanes_of(todo) {
                 let t = w * ws + l;
+                let q = self.warp_buffer.thread(t);
                 let ti = ThreadIn {
                     now,
                     scheduled: scheduled & (1 << l) != 0,
                     arrived: d.arrived[t as usize],
-                    stack_ready: manager.ready(t),
+                    // Only a thread with a stack command asks (the sequencer's state is far away).
+                    stack_ready: q.state == ThreadState::Stack && manager.ready(t),
                     sector_bytes,
                 };
-                let (th, out) =
-                    thread_fsm::next(&self.rt, self.warp_buffer.thread(t), self.warp_buffer.ops(w, l), &ti);
-                d.threads.push((t, th));
+                let (th, out) = thread_fsm::next(&self.rt, q, self.warp_buffer.ops(w, l), &ti);
+                if th != q {
+                    d.threads.push((t, th));
+                }
                 d.visits += u64::from(out.visit);
                 if out.cmd != Cmd::None {
                     d.cmds.push((t, out.cmd));
@@ -553,7 +553,7 @@ impl RtUnit {
                 let m = self.warp_buffer.lanes(w);
                 self.warp_buffer.occupied(w)
                     && (self.fetchable(w) != 0
-                        || m.live == 0
+                        || m.live() == 0
                         || lanes_of(m.stack).any(|l| manager.ready(w * ws + l)))
             })
             || manager.can_issue();

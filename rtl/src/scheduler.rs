@@ -11,6 +11,7 @@
 use crate::config::Widths;
 use crate::trace::Sink;
 
+#[inline]
 /// Greedy-then-oldest: the warp issued last if it is `ready`, else the ready warp of lowest `age`.
 pub fn gto(
     greedy: Option<u32>,
@@ -29,6 +30,7 @@ pub struct GtoScheduler {
 }
 
 impl GtoScheduler {
+    #[inline]
     /// The warp to issue this cycle among `warps`, combinational. `left`: a warp leaving this
     /// cycle (no longer greedy).
     pub fn pick(
@@ -41,6 +43,7 @@ impl GtoScheduler {
         gto(self.greedy.filter(|&w| !left(w)), warps, ready, age)
     }
 
+    #[inline]
     /// The clock edge: the issued warp becomes the greedy one; a leaving greedy warp is dropped.
     pub fn commit(&mut self, issued: Option<u32>, left: impl Fn(u32) -> bool) {
         self.greedy = issued.or(self.greedy.filter(|&w| !left(w)));

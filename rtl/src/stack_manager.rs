@@ -9,7 +9,7 @@
 //! ```
 //!
 //! A command is accepted only from a thread whose sequencer is idle (`ready`, a register), one
-//! per thread per cycle. Accepting it
+//! per thread per cycle (the callers' contract). Accepting it
 //! updates the thread's bookkeeping registers at once and loads the sequencer with the exact
 //! request sequence of SPEC sections 3 and 5 (e.g. SH load → global store → SH store). The
 //! sequencer issues one micro-op at a time, in order; a micro-op that needs an earlier load's data
@@ -562,6 +562,7 @@ impl StackManager {
         Chain::of(t, self.cfg.warp_size, |s| self.stacks[s as usize].next_tid).iter().collect()
     }
     /// Ready for a command: the thread's sequencer is idle.
+    #[inline]
     pub fn ready(&self, t: u32) -> bool {
         let q = &self.seq[t as usize];
         q.uops.is_empty() && q.inflight.is_none()
@@ -571,7 +572,15 @@ impl StackManager {
     /// bank arbiter or on global memory.
     pub fn can_issue(&self) -> bool {
         self.queued.iter().enumerate().any(|(word, &bits)| {
-            (0..64).any(|b| bits & (1 << b) != 0 && self.seq[word * 64 + b].inflight.is_none())
+            let mut rest = bits;
+            while rest != 0 {
+                let t = word * 64 + rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if self.seq[t].inflight.is_none() {
+                    return true;
+                }
+            }
+            false
         })
     }
     /// No thread has work in flight.
@@ -814,7 +823,9 @@ impl StackManager {
                         let c = d.completed.swap_remove(k);
                         (c.1, c.2)
                     }
-                    None => (self.seq[t as usize].inflight, self.seq[t as usize].latch),
+                    // Still waiting for its completion: nothing changes.
+                    None if self.seq[t as usize].inflight.is_some() => continue,
+                    None => (None, self.seq[t as usize].latch),
                 };
                 self.issue(t, inflight, latch, d);
             }
@@ -833,8 +844,13 @@ impl StackManager {
             if cmd == Cmd::None {
                 continue;
             }
-            let r = if !self.ready(t) || cmds[..k].iter().any(|c| c.0 == t && c.1 != Cmd::None) {
-                // A thread's command port takes one command per cycle, from an idle sequencer.
+            // A thread's command port takes one command per cycle (the callers send at most one).
+            debug_assert!(
+                !cmds[..k].iter().any(|c| c.0 == t && c.1 != Cmd::None),
+                "two commands of thread {t}"
+            );
+            let r = if !self.ready(t) {
+                // From an idle sequencer only.
                 Err(StackError::Busy { thread: t })
             } else if self.threads[t as usize].done {
                 Err(StackError::AfterFinish { thread: t })

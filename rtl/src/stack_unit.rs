@@ -69,11 +69,13 @@ impl StackUnit {
         })
     }
 
+    #[inline]
     /// The request offered to the memory port this cycle (from registers).
     pub fn req(&self) -> Option<GReq> {
         self.sched.head()
     }
 
+    #[inline]
     /// Cycle `now`, combinational, in dataflow order; `d` receives every output and decision.
     pub fn eval(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
         let sm_in = StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() };
@@ -82,6 +84,7 @@ impl StackUnit {
         self.sched.eval(&d.manager.g_req, i.req_ready, i.completions, &mut d.sched);
     }
 
+    #[inline]
     /// The clock edge.
     pub fn commit(&mut self, d: &StackUnitStep) {
         self.manager.commit(&d.manager);

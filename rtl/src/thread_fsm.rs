@@ -85,6 +85,7 @@ pub struct ThreadOut {
 }
 
 /// The state a thread enters to perform operation `pos`.
+#[inline]
 pub fn decode(ops: &[RayOp], pos: u32) -> ThreadState {
     match ops.get(pos as usize) {
         Some(RayOp::Visit { .. }) => ThreadState::Fetch,
@@ -93,6 +94,7 @@ pub fn decode(ops: &[RayOp], pos: u32) -> ThreadState {
 }
 
 /// The thread's next state and outputs: pure.
+#[inline]
 pub fn next(rt: &RtParams, q: Thread, ops: &[RayOp], i: &ThreadIn) -> (Thread, ThreadOut) {
     let mut d = q;
     let mut out = ThreadOut::default();

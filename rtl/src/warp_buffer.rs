@@ -27,12 +27,16 @@ pub struct Lanes {
     pub stack: u32,
     /// Earliest `until` among the busy lanes (`u64::MAX` when none).
     pub busy_until: u64,
-    /// Lanes not Done.
-    pub live: u32,
 }
 
 impl Lanes {
-    pub const EMPTY: Lanes = Lanes { fetch: 0, wait: 0, busy: 0, stack: 0, busy_until: u64::MAX, live: 0 };
+    pub const EMPTY: Lanes = Lanes { fetch: 0, wait: 0, busy: 0, stack: 0, busy_until: u64::MAX };
+
+    /// Lanes not Done (the `live` count).
+    #[inline]
+    pub fn live(&self) -> u32 {
+        (self.fetch | self.wait | self.busy | self.stack).count_ones()
+    }
 
     fn mask(&mut self, state: ThreadState) -> Option<&mut u32> {
         match state {
@@ -44,6 +48,7 @@ impl Lanes {
         }
     }
 
+    #[inline]
     /// Lane `l` moves from `old` to `new`.
     fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
         if let Some(m) = self.mask(old) {
@@ -55,7 +60,6 @@ impl Lanes {
         if let ThreadState::Busy { until } = new {
             self.busy_until = self.busy_until.min(until);
         }
-        self.live = (self.fetch | self.wait | self.busy | self.stack).count_ones();
     }
 }
 
@@ -114,6 +118,7 @@ impl WarpBuffer {
         self.slots.len() as u32
     }
 
+    #[inline]
     /// A slot that can take a job this cycle.
     pub fn free_slot(&self) -> Option<u32> {
         self.slots.iter().position(Option::is_none).map(|w| w as u32)
@@ -124,23 +129,28 @@ impl WarpBuffer {
         self.slots.iter().all(Option::is_none)
     }
 
+    #[inline]
     pub fn occupied(&self, w: u32) -> bool {
         self.slots[w as usize].is_some()
     }
 
+    #[inline]
     /// Age rank of the warp in slot `w` (`u32::MAX` for an empty slot).
     pub fn age(&self, w: u32) -> u32 {
         self.slots[w as usize].as_ref().map_or(u32::MAX, |s| s.age)
     }
 
+    #[inline]
     pub fn lanes(&self, w: u32) -> Lanes {
         self.lanes[w as usize]
     }
 
+    #[inline]
     pub fn thread(&self, t: u32) -> Thread {
         self.threads[t as usize]
     }
 
+    #[inline]
     /// The trace of lane `l` of the warp in slot `w` (empty for an inactive lane or slot).
     pub fn ops(&self, w: u32, l: u32) -> &[RayOp] {
         self.slots[w as usize].as_ref().and_then(|s| s.lanes[l as usize].as_deref()).unwrap_or(&[])
@@ -171,8 +181,7 @@ impl WarpBuffer {
                 pos: 0,
             };
         }
-        self.lanes[w as usize] =
-            Lanes { busy: active, busy_until: start, live: active.count_ones(), ..Lanes::EMPTY };
+        self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
         let age = self.slots.iter().flatten().count() as u32;
         let job = self.loaded;
         self.slots[w as usize] = Some(Slot { lanes, age, job, landed: now });
@@ -180,6 +189,7 @@ impl WarpBuffer {
         job
     }
 
+    #[inline]
     /// Clock edge: thread `t` takes state `d`.
     pub fn set_thread(&mut self, t: u32, d: Thread) {
         let (w, l) = (t / self.warp_size, t % self.warp_size);
@@ -213,7 +223,7 @@ impl WarpBuffer {
             s.signal("valid", 1, u64::from(slot.is_some()));
             s.signal("age", w.warp, slot.map_or(0, |x| u64::from(x.age)));
             let m = self.lanes[wp as usize];
-            s.signal("live", w.live, u64::from(m.live));
+            s.signal("live", w.live, u64::from(m.live()));
             s.signal("fetch_mask", ws, u64::from(m.fetch));
             s.signal("wait_mask", ws, u64::from(m.wait));
             s.signal("busy_mask", ws, u64::from(m.busy));
