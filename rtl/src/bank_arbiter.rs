@@ -106,9 +106,9 @@ impl BankArbiter {
         BankArbiter { banks, stages: sh_latency.saturating_sub(MIN_SH_LATENCY), ..Default::default() }
     }
 
-    #[inline]
     /// Threads whose request completed in the previous cycle (a registered output: the stack
     /// manager reads it this cycle).
+    #[inline]
     pub fn done(&self) -> &[u32] {
         &self.done
     }
@@ -118,14 +118,14 @@ impl BankArbiter {
         self.pending.is_empty() && self.done.is_empty() && self.pipe.is_empty()
     }
 
-    #[inline]
     /// Acts next cycle (a request at the banks, or a done signal for the stack manager to read).
+    #[inline]
     pub fn busy(&self) -> bool {
         !self.pending.is_empty() || !self.done.is_empty()
     }
 
-    #[inline]
     /// Cycle whose evaluation reports the oldest request in the pipeline after the banks.
+    #[inline]
     pub fn pipe_due(&self) -> Option<u64> {
         self.pipe.front().map(|&(at, _)| at)
     }

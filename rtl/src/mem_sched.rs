@@ -55,8 +55,8 @@ impl MemSched {
         MemSched::default()
     }
 
-    #[inline]
     /// Thread whose response the FIFO delivered in the previous cycle (registered output).
+    #[inline]
     pub fn deq(&self) -> Option<u32> {
         self.deq
     }
@@ -66,8 +66,8 @@ impl MemSched {
         self.queue.is_empty() && self.fifo.is_empty() && self.deq.is_none()
     }
 
-    #[inline]
     /// The request offered to the port this cycle (`req_valid` and its data; from registers).
+    #[inline]
     pub fn head(&self) -> Option<GReq> {
         self.queue.front().copied()
     }

@@ -67,14 +67,14 @@ impl NodeFetch {
         self.sector_bytes
     }
 
-    #[inline]
     /// Requests waiting for the port.
+    #[inline]
     pub fn queue_len(&self) -> usize {
         self.queue.len()
     }
 
-    #[inline]
     /// No request waiting for the port.
+    #[inline]
     pub fn queue_empty(&self) -> bool {
         self.queue.is_empty()
     }
@@ -135,8 +135,8 @@ impl NodeFetch {
         }
     }
 
-    #[inline]
     /// Who waits for the response to request id `id`: (warp, lanes to wake).
+    #[inline]
     pub fn waiters(&self, id: u64) -> (u32, u32) {
         let w = self.waiters[(id >> 2) as usize];
         (w.warp, w.lanes)

@@ -11,8 +11,8 @@
 use crate::config::Widths;
 use crate::trace::Sink;
 
-#[inline]
 /// Greedy-then-oldest: the warp issued last if it is `ready`, else the ready warp of lowest `age`.
+#[inline]
 pub fn gto(
     greedy: Option<u32>,
     warps: u32,
@@ -30,9 +30,9 @@ pub struct GtoScheduler {
 }
 
 impl GtoScheduler {
-    #[inline]
     /// The warp to issue this cycle among `warps`, combinational. `left`: a warp leaving this
     /// cycle (no longer greedy).
+    #[inline]
     pub fn pick(
         &self,
         left: impl Fn(u32) -> bool,
@@ -43,8 +43,8 @@ impl GtoScheduler {
         gto(self.greedy.filter(|&w| !left(w)), warps, ready, age)
     }
 
-    #[inline]
     /// The clock edge: the issued warp becomes the greedy one; a leaving greedy warp is dropped.
+    #[inline]
     pub fn commit(&mut self, issued: Option<u32>, left: impl Fn(u32) -> bool) {
         self.greedy = issued.or(self.greedy.filter(|&w| !left(w)));
     }

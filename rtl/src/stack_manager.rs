@@ -985,15 +985,18 @@ impl<'a> Planner<'a> {
     fn check_widths(&self) -> Result<(), StackError> {
         let w = &self.m.w;
         let t = self.t;
-        let writes = &self.d.writes[self.first_write..];
-        let pushed = writes.iter().filter(|x| matches!(x, Write::RbPushBack(..))).count();
-        let popped =
-            writes.iter().filter(|x| matches!(x, Write::RbPopBack(_) | Write::RbPopFront(_))).count();
-        let rb = (self.rb_len() + pushed - popped) as u64;
+        let (mut rb, mut steps) = (self.rb_len() as u64, 0u64);
+        for x in &self.d.writes[self.first_write..] {
+            match x {
+                Write::RbPushBack(..) => rb += 1,
+                Write::RbPopBack(_) | Write::RbPopFront(_) => rb -= 1,
+                Write::Emit(..) => steps += 1,
+                _ => {}
+            }
+        }
         if rb >= 1 << w.rb_count {
             return Err(StackError::Overflow { thread: t, field: "rb_count", value: rb, bits: w.rb_count });
         }
-        let steps = writes.iter().filter(|x| matches!(x, Write::Emit(..))).count() as u64;
         if steps >= 1 << w.seq_step {
             return Err(StackError::Overflow {
                 thread: t,

@@ -69,14 +69,14 @@ impl StackUnit {
         })
     }
 
-    #[inline]
     /// The request offered to the memory port this cycle (from registers).
+    #[inline]
     pub fn req(&self) -> Option<GReq> {
         self.sched.head()
     }
 
-    #[inline]
     /// Cycle `now`, combinational, in dataflow order; `d` receives every output and decision.
+    #[inline]
     pub fn eval(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
         let sm_in = StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() };
         self.manager.eval(&sm_in, &mut d.manager);
@@ -84,8 +84,8 @@ impl StackUnit {
         self.sched.eval(&d.manager.g_req, i.req_ready, i.completions, &mut d.sched);
     }
 
-    #[inline]
     /// The clock edge.
+    #[inline]
     pub fn commit(&mut self, d: &StackUnitStep) {
         self.manager.commit(&d.manager);
         self.arb.commit(&d.arb);

@@ -48,8 +48,8 @@ impl Lanes {
         }
     }
 
-    #[inline]
     /// Lane `l` moves from `old` to `new`.
+    #[inline]
     fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
         if let Some(m) = self.mask(old) {
             *m &= !(1 << l);
@@ -118,8 +118,8 @@ impl WarpBuffer {
         self.slots.len() as u32
     }
 
-    #[inline]
     /// A slot that can take a job this cycle.
+    #[inline]
     pub fn free_slot(&self) -> Option<u32> {
         self.slots.iter().position(Option::is_none).map(|w| w as u32)
     }
@@ -134,8 +134,8 @@ impl WarpBuffer {
         self.slots[w as usize].is_some()
     }
 
-    #[inline]
     /// Age rank of the warp in slot `w` (`u32::MAX` for an empty slot).
+    #[inline]
     pub fn age(&self, w: u32) -> u32 {
         self.slots[w as usize].as_ref().map_or(u32::MAX, |s| s.age)
     }
@@ -150,8 +150,8 @@ impl WarpBuffer {
         self.threads[t as usize]
     }
 
-    #[inline]
     /// The trace of lane `l` of the warp in slot `w` (empty for an inactive lane or slot).
+    #[inline]
     pub fn ops(&self, w: u32, l: u32) -> &[RayOp] {
         self.slots[w as usize].as_ref().and_then(|s| s.lanes[l as usize].as_deref()).unwrap_or(&[])
     }
@@ -189,8 +189,8 @@ impl WarpBuffer {
         job
     }
 
-    #[inline]
     /// Clock edge: thread `t` takes state `d`.
+    #[inline]
     pub fn set_thread(&mut self, t: u32, d: Thread) {
         let (w, l) = (t / self.warp_size, t % self.warp_size);
         self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
