@@ -8,7 +8,7 @@
 //!   warp checked when it leaves.
 
 use rtl::stack_manager::{Cmd, StackError, StackManager};
-use rtl::stack_unit::{StackUnit, UnitStats};
+use rtl::stack_unit::{StandaloneStack, UnitStats};
 use rtl::trace::{Probe, Sink};
 
 use crate::invariants::{check_thread, check_warp, check_warp_exit, fail, Property, Violation};
@@ -179,7 +179,7 @@ pub fn mix(mut x: u64) -> u64 {
 /// Cycle level: runs `work` through `unit`, up to `warps` warps resident at once, every pop
 /// checked, every warp checked at exit. Signals go to `sink` every cycle.
 pub fn run_cycle<I, S>(
-    unit: &mut StackUnit,
+    unit: &mut StandaloneStack,
     work: I,
     opts: CycleOpts,
     sink: &mut S,
@@ -188,7 +188,7 @@ where
     I: IntoIterator<Item = WarpWork>,
     S: Sink,
 {
-    let cfg = *unit.sm.config();
+    let cfg = *unit.manager().config();
     let ws = cfg.warp_size;
     let mut work = work.into_iter();
     let mut slots: Vec<Option<Vec<Lane>>> = vec![None; cfg.warps as usize];
@@ -215,8 +215,8 @@ where
                     Lane { ops: ops.unwrap_or_default(), pos: 0, next_at: now, finished: false }
                 })
                 .collect();
-            unit.sm.load_warp(w as u32, active);
-            sb.load_warp(unit.sm.warp_threads(w as u32), active);
+            unit.manager_mut().load_warp(w as u32, active);
+            sb.load_warp(unit.manager().warp_threads(w as u32), active);
             *slot = Some(lanes);
             summary.warps += 1;
         }
@@ -227,13 +227,13 @@ where
         let mut earliest = u64::MAX;
         for (w, slot) in slots.iter_mut().enumerate() {
             let Some(lanes) = slot else { continue };
-            let warp_threads = unit.sm.warp_threads(w as u32);
-            if opts.lockstep && !warp_threads.clone().all(|t| unit.sm.ready(t)) {
+            let warp_threads = unit.manager().warp_threads(w as u32);
+            if opts.lockstep && !warp_threads.clone().all(|t| unit.manager().ready(t)) {
                 continue;
             }
             for (l, lane) in lanes.iter_mut().enumerate() {
                 let t = w as u32 * ws + l as u32;
-                if lane.finished || unit.sm.thread(t).done || !unit.sm.ready(t) {
+                if lane.finished || unit.manager().thread(t).done || !unit.manager().ready(t) {
                     continue;
                 }
                 if lane.next_at > now {
@@ -256,7 +256,7 @@ where
         }
         unit.step(&cmds);
         for &(t, cmd) in &cmds {
-            let got = unit.sm.answer(t);
+            let got = unit.answer(t);
             if let Err(error @ StackError::SpillRegionFull { .. }) = got {
                 return Err(RunError::Stack { cycle: now, error });
             }
@@ -271,13 +271,15 @@ where
             if slot.is_none() {
                 continue;
             }
-            if unit.sm.warp_done(w) {
-                check_warp_exit(&unit.sm, w).map_err(|v| violation(now, v))?;
+            if unit.manager().warp_done(w) {
+                check_warp_exit(unit.manager(), w).map_err(|v| violation(now, v))?;
                 *slot = None;
-            } else if opts.check_every_cycle && unit.sm.warp_threads(w).all(|t| unit.sm.ready(t)) {
-                check_warp(&unit.sm, w).map_err(|v| violation(now, v))?;
-                for t in unit.sm.warp_threads(w) {
-                    check_thread(&unit.sm, t, sb.reference(t)).map_err(|v| violation(now, v))?;
+            } else if opts.check_every_cycle
+                && unit.manager().warp_threads(w).all(|t| unit.manager().ready(t))
+            {
+                check_warp(unit.manager(), w).map_err(|v| violation(now, v))?;
+                for t in unit.manager().warp_threads(w) {
+                    check_thread(unit.manager(), t, sb.reference(t)).map_err(|v| violation(now, v))?;
                 }
             }
         }

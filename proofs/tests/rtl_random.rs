@@ -5,15 +5,15 @@ use proofs::harness::{run_cycle, CycleOpts, RunSummary};
 use proofs::streams::warps;
 use rtl::config::Config;
 use rtl::stack_manager::StackTiming;
-use rtl::stack_unit::StackUnit;
+use rtl::stack_unit::StandaloneStack;
 use rtl::trace::NullSink;
 
 fn run(cfg: Config, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
-    run_timed(StackUnit::new(cfg, 40).unwrap(), seed, warp_count, check_every_cycle)
+    run_timed(StandaloneStack::new(cfg, 40).unwrap(), seed, warp_count, check_every_cycle)
 }
 
-fn run_timed(mut unit: StackUnit, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
-    let cfg = *unit.sm.config();
+fn run_timed(mut unit: StandaloneStack, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
+    let cfg = *unit.manager().config();
     let work = warps(seed, warp_count, cfg.warp_size, 130);
     let opts = CycleOpts { max_gap: 6, seed, check_every_cycle, max_cycles: 50_000_000, lockstep: false };
     run_cycle(&mut unit, work, opts, &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
@@ -53,7 +53,7 @@ fn every_cycle_checks_hold_on_the_full_sms() {
 fn acknowledged_stores_and_sh_latency_keep_the_checks() {
     for cfg in [Config::sms(), "RB_2+SH_4".parse().unwrap(), "RB_2".parse().unwrap()] {
         let old = run(cfg, 13, 4, false);
-        let unit = StackUnit::with_timing(cfg, 40, StackTiming::Blocking, 20).unwrap();
+        let unit = StandaloneStack::with_timing(cfg, 40, StackTiming::Blocking, 20).unwrap();
         let new = run_timed(unit, 13, 4, true);
         assert_eq!(new.pops_checked, old.pops_checked, "{}", cfg.name());
         assert!(

@@ -7,7 +7,7 @@ use proofs::invariants::Property;
 use proofs::streams::{stream, warps};
 use rtl::config::Config;
 use rtl::stack_manager::{Mutant, StackManager};
-use rtl::stack_unit::StackUnit;
+use rtl::stack_unit::StandaloneStack;
 use rtl::trace::NullSink;
 
 fn cfg(name: &str) -> Config {
@@ -53,7 +53,7 @@ fn without_sh_the_traffic_is_the_baseline_short_stack() {
             spills += s;
             reloads += r;
         }
-        let mut unit = StackUnit::new(c, 50).unwrap();
+        let mut unit = StandaloneStack::new(c, 50).unwrap();
         let st = run_cycle(&mut unit, work.clone(), opts(1), &mut NullSink).unwrap().stats.stack;
         assert!(spills > 0);
         assert_eq!((st.rb_to_global, st.global_to_rb), (spills, reloads), "RB_{n}");
@@ -63,7 +63,7 @@ fn without_sh_the_traffic_is_the_baseline_short_stack() {
 
 #[test]
 fn full_rb_never_spills() {
-    let mut unit = StackUnit::new(cfg("RB_FULL"), 50).unwrap();
+    let mut unit = StandaloneStack::new(cfg("RB_FULL"), 50).unwrap();
     let s = run_cycle(&mut unit, warps(4, 4, 32, 200), opts(2), &mut NullSink).unwrap();
     assert_eq!(s.stats.stack.global_accesses() + s.stats.stack.sh_loads() + s.stats.stack.sh_stores(), 0);
     assert!(s.pops_checked > 10_000);
@@ -73,7 +73,7 @@ fn full_rb_never_spills() {
 fn functional_level_counts_equal_the_cycle_level_without_reallocation() {
     let work = warps(5, 6, 32, 120);
     for c in Config::paper_set().into_iter().filter(|c| c.realloc.is_none()) {
-        let mut unit = StackUnit::new(c, 50).unwrap();
+        let mut unit = StandaloneStack::new(c, 50).unwrap();
         let cycle = run_cycle(&mut unit, work.clone(), opts(3), &mut NullSink).unwrap().stats.stack;
         let mut sm = StackManager::new(c, 0).unwrap();
         run_functional_warps(&mut sm, work.clone()).unwrap();
@@ -86,7 +86,7 @@ fn functional_level_counts_equal_the_cycle_level_without_reallocation() {
 fn lockstep_conflicts(c: Config) -> u64 {
     let s = stream(9, 40);
     let work = vec![WarpWork { lanes: vec![Some(s); 32] }];
-    let mut unit = StackUnit::new(Config { warps: 1, ..c }, 50).unwrap();
+    let mut unit = StandaloneStack::new(Config { warps: 1, ..c }, 50).unwrap();
     let o = CycleOpts { max_gap: 0, lockstep: true, ..opts(4) };
     run_cycle(&mut unit, work, o, &mut NullSink).unwrap().stats.conflict_cycles
 }
@@ -103,8 +103,8 @@ fn skew_cuts_lockstep_bank_conflicts() {
 }
 
 fn caught(c: Config, m: Mutant) -> Property {
-    let mut unit = StackUnit::new(c, 30).unwrap();
-    unit.sm = unit.sm.clone().with_mutant(Some(m));
+    let mut unit = StandaloneStack::new(c, 30).unwrap();
+    unit.unit.manager = unit.unit.manager.clone().with_mutant(Some(m));
     let o = CycleOpts { check_every_cycle: false, ..opts(6) };
     match run_cycle(&mut unit, warps(8, 4, 32, 90), o, &mut NullSink) {
         Err(RunError::Violation { violation, .. }) => violation.property,
@@ -129,7 +129,7 @@ fn the_scoreboard_catches_planted_bugs() {
 #[test]
 fn the_unmutated_design_passes_the_same_runs() {
     for c in ["RB_4+SH_8", "RB_4+SH_4+SK+RA", "RB_4+SH_4"] {
-        let mut unit = StackUnit::new(cfg(c), 30).unwrap();
+        let mut unit = StandaloneStack::new(cfg(c), 30).unwrap();
         run_cycle(&mut unit, warps(8, 4, 32, 90), opts(6), &mut NullSink).unwrap();
     }
 }

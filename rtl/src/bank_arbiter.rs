@@ -22,7 +22,8 @@
 //! access enters only after `shared_cycle` (~2261) has stalled it for its bank conflicts, so the
 //! latency comes after the serialization, as here.
 
-use crate::trace::{Kind, Probe, Sink};
+use crate::config::Widths;
+use crate::trace::{Kind, Sink};
 
 /// Most words one entry can span (8-byte entries over 1-byte banks).
 pub const MAX_WORDS: usize = 8;
@@ -62,18 +63,34 @@ pub struct BankArbiter {
     /// Pipeline stages after the banks: `sh_latency - 2`.
     stages: u32,
     pending: Vec<Pending>,
-    /// Served requests in the pipeline after the banks: (cycle whose step reports it, thread), in
-    /// order.
+    /// Served requests in the pipeline after the banks: (cycle whose evaluation reports it,
+    /// thread), in order.
     pipe: std::collections::VecDeque<(u64, u32)>,
-    /// Threads whose request completed last cycle (registered output).
+    /// Threads whose request completed last cycle (the registered `done` output).
     done: Vec<u32>,
-    /// Per-cycle signals of the last evaluated cycle, for probes.
-    grant_mask: u64,
-    conflict_mask: u64,
     /// Conflict delay cycles so far.
     pub conflict_cycles: u64,
     /// Word-cycles spent waiting on a busy bank (sum over waiting words).
     pub conflict_word_waits: u64,
+}
+
+/// The arbiter's decisions in one cycle ([`BankArbiter::eval`]), applied at the clock edge by
+/// [`BankArbiter::commit`]. A reusable buffer: evaluating allocates nothing once it has grown.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ArbStep {
+    /// The `done` register's next value.
+    done: Vec<u32>,
+    /// Requests leaving the pipeline after the banks.
+    pipe_out: usize,
+    /// Served-word mask of each pending request after this cycle's grants.
+    served: Vec<u8>,
+    /// Requests arriving (served from next cycle on).
+    new: Vec<ShReq>,
+    /// Banks that served a word, and banks that kept a word waiting.
+    grant_mask: u64,
+    conflict_mask: u64,
+    waits: u64,
+    now: u64,
 }
 
 impl BankArbiter {
@@ -89,21 +106,26 @@ impl BankArbiter {
         BankArbiter { banks, stages: sh_latency.saturating_sub(MIN_SH_LATENCY), ..Default::default() }
     }
 
-    /// Threads whose request completed in the previous cycle.
+    /// Threads whose request completed in the previous cycle (a registered output: the stack
+    /// manager reads it this cycle).
+    #[inline]
     pub fn done(&self) -> &[u32] {
         &self.done
     }
 
+    #[inline]
     pub fn is_idle(&self) -> bool {
         self.pending.is_empty() && self.done.is_empty() && self.pipe.is_empty()
     }
 
     /// Acts next cycle (a request at the banks, or a done signal for the stack manager to read).
+    #[inline]
     pub fn busy(&self) -> bool {
         !self.pending.is_empty() || !self.done.is_empty()
     }
 
-    /// Cycle whose step reports the oldest request in the pipeline after the banks.
+    /// Cycle whose evaluation reports the oldest request in the pipeline after the banks.
+    #[inline]
     pub fn pipe_due(&self) -> Option<u64> {
         self.pipe.front().map(|&(at, _)| at)
     }
@@ -112,70 +134,84 @@ impl BankArbiter {
         self.pending.len()
     }
 
-    /// Clock cycle `now`: report requests leaving the pipeline, serve pending words (oldest
-    /// first), then enqueue `new` for later cycles. `now` numbers the caller's cycles (it may jump
-    /// over cycles in which the arbiter is idle or only holds requests in the pipeline).
-    pub fn step(&mut self, now: u64, new: &[ShReq]) {
-        self.done.clear();
-        while let Some(&(at, t)) = self.pipe.front() {
+    /// Clock cycle `now`, combinational: requests leaving the pipeline, then each bank grants
+    /// its oldest pending word; `new` requests wait from the next cycle on. `now` numbers the
+    /// caller's cycles (it may jump over cycles in which the arbiter is idle or only holds
+    /// requests in the pipeline).
+    pub fn eval(&self, now: u64, new: &[ShReq], d: &mut ArbStep) {
+        d.now = now;
+        d.done.clear();
+        d.pipe_out = 0;
+        for &(at, t) in &self.pipe {
             if at > now {
                 break;
             }
-            self.done.push(t);
-            self.pipe.pop_front();
+            d.done.push(t);
+            d.pipe_out += 1;
         }
         let mut bank_word = [u32::MAX; 64];
-        let mut grant_mask = 0u64;
-        let mut conflict_mask = 0u64;
-        let mut waits = 0u64;
-        for p in &mut self.pending {
+        let (mut grant_mask, mut conflict_mask, mut waits) = (0u64, 0u64, 0u64);
+        d.served.clear();
+        for p in &self.pending {
+            let mut served = p.served;
             for (i, &w) in p.req.words().iter().enumerate() {
-                if p.served & (1 << i) != 0 {
+                if served & (1 << i) != 0 {
                     continue;
                 }
                 let bank = (w % self.banks) as usize;
                 if grant_mask & (1 << bank) == 0 {
                     grant_mask |= 1 << bank;
                     bank_word[bank] = w;
-                    p.served |= 1 << i;
+                    served |= 1 << i;
                 } else if bank_word[bank] == w {
-                    p.served |= 1 << i;
+                    served |= 1 << i;
                 } else {
                     conflict_mask |= 1 << bank;
                     waits += 1;
                 }
             }
+            if self.stages == 0 && served.count_ones() == p.req.len as u32 {
+                d.done.push(p.req.thread);
+            }
+            d.served.push(served);
         }
-        let (done, pipe, due) = (&mut self.done, &mut self.pipe, now + u64::from(self.stages));
-        self.pending.retain(|p| {
+        (d.grant_mask, d.conflict_mask, d.waits) = (grant_mask, conflict_mask, waits);
+        d.new.clear();
+        d.new.extend_from_slice(new);
+    }
+
+    /// The clock edge: takes the state [`BankArbiter::eval`] decided.
+    pub fn commit(&mut self, d: &ArbStep) {
+        self.done.clone_from(&d.done);
+        self.pipe.drain(..d.pipe_out);
+        let due = d.now + u64::from(self.stages);
+        let mut i = 0;
+        let (pipe, stages) = (&mut self.pipe, self.stages);
+        self.pending.retain_mut(|p| {
+            p.served = d.served[i];
+            i += 1;
             let complete = p.served.count_ones() == p.req.len as u32;
-            if complete {
-                if due == now {
-                    done.push(p.req.thread);
-                } else {
-                    pipe.push_back((due, p.req.thread));
-                }
+            if complete && stages > 0 {
+                pipe.push_back((due, p.req.thread));
             }
             !complete
         });
-        self.conflict_cycles += u64::from(conflict_mask != 0);
-        self.conflict_word_waits += waits;
-        self.grant_mask = grant_mask;
-        self.conflict_mask = conflict_mask;
-        self.pending.extend(new.iter().map(|&req| Pending { req, served: 0 }));
+        self.conflict_cycles += u64::from(d.conflict_mask != 0);
+        self.conflict_word_waits += d.waits;
+        self.pending.extend(d.new.iter().map(|&req| Pending { req, served: 0 }));
     }
-}
 
-impl Probe for BankArbiter {
-    fn probe<S: Sink>(&self, s: &mut S) {
+    /// Registers and this cycle's grants (`d`, from [`BankArbiter::eval`]); `w` sizes the
+    /// counters.
+    pub fn probe<S: Sink>(&self, d: &ArbStep, w: &Widths, s: &mut S) {
         if !s.enabled() {
             return;
         }
         s.push_scope("bank_arbiter");
-        s.signal_kind("grant", self.banks, self.grant_mask, Kind::Mask);
-        s.signal_kind("conflict", self.banks, self.conflict_mask, Kind::Mask);
-        s.signal("pending", 16, self.pending.len() as u64);
-        s.signal("pipe", 16, self.pipe.len() as u64);
+        s.signal_kind("grant", self.banks, d.grant_mask, Kind::Mask);
+        s.signal_kind("conflict", self.banks, d.conflict_mask, Kind::Mask);
+        s.signal("pending", w.sh_requests, self.pending.len() as u64);
+        s.signal("pipe", w.sh_requests, self.pipe.len() as u64);
         s.signal("delay_cycles", 64, self.conflict_cycles);
         s.pop_scope();
     }
@@ -184,6 +220,13 @@ impl Probe for BankArbiter {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One cycle: evaluate, then the clock edge.
+    fn step(a: &mut BankArbiter, now: u64, new: &[ShReq]) {
+        let mut d = ArbStep::default();
+        a.eval(now, new, &mut d);
+        a.commit(&d);
+    }
 
     fn req(thread: u32, words: &[u32]) -> ShReq {
         let mut w = [0; MAX_WORDS];
@@ -194,8 +237,8 @@ mod tests {
     #[test]
     fn disjoint_banks_finish_in_one_cycle() {
         let mut a = BankArbiter::new(32);
-        a.step(0, &[req(0, &[0, 1]), req(1, &[2, 3])]);
-        a.step(0, &[]);
+        step(&mut a, 0, &[req(0, &[0, 1]), req(1, &[2, 3])]);
+        step(&mut a, 0, &[]);
         assert_eq!(a.done(), &[0, 1]);
         assert_eq!(a.conflict_cycles, 0);
     }
@@ -204,24 +247,24 @@ mod tests {
     fn same_bank_different_words_serialise() {
         let mut a = BankArbiter::new(32);
         // Words 0, 32, 64 all sit in bank 0: three cycles, two of them with a conflict.
-        a.step(0, &[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
+        step(&mut a, 0, &[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
         let mut order = vec![];
         for _ in 0..3 {
-            a.step(0, &[]);
+            step(&mut a, 0, &[]);
             order.extend_from_slice(a.done());
         }
         assert_eq!(order, vec![0, 1, 2], "oldest first");
         assert_eq!(a.conflict_cycles, 2);
         assert_eq!(a.conflict_word_waits, 3);
-        a.step(0, &[]);
+        step(&mut a, 0, &[]);
         assert!(a.is_idle());
     }
 
     #[test]
     fn same_word_is_a_broadcast() {
         let mut a = BankArbiter::new(32);
-        a.step(0, &[req(0, &[5]), req(1, &[5])]);
-        a.step(0, &[]);
+        step(&mut a, 0, &[req(0, &[5]), req(1, &[5])]);
+        step(&mut a, 0, &[]);
         assert_eq!(a.done(), &[0, 1]);
         assert_eq!(a.conflict_cycles, 0);
     }
@@ -232,10 +275,10 @@ mod tests {
     #[test]
     fn latency_follows_bank_serialisation() {
         let mut a = BankArbiter::with_latency(32, 20);
-        a.step(0, &[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
+        step(&mut a, 0, &[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
         let mut done = vec![];
         for now in 1..=30 {
-            a.step(now, &[]);
+            step(&mut a, now, &[]);
             done.extend(a.done().iter().map(|&t| (now, t)));
             if now == 3 {
                 assert!(!a.busy() && !a.is_idle(), "only the pipeline holds requests");
@@ -247,8 +290,8 @@ mod tests {
         assert!(a.is_idle());
         // The minimum latency is the arbiter without a pipeline.
         let mut b = BankArbiter::with_latency(32, MIN_SH_LATENCY);
-        b.step(0, &[req(0, &[0])]);
-        b.step(1, &[]);
+        step(&mut b, 0, &[req(0, &[0])]);
+        step(&mut b, 1, &[]);
         assert_eq!(b.done(), &[0]);
     }
 }

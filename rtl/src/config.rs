@@ -345,6 +345,21 @@ pub struct Widths {
     pub spill_ptr: u32,
     /// Thread id within the warp (for probes and bank math).
     pub tid: u32,
+    /// Thread index within the RT unit (`warps × warp_size` threads): tags the stack's SH and
+    /// global requests.
+    pub thread: u32,
+    /// Occupancy of the bank arbiter's pending list and of its pipeline: each thread has at most
+    /// one SH request outstanding, so 0..=threads.
+    pub sh_requests: u32,
+    /// Warp slot index in the warp buffer (at least 1 bit).
+    pub warp: u32,
+    /// Live-lane count of a warp, 0..=warp_size.
+    pub live: u32,
+    /// A thread's traversal state ([`crate::thread_fsm::ThreadState`]).
+    pub thread_state: u32,
+    /// Sequencer step: position in the longest micro-op program a command loads (a flush of M
+    /// entries, 2M micro-ops, with the spill and the refill around it): 2M + 4 states.
+    pub seq_step: u32,
 }
 
 impl Widths {
@@ -365,6 +380,12 @@ impl Widths {
             flush: ra.map_or(0, |r| bits_for(r.flush_limit as u64)),
             spill_ptr: c.spill_ptr_bits,
             tid: bits_for(c.warp_size as u64 - 1),
+            thread: bits_for(c.threads() as u64 - 1),
+            sh_requests: bits_for(c.threads() as u64),
+            warp: bits_for(u64::from(c.warps.max(2) - 1)),
+            live: bits_for(c.warp_size as u64),
+            thread_state: bits_for(crate::thread_fsm::ThreadState::STATES - 1),
+            seq_step: bits_for(u64::from(2 * m + 4)),
         }
     }
 }

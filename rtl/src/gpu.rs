@@ -5,10 +5,14 @@
 //!                   │
 //!        ┌──────────┼──────────────┐
 //!        ▼          ▼              ▼
-//!     RT unit 0  RT unit 1  …  RT unit n-1      each: offer ≤ 1 request, then step on responses
+//!     RT unit 0  RT unit 1  …  RT unit n-1      each: req ≤ 1 (from registers), eval on responses
 //!        │          │              │
 //!        └──────────┴── MemSystem ─┘  (eval: ready + responses per SM; commit: clock edge)
 //! ```
+//!
+//! One cycle: the RT units' requests (from registers) go to [`MemSystem::eval`]; the RT units
+//! evaluate on its outputs (siblings: in index order, or as [`Gpu::with_eval_check`] says); then
+//! every RT unit and the memory system commit at the clock edge.
 //!
 //! Dispatch is a kernel launch's: job i goes to the next SM after the one that took job i-1 that
 //! has a free warp slot, so at launch SM k gets jobs k, k + n, k + 2n, … and later jobs go wherever
@@ -20,11 +24,12 @@
 //! (tested). A sink sees every cycle it wants ([`Sink::next_wanted`]): skipping never jumps over one, so a
 //! dump has every cycle of its window, and cycles outside the window are skipped as usual.
 
+use crate::clock::EvalCheck;
 use crate::config::{Config, ConfigError};
 use crate::mem::hierarchy::MemSystem;
 use crate::mem::{Counters, MemParams, MemReq, ReqKind};
 use crate::ray_op::WarpJob;
-use crate::rt_unit::{RtParams, RtUnit, RunError};
+use crate::rt_unit::{RtIn, RtParams, RtStep, RtUnit, RunError};
 use crate::stack_manager::StackStats;
 use crate::trace::{Probe, Sink};
 
@@ -98,9 +103,32 @@ pub struct Gpu {
     mem: MemSystem,
     /// Next SM the dispatcher tries.
     rr: usize,
-    /// Scratch, reused every cycle.
+    /// How sibling RT units are evaluated each cycle ([`Gpu::with_eval_check`]).
+    eval_check: EvalCheck,
+    #[cfg(feature = "mutants")]
+    order_bug: Option<OrderBug>,
+    /// Per SM: the request offered, whether the L1D was ready for it, the job dispatched, and
+    /// the RT unit's cycle (reused every cycle).
     reqs: Vec<Option<MemReq>>,
+    req_ready: Vec<bool>,
     jobs_in: Vec<Option<WarpJob>>,
+    steps: Vec<RtStep>,
+    /// Evaluation order of the RT units this cycle.
+    order: Vec<usize>,
+}
+
+/// Deliberately order-dependent runners, to show the [`EvalCheck`] runs catch such bugs. Test
+/// builds only.
+#[cfg(feature = "mutants")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OrderBug {
+    /// The dispatcher hands this cycle's jobs to the free RT units in the order they are
+    /// evaluated, instead of round-robin by index: one unit's job depends on when its siblings
+    /// were visited.
+    DispatchInEvalOrder,
+    /// An RT unit's step is not cleared between evaluations: a second evaluation in the same
+    /// cycle counts the visits again.
+    StaleStep,
 }
 
 impl Gpu {
@@ -111,10 +139,24 @@ impl Gpu {
             .map(|sm| RtUnit::new(sm, cfg, rt, mem.sector_bytes))
             .collect::<Result<Vec<_>, _>>()?;
         for u in &mut units {
-            u.stack.set_local_layout(mem.local_layout, mem.sms);
+            u.stack_unit.manager.set_local_layout(mem.local_layout, mem.sms);
         }
         let n = units.len();
-        Ok(Gpu { cfg, rt, units, mem: sys, rr: 0, reqs: vec![None; n], jobs_in: vec![None; n] })
+        Ok(Gpu {
+            cfg,
+            rt,
+            units,
+            mem: sys,
+            rr: 0,
+            eval_check: EvalCheck::Dataflow,
+            #[cfg(feature = "mutants")]
+            order_bug: None,
+            reqs: vec![None; n],
+            req_ready: vec![false; n],
+            jobs_in: vec![None; n],
+            steps: vec![RtStep::default(); n],
+            order: Vec::with_capacity(n),
+        })
     }
 
     /// SPEC 7 defaults: 8 SMs, the L1D is 64 KB less the SH stacks' shared memory.
@@ -126,8 +168,24 @@ impl Gpu {
     #[cfg(feature = "mutants")]
     pub fn with_mutant(mut self, m: crate::stack_manager::Mutant) -> Self {
         for u in &mut self.units {
-            u.stack.mutant = Some(m);
+            u.stack_unit.manager.mutant = Some(m);
         }
+        self
+    }
+
+    /// Evaluate the RT units, and within the memory system the L1Ds and DRAM, in the order, and
+    /// as many times per cycle, that `check` says (the report must not change: tests compare it
+    /// with the [`EvalCheck::Dataflow`] run's).
+    pub fn with_eval_check(mut self, check: EvalCheck) -> Self {
+        self.eval_check = check;
+        self.mem.set_eval_check(check);
+        self
+    }
+
+    /// A deliberately order-dependent runner (test builds).
+    #[cfg(feature = "mutants")]
+    pub fn with_order_bug(mut self, bug: OrderBug) -> Self {
+        self.order_bug = Some(bug);
         self
     }
 
@@ -180,9 +238,17 @@ impl Gpu {
         let mut evaluated = 0;
         loop {
             let now = self.mem.cycle();
+            self.eval_check.order(now, n, &mut self.order);
             // Dispatch (reads the slots' registers).
             let start = self.rr;
             for k in 0..n {
+                #[cfg(feature = "mutants")]
+                let sm = if self.order_bug == Some(OrderBug::DispatchInEvalOrder) {
+                    self.order[k]
+                } else {
+                    (start + k) % n
+                };
+                #[cfg(not(feature = "mutants"))]
                 let sm = (start + k) % n;
                 if self.units[sm].free_slot().is_none() {
                     continue;
@@ -201,18 +267,44 @@ impl Gpu {
             {
                 break;
             }
-            for (sm, u) in self.units.iter_mut().enumerate() {
-                self.reqs[sm] = u.offer(self.mem.ready(sm));
+            // Dataflow: the RT units' requests come from their registers and the L1Ds' ready
+            // registers; the memory system evaluates on them; the RT units (siblings: none reads
+            // another) evaluate on its outputs; then every unit commits at the clock edge.
+            for (sm, u) in self.units.iter().enumerate() {
+                self.req_ready[sm] = self.mem.ready(sm);
+                self.reqs[sm] = u.req(self.req_ready[sm]);
             }
             let out = self.mem.eval(&self.reqs);
             evaluated += 1;
-            for (sm, u) in self.units.iter_mut().enumerate() {
-                u.step(
+            let mut first_error: Option<(usize, RunError)> = None;
+            for &sm in &self.order {
+                let i = RtIn {
                     now,
-                    out[sm].ready && self.reqs[sm].is_some(),
-                    &out[sm].resp,
-                    self.jobs_in[sm].take(),
-                )?;
+                    req_ready: self.req_ready[sm],
+                    req_fire: out[sm].ready && self.reqs[sm].is_some(),
+                    resp: &out[sm].resp,
+                };
+                for _pass in 0..self.eval_check.passes() {
+                    #[cfg(feature = "mutants")]
+                    let earlier = (self.order_bug == Some(OrderBug::StaleStep) && _pass > 0)
+                        .then(|| self.steps[sm].visits());
+                    if let Err(e) = self.units[sm].eval(&i, &mut self.steps[sm]) {
+                        // The lowest SM's error, whatever the evaluation order.
+                        if first_error.as_ref().is_none_or(|f| sm < f.0) {
+                            first_error = Some((sm, e));
+                        }
+                    }
+                    #[cfg(feature = "mutants")]
+                    if let Some(v) = earlier {
+                        self.steps[sm].count_visits_again(v);
+                    }
+                }
+            }
+            if let Some((_, e)) = first_error {
+                return Err(e);
+            }
+            for &sm in &self.order {
+                self.units[sm].commit(&self.steps[sm], self.jobs_in[sm].take());
             }
             #[cfg(not(feature = "untraced"))]
             if sink.next_wanted(now) == Some(now) {
@@ -264,7 +356,7 @@ impl Gpu {
         let l2 = self.mem.l2().counters();
         let mut stack = StackStats::default();
         for u in &self.units {
-            stack.add(&u.stack.stats);
+            stack.add(&u.stack_unit.manager.stats);
         }
         let sum = |f: fn(&RtUnit) -> u64| self.units.iter().map(f).sum::<u64>();
         GpuReport {
@@ -281,7 +373,7 @@ impl Gpu {
             l1d_hit_rate: hit_rate(&self.mem.l1d_counters()),
             l2_hit_rate: hit_rate(self.mem.l2().counters()),
             stack,
-            bank_conflict_cycles: sum(|u| u.arb.conflict_cycles),
+            bank_conflict_cycles: sum(|u| u.stack_unit.arb.conflict_cycles),
             pops_checked: sum(|u| u.stats.pops_checked),
             last_dispatch: 0,
         }
@@ -293,9 +385,9 @@ impl Probe for Gpu {
         if !s.enabled() {
             return;
         }
-        for (sm, u) in self.units.iter().enumerate() {
+        for (sm, (u, d)) in self.units.iter().zip(&self.steps).enumerate() {
             s.push_scope(&format!("sm{sm}"));
-            u.probe(s);
+            u.probe(d, s);
             s.pop_scope();
         }
         s.push_scope("mem");

@@ -2,8 +2,10 @@
 //!
 //! Conventions (see `../shared/STYLE.md`):
 //! - one hardware unit per file, named after the unit;
-//! - a unit reads only its own registers and the *registered* outputs of other units (what they
-//!   produced in the previous cycle); `step` is one clock cycle;
+//! - a unit is a kernel: `eval(&self, inputs, &mut step)` reads only its registers and this
+//!   cycle's inputs (other units' outputs, in dataflow order) and writes its outputs and
+//!   decisions into `step`; `commit` applies them at the clock edge (`rtl/DESIGN.md`, "How one
+//!   cycle works");
 //! - every width comes from [`config::Widths`], used alike by the logic, the waveform dump and
 //!   the cost report;
 //! - signals are exposed to a [`trace::Sink`] through [`trace::Probe`]; the [`trace::NullSink`]
@@ -45,6 +47,9 @@ pub mod mem_sched;
 pub mod node_fetch;
 pub mod ray_op;
 pub mod rt_unit;
+pub mod scheduler;
 pub mod stack_manager;
 pub mod stack_unit;
+pub mod thread_fsm;
 pub mod trace;
+pub mod warp_buffer;

@@ -16,7 +16,8 @@
 
 use std::collections::VecDeque;
 
-use crate::trace::{Kind, Probe, Sink};
+use crate::config::Widths;
+use crate::trace::{Kind, Sink};
 
 /// A global-memory request of the stack manager.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -32,11 +33,21 @@ pub struct GReq {
 pub struct MemSched {
     queue: VecDeque<GReq>,
     fifo: VecDeque<u32>,
-    /// Thread whose load response was delivered last cycle (registered output).
-    delivered: Option<u32>,
-    /// Request sent to the port last cycle, for probes.
-    issued: Option<GReq>,
+    /// Thread whose response the FIFO delivered last cycle (the registered `deq` output).
+    deq: Option<u32>,
     pub max_queue: usize,
+}
+
+/// The scheduler's decisions in one cycle ([`MemSched::eval`]), applied by
+/// [`MemSched::commit`]. A reusable buffer.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct SchedStep {
+    /// The request the port took this cycle (the `req` handshake fired).
+    pub req: Option<GReq>,
+    /// The FIFO's head leaves (the `deq` register's next value).
+    deq: Option<u32>,
+    completions: Vec<u32>,
+    new: Vec<GReq>,
 }
 
 impl MemSched {
@@ -44,49 +55,65 @@ impl MemSched {
         MemSched::default()
     }
 
-    /// Thread whose load data arrived in the previous cycle.
-    pub fn delivered(&self) -> Option<u32> {
-        self.delivered
+    /// Thread whose response the FIFO delivered in the previous cycle (registered output).
+    #[inline]
+    pub fn deq(&self) -> Option<u32> {
+        self.deq
     }
 
+    #[inline]
     pub fn is_idle(&self) -> bool {
-        self.queue.is_empty() && self.fifo.is_empty() && self.delivered.is_none()
+        self.queue.is_empty() && self.fifo.is_empty() && self.deq.is_none()
     }
 
-    /// The request the port would take this cycle.
+    /// The request offered to the port this cycle (`req_valid` and its data; from registers).
+    #[inline]
     pub fn head(&self) -> Option<GReq> {
         self.queue.front().copied()
     }
 
-    /// One cycle: deliver one response, hand the head request to the port if `port_ready`,
-    /// capture load completions from the port into the FIFO, enqueue `new`.
-    /// Returns the request sent to the port.
-    pub fn step(&mut self, new: &[GReq], port_ready: bool, completions: &[u32]) -> Option<GReq> {
-        self.delivered = self.fifo.pop_front();
-        self.issued = if port_ready { self.queue.pop_front() } else { None };
-        self.fifo.extend(completions.iter().copied());
-        self.queue.extend(new.iter().copied());
-        self.max_queue = self.max_queue.max(self.queue.len());
-        self.issued
+    /// One cycle, combinational: the FIFO delivers one response, the port takes the head request
+    /// if `req_ready`; `completions` (from the port) enter the FIFO and `new` requests the queue
+    /// at the edge.
+    pub fn eval(&self, new: &[GReq], req_ready: bool, completions: &[u32], d: &mut SchedStep) {
+        d.deq = self.fifo.front().copied();
+        d.req = if req_ready { self.head() } else { None };
+        d.completions.clear();
+        d.completions.extend_from_slice(completions);
+        d.new.clear();
+        d.new.extend_from_slice(new);
     }
-}
 
-impl Probe for MemSched {
-    fn probe<S: Sink>(&self, s: &mut S) {
+    /// The clock edge.
+    pub fn commit(&mut self, d: &SchedStep) {
+        self.deq = d.deq;
+        if d.deq.is_some() {
+            self.fifo.pop_front();
+        }
+        if d.req.is_some() {
+            self.queue.pop_front();
+        }
+        self.fifo.extend(d.completions.iter().copied());
+        self.queue.extend(d.new.iter().copied());
+        self.max_queue = self.max_queue.max(self.queue.len());
+    }
+
+    /// Registers and this cycle's port handshake (`d`, from [`MemSched::eval`]).
+    pub fn probe<S: Sink>(&self, d: &SchedStep, w: &Widths, s: &mut S) {
         if !s.enabled() {
             return;
         }
         s.push_scope("mem_sched");
-        s.signal("req_valid", 1, u64::from(self.issued.is_some()));
-        s.signal("req_write", 1, self.issued.map_or(0, |r| u64::from(r.write)));
-        s.signal_kind("req_addr", 64, self.issued.map_or(0, |r| r.addr), Kind::Address);
-        s.signal("req_thread", 16, self.issued.map_or(0, |r| r.thread as u64));
+        s.signal("req_valid", 1, u64::from(d.req.is_some()));
+        s.signal("req_write", 1, d.req.map_or(0, |r| u64::from(r.write)));
+        s.signal_kind("req_addr", 64, d.req.map_or(0, |r| r.addr), Kind::Address);
+        s.signal("req_thread", w.thread, d.req.map_or(0, |r| r.thread as u64));
         s.signal("queue", 16, self.queue.len() as u64);
         s.pop_scope();
         s.push_scope("response_fifo");
         s.signal("occupancy", 16, self.fifo.len() as u64);
-        s.signal("deq_valid", 1, u64::from(self.delivered.is_some()));
-        s.signal("deq_thread", 16, self.delivered.unwrap_or(0) as u64);
+        s.signal("deq_valid", 1, u64::from(self.deq.is_some()));
+        s.signal("deq_thread", w.thread, self.deq.unwrap_or(0) as u64);
         s.pop_scope();
     }
 }
@@ -102,7 +129,15 @@ pub struct FixedLatencyMem {
     cycle: u64,
     /// (ready cycle, thread), in issue order, so also in ready order.
     inflight: VecDeque<(u64, u32)>,
+    /// Threads whose load (or acknowledged store) completed last cycle (registered output).
     done: Vec<u32>,
+}
+
+/// The memory's decisions in one cycle ([`FixedLatencyMem::eval`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct FixedStep {
+    done: Vec<u32>,
+    accepted: Option<(u64, u32)>,
 }
 
 impl FixedLatencyMem {
@@ -129,18 +164,18 @@ impl FixedLatencyMem {
         self.inflight.front().map(|&(c, _)| c)
     }
 
-    pub fn step(&mut self, req: Option<GReq>) {
-        self.done.clear();
-        while let Some(&(ready, t)) = self.inflight.front() {
-            if ready > self.cycle {
-                break;
-            }
-            self.done.push(t);
-            self.inflight.pop_front();
-        }
-        if let Some(r) = req.filter(|r| !r.write || self.acks) {
-            self.inflight.push_back((self.cycle + self.latency, r.thread));
-        }
+    /// One cycle with request `req` (the port always takes it).
+    pub fn eval(&self, req: Option<GReq>, d: &mut FixedStep) {
+        d.done.clear();
+        d.done.extend(self.inflight.iter().take_while(|&&(ready, _)| ready <= self.cycle).map(|&(_, t)| t));
+        d.accepted = req.filter(|r| !r.write || self.acks).map(|r| (self.cycle + self.latency, r.thread));
+    }
+
+    /// The clock edge.
+    pub fn commit(&mut self, d: &FixedStep) {
+        self.inflight.drain(..d.done.len());
+        self.done.clone_from(&d.done);
+        self.inflight.extend(d.accepted);
         self.cycle += 1;
     }
 
@@ -154,6 +189,16 @@ impl FixedLatencyMem {
 mod tests {
     use super::*;
 
+    /// One cycle of the scheduler and the memory behind it; returns the request the port took.
+    fn step(s: &mut MemSched, m: &mut FixedLatencyMem, new: &[GReq], ready: bool) -> Option<GReq> {
+        let (mut ds, mut dm) = (SchedStep::default(), FixedStep::default());
+        s.eval(new, ready, m.completions(), &mut ds);
+        m.eval(ds.req, &mut dm);
+        s.commit(&ds);
+        m.commit(&dm);
+        ds.req
+    }
+
     #[test]
     fn load_round_trip_takes_latency_plus_fifo() {
         let mut s = MemSched::new();
@@ -162,9 +207,8 @@ mod tests {
         let mut arrived = None;
         for cycle in 0..20 {
             let new = if cycle == 0 { vec![load] } else { vec![] };
-            let port = s.step(&new, true, m.completions());
-            m.step(port);
-            if s.delivered() == Some(3) {
+            step(&mut s, &mut m, &new, true);
+            if s.deq() == Some(3) {
                 arrived = Some(cycle);
                 break;
             }
@@ -176,10 +220,11 @@ mod tests {
     #[test]
     fn one_request_per_cycle_and_stores_need_no_response() {
         let mut s = MemSched::new();
+        let mut m = FixedLatencyMem::new(10);
         let reqs = [GReq { thread: 0, write: true, addr: 0 }, GReq { thread: 1, write: false, addr: 8 }];
-        assert_eq!(s.step(&reqs, true, &[]), None);
-        assert_eq!(s.step(&[], true, &[]), Some(reqs[0]));
-        assert_eq!(s.step(&[], false, &[]), None, "port not ready");
-        assert_eq!(s.step(&[], true, &[]), Some(reqs[1]));
+        assert_eq!(step(&mut s, &mut m, &reqs, true), None);
+        assert_eq!(step(&mut s, &mut m, &[], true), Some(reqs[0]));
+        assert_eq!(step(&mut s, &mut m, &[], false), None, "port not ready");
+        assert_eq!(step(&mut s, &mut m, &[], true), Some(reqs[1]));
     }
 }

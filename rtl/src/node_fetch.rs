@@ -62,11 +62,19 @@ impl NodeFetch {
         NodeFetch { sector_bytes: u64::from(sector_bytes), ..Default::default() }
     }
 
+    #[inline]
     pub fn sector_bytes(&self) -> u64 {
         self.sector_bytes
     }
 
+    /// Requests waiting for the port.
+    #[inline]
+    pub fn queue_len(&self) -> usize {
+        self.queue.len()
+    }
+
     /// No request waiting for the port.
+    #[inline]
     pub fn queue_empty(&self) -> bool {
         self.queue.is_empty()
     }
@@ -127,12 +135,19 @@ impl NodeFetch {
         }
     }
 
-    /// A response for request id `id`: frees its slot, returns (warp, lanes) to wake.
-    pub fn complete(&mut self, id: u64) -> (u32, u32) {
-        let slot = (id >> 2) as u32;
-        self.free.push(slot);
-        let w = self.waiters[slot as usize];
+    /// Who waits for the response to request id `id`: (warp, lanes to wake).
+    #[inline]
+    pub fn waiters(&self, id: u64) -> (u32, u32) {
+        let w = self.waiters[(id >> 2) as usize];
         (w.warp, w.lanes)
+    }
+
+    /// Clock edge: the response to request id `id` arrived; frees its slot and returns
+    /// [`NodeFetch::waiters`].
+    pub fn complete(&mut self, id: u64) -> (u32, u32) {
+        let w = self.waiters(id);
+        self.free.push((id >> 2) as u32);
+        w
     }
 }
 

@@ -1,5 +1,7 @@
-//! One RT unit: warp buffer, GTO warp scheduler, per-thread traversal state, node fetch, and the
-//! stack subsystem (stack manager, bank arbiter, memory scheduler), sharing one memory port.
+//! One RT unit: warp buffer ([`crate::warp_buffer`]), GTO warp scheduler
+//! ([`crate::scheduler`]), per-thread traversal state machine ([`crate::thread_fsm`]), node fetch,
+//! and the stack unit ([`crate::stack_unit`]: stack manager, bank arbiter, memory scheduler),
+//! sharing one memory port.
 //!
 //! ```text
 //!  warp job ──► warp buffer (≤ cfg.warps slots, oldest = lowest age)
@@ -19,24 +21,21 @@
 //! slot empty), and there are few of them, while node fetches are the bulk of the traffic and
 //! simply wait one cycle more.
 //!
-//! Thread states (SPEC 7, "fetch → intersect → stack update → next"): a thread's next operation
-//! decides its state. A Visit waits in Fetch until the scheduler picks its warp, then waits for
-//! one response per sector piece of its node (WaitMem), then spends its kind's latency (Busy).
-//! Push, Pop and the final Finish go to the stack manager one per cycle, each when the stack
-//! manager is `ready` for the thread; a Pop's answer must equal the trace's address, else the run
-//! stops with [`RunError::PopMismatch`]. With [`StackTiming::Blocking`] (the default) a lane
-//! waiting to fetch is scheduled only once its stack sequencer is idle too: the pop's refill and
-//! the pushes' spills (each global store until the L2 acknowledges it) finish before the next
-//! node fetch, as in the paper's RT unit; since Finish also waits for `ready`, a warp cannot leave
-//! with a store unacknowledged. With [`StackTiming::Overlapped`] stores are posted and the refill
-//! overlaps the fetch. A ray spends the BVH-header latency once, when its warp
-//! is loaded (Vulkan-Sim reads the acceleration structure's header before the root).
+//! Thread states ([`crate::thread_fsm`]): a Pop's answer must equal the trace's address, else
+//! the run stops with [`RunError::PopMismatch`]. With [`StackTiming::Blocking`] (the default) a
+//! lane waiting to fetch is scheduled only once its stack sequencer is idle too: the pop's refill
+//! and the pushes' spills (each global store until the L2 acknowledges it) finish before the next
+//! node fetch, as in the paper's RT unit; since Finish also waits for `ready`, a warp cannot
+//! leave with a store unacknowledged. With [`StackTiming::Overlapped`] stores are posted and the
+//! refill overlaps the fetch. A ray spends the BVH-header latency once, when its warp is loaded
+//! (Vulkan-Sim reads the acceleration structure's header before the root).
 //!
-//! Clocking: every decision of a cycle reads registers only (thread states, fetch masks, the
-//! fetch queue, `ready` of the stack manager, last cycle's arbiter and FIFO outputs, the
-//! responses the L1D shows this cycle). Each thread's next state is a function of its own
-//! state and those inputs, so the order in which threads are visited does not matter. A warp
-//! that finished leaves at the start of a cycle; a new job lands in a slot at the end.
+//! Clocking: [`RtUnit::eval`] reads registers only (thread states, lane masks, the fetch queue,
+//! `ready` of the stack manager, the arbiter's and FIFO's registered outputs) and this cycle's
+//! inputs (the L1D's `ready` and responses), and writes an [`RtStep`]; [`RtUnit::commit`]
+//! applies it. Each thread's next state is [`thread_fsm::next`] of its own state and those
+//! inputs, so the order in which threads are visited does not matter. A warp that finished
+//! leaves at the edge of the cycle it is seen done; a new job lands in a slot at the same edge.
 //!
 //! Simplified, and why:
 //! - Threads of a warp advance independently (no SIMT reconvergence): the RT unit works per ray,
@@ -51,15 +50,18 @@
 //! - Node data is not modelled, only addresses; stack entries are (the stack manager moves real
 //!   values, which is how every pop is checked).
 
-use crate::bank_arbiter::{BankArbiter, MIN_SH_LATENCY};
-use crate::config::{Config, ConfigError};
+use crate::bank_arbiter::MIN_SH_LATENCY;
+use crate::config::{Config, ConfigError, Widths};
 use crate::mem::{MemReq, MemResp, ReqKind};
-use crate::mem_sched::MemSched;
-use crate::node_fetch::{pieces, NodeFetch};
+use crate::node_fetch::NodeFetch;
 use crate::ray_op::{NodeKind, RayOp, WarpJob};
+use crate::scheduler::GtoScheduler;
 pub use crate::stack_manager::StackTiming;
-use crate::stack_manager::{Cmd, StackError, StackManager};
-use crate::trace::{Kind, Probe, Sink};
+use crate::stack_manager::{Cmd, StackError};
+use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
+use crate::thread_fsm::{self, Thread, ThreadIn, ThreadState};
+use crate::trace::{Probe, Sink};
+use crate::warp_buffer::{lanes_of, WarpBuffer};
 
 /// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and run options.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -195,111 +197,6 @@ const TAG_NODE: u64 = 0;
 const TAG_LOAD: u64 = 1;
 const TAG_STORE: u64 = 2;
 
-/// Where a thread is in its traversal.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum ThreadState {
-    /// Inactive lane, or finished.
-    #[default]
-    Done,
-    /// In an operation unit until cycle `until` (inclusive: it moves on in that cycle).
-    Busy { until: u64 },
-    /// Its next operation is a Visit: waits for the scheduler.
-    Fetch,
-    /// Waits for `left` sector responses, then spends `lat` cycles.
-    WaitMem { left: u32, lat: u32 },
-    /// Its next operation is a stack command (or the final Finish).
-    Stack,
-}
-
-impl ThreadState {
-    /// The states by waveform code ([`ThreadState::code`]): the names of the variants.
-    pub const NAMES: &'static [&'static str] = &["done", "busy", "fetch", "wait_mem", "stack"];
-    /// How a waveform shows the state.
-    pub const KIND: Kind = Kind::Enum { name: "thread_state", names: ThreadState::NAMES };
-
-    /// Waveform encoding (3 bits): an index into [`ThreadState::NAMES`].
-    pub fn code(self) -> u64 {
-        match self {
-            ThreadState::Done => 0,
-            ThreadState::Busy { .. } => 1,
-            ThreadState::Fetch => 2,
-            ThreadState::WaitMem { .. } => 3,
-            ThreadState::Stack => 4,
-        }
-    }
-}
-
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct Thread {
-    state: ThreadState,
-    /// Index of the next operation not yet started.
-    pos: u32,
-}
-
-/// Per warp, which lanes are in which state: derived registers kept in step with the thread
-/// states, so a cycle visits only the lanes that can act (woken by a response, due to leave an
-/// operation unit, scheduled, or holding a stack command) instead of all of them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Lanes {
-    fetch: u32,
-    wait: u32,
-    busy: u32,
-    stack: u32,
-    /// Earliest `until` among the busy lanes (`u64::MAX` when none).
-    busy_until: u64,
-    /// Lanes not Done.
-    live: u32,
-}
-
-impl Lanes {
-    const EMPTY: Lanes = Lanes { fetch: 0, wait: 0, busy: 0, stack: 0, busy_until: u64::MAX, live: 0 };
-
-    fn mask(&mut self, state: ThreadState) -> Option<&mut u32> {
-        match state {
-            ThreadState::Done => None,
-            ThreadState::Busy { .. } => Some(&mut self.busy),
-            ThreadState::Fetch => Some(&mut self.fetch),
-            ThreadState::WaitMem { .. } => Some(&mut self.wait),
-            ThreadState::Stack => Some(&mut self.stack),
-        }
-    }
-
-    /// Lane `l` moves from `old` to `new`.
-    fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
-        if let Some(m) = self.mask(old) {
-            *m &= !(1 << l);
-        }
-        if let Some(m) = self.mask(new) {
-            *m |= 1 << l;
-        }
-        if let ThreadState::Busy { until } = new {
-            self.busy_until = self.busy_until.min(until);
-        }
-        self.live = (self.fetch | self.wait | self.busy | self.stack).count_ones();
-    }
-}
-
-/// Iterates the set bits of `m`, lowest first.
-fn lanes_of(mut m: u32) -> impl Iterator<Item = u32> {
-    std::iter::from_fn(move || {
-        (m != 0).then(|| {
-            let l = m.trailing_zeros();
-            m &= m - 1;
-            l
-        })
-    })
-}
-
-/// A resident warp.
-#[derive(Clone, Debug)]
-struct Slot {
-    lanes: Vec<Option<Vec<RayOp>>>,
-    /// Load order: lower is older.
-    age: u64,
-    /// Cycle the warp was loaded.
-    landed: u64,
-}
-
 /// Which source drives the memory port this cycle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 enum Port {
@@ -319,21 +216,83 @@ pub struct RtStats {
     pub pops_checked: u64,
 }
 
-/// Greedy-then-oldest: the warp issued last if it is `ready`, else the ready warp of lowest `age`.
-fn gto(
-    greedy: Option<u32>,
-    warps: u32,
-    ready: impl Fn(u32) -> bool,
-    age: impl Fn(u32) -> u64,
-) -> Option<u32> {
-    greedy.filter(|&w| ready(w)).or_else(|| (0..warps).filter(|&w| ready(w)).min_by_key(|&w| age(w)))
+/// This cycle's inputs of an RT unit: the memory system's registered outputs for its SM.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RtIn<'a> {
+    pub now: u64,
+    /// The L1D takes a request this cycle (what [`RtUnit::req`] was offered with).
+    pub req_ready: bool,
+    /// The L1D took the offered request (`req_valid && req_ready`).
+    pub req_fire: bool,
+    /// Responses the L1D shows this cycle.
+    pub resp: &'a [MemResp],
 }
 
-/// The state a thread enters to perform operation `pos`.
-fn decode(ops: &[RayOp], pos: u32) -> ThreadState {
-    match ops.get(pos as usize) {
-        Some(RayOp::Visit { .. }) => ThreadState::Fetch,
-        _ => ThreadState::Stack,
+/// An RT unit's cycle: its outputs and every decision its registers take at the clock edge
+/// ([`RtUnit::eval`], [`RtUnit::commit`]). A reusable buffer: a cycle allocates nothing once it
+/// has grown.
+#[derive(Clone, Debug, Default)]
+pub struct RtStep {
+    now: u64,
+    port: Port,
+    node_taken: bool,
+    took_stack: bool,
+    store_taken: bool,
+    /// The slot a job dispatched this cycle lands in (free before the cycle).
+    load_slot: Option<u32>,
+    /// Warps that leave.
+    leaving: Vec<u32>,
+    /// The scheduler's issue: (warp, lanes).
+    issue: Option<(u32, u32)>,
+    /// Node responses (their waiter slots free at the edge).
+    node_resp: Vec<u64>,
+    /// Warps whose Busy lanes were due (their deadline is recomputed at the edge).
+    due: Vec<u32>,
+    /// Next state of every thread that acted.
+    threads: Vec<(u32, Thread)>,
+    visits: u64,
+    /// Per thread: node pieces that arrived (scratch; `arrived_at` lists the nonzero entries).
+    arrived: Vec<u32>,
+    arrived_at: Vec<u32>,
+    /// Per warp: lanes that got a node response (scratch).
+    woken: Vec<u32>,
+    completions: Vec<u32>,
+    cmds: Vec<(u32, Cmd)>,
+    expected_pops: Vec<(u32, u64)>,
+    stack: StackUnitStep,
+}
+
+impl RtStep {
+    /// Visits this cycle started (for [`crate::gpu::OrderBug::StaleStep`]).
+    #[cfg(feature = "mutants")]
+    pub fn visits(&self) -> u64 {
+        self.visits
+    }
+
+    /// The planted bug of [`crate::gpu::OrderBug::StaleStep`]: an earlier evaluation's visits
+    /// counted again.
+    #[cfg(feature = "mutants")]
+    pub fn count_visits_again(&mut self, earlier: u64) {
+        self.visits += earlier;
+    }
+
+    fn clear(&mut self, threads: usize, warps: usize) {
+        for &t in &self.arrived_at {
+            self.arrived[t as usize] = 0;
+        }
+        self.arrived_at.clear();
+        self.arrived.resize(threads, 0);
+        self.woken.clear();
+        self.woken.resize(warps, 0);
+        self.leaving.clear();
+        self.issue = None;
+        self.node_resp.clear();
+        self.due.clear();
+        self.threads.clear();
+        self.visits = 0;
+        self.completions.clear();
+        self.cmds.clear();
+        self.expected_pops.clear();
     }
 }
 
@@ -342,35 +301,19 @@ pub struct RtUnit {
     id: u32,
     cfg: Config,
     rt: RtParams,
-    pub stack: StackManager,
-    pub arb: BankArbiter,
-    pub sched: MemSched,
+    w: Widths,
+    /// Stack manager, bank arbiter and memory scheduler.
+    pub stack_unit: StackUnit,
     pub fetch: NodeFetch,
-    slots: Vec<Option<Slot>>,
-    threads: Vec<Thread>,
-    lanes: Vec<Lanes>,
-    /// GTO: the warp issued last.
-    greedy: Option<u32>,
-    next_age: u64,
+    warp_buffer: WarpBuffer,
+    scheduler: GtoScheduler,
     /// Cycles each warp job spent in the warp buffer, by load order (0 while resident): a
     /// per-job share of the run time, used to attribute cycles to sampled warps.
     pub residence: Vec<u64>,
     /// Distinguishes posted stores in flight (Overlapped; with Blocking a store's id names its
     /// thread, which has at most one store in flight, so the acknowledgement finds its sequencer).
     store_seq: u64,
-    /// Per-cycle signals.
-    port: Port,
-    scheduled: Option<u32>,
-    /// Lanes of the scheduled warp that start their fetch.
-    scheduled_lanes: u32,
     next_event: Option<u64>,
-    /// Scratch, reused every cycle.
-    arrived: Vec<u32>,
-    /// Per warp: lanes that got a node response this cycle.
-    woken: Vec<u32>,
-    completions: Vec<u32>,
-    cmds: Vec<(u32, Cmd)>,
-    expected_pops: Vec<(u32, u64)>,
     pub stats: RtStats,
 }
 
@@ -379,62 +322,46 @@ impl RtUnit {
     /// system's fetch granularity.
     pub fn new(id: u32, cfg: Config, rt: RtParams, sector_bytes: u32) -> Result<Self, ConfigError> {
         rt.validate()?;
-        let warps = cfg.warps as usize;
-        let threads = cfg.threads() as usize;
         Ok(RtUnit {
             id,
             cfg,
             rt,
-            stack: StackManager::new(cfg, id)?.with_acked_stores(rt.stack_timing == StackTiming::Blocking),
-            arb: BankArbiter::with_latency(cfg.banks, rt.sh_latency),
-            sched: MemSched::new(),
+            w: cfg.widths()?,
+            stack_unit: StackUnit::new(cfg, id, rt.stack_timing, rt.sh_latency)?,
             fetch: NodeFetch::new(sector_bytes),
-            slots: vec![None; warps],
-            threads: vec![Thread::default(); threads],
-            lanes: vec![Lanes::EMPTY; warps],
-            greedy: None,
-            next_age: 0,
+            warp_buffer: WarpBuffer::new(&cfg),
+            scheduler: GtoScheduler::default(),
             residence: Vec::new(),
             store_seq: 0,
-            port: Port::Idle,
-            scheduled: None,
-            scheduled_lanes: 0,
             next_event: None,
-            arrived: vec![0; threads],
-            woken: vec![0; warps],
-            completions: Vec::new(),
-            cmds: Vec::new(),
-            expected_pops: Vec::new(),
             stats: RtStats::default(),
         })
     }
 
     /// A warp slot that can take a job this cycle.
     pub fn free_slot(&self) -> Option<u32> {
-        self.slots.iter().position(Option::is_none).map(|w| w as u32)
+        self.warp_buffer.free_slot()
     }
 
     /// No warp resident.
     pub fn empty(&self) -> bool {
-        self.slots.iter().all(Option::is_none)
+        self.warp_buffer.empty()
     }
 
-    /// The first cycle after the last `step` in which this unit does something even if no memory
-    /// response arrives; `None` when it only waits for memory (or is empty).
+    /// The first cycle after the last commit in which this unit does something even if no
+    /// memory response arrives; `None` when it only waits for memory (or is empty).
     pub fn next_event(&self) -> Option<u64> {
         self.next_event
     }
 
-    /// Drives the memory port for this cycle (from registers): the stack's head request first,
-    /// else the node fetch queue's head. `mem_ready`: the L1D takes a request this cycle.
-    pub fn offer(&mut self, mem_ready: bool) -> Option<MemReq> {
-        self.port = Port::Idle;
-        if !mem_ready {
+    /// The request offered to the L1D this cycle (from registers): the stack's head request
+    /// first, else the node fetch queue's head; none unless `req_ready`.
+    pub fn req(&self, req_ready: bool) -> Option<MemReq> {
+        if !req_ready {
             return None;
         }
         let bytes = self.cfg.entry_bytes;
-        if let Some(g) = self.sched.head() {
-            self.port = Port::Stack;
+        if let Some(g) = self.stack_unit.req() {
             return Some(if g.write {
                 let tag = match self.rt.stack_timing {
                     StackTiming::Blocking => u64::from(g.thread),
@@ -445,223 +372,215 @@ impl RtUnit {
                 MemReq::read(u64::from(g.thread) << 2 | TAG_LOAD, g.addr, bytes, ReqKind::StackReload)
             });
         }
-        let r = self.fetch.head(TAG_NODE)?;
-        self.port = Port::Node;
-        Some(r)
+        self.fetch.head(TAG_NODE)
     }
 
-    /// One clock cycle at `now`. `accepted`: the L1D took the request [`RtUnit::offer`] drove;
-    /// `resp`: responses the L1D shows this cycle; `job`: a warp job for the slot that
-    /// [`RtUnit::free_slot`] named before this step (the dispatcher checked it).
-    pub fn step(
-        &mut self,
-        now: u64,
-        accepted: bool,
-        resp: &[MemResp],
-        job: Option<WarpJob>,
-    ) -> Result<(), RunError> {
-        let ws = self.cfg.warp_size;
-        let load_slot = self.free_slot();
-        let took_stack = accepted && self.port == Port::Stack;
-        if accepted && self.port == Port::Node {
-            self.fetch.taken();
-        }
-        if took_stack && self.sched.head().is_some_and(|g| g.write) {
-            self.store_seq += 1;
-        }
+    /// One clock cycle, combinational: reads the registers and `i`, writes the outputs and the
+    /// next state into `d`; nothing in `self` changes ([`RtUnit::commit`] applies `d`). The first
+    /// problem (a refused stack command, a pop that disagrees with the trace, a warp leaving
+    /// stack entries behind) is an error.
+    pub fn eval(&self, i: &RtIn, d: &mut RtStep) -> Result<(), RunError> {
+        let (ws, warps, now) = (self.cfg.warp_size, self.cfg.warps, i.now);
+        d.clear(self.cfg.threads() as usize, warps as usize);
+        d.now = now;
+        d.load_slot = self.free_slot();
+        d.port = match (i.req_ready, self.stack_unit.req().is_some(), self.fetch.queue_empty()) {
+            (false, ..) => Port::Idle,
+            (true, true, _) => Port::Stack,
+            (true, false, false) => Port::Node,
+            (true, false, true) => Port::Idle,
+        };
+        d.node_taken = i.req_fire && d.port == Port::Node;
+        d.took_stack = i.req_fire && d.port == Port::Stack;
+        d.store_taken = d.took_stack && self.stack_unit.req().is_some_and(|g| g.write);
+        let manager = &self.stack_unit.manager;
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
         // must leave nothing behind.
-        for w in 0..self.cfg.warps {
-            if self.slots[w as usize].is_some() && self.lanes[w as usize].live == 0 && self.stack.warp_done(w)
-            {
-                if let Some(thread) = self.stack.warp_threads(w).find(|&t| !self.stack_clear(t)) {
+        for w in 0..warps {
+            if self.warp_buffer.occupied(w) && self.warp_buffer.lanes(w).live() == 0 && manager.warp_done(w) {
+                if let Some(thread) = manager.warp_threads(w).find(|&t| !self.stack_clear(t)) {
                     return Err(RunError::ExitNotEmpty { cycle: now, sm: self.id, thread });
                 }
-                if let Some(slot) = self.slots[w as usize].take() {
-                    self.residence[slot.age as usize] = now - slot.landed;
-                }
-                if self.greedy == Some(w) {
-                    self.greedy = None;
-                }
+                d.leaving.push(w);
             }
         }
 
         // Scheduler: picks a warp in the cycle the fetch queue drains (the port taking the last
         // piece is the queue's ready signal).
-        self.scheduled = None;
-        self.scheduled_lanes = 0;
-        if self.fetch.queue_empty() {
-            let ready = |w: u32| self.fetchable(w) != 0;
-            let age = |w: u32| self.slots[w as usize].as_ref().map_or(u64::MAX, |s| s.age);
-            if let Some(w) = gto(self.greedy, self.cfg.warps, ready, age) {
-                self.greedy = Some(w);
-                self.scheduled = Some(w);
-                self.scheduled_lanes = self.fetchable(w);
-                let (slot, threads, mask) = (&self.slots[w as usize], &self.threads, self.scheduled_lanes);
-                let lanes = slot.as_ref().map_or(&[][..], |s| &s.lanes[..]);
-                self.fetch.coalesce(
-                    w,
-                    lanes_of(mask).filter_map(|l| {
-                        let th = threads[(w * ws + l) as usize];
-                        match lanes[l as usize].as_ref()?.get(th.pos as usize)? {
-                            RayOp::Visit { addr, bytes, .. } => Some((l, *addr, *bytes)),
-                            _ => None,
-                        }
-                    }),
-                );
+        if self.fetch.queue_len() == usize::from(d.node_taken) {
+            let leaving = &d.leaving;
+            let ready = |w: u32| !leaving.contains(&w) && self.fetchable(w) != 0;
+            if let Some(w) =
+                self.scheduler.pick(|w| leaving.contains(&w), warps, ready, |w| self.warp_buffer.age(w))
+            {
+                d.issue = Some((w, self.fetchable(w)));
             }
         }
 
         // Responses: node pieces wake lanes; stack loads go to the response FIFO; store
         // acknowledgements too with Blocking (their sequencer waits), and need nothing with
         // Overlapped (stores are posted).
-        self.completions.clear();
-        for r in resp {
+        for r in i.resp {
             match r.id & 3 {
                 TAG_NODE => {
-                    let (w, lanes) = self.fetch.complete(r.id);
+                    let (w, lanes) = self.fetch.waiters(r.id);
                     for l in lanes_of(lanes) {
-                        self.arrived[(w * ws + l) as usize] += 1;
+                        let t = (w * ws + l) as usize;
+                        if d.arrived[t] == 0 {
+                            d.arrived_at.push(t as u32);
+                        }
+                        d.arrived[t] += 1;
                     }
-                    self.woken[w as usize] |= lanes;
+                    d.woken[w as usize] |= lanes;
+                    d.node_resp.push(r.id);
                 }
-                TAG_LOAD => self.completions.push((r.id >> 2) as u32),
+                TAG_LOAD => d.completions.push((r.id >> 2) as u32),
                 _ => {
                     debug_assert_eq!(r.id & 3, TAG_STORE);
                     if self.rt.stack_timing == StackTiming::Blocking {
-                        self.completions.push((r.id >> 2) as u32);
+                        d.completions.push((r.id >> 2) as u32);
                     }
                 }
             }
         }
 
         // Threads: only the lanes that can act this cycle.
-        self.cmds.clear();
-        self.expected_pops.clear();
-        let sector = self.fetch.sector_bytes();
-        for w in 0..self.cfg.warps {
-            let Some(slot) = &self.slots[w as usize] else { continue };
-            let q = self.lanes[w as usize];
+        let sector_bytes = self.fetch.sector_bytes();
+        for w in 0..warps {
+            if !self.warp_buffer.occupied(w) {
+                continue;
+            }
+            let q = self.warp_buffer.lanes(w);
             let due = now >= q.busy_until;
-            let todo = q.stack
-                | std::mem::take(&mut self.woken[w as usize])
-                | if self.scheduled == Some(w) { self.scheduled_lanes } else { 0 }
-                | if due { q.busy } else { 0 };
+            let scheduled = d.issue.filter(|x| x.0 == w).map_or(0, |x| x.1);
+            let todo = q.stack | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
             for l in lanes_of(todo) {
                 let t = w * ws + l;
-                let th = self.threads[t as usize];
-                let ops = slot.lanes[l as usize].as_deref().unwrap_or(&[]);
-                let mut d = th;
-                match th.state {
-                    ThreadState::Done => {}
-                    ThreadState::Busy { until } => {
-                        if now >= until {
-                            d.state = decode(ops, th.pos);
-                        }
-                    }
-                    ThreadState::Fetch => {
-                        if let Some(RayOp::Visit { addr, kind, bytes }) = ops.get(th.pos as usize) {
-                            d.state = ThreadState::WaitMem {
-                                left: pieces(*addr, *bytes, sector),
-                                lat: self.rt.latency(*kind),
-                            };
-                            d.pos += 1;
-                            self.stats.visits += 1;
-                        }
-                    }
-                    ThreadState::WaitMem { left, lat } => {
-                        let a = std::mem::take(&mut self.arrived[t as usize]);
-                        d.state = if a >= left {
-                            ThreadState::Busy { until: now + u64::from(lat) }
-                        } else {
-                            ThreadState::WaitMem { left: left - a, lat }
-                        };
-                    }
-                    ThreadState::Stack => {
-                        if self.stack.ready(t) {
-                            let cmd = match ops.get(th.pos as usize) {
-                                Some(RayOp::Push(a)) => Cmd::Push(*a),
-                                Some(RayOp::Pop(a)) => {
-                                    self.expected_pops.push((t, *a));
-                                    Cmd::Pop
-                                }
-                                _ => Cmd::Finish,
-                            };
-                            self.cmds.push((t, cmd));
-                            d.state = if cmd == Cmd::Finish {
-                                ThreadState::Done
-                            } else {
-                                d.pos += 1;
-                                decode(ops, d.pos)
-                            };
-                        }
-                    }
+                let q = self.warp_buffer.thread(t);
+                let ti = ThreadIn {
+                    now,
+                    scheduled: scheduled & (1 << l) != 0,
+                    arrived: d.arrived[t as usize],
+                    // Only a thread with a stack command asks (the sequencer's state is far away).
+                    stack_ready: q.state == ThreadState::Stack && manager.ready(t),
+                    sector_bytes,
+                };
+                let (th, out) = thread_fsm::next(&self.rt, q, self.warp_buffer.ops(w, l), &ti);
+                if th != q {
+                    d.threads.push((t, th));
                 }
-                self.lanes[w as usize].set(l, th.state, d.state);
-                self.threads[t as usize] = d;
+                d.visits += u64::from(out.visit);
+                if out.cmd != Cmd::None {
+                    d.cmds.push((t, out.cmd));
+                }
+                if let Some(a) = out.expected_pop {
+                    d.expected_pops.push((t, a));
+                }
             }
             if due {
-                let threads = &self.threads[(w * ws) as usize..((w + 1) * ws) as usize];
-                let lanes = &mut self.lanes[w as usize];
-                lanes.busy_until = lanes_of(lanes.busy)
-                    .map(|l| match threads[l as usize].state {
-                        ThreadState::Busy { until } => until,
-                        _ => u64::MAX,
-                    })
-                    .min()
-                    .unwrap_or(u64::MAX);
+                d.due.push(w);
             }
         }
 
         // Stack subsystem.
-        self.stack.step(&self.cmds, self.arb.done(), self.sched.delivered());
-        if let Some(&error) = self.stack.errors().first() {
+        let stack_in = StackUnitIn { cmds: &d.cmds, req_ready: d.took_stack, completions: &d.completions };
+        self.stack_unit.eval(now, &stack_in, &mut d.stack);
+        if let Some(&error) = d.stack.manager.errors.first() {
             return Err(RunError::Stack { cycle: now, sm: self.id, error });
         }
-        for (&(thread, expected), &(_, got)) in self.expected_pops.iter().zip(self.stack.pops()) {
+        for (&(thread, expected), &(_, got)) in d.expected_pops.iter().zip(&d.stack.manager.pops) {
             if got != expected {
                 return Err(RunError::PopMismatch { cycle: now, sm: self.id, thread, expected, got });
             }
         }
-        self.stats.pops_checked += self.expected_pops.len() as u64;
-        self.arb.step(now, self.stack.sh_requests());
-        self.sched.step(self.stack.global_requests(), took_stack, &self.completions);
+        Ok(())
+    }
 
-        if let (Some(job), Some(w)) = (job, load_slot) {
-            self.load(w, job, now);
+    /// The clock edge: applies `d` (from [`RtUnit::eval`]); `job` (a warp job the dispatcher
+    /// sent this cycle, checked, for the slot [`RtUnit::free_slot`] named) lands in its slot.
+    pub fn commit(&mut self, d: &RtStep, job: Option<WarpJob>) {
+        let ws = self.cfg.warp_size;
+        if d.node_taken {
+            self.fetch.taken();
         }
+        if d.store_taken {
+            self.store_seq += 1;
+        }
+        for &w in &d.leaving {
+            if let Some(left) = self.warp_buffer.leave(w) {
+                self.residence[left.job as usize] = d.now - left.landed;
+            }
+        }
+        self.scheduler.commit(d.issue.map(|x| x.0), |w| d.leaving.contains(&w));
+        if let Some((w, mask)) = d.issue {
+            let b = &self.warp_buffer;
+            self.fetch.coalesce(
+                w,
+                lanes_of(mask).filter_map(|l| match b.ops(w, l).get(b.thread(w * ws + l).pos as usize)? {
+                    RayOp::Visit { addr, bytes, .. } => Some((l, *addr, *bytes)),
+                    _ => None,
+                }),
+            );
+        }
+        for &id in &d.node_resp {
+            self.fetch.complete(id);
+        }
+        for &(t, th) in &d.threads {
+            self.warp_buffer.set_thread(t, th);
+        }
+        for &w in &d.due {
+            self.warp_buffer.refresh_busy_until(w);
+        }
+        self.stats.visits += d.visits;
+        self.stats.pops_checked += d.expected_pops.len() as u64;
+        self.stack_unit.commit(&d.stack);
+        if let (Some(job), Some(w)) = (job, d.load_slot) {
+            self.load(w, job, d.now);
+        }
+        self.next_event = self.next_event_after(d.now);
+    }
 
-        // Next event: anything that acts next cycle without a memory response, else the first
-        // operation unit to finish.
+    /// Next event after cycle `now` (registers after the edge): anything that acts next cycle
+    /// without a memory response, else the first operation unit to finish.
+    fn next_event_after(&self, now: u64) -> Option<u64> {
+        let ws = self.cfg.warp_size;
+        let manager = &self.stack_unit.manager;
         let acts_next = !self.fetch.queue_empty()
-            || self.arb.busy()
-            || !self.sched.is_idle()
+            || self.stack_unit.arb.busy()
+            || !self.stack_unit.sched.is_idle()
             || (0..self.cfg.warps).any(|w| {
-                let m = &self.lanes[w as usize];
-                self.slots[w as usize].is_some()
+                let m = self.warp_buffer.lanes(w);
+                self.warp_buffer.occupied(w)
                     && (self.fetchable(w) != 0
-                        || m.live == 0
-                        || lanes_of(m.stack).any(|l| self.stack.ready(w * ws + l)))
+                        || m.live() == 0
+                        || lanes_of(m.stack).any(|l| manager.ready(w * ws + l)))
             })
-            || self.stack.can_issue();
+            || manager.can_issue();
         // A lane waiting to fetch on its sequencer (Blocking) moves when the sequencer completes,
         // which one of the events here or a memory response causes.
-        let event =
-            self.lanes.iter().map(|m| m.busy_until).chain(self.arb.pipe_due()).min().unwrap_or(u64::MAX);
-        self.next_event = if acts_next { Some(now + 1) } else { (event != u64::MAX).then_some(event) };
-        Ok(())
+        let event = (0..self.cfg.warps)
+            .map(|w| self.warp_buffer.lanes(w).busy_until)
+            .chain(self.stack_unit.arb.pipe_due())
+            .min()
+            .unwrap_or(u64::MAX);
+        if acts_next {
+            Some(now + 1)
+        } else {
+            (event != u64::MAX).then_some(event)
+        }
     }
 
     /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with
     /// Blocking only those whose stack sequencer is idle.
     fn fetchable(&self, w: u32) -> u32 {
-        let m = self.lanes[w as usize].fetch;
+        let m = self.warp_buffer.lanes(w).fetch;
         match self.rt.stack_timing {
             StackTiming::Overlapped => m,
             StackTiming::Blocking => {
                 let ws = self.cfg.warp_size;
-                lanes_of(m).filter(|&l| self.stack.ready(w * ws + l)).fold(0, |a, l| a | 1 << l)
+                let manager = &self.stack_unit.manager;
+                lanes_of(m).filter(|&l| manager.ready(w * ws + l)).fold(0, |a, l| a | 1 << l)
             }
         }
     }
@@ -669,18 +588,18 @@ impl RtUnit {
     /// Thread `t` holds no stack entry anywhere, and with reallocation its own SH stack is idle
     /// (back from any borrower).
     fn stack_clear(&self, t: u32) -> bool {
-        let st = self.stack.stack(t);
-        self.stack.rb(t).is_empty()
+        let manager = &self.stack_unit.manager;
+        let st = manager.stack(t);
+        manager.rb(t).is_empty()
             && (self.cfg.sh_entries == 0 || st.empty)
-            && self.stack.thread(t).spill_ptr == 0
+            && manager.thread(t).spill_ptr == 0
             && (self.cfg.realloc.is_none() || st.idle)
     }
 
     /// Puts `job` in slot `w` (clock edge): its rays start with the BVH-header latency.
     fn load(&mut self, w: u32, job: WarpJob, now: u64) {
-        let ws = self.cfg.warp_size;
         let active = job.active_mask();
-        self.stack.load_warp(w, active);
+        self.stack_unit.manager.load_warp(w, active);
         // A two-level trace fetches the acceleration structure's header as its first visit and
         // pays the header latency there; a flat trace reads it without a fetch, here.
         let header_fetched =
@@ -688,72 +607,26 @@ impl RtUnit {
                 matches!(ops.first(), Some(RayOp::Visit { kind: NodeKind::BvhHeader, .. }))
             });
         let start = now + if header_fetched { 0 } else { u64::from(self.rt.bvh_header) };
-        for l in 0..ws {
-            self.threads[(w * ws + l) as usize] = Thread {
-                state: if active & (1 << l) != 0 {
-                    ThreadState::Busy { until: start }
-                } else {
-                    ThreadState::Done
-                },
-                pos: 0,
-            };
-        }
-        self.lanes[w as usize] =
-            Lanes { busy: active, busy_until: start, live: active.count_ones(), ..Lanes::EMPTY };
-        self.slots[w as usize] = Some(Slot { lanes: job.lanes, age: self.next_age, landed: now });
+        self.warp_buffer.load(w, job.lanes, active, start, now);
         self.residence.push(0);
-        self.next_age += 1;
         self.stats.warps += 1;
         self.stats.rays += u64::from(active.count_ones());
     }
-}
 
-impl Probe for RtUnit {
-    fn probe<S: Sink>(&self, s: &mut S) {
+    /// Registers, and the cycle `d` (from [`RtUnit::eval`]).
+    pub fn probe<S: Sink>(&self, d: &RtStep, s: &mut S) {
         if !s.enabled() {
             return;
         }
-        let ws = self.cfg.warp_size;
-        let wbits = crate::config::bits_for(u64::from(self.cfg.warps.max(2) - 1));
         s.push_scope("rt_unit");
-        s.push_scope("warp_buffer");
-        for w in 0..self.cfg.warps {
-            let slot = self.slots[w as usize].as_ref();
-            s.push_scope(&format!("warp[{w}]"));
-            s.signal("valid", 1, u64::from(slot.is_some()));
-            s.signal("age", 32, slot.map_or(0, |x| x.age));
-            let m = self.lanes[w as usize];
-            s.signal("live", 6, u64::from(m.live));
-            s.signal_kind("fetch_mask", ws, u64::from(m.fetch), Kind::Mask);
-            s.signal_kind("wait_mask", ws, u64::from(m.wait), Kind::Mask);
-            s.signal_kind("busy_mask", ws, u64::from(m.busy), Kind::Mask);
-            s.signal_kind("stack_mask", ws, u64::from(m.stack), Kind::Mask);
-            for l in 0..ws {
-                let th = self.threads[(w * ws + l) as usize];
-                s.push_scope(&format!("thread[{l}]"));
-                s.signal_kind("state", 3, th.state.code(), ThreadState::KIND);
-                s.pop_scope();
-            }
-            s.pop_scope();
-        }
-        s.pop_scope();
-        s.push_scope("scheduler");
-        s.signal("greedy_valid", 1, u64::from(self.greedy.is_some()));
-        s.signal("greedy", wbits, u64::from(self.greedy.unwrap_or(0)));
-        s.signal("issue_valid", 1, u64::from(self.scheduled.is_some()));
-        s.signal("issue_warp", wbits, u64::from(self.scheduled.unwrap_or(0)));
-        s.signal_kind("issue_lanes", ws, u64::from(self.scheduled_lanes), Kind::Mask);
-        s.pop_scope();
+        self.warp_buffer.probe(&self.w, s);
+        self.scheduler.probe(d.issue, &self.w, self.cfg.warp_size, s);
         s.push_scope("port");
-        s.signal("node", 1, u64::from(self.port == Port::Node));
-        s.signal("stack", 1, u64::from(self.port == Port::Stack));
+        s.signal("node", 1, u64::from(d.port == Port::Node));
+        s.signal("stack", 1, u64::from(d.port == Port::Stack));
         s.pop_scope();
         self.fetch.probe(s);
-        s.push_scope("stack_manager");
-        self.stack.probe(s);
-        s.pop_scope();
-        self.arb.probe(s);
-        self.sched.probe(s);
+        self.stack_unit.probe(&d.cmds, &d.stack, s);
         s.pop_scope();
     }
 }
@@ -761,17 +634,6 @@ impl Probe for RtUnit {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn gto_keeps_the_greedy_warp_then_takes_the_oldest() {
-        let ages = [7, 3, 9, 5];
-        let age = |w: u32| ages[w as usize];
-        let ready_mask = |m: u32| move |w: u32| m & (1 << w) != 0;
-        assert_eq!(gto(Some(2), 4, ready_mask(0b1111), age), Some(2), "greedy while ready");
-        assert_eq!(gto(Some(2), 4, ready_mask(0b1011), age), Some(1), "stalled: oldest ready");
-        assert_eq!(gto(None, 4, ready_mask(0b1001), age), Some(3));
-        assert_eq!(gto(Some(0), 4, ready_mask(0), age), None);
-    }
 
     #[test]
     fn latencies_follow_the_spec_defaults() {

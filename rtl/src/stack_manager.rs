@@ -8,16 +8,25 @@
 //!                                                             └── completions (registered, next cycle)
 //! ```
 //!
-//! A command is accepted only from a thread whose sequencer is idle (`ready`). Accepting it
+//! A command is accepted only from a thread whose sequencer is idle (`ready`, a register), one
+//! per thread per cycle (the callers' contract). Accepting it
 //! updates the thread's bookkeeping registers at once and loads the sequencer with the exact
 //! request sequence of SPEC sections 3 and 5 (e.g. SH load → global store → SH store). The
 //! sequencer issues one micro-op at a time, in order; a micro-op that needs an earlier load's data
 //! waits for it in the thread's data latch. Data moves when a request completes, so the SH array
 //! and the global spill regions hold real values and every pop is checked against a reference.
 //!
-//! The same plan drives two executors: [`StackManager::step`] (cycle level, through the bank
-//! arbiter and memory scheduler) and [`StackManager::apply`] (functional: micro-ops complete at
-//! once). Decisions that depend only on a thread's own history are identical in both.
+//! Clocking: [`StackManager::eval`] is the cycle's combinational logic. It reads only the
+//! registers and this cycle's inputs and writes a [`StackStep`]: the outputs (SH and global
+//! requests, pops, refusals) and the ordered register writes (the next state as a journal, so a
+//! cycle copies no register array); [`StackManager::commit`] applies them at the clock edge.
+//! Planning a command (`Planner`) is pure in the same way: it reads the stack registers as the
+//! cycle's earlier writes leave them (two threads of a warp may both touch idle stacks in one
+//! cycle) and returns its decisions and micro-ops; a refused command changes nothing.
+//!
+//! The same plan drives two executors: eval/commit (cycle level, through the bank arbiter and
+//! memory scheduler) and [`StackManager::apply`] (functional: micro-ops complete at once).
+//! Decisions that depend only on a thread's own history are identical in both.
 //!
 //! Design choices for SPEC section 9 are argued in `rtl/DESIGN.md`.
 
@@ -199,11 +208,29 @@ impl Uop {
 /// region) a traversal deeper than the configured region.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum StackError {
-    PopEmpty { thread: u32 },
-    FinishNonEmpty { thread: u32 },
-    Busy { thread: u32 },
-    AfterFinish { thread: u32 },
-    SpillRegionFull { thread: u32, entries: u32 },
+    PopEmpty {
+        thread: u32,
+    },
+    FinishNonEmpty {
+        thread: u32,
+    },
+    Busy {
+        thread: u32,
+    },
+    AfterFinish {
+        thread: u32,
+    },
+    SpillRegionFull {
+        thread: u32,
+        entries: u32,
+    },
+    /// A register would take a value its width (from [`Widths`]) cannot hold.
+    Overflow {
+        thread: u32,
+        field: &'static str,
+        value: u64,
+        bits: u32,
+    },
 }
 
 impl std::fmt::Display for StackError {
@@ -218,6 +245,9 @@ impl std::fmt::Display for StackError {
             }
             StackError::AfterFinish { thread } => {
                 write!(f, "thread {thread}: command after finish")
+            }
+            StackError::Overflow { thread, field, value, bits } => {
+                write!(f, "thread {thread}: {field} = {value} does not fit its {bits}-bit register")
             }
             StackError::SpillRegionFull { thread, entries } => {
                 write!(
@@ -238,7 +268,8 @@ impl StackError {
             | StackError::FinishNonEmpty { thread }
             | StackError::Busy { thread }
             | StackError::AfterFinish { thread }
-            | StackError::SpillRegionFull { thread, .. } => thread,
+            | StackError::SpillRegionFull { thread, .. }
+            | StackError::Overflow { thread, .. } => thread,
         }
     }
 }
@@ -349,8 +380,116 @@ struct Chain {
 }
 
 impl Chain {
+    /// The chain of thread `t`, following `next_tid` of each stack around the ring.
+    fn of(t: u32, warp_size: u32, next_tid: impl Fn(u32) -> u32) -> Chain {
+        let mut c = Chain { ids: [0; 32], len: 0 };
+        let base = t - t % warp_size;
+        let mut s = t;
+        loop {
+            c.ids[c.len] = s;
+            c.len += 1;
+            s = base + next_tid(s);
+            if s == t || c.len == c.ids.len() {
+                return c;
+            }
+        }
+    }
+
     fn iter(&self) -> impl Iterator<Item = u32> + '_ {
         self.ids[..self.len].iter().copied()
+    }
+}
+
+/// One register or memory write the cycle decided, applied in order at the clock edge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Write {
+    Thread(u32, ThreadRegs),
+    RbPushBack(u32, Entry),
+    RbPopBack(u32),
+    RbPopFront(u32),
+    RbPushFront(u32, Entry),
+    Sh(usize, Entry),
+    Global {
+        thread: u32,
+        slot: u32,
+        value: Entry,
+    },
+    /// A sequencer's next state; `issued`: its queue's head left.
+    Seq {
+        thread: u32,
+        issued: bool,
+        inflight: Option<Uop>,
+        latch: Option<Entry>,
+    },
+    Emit(u32, Uop),
+}
+
+/// This cycle's inputs of the stack manager.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StackIn<'a> {
+    /// Commands, at most one per thread, each from a thread that is [`StackManager::ready`].
+    pub cmds: &'a [(u32, Cmd)],
+    /// Threads whose SH request the bank arbiter completed (its registered `done`).
+    pub done: &'a [u32],
+    /// Thread whose load data (or, with acknowledged stores, store acknowledgement) the response
+    /// FIFO delivered (its registered `deq`).
+    pub deq: Option<u32>,
+}
+
+/// The stack manager's cycle: its outputs and the writes its registers take at the clock edge
+/// ([`StackManager::eval`], [`StackManager::commit`]). A reusable buffer: a cycle allocates
+/// nothing once it has grown.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct StackStep {
+    writes: Vec<Write>,
+    /// Stack registers the cycle changed, as it leaves them (one entry per stack).
+    stacks: Vec<(u32, StackRegs)>,
+    /// Sequencers the cycle's completions changed: (thread, inflight, latch).
+    completed: Vec<(u32, Option<Uop>, Option<Entry>)>,
+    stats: StackStats,
+    /// Scratch of one plan: the stack registers it changed, and where its writes start.
+    plan_stacks: Vec<(u32, StackRegs)>,
+    /// SH requests to the bank arbiter.
+    pub sh_req: Vec<ShReq>,
+    /// Global requests to the memory scheduler.
+    pub g_req: Vec<GReq>,
+    /// Pops answered: (thread, entry).
+    pub pops: Vec<(u32, Entry)>,
+    /// Commands refused (the per-thread error signals).
+    pub errors: Vec<StackError>,
+}
+
+impl StackStep {
+    fn clear(&mut self) {
+        self.writes.clear();
+        self.stacks.clear();
+        self.completed.clear();
+        self.stats = StackStats::default();
+        self.plan_stacks.clear();
+        self.sh_req.clear();
+        self.g_req.clear();
+        self.pops.clear();
+        self.errors.clear();
+    }
+
+    /// What the cycle answered to thread `t`'s command: the popped entry, nothing, or the
+    /// refusal.
+    pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
+        if let Some(e) = self.errors.iter().find(|e| e.thread() == t) {
+            return Err(*e);
+        }
+        Ok(self.pops.iter().find(|p| p.0 == t).map(|p| p.1))
+    }
+
+    fn stack_now(&self, q: &[StackRegs], s: u32) -> StackRegs {
+        self.stacks.iter().find(|x| x.0 == s).map_or(q[s as usize], |x| x.1)
+    }
+
+    fn set_stack(&mut self, s: u32, r: StackRegs) {
+        match self.stacks.iter_mut().find(|x| x.0 == s) {
+            Some(x) => x.1 = r,
+            None => self.stacks.push((s, r)),
+        }
     }
 }
 
@@ -371,18 +510,15 @@ pub struct StackManager {
     queued: Vec<u64>,
     sh_data: Vec<Entry>,
     global: Vec<Vec<Entry>>,
-    /// Per-cycle outputs of the last `step`.
-    sh_out: Vec<ShReq>,
-    g_out: Vec<GReq>,
-    pops_out: Vec<(u32, Entry)>,
-    errors_out: Vec<StackError>,
-    cmds_seen: Vec<(u32, Cmd)>,
     /// A global store stays in flight until its acknowledgement arrives on the global
     /// completion input ([`StackTiming::Blocking`]); otherwise it is posted.
     acked_stores: bool,
     pub stats: StackStats,
     #[cfg(feature = "mutants")]
     pub mutant: Option<Mutant>,
+    /// Reused by the one-command entry points ([`StackManager::accept`], `apply`); always empty
+    /// between calls.
+    scratch: StackStep,
 }
 
 impl StackManager {
@@ -409,15 +545,11 @@ impl StackManager {
             queued: vec![0; n.div_ceil(64)],
             sh_data: vec![0; n * cfg.sh_entries as usize],
             global: vec![Vec::new(); n],
-            sh_out: Vec::new(),
-            g_out: Vec::new(),
-            pops_out: Vec::new(),
-            errors_out: Vec::new(),
-            cmds_seen: Vec::new(),
             acked_stores: false,
             stats: StackStats::default(),
             #[cfg(feature = "mutants")]
             mutant: None,
+            scratch: StackStep::default(),
         };
         for wp in 0..cfg.warps {
             s.load_warp(wp, u32::MAX >> (32 - cfg.warp_size));
@@ -468,9 +600,10 @@ impl StackManager {
     }
     /// Stacks of thread `t`'s chain, in ring order starting at its dedicated stack.
     pub fn chain(&self, t: u32) -> Vec<u32> {
-        self.members(t).iter().collect()
+        Chain::of(t, self.cfg.warp_size, |s| self.stacks[s as usize].next_tid).iter().collect()
     }
     /// Ready for a command: the thread's sequencer is idle.
+    #[inline]
     pub fn ready(&self, t: u32) -> bool {
         let q = &self.seq[t as usize];
         q.uops.is_empty() && q.inflight.is_none()
@@ -480,7 +613,15 @@ impl StackManager {
     /// bank arbiter or on global memory.
     pub fn can_issue(&self) -> bool {
         self.queued.iter().enumerate().any(|(word, &bits)| {
-            (0..64).any(|b| bits & (1 << b) != 0 && self.seq[word * 64 + b].inflight.is_none())
+            let mut rest = bits;
+            while rest != 0 {
+                let t = word * 64 + rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if self.seq[t].inflight.is_none() {
+                    return true;
+                }
+            }
+            false
         })
     }
     /// No thread has work in flight.
@@ -496,33 +637,6 @@ impl StackManager {
     }
     pub fn warp_threads(&self, w: u32) -> std::ops::Range<u32> {
         w * self.cfg.warp_size..(w + 1) * self.cfg.warp_size
-    }
-
-    /// SH requests issued in the last `step`.
-    pub fn sh_requests(&self) -> &[ShReq] {
-        &self.sh_out
-    }
-    /// Global requests issued in the last `step`.
-    pub fn global_requests(&self) -> &[GReq] {
-        &self.g_out
-    }
-    /// Pops answered in the last `step`: (thread, entry).
-    pub fn pops(&self) -> &[(u32, Entry)] {
-        &self.pops_out
-    }
-
-    /// Commands refused in the last `step` (the per-thread error signals).
-    pub fn errors(&self) -> &[StackError] {
-        &self.errors_out
-    }
-
-    /// What the last `step` answered to thread `t`'s command: the popped entry, nothing, or the
-    /// refusal.
-    pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
-        if let Some(e) = self.errors_out.iter().find(|e| e.thread() == t) {
-            return Err(*e);
-        }
-        Ok(self.pops_out.iter().find(|p| p.0 == t).map(|p| p.1))
     }
 
     /// Lays the spill slots out as `layout` among the threads of `sms` SMs (the memory system's
@@ -574,415 +688,51 @@ impl StackManager {
         }
     }
 
-    // ---- circular queue pointer logic -------------------------------------------------------
-
-    fn inc(&self, i: u32) -> u32 {
-        let m = self.cfg.sh_entries;
-        if self.mutant(MutantTag::QueueWrapOffByOne) && i + 1 >= m {
-            return 1 % m;
-        }
-        (i + 1) % m
-    }
-
-    fn dec(&self, i: u32) -> u32 {
-        let m = self.cfg.sh_entries;
-        (i + m - 1) % m
-    }
-
-    fn full(&self, s: u32) -> bool {
-        self.stacks[s as usize].count(self.cfg.sh_entries) == self.cfg.sh_entries
-    }
-
-    fn push_top(&mut self, s: u32) -> u32 {
-        let r = self.stacks[s as usize];
-        let top = if r.empty { r.top } else { self.inc(r.top) };
-        let st = &mut self.stacks[s as usize];
-        st.top = top;
-        st.empty = false;
-        top
-    }
-
-    fn pop_top(&mut self, s: u32) -> u32 {
-        let r = self.stacks[s as usize];
-        let st = &mut self.stacks[s as usize];
-        if r.top == r.bottom {
-            st.empty = true;
-        } else {
-            st.top = (r.top + self.cfg.sh_entries - 1) % self.cfg.sh_entries;
-        }
-        r.top
-    }
-
-    fn push_bottom(&mut self, s: u32) -> u32 {
-        let r = self.stacks[s as usize];
-        let bottom = if r.empty { r.bottom } else { self.dec(r.bottom) };
-        let st = &mut self.stacks[s as usize];
-        st.bottom = bottom;
-        st.empty = false;
-        bottom
-    }
-
-    fn pop_bottom(&mut self, s: u32) -> u32 {
-        let r = self.stacks[s as usize];
-        let next = self.inc(r.bottom);
-        let st = &mut self.stacks[s as usize];
-        if r.top == r.bottom {
-            st.empty = true;
-        } else {
-            st.bottom = next;
-        }
-        r.bottom
-    }
-
-    // ---- chains (reallocation) ----------------------------------------------------------------
-
-    fn warp_base(&self, s: u32) -> u32 {
-        s - s % self.cfg.warp_size
-    }
-
-    fn members(&self, t: u32) -> Chain {
-        let mut c = Chain { ids: [0; 32], len: 0 };
-        let base = self.warp_base(t);
-        let mut s = t;
-        loop {
-            c.ids[c.len] = s;
-            c.len += 1;
-            s = base + self.stacks[s as usize].next_tid;
-            if s == t || c.len == c.ids.len() {
-                return c;
-            }
-        }
-    }
-
-    fn by_priority(&self, c: &Chain, highest: bool) -> u32 {
-        let key = |s: &u32| self.stacks[*s as usize].priority;
-        if highest {
-            c.iter().max_by_key(key).unwrap_or(c.ids[0])
-        } else {
-            c.iter().min_by_key(key).unwrap_or(c.ids[0])
-        }
-    }
-
-    /// Moves stack `s` to rank `to` in its chain, shifting the ranks between.
-    fn move_to_rank(&mut self, c: &Chain, s: u32, to: u32) {
-        let from = self.stacks[s as usize].priority;
-        for m in c.iter().filter(|&m| m != s) {
-            let p = &mut self.stacks[m as usize].priority;
-            if from < to && *p > from && *p <= to {
-                *p -= 1;
-            } else if to < from && *p >= to && *p < from {
-                *p += 1;
-            }
-        }
-        self.stacks[s as usize].priority = to;
-    }
-
-    fn reset_flush(&mut self, s: u32) {
-        if !self.mutant(MutantTag::FlushKeepsCount) {
-            self.stacks[s as usize].flush = 0;
-        }
-    }
-
-    fn first_idle(&self, t: u32) -> Option<u32> {
-        let base = self.warp_base(t);
-        (base..base + self.cfg.warp_size).find(|&s| self.stacks[s as usize].idle)
-    }
-
-    fn borrow(&mut self, t: u32, s: u32, rank: u32) {
-        let base = self.warp_base(t);
-        let lane = s - base;
-        let anchor_next = self.stacks[t as usize].next_tid;
-        let b = self.cfg.skew_base(lane);
-        let st = &mut self.stacks[s as usize];
-        *st = StackRegs {
-            top: b,
-            bottom: b,
-            empty: true,
-            idle: false,
-            next_tid: anchor_next,
-            priority: rank,
-            flush: 0,
-        };
-        self.stacks[t as usize].next_tid = lane;
-        self.stats.borrows += 1;
-    }
-
-    fn unlink(&mut self, t: u32, s: u32) {
-        let base = self.warp_base(t);
-        let c = self.members(t);
-        let pred = c.iter().find(|&p| base + self.stacks[p as usize].next_tid == s).unwrap_or(t);
-        self.stacks[pred as usize].next_tid = self.stacks[s as usize].next_tid;
-        let st = &mut self.stacks[s as usize];
-        st.next_tid = s - base;
-        st.priority = 0;
-        self.reset_flush(s);
-    }
-
-    // ---- the plan: registers now, micro-ops for the sequencer ----------------------------------
-
-    fn emit(&mut self, t: u32, u: Uop) {
-        self.seq[t as usize].uops.push_back(u);
-        self.sync_queued(t);
-    }
-
-    fn sync_queued(&mut self, t: u32) {
-        let (word, bit) = ((t / 64) as usize, 1u64 << (t % 64));
-        if self.seq[t as usize].uops.is_empty() {
-            self.queued[word] &= !bit;
-        } else {
-            self.queued[word] |= bit;
-        }
-    }
-
-    fn claim_spill_slots(&mut self, t: u32, n: u32) -> Result<u32, StackError> {
-        let limit = (1u32 << self.cfg.spill_ptr_bits.min(31)) - 1;
-        let th = &mut self.threads[t as usize];
-        if th.spill_ptr.saturating_add(n) > limit {
-            return Err(StackError::SpillRegionFull { thread: t, entries: limit });
-        }
-        let slot = th.spill_ptr;
-        th.spill_ptr += n;
-        th.overflow = true;
-        Ok(slot)
-    }
-
-    /// Spills `v` (the oldest RB entry) out of the full RB.
-    fn spill(&mut self, t: u32, v: Entry) -> Result<(), StackError> {
-        if self.cfg.sh_entries == 0 {
-            let slot = self.claim_spill_slots(t, 1)?;
-            self.emit(t, Uop::GlobalStore { slot, src: Src::Value(v) });
-            self.stats.rb_to_global += 1;
-            return Ok(());
-        }
-        let chain = self.members(t);
-        let top = self.by_priority(&chain, true);
-        if !self.full(top) {
-            self.spill_into(t, top, v);
-            return Ok(());
-        }
-        if let Some(ra) = self.cfg.realloc {
-            let len = chain.len as u32;
-            if let Some(e) = chain.iter().find(|&s| self.stacks[s as usize].empty) {
-                self.move_to_rank(&chain, e, len - 1);
-                self.spill_into(t, e, v);
-                return Ok(());
-            }
-            if len <= ra.borrow_limit {
-                if let Some(s) = self.first_idle(t) {
-                    self.borrow(t, s, len);
-                    self.spill_into(t, s, v);
-                    return Ok(());
-                }
-            }
-            let oldest = self.by_priority(&chain, false);
-            if len > 1 || self.stacks[oldest as usize].flush < ra.flush_limit {
-                self.flush(t, oldest, ra.flush_limit)?;
-                self.move_to_rank(&chain, oldest, len - 1);
-                self.spill_into(t, oldest, v);
-                return Ok(());
-            }
-        }
-        // SPEC 3, push case 3: SH load (Bottom) → global store → SH store (Top + 1).
-        let slot = self.claim_spill_slots(t, 1)?;
-        let b = self.pop_bottom(top);
-        self.emit(t, Uop::ShLoad { stack: top, entry: b });
-        self.emit(t, Uop::GlobalStore { slot, src: Src::Latch });
-        self.stats.sh_to_global += 1;
-        self.spill_into(t, top, v);
-        Ok(())
-    }
-
-    fn spill_into(&mut self, t: u32, s: u32, v: Entry) {
-        let e = self.push_top(s);
-        if !self.mutant(MutantTag::SpillDropsEntry) {
-            self.emit(t, Uop::ShStore { stack: s, entry: e, src: Src::Value(v) });
-        }
-        self.stats.rb_to_sh += 1;
-    }
-
-    /// Writes the whole of stack `s` to global memory, oldest entry first (lowest address).
-    fn flush(&mut self, t: u32, s: u32, limit: u32) -> Result<(), StackError> {
-        let m = self.cfg.sh_entries;
-        let n = self.stacks[s as usize].count(m);
-        let first = self.claim_spill_slots(t, n)?;
-        for i in 0..n {
-            let e = self.pop_bottom(s);
-            self.emit(t, Uop::ShLoad { stack: s, entry: e });
-            self.emit(t, Uop::GlobalStore { slot: first + i, src: Src::Latch });
-        }
-        self.stats.sh_to_global += n as u64;
-        self.stats.flushes += 1;
-        let st = &mut self.stacks[s as usize];
-        if st.flush >= limit {
-            self.stats.flushes_saturated += 1;
-        } else {
-            st.flush += 1;
-        }
-        Ok(())
-    }
-
-    fn plan_push(&mut self, t: u32, v: Entry) -> Result<(), StackError> {
-        self.stats.pushes += 1;
-        let full = self.cfg.rb.capacity().is_some_and(|n| self.rb[t as usize].len() as u32 >= n);
-        if full {
-            let oldest = self.rb[t as usize].pop_front().unwrap_or(POISON);
-            if let Err(e) = self.spill(t, oldest) {
-                self.rb[t as usize].push_front(oldest);
-                return Err(e);
-            }
-        }
-        self.rb[t as usize].push_back(v);
-        Ok(())
-    }
-
-    fn plan_pop(&mut self, t: u32) -> Result<Entry, StackError> {
-        let Some(v) = self.rb[t as usize].pop_back() else {
-            return Err(StackError::PopEmpty { thread: t });
-        };
-        self.stats.pops += 1;
-        if self.cfg.sh_entries == 0 {
-            if self.threads[t as usize].overflow {
-                let slot = self.release_spill_slot(t);
-                self.emit(t, Uop::GlobalLoad { slot });
-                self.emit(t, Uop::RbBottom);
-                self.stats.global_to_rb += 1;
-            }
-            return Ok(v);
-        }
-        let chain = self.members(t);
-        let top = self.by_priority(&chain, true);
-        if !self.stacks[top as usize].empty {
-            let e = if self.mutant(MutantTag::ReloadWrongEntry) {
-                self.pop_bottom(top)
-            } else {
-                self.pop_top(top)
-            };
-            self.emit(t, Uop::ShLoad { stack: top, entry: e });
-            self.emit(t, Uop::RbBottom);
-            self.stats.sh_to_rb += 1;
-            let drained = self.stacks[top as usize].empty
-                || (self.mutant(MutantTag::EarlyRelease)
-                    && top != t
-                    && self.stacks[top as usize].count(self.cfg.sh_entries) == 1);
-            if drained {
-                self.reset_flush(top);
-                if chain.len > 1 {
-                    if top != t {
-                        self.unlink(t, top);
-                        if self.mutant(MutantTag::EagerRelease) {
-                            self.stacks[top as usize].idle = true;
-                        } else {
-                            self.emit(t, Uop::Release { stack: top });
-                        }
-                        self.stats.releases += 1;
-                    } else {
-                        self.move_to_rank(&chain, t, 0);
-                        self.stats.demotions += 1;
-                    }
-                }
-            }
-        }
-        if self.threads[t as usize].overflow && !self.mutant(MutantTag::MissingGlobalReload) {
-            let chain = self.members(t);
-            let oldest = self.by_priority(&chain, false);
-            if !self.full(oldest) {
-                let slot = self.release_spill_slot(t);
-                let e = self.push_bottom(oldest);
-                self.emit(t, Uop::GlobalLoad { slot });
-                self.emit(t, Uop::ShStore { stack: oldest, entry: e, src: Src::Latch });
-                self.stats.global_to_sh += 1;
-            }
-        }
-        Ok(v)
-    }
-
-    fn release_spill_slot(&mut self, t: u32) -> u32 {
-        let skip_clear = self.mutant(MutantTag::SkipOverflowClear);
-        let th = &mut self.threads[t as usize];
-        th.spill_ptr = th.spill_ptr.wrapping_sub(1);
-        if th.spill_ptr == 0 && !skip_clear {
-            th.overflow = false;
-        }
-        th.spill_ptr
-    }
-
-    fn plan_finish(&mut self, t: u32) -> Result<(), StackError> {
-        if !self.rb[t as usize].is_empty() {
-            return Err(StackError::FinishNonEmpty { thread: t });
-        }
-        self.threads[t as usize].done = true;
-        if self.cfg.realloc.is_some() {
-            self.stacks[t as usize].idle = true;
-        }
-        Ok(())
-    }
-
-    /// Accepts a command from a ready thread: updates registers and loads the sequencer.
-    /// Returns the popped entry for a pop.
-    pub fn accept(&mut self, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
-        if cmd == Cmd::None {
-            return Ok(None);
-        }
-        if !self.ready(t) {
-            return Err(StackError::Busy { thread: t });
-        }
-        if self.threads[t as usize].done {
-            return Err(StackError::AfterFinish { thread: t });
-        }
-        match cmd {
-            Cmd::None => Ok(None),
-            Cmd::Push(v) => self.plan_push(t, v).map(|_| None),
-            Cmd::Pop => self.plan_pop(t).map(Some),
-            Cmd::Finish => self.plan_finish(t).map(|_| None),
-        }
-    }
-
     // ---- executing micro-ops ---------------------------------------------------------------
 
     fn sh_index(&self, stack: u32, entry: u32) -> usize {
         (stack * self.cfg.sh_entries + entry) as usize
     }
 
-    fn take_src(&mut self, t: u32, src: Src) -> Entry {
-        match src {
+    /// The data effect of completing micro-op `u` of thread `t`, whose data latch is `latch`.
+    fn complete_into(&self, t: u32, u: Uop, latch: &mut Option<Entry>, d: &mut StackStep) {
+        let mut take = |src: Src| match src {
             Src::Value(v) => v,
-            Src::Latch => self.seq[t as usize].latch.take().unwrap_or(POISON),
-        }
-    }
-
-    fn global_write(&mut self, t: u32, slot: u32, v: Entry) {
-        let g = &mut self.global[t as usize];
-        if g.len() <= slot as usize {
-            g.resize(slot as usize + 1, POISON);
-        }
-        g[slot as usize] = v;
-    }
-
-    /// The data effect of a completed micro-op.
-    fn complete(&mut self, t: u32, u: Uop) {
+            Src::Latch => latch.take().unwrap_or(POISON),
+        };
         match u {
-            Uop::ShLoad { stack, entry } => {
-                self.seq[t as usize].latch = Some(self.sh_data[self.sh_index(stack, entry)]);
-            }
+            Uop::ShLoad { stack, entry } => *latch = Some(self.sh_data[self.sh_index(stack, entry)]),
             Uop::ShStore { stack, entry, src } => {
-                let v = self.take_src(t, src);
-                let i = self.sh_index(stack, entry);
-                self.sh_data[i] = v;
+                let v = take(src);
+                d.writes.push(Write::Sh(self.sh_index(stack, entry), v));
             }
             Uop::GlobalLoad { slot } => {
-                let v = self.global[t as usize].get(slot as usize).copied().unwrap_or(POISON);
-                self.seq[t as usize].latch = Some(v);
+                *latch = Some(self.global[t as usize].get(slot as usize).copied().unwrap_or(POISON));
             }
             Uop::GlobalStore { slot, src } => {
-                let v = self.take_src(t, src);
-                self.global_write(t, slot, v);
+                let value = take(src);
+                d.writes.push(Write::Global { thread: t, slot, value });
             }
             Uop::RbBottom => {
-                let v = self.take_src(t, Src::Latch);
-                self.rb[t as usize].push_front(v);
+                let v = take(Src::Latch);
+                d.writes.push(Write::RbPushFront(t, v));
             }
-            Uop::Release { stack } => self.stacks[stack as usize].idle = true,
+            Uop::Release { stack } => {
+                let r = StackRegs { idle: true, ..d.stack_now(&self.stacks, stack) };
+                d.set_stack(stack, r);
+            }
         }
+    }
+
+    /// Completes `u` of thread `t` at once (the functional level).
+    fn complete(&mut self, t: u32, u: Uop) {
+        let mut d = std::mem::take(&mut self.scratch);
+        let mut latch = self.seq[t as usize].latch;
+        self.complete_into(t, u, &mut latch, &mut d);
+        self.seq[t as usize].latch = latch;
+        self.commit(&d);
+        d.clear();
+        self.scratch = d;
     }
 
     /// Completes thread `t`'s next micro-op at once (for exploring every interleaving of
@@ -999,7 +749,7 @@ impl StackManager {
     }
 
     /// Hashes the architectural state: every register, queue, sequencer and memory word, but not
-    /// the event counters or last cycle's outputs, so equal states hash equal.
+    /// the event counters, so equal states hash equal.
     pub fn hash_state<H: std::hash::Hasher>(&self, h: &mut H) {
         use std::hash::Hash;
         self.threads.hash(h);
@@ -1008,6 +758,19 @@ impl StackManager {
         self.seq.hash(h);
         self.sh_data.hash(h);
         self.global.hash(h);
+    }
+
+    /// Accepts a command from a ready thread: updates registers and loads the sequencer (plan,
+    /// then commit). Returns the popped entry for a pop.
+    pub fn accept(&mut self, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
+        let mut d = std::mem::take(&mut self.scratch);
+        d.clear();
+        self.plan(&[(t, cmd)], &mut d);
+        let r = d.answer(t);
+        self.commit(&d);
+        d.clear();
+        self.scratch = d;
+        r
     }
 
     /// Functional level: accept the command and complete its whole program at once.
@@ -1030,62 +793,65 @@ impl StackManager {
         ShReq { thread: t, write, words, len: wpe as u8 }
     }
 
-    /// Issues thread `t`'s next micro-op, if it has one and nothing is in flight.
-    fn issue(&mut self, t: u32) {
-        if self.seq[t as usize].inflight.is_some() {
-            return;
+    /// Thread `t`'s sequencer this cycle: it may have completed its micro-op in flight
+    /// (`inflight`, `latch` after the completion), then issues its next one if none is in flight.
+    fn issue(&self, t: u32, mut inflight: Option<Uop>, mut latch: Option<Entry>, d: &mut StackStep) {
+        let head = if inflight.is_none() { self.seq[t as usize].uops.front().copied() } else { None };
+        if let Some(u) = head {
+            let mut take = |src: Src| match src {
+                Src::Value(v) => v,
+                Src::Latch => latch.take().unwrap_or(POISON),
+            };
+            match u {
+                Uop::ShLoad { stack, entry } => {
+                    d.sh_req.push(self.sh_request(t, stack, entry, false));
+                    inflight = Some(u);
+                }
+                Uop::ShStore { stack, entry, src } => {
+                    // Capture the latch now: the store carries its data to the bank.
+                    let v = take(src);
+                    d.sh_req.push(self.sh_request(t, stack, entry, true));
+                    inflight = Some(Uop::ShStore { stack, entry, src: Src::Value(v) });
+                }
+                Uop::GlobalLoad { slot } => {
+                    d.g_req.push(GReq { thread: t, write: false, addr: self.spill_addr(t, slot) });
+                    inflight = Some(u);
+                }
+                Uop::GlobalStore { slot, src } if self.acked_stores => {
+                    // Capture the latch now (the store carries its data); the data lands, and
+                    // the sequencer moves on, when the acknowledgement comes back.
+                    let v = take(src);
+                    d.g_req.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
+                    inflight = Some(Uop::GlobalStore { slot, src: Src::Value(v) });
+                }
+                Uop::GlobalStore { slot, .. } => {
+                    d.g_req.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
+                    self.complete_into(t, u, &mut latch, d);
+                }
+                Uop::RbBottom | Uop::Release { .. } => self.complete_into(t, u, &mut latch, d),
+            }
         }
-        let Some(u) = self.seq[t as usize].uops.pop_front() else {
-            return;
-        };
-        self.sync_queued(t);
-        match u {
-            Uop::ShLoad { stack, entry } => {
-                let r = self.sh_request(t, stack, entry, false);
-                self.sh_out.push(r);
-                self.seq[t as usize].inflight = Some(u);
-            }
-            Uop::ShStore { stack, entry, src } => {
-                // Capture the latch now: the store carries its data to the bank.
-                let v = self.take_src(t, src);
-                let r = self.sh_request(t, stack, entry, true);
-                self.sh_out.push(r);
-                self.seq[t as usize].inflight = Some(Uop::ShStore { stack, entry, src: Src::Value(v) });
-            }
-            Uop::GlobalLoad { slot } => {
-                self.g_out.push(GReq { thread: t, write: false, addr: self.spill_addr(t, slot) });
-                self.seq[t as usize].inflight = Some(u);
-            }
-            Uop::GlobalStore { slot, src } if self.acked_stores => {
-                // Capture the latch now (the store carries its data); the data lands, and the
-                // sequencer moves on, when the acknowledgement comes back.
-                let v = self.take_src(t, src);
-                self.g_out.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
-                self.seq[t as usize].inflight = Some(Uop::GlobalStore { slot, src: Src::Value(v) });
-            }
-            Uop::GlobalStore { slot, .. } => {
-                self.g_out.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
-                self.complete(t, u);
-            }
-            Uop::RbBottom | Uop::Release { .. } => self.complete(t, u),
-        }
+        d.writes.push(Write::Seq { thread: t, issued: head.is_some(), inflight, latch });
     }
 
-    /// One clock cycle at the cycle level.
-    ///
-    /// `sh_done` are the threads whose SH request the arbiter completed last cycle, `g_done` the
-    /// thread whose load data (or, with acknowledged stores, store acknowledgement) the response
-    /// FIFO delivered last cycle; `cmds` go to ready threads.
-    /// Afterwards `sh_requests`, `global_requests`, `pops` and `errors` hold this cycle's outputs.
-    pub fn step(&mut self, cmds: &[(u32, Cmd)], sh_done: &[u32], g_done: Option<u32>) {
-        self.sh_out.clear();
-        self.g_out.clear();
-        self.pops_out.clear();
-        self.errors_out.clear();
-        self.cmds_seen.clear();
-        for &t in sh_done.iter().chain(g_done.iter()) {
-            if let Some(u) = self.seq[t as usize].inflight.take() {
-                self.complete(t, u);
+    /// One clock cycle at the cycle level, combinational: completions (`done`, `deq`) land
+    /// in their sequencers, every sequencer with nothing in flight issues its next micro-op, and
+    /// each command is planned (in order: a plan sees the stack registers earlier ones changed).
+    /// `d` receives the outputs and the register writes; nothing in `self` changes.
+    pub fn eval(&self, i: &StackIn, d: &mut StackStep) {
+        d.clear();
+        for &t in i.done.iter().chain(i.deq.iter()) {
+            let (inflight, latch) = match d.completed.iter().find(|c| c.0 == t) {
+                Some(c) => (c.1, c.2),
+                None => (self.seq[t as usize].inflight, self.seq[t as usize].latch),
+            };
+            let (mut inflight, mut latch) = (inflight, latch);
+            if let Some(u) = inflight.take() {
+                self.complete_into(t, u, &mut latch, d);
+            }
+            match d.completed.iter_mut().find(|c| c.0 == t) {
+                Some(c) => (c.1, c.2) = (inflight, latch),
+                None => d.completed.push((t, inflight, latch)),
             }
         }
         for word in 0..self.queued.len() {
@@ -1093,17 +859,92 @@ impl StackManager {
             while bits != 0 {
                 let t = word as u32 * 64 + bits.trailing_zeros();
                 bits &= bits - 1;
-                self.issue(t);
+                let (inflight, latch) = match d.completed.iter().position(|c| c.0 == t) {
+                    Some(k) => {
+                        let c = d.completed.swap_remove(k);
+                        (c.1, c.2)
+                    }
+                    // Still waiting for its completion: nothing changes.
+                    None if self.seq[t as usize].inflight.is_some() => continue,
+                    None => (None, self.seq[t as usize].latch),
+                };
+                self.issue(t, inflight, latch, d);
             }
         }
-        for &(t, cmd) in cmds {
-            self.cmds_seen.push((t, cmd));
-            match self.accept(t, cmd) {
-                Ok(Some(v)) => self.pops_out.push((t, v)),
+        // Completions of threads with nothing queued.
+        for k in 0..d.completed.len() {
+            let (thread, inflight, latch) = d.completed[k];
+            d.writes.push(Write::Seq { thread, issued: false, inflight, latch });
+        }
+        self.plan(i.cmds, d);
+    }
+
+    /// Plans `cmds` in order into `d`: a plan sees the stack registers earlier ones changed.
+    fn plan(&self, cmds: &[(u32, Cmd)], d: &mut StackStep) {
+        for (k, &(t, cmd)) in cmds.iter().enumerate() {
+            if cmd == Cmd::None {
+                continue;
+            }
+            // A thread's command port takes one command per cycle (the callers send at most one).
+            debug_assert!(
+                !cmds[..k].iter().any(|c| c.0 == t && c.1 != Cmd::None),
+                "two commands of thread {t}"
+            );
+            let r = if !self.ready(t) {
+                // From an idle sequencer only.
+                Err(StackError::Busy { thread: t })
+            } else if self.threads[t as usize].done {
+                Err(StackError::AfterFinish { thread: t })
+            } else {
+                Planner::run(self, d, t, cmd)
+            };
+            match r {
+                Ok(Some(v)) => d.pops.push((t, v)),
                 Ok(None) => {}
-                Err(e) => self.errors_out.push(e),
+                Err(e) => d.errors.push(e),
             }
         }
+    }
+
+    /// The clock edge: applies the writes [`StackManager::eval`] decided, in order.
+    pub fn commit(&mut self, d: &StackStep) {
+        for &(s, r) in &d.stacks {
+            self.stacks[s as usize] = r;
+        }
+        for &w in &d.writes {
+            match w {
+                Write::Thread(t, r) => self.threads[t as usize] = r,
+                Write::RbPushBack(t, v) => self.rb[t as usize].push_back(v),
+                Write::RbPopBack(t) => {
+                    self.rb[t as usize].pop_back();
+                }
+                Write::RbPopFront(t) => {
+                    self.rb[t as usize].pop_front();
+                }
+                Write::RbPushFront(t, v) => self.rb[t as usize].push_front(v),
+                Write::Sh(i, v) => self.sh_data[i] = v,
+                Write::Global { thread, slot, value } => {
+                    let g = &mut self.global[thread as usize];
+                    if g.len() <= slot as usize {
+                        g.resize(slot as usize + 1, POISON);
+                    }
+                    g[slot as usize] = value;
+                }
+                Write::Seq { thread, issued, inflight, latch } => {
+                    let q = &mut self.seq[thread as usize];
+                    if issued {
+                        q.uops.pop_front();
+                    }
+                    (q.inflight, q.latch) = (inflight, latch);
+                    self.sync_queued(thread);
+                }
+                Write::Emit(t, u) => {
+                    self.seq[t as usize].uops.push_back(u);
+                    self.sync_queued(t);
+                }
+            }
+        }
+        self.stats.add(&d.stats);
     }
 
     /// Threads with work in flight or queued.
@@ -1116,6 +957,447 @@ impl StackManager {
     pub fn with_mutant(mut self, m: Option<Mutant>) -> Self {
         self.mutant = m;
         self
+    }
+
+    fn sync_queued(&mut self, t: u32) {
+        let (word, bit) = ((t / 64) as usize, 1u64 << (t % 64));
+        if self.seq[t as usize].uops.is_empty() {
+            self.queued[word] &= !bit;
+        } else {
+            self.queued[word] |= bit;
+        }
+    }
+}
+
+/// Plans one command of one thread (SPEC sections 3 and 5): reads the manager's registers as the
+/// cycle has left them so far, and writes only to the cycle's [`StackStep`]: its stack-register
+/// changes stay in `plan_stacks` until the plan succeeds, so a refused command changes nothing.
+struct Planner<'a> {
+    m: &'a StackManager,
+    d: &'a mut StackStep,
+    t: u32,
+    th: ThreadRegs,
+    /// Where this plan's writes start in `d.writes` (dropped on refusal).
+    first_write: usize,
+    stats: StackStats,
+}
+
+impl<'a> Planner<'a> {
+    fn run(m: &'a StackManager, d: &'a mut StackStep, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
+        d.plan_stacks.clear();
+        let first_write = d.writes.len();
+        let mut p = Planner { m, d, t, th: m.threads[t as usize], first_write, stats: StackStats::default() };
+        let r = match cmd {
+            Cmd::None => Ok(None),
+            Cmd::Push(v) => {
+                p.stats.pushes += 1;
+                p.push(v).map(|_| None)
+            }
+            Cmd::Pop => p.pop().map(Some),
+            Cmd::Finish => p.finish().map(|_| None),
+        };
+        let r = r.and_then(|v| p.check_widths().map(|_| v));
+        match r {
+            Ok(_) => {
+                let Planner { d, th, stats, .. } = p;
+                d.writes.push(Write::Thread(t, th));
+                for k in 0..d.plan_stacks.len() {
+                    let (s, regs) = d.plan_stacks[k];
+                    d.set_stack(s, regs);
+                }
+                d.stats.add(&stats);
+            }
+            Err(_) => {
+                // A refused push still counts as a push (the counters count commands seen).
+                p.d.writes.truncate(p.first_write);
+                p.d.stats.pushes += p.stats.pushes;
+            }
+        }
+        r
+    }
+
+    fn cfg(&self) -> &Config {
+        &self.m.cfg
+    }
+
+    /// The registers this plan fills must hold their values: the RB count (unbounded for
+    /// RB_FULL in the model, [`crate::config::RB_FULL_COUNT_BITS`] wide) and the sequencer step
+    /// (the program's length).
+    fn check_widths(&self) -> Result<(), StackError> {
+        let w = &self.m.w;
+        let t = self.t;
+        let (mut rb, mut steps) = (self.rb_len() as u64, 0u64);
+        for x in &self.d.writes[self.first_write..] {
+            match x {
+                Write::RbPushBack(..) => rb += 1,
+                Write::RbPopBack(_) | Write::RbPopFront(_) => rb -= 1,
+                Write::Emit(..) => steps += 1,
+                _ => {}
+            }
+        }
+        if rb >= 1 << w.rb_count {
+            return Err(StackError::Overflow { thread: t, field: "rb_count", value: rb, bits: w.rb_count });
+        }
+        if steps >= 1 << w.seq_step {
+            return Err(StackError::Overflow {
+                thread: t,
+                field: "seq_step",
+                value: steps,
+                bits: w.seq_step,
+            });
+        }
+        Ok(())
+    }
+
+    fn mutant(&self, tag: MutantTag) -> bool {
+        self.m.mutant(tag)
+    }
+
+    fn get(&self, s: u32) -> StackRegs {
+        match self.d.plan_stacks.iter().find(|x| x.0 == s) {
+            Some(x) => x.1,
+            None => self.d.stack_now(&self.m.stacks, s),
+        }
+    }
+
+    fn set(&mut self, s: u32, r: StackRegs) {
+        match self.d.plan_stacks.iter_mut().find(|x| x.0 == s) {
+            Some(x) => x.1 = r,
+            None => self.d.plan_stacks.push((s, r)),
+        }
+    }
+
+    fn emit(&mut self, u: Uop) {
+        self.d.writes.push(Write::Emit(self.t, u));
+    }
+
+    fn rb_len(&self) -> usize {
+        self.m.rb[self.t as usize].len()
+    }
+
+    // ---- circular queue pointer logic -------------------------------------------------------
+
+    fn inc(&self, i: u32) -> u32 {
+        let m = self.cfg().sh_entries;
+        if self.mutant(MutantTag::QueueWrapOffByOne) && i + 1 >= m {
+            return 1 % m;
+        }
+        (i + 1) % m
+    }
+
+    fn dec(&self, i: u32) -> u32 {
+        let m = self.cfg().sh_entries;
+        (i + m - 1) % m
+    }
+
+    fn full(&self, s: u32) -> bool {
+        self.get(s).count(self.cfg().sh_entries) == self.cfg().sh_entries
+    }
+
+    fn push_top(&mut self, s: u32) -> u32 {
+        let r = self.get(s);
+        let top = if r.empty { r.top } else { self.inc(r.top) };
+        self.set(s, StackRegs { top, empty: false, ..r });
+        top
+    }
+
+    fn pop_top(&mut self, s: u32) -> u32 {
+        let r = self.get(s);
+        if r.top == r.bottom {
+            self.set(s, StackRegs { empty: true, ..r });
+        } else {
+            self.set(s, StackRegs { top: self.dec(r.top), ..r });
+        }
+        r.top
+    }
+
+    fn push_bottom(&mut self, s: u32) -> u32 {
+        let r = self.get(s);
+        let bottom = if r.empty { r.bottom } else { self.dec(r.bottom) };
+        self.set(s, StackRegs { bottom, empty: false, ..r });
+        bottom
+    }
+
+    fn pop_bottom(&mut self, s: u32) -> u32 {
+        let r = self.get(s);
+        let next = self.inc(r.bottom);
+        if r.top == r.bottom {
+            self.set(s, StackRegs { empty: true, ..r });
+        } else {
+            self.set(s, StackRegs { bottom: next, ..r });
+        }
+        r.bottom
+    }
+
+    // ---- chains (reallocation) ----------------------------------------------------------------
+
+    fn warp_base(&self, s: u32) -> u32 {
+        s - s % self.cfg().warp_size
+    }
+
+    fn members(&self, t: u32) -> Chain {
+        Chain::of(t, self.cfg().warp_size, |s| self.get(s).next_tid)
+    }
+
+    fn by_priority(&self, c: &Chain, highest: bool) -> u32 {
+        let key = |s: &u32| self.get(*s).priority;
+        if highest {
+            c.iter().max_by_key(key).unwrap_or(c.ids[0])
+        } else {
+            c.iter().min_by_key(key).unwrap_or(c.ids[0])
+        }
+    }
+
+    /// Moves stack `s` to rank `to` in its chain, shifting the ranks between.
+    fn move_to_rank(&mut self, c: &Chain, s: u32, to: u32) {
+        let from = self.get(s).priority;
+        for m in c.iter().filter(|&m| m != s) {
+            let mut r = self.get(m);
+            if from < to && r.priority > from && r.priority <= to {
+                r.priority -= 1;
+            } else if to < from && r.priority >= to && r.priority < from {
+                r.priority += 1;
+            } else {
+                continue;
+            }
+            self.set(m, r);
+        }
+        let r = self.get(s);
+        self.set(s, StackRegs { priority: to, ..r });
+    }
+
+    fn reset_flush(&mut self, s: u32) {
+        if !self.mutant(MutantTag::FlushKeepsCount) {
+            let r = self.get(s);
+            self.set(s, StackRegs { flush: 0, ..r });
+        }
+    }
+
+    fn first_idle(&self, t: u32) -> Option<u32> {
+        let base = self.warp_base(t);
+        (base..base + self.cfg().warp_size).find(|&s| self.get(s).idle)
+    }
+
+    fn borrow(&mut self, t: u32, s: u32, rank: u32) {
+        let base = self.warp_base(t);
+        let lane = s - base;
+        let anchor = self.get(t);
+        let b = self.cfg().skew_base(lane);
+        self.set(
+            s,
+            StackRegs {
+                top: b,
+                bottom: b,
+                empty: true,
+                idle: false,
+                next_tid: anchor.next_tid,
+                priority: rank,
+                flush: 0,
+            },
+        );
+        self.set(t, StackRegs { next_tid: lane, ..anchor });
+        self.stats.borrows += 1;
+    }
+
+    fn unlink(&mut self, t: u32, s: u32) {
+        let base = self.warp_base(t);
+        let c = self.members(t);
+        let pred = c.iter().find(|&p| base + self.get(p).next_tid == s).unwrap_or(t);
+        let next = self.get(s).next_tid;
+        let r = self.get(pred);
+        self.set(pred, StackRegs { next_tid: next, ..r });
+        let r = self.get(s);
+        self.set(s, StackRegs { next_tid: s - base, priority: 0, ..r });
+        self.reset_flush(s);
+    }
+
+    // ---- the plan: registers now, micro-ops for the sequencer ----------------------------------
+
+    fn claim_spill_slots(&mut self, n: u32) -> Result<u32, StackError> {
+        let limit = (1u32 << self.cfg().spill_ptr_bits.min(31)) - 1;
+        if self.th.spill_ptr.saturating_add(n) > limit {
+            return Err(StackError::SpillRegionFull { thread: self.t, entries: limit });
+        }
+        let slot = self.th.spill_ptr;
+        self.th.spill_ptr += n;
+        self.th.overflow = true;
+        Ok(slot)
+    }
+
+    /// Spills `v` (the oldest RB entry) out of the full RB.
+    fn spill(&mut self, v: Entry) -> Result<(), StackError> {
+        let t = self.t;
+        if self.cfg().sh_entries == 0 {
+            let slot = self.claim_spill_slots(1)?;
+            self.emit(Uop::GlobalStore { slot, src: Src::Value(v) });
+            self.stats.rb_to_global += 1;
+            return Ok(());
+        }
+        let chain = self.members(t);
+        let top = self.by_priority(&chain, true);
+        if !self.full(top) {
+            self.spill_into(top, v);
+            return Ok(());
+        }
+        if let Some(ra) = self.cfg().realloc {
+            let len = chain.len as u32;
+            if let Some(e) = chain.iter().find(|&s| self.get(s).empty) {
+                self.move_to_rank(&chain, e, len - 1);
+                self.spill_into(e, v);
+                return Ok(());
+            }
+            if len <= ra.borrow_limit {
+                if let Some(s) = self.first_idle(t) {
+                    self.borrow(t, s, len);
+                    self.spill_into(s, v);
+                    return Ok(());
+                }
+            }
+            let oldest = self.by_priority(&chain, false);
+            if len > 1 || self.get(oldest).flush < ra.flush_limit {
+                self.flush(oldest, ra.flush_limit)?;
+                self.move_to_rank(&chain, oldest, len - 1);
+                self.spill_into(oldest, v);
+                return Ok(());
+            }
+        }
+        // SPEC 3, push case 3: SH load (Bottom) → global store → SH store (Top + 1).
+        let slot = self.claim_spill_slots(1)?;
+        let b = self.pop_bottom(top);
+        self.emit(Uop::ShLoad { stack: top, entry: b });
+        self.emit(Uop::GlobalStore { slot, src: Src::Latch });
+        self.stats.sh_to_global += 1;
+        self.spill_into(top, v);
+        Ok(())
+    }
+
+    fn spill_into(&mut self, s: u32, v: Entry) {
+        let e = self.push_top(s);
+        if !self.mutant(MutantTag::SpillDropsEntry) {
+            self.emit(Uop::ShStore { stack: s, entry: e, src: Src::Value(v) });
+        }
+        self.stats.rb_to_sh += 1;
+    }
+
+    /// Writes the whole of stack `s` to global memory, oldest entry first (lowest address).
+    fn flush(&mut self, s: u32, limit: u32) -> Result<(), StackError> {
+        let m = self.cfg().sh_entries;
+        let n = self.get(s).count(m);
+        let first = self.claim_spill_slots(n)?;
+        for i in 0..n {
+            let e = self.pop_bottom(s);
+            self.emit(Uop::ShLoad { stack: s, entry: e });
+            self.emit(Uop::GlobalStore { slot: first + i, src: Src::Latch });
+        }
+        self.stats.sh_to_global += n as u64;
+        self.stats.flushes += 1;
+        let mut r = self.get(s);
+        if r.flush >= limit {
+            self.stats.flushes_saturated += 1;
+        } else {
+            r.flush += 1;
+            self.set(s, r);
+        }
+        Ok(())
+    }
+
+    fn push(&mut self, v: Entry) -> Result<(), StackError> {
+        let t = self.t;
+        let full = self.cfg().rb.capacity().is_some_and(|n| self.rb_len() as u32 >= n);
+        if full {
+            let oldest = self.m.rb[t as usize].front().copied().unwrap_or(POISON);
+            self.d.writes.push(Write::RbPopFront(t));
+            self.spill(oldest)?;
+        }
+        self.d.writes.push(Write::RbPushBack(t, v));
+        Ok(())
+    }
+
+    fn pop(&mut self) -> Result<Entry, StackError> {
+        let t = self.t;
+        let Some(&v) = self.m.rb[t as usize].back() else {
+            return Err(StackError::PopEmpty { thread: t });
+        };
+        self.d.writes.push(Write::RbPopBack(t));
+        self.stats.pops += 1;
+        if self.cfg().sh_entries == 0 {
+            if self.th.overflow {
+                let slot = self.release_spill_slot();
+                self.emit(Uop::GlobalLoad { slot });
+                self.emit(Uop::RbBottom);
+                self.stats.global_to_rb += 1;
+            }
+            return Ok(v);
+        }
+        let chain = self.members(t);
+        let top = self.by_priority(&chain, true);
+        if !self.get(top).empty {
+            let e = if self.mutant(MutantTag::ReloadWrongEntry) {
+                self.pop_bottom(top)
+            } else {
+                self.pop_top(top)
+            };
+            self.emit(Uop::ShLoad { stack: top, entry: e });
+            self.emit(Uop::RbBottom);
+            self.stats.sh_to_rb += 1;
+            let drained = self.get(top).empty
+                || (self.mutant(MutantTag::EarlyRelease)
+                    && top != t
+                    && self.get(top).count(self.cfg().sh_entries) == 1);
+            if drained {
+                self.reset_flush(top);
+                if chain.len > 1 {
+                    if top != t {
+                        self.unlink(t, top);
+                        if self.mutant(MutantTag::EagerRelease) {
+                            let r = self.get(top);
+                            self.set(top, StackRegs { idle: true, ..r });
+                        } else {
+                            self.emit(Uop::Release { stack: top });
+                        }
+                        self.stats.releases += 1;
+                    } else {
+                        self.move_to_rank(&chain, t, 0);
+                        self.stats.demotions += 1;
+                    }
+                }
+            }
+        }
+        if self.th.overflow && !self.mutant(MutantTag::MissingGlobalReload) {
+            let chain = self.members(t);
+            let oldest = self.by_priority(&chain, false);
+            if !self.full(oldest) {
+                let slot = self.release_spill_slot();
+                let e = self.push_bottom(oldest);
+                self.emit(Uop::GlobalLoad { slot });
+                self.emit(Uop::ShStore { stack: oldest, entry: e, src: Src::Latch });
+                self.stats.global_to_sh += 1;
+            }
+        }
+        Ok(v)
+    }
+
+    fn release_spill_slot(&mut self) -> u32 {
+        let skip_clear = self.mutant(MutantTag::SkipOverflowClear);
+        let th = &mut self.th;
+        th.spill_ptr = th.spill_ptr.wrapping_sub(1);
+        if th.spill_ptr == 0 && !skip_clear {
+            th.overflow = false;
+        }
+        th.spill_ptr
+    }
+
+    fn finish(&mut self) -> Result<(), StackError> {
+        let t = self.t;
+        if self.rb_len() != 0 {
+            return Err(StackError::FinishNonEmpty { thread: t });
+        }
+        self.th.done = true;
+        if self.cfg().realloc.is_some() {
+            let r = self.get(t);
+            self.set(t, StackRegs { idle: true, ..r });
+        }
+        Ok(())
     }
 }
 
@@ -1148,8 +1430,17 @@ impl From<Mutant> for MutantTag {
     }
 }
 
+/// The registers alone (no command this cycle).
 impl Probe for StackManager {
     fn probe<S: Sink>(&self, s: &mut S) {
+        self.probe_cycle(&[], &[], s);
+    }
+}
+
+impl StackManager {
+    /// The registers, and the cycle's commands `cmds` (the input) with the pops that answered
+    /// them (`pops`, from [`StackStep::pops`]).
+    pub fn probe_cycle<S: Sink>(&self, cmds: &[(u32, Cmd)], pops: &[(u32, Entry)], s: &mut S) {
         if !s.enabled() {
             return;
         }
@@ -1159,10 +1450,10 @@ impl Probe for StackManager {
             for t in self.warp_threads(wp) {
                 let lane = t % self.cfg.warp_size;
                 s.push_scope(&format!("thread[{lane}]"));
-                let cmd = self.cmds_seen.iter().find(|c| c.0 == t).map_or(Cmd::None, |c| c.1);
+                let cmd = cmds.iter().find(|c| c.0 == t).map_or(Cmd::None, |c| c.1);
                 let data = match cmd {
                     Cmd::Push(v) => v,
-                    Cmd::Pop => self.pops_out.iter().find(|p| p.0 == t).map_or(0, |p| p.1),
+                    Cmd::Pop => pops.iter().find(|p| p.0 == t).map_or(0, |p| p.1),
                     Cmd::None | Cmd::Finish => 0,
                 };
                 s.signal("cmd_valid", 1, u64::from(cmd != Cmd::None));
@@ -1199,5 +1490,28 @@ impl Probe for StackManager {
             }
             s.pop_scope();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// RB_FULL has no hardware bound; its count register is [`crate::config::RB_FULL_COUNT_BITS`]
+    /// wide, and a push past what it holds is refused, not silently counted in a wider integer.
+    #[test]
+    fn a_value_that_does_not_fit_its_register_is_an_error() {
+        let mut m = StackManager::new("RB_FULL".parse().unwrap(), 0).unwrap();
+        let bits = m.widths().rb_count;
+        for v in 0..(1u64 << bits) - 1 {
+            m.apply(0, Cmd::Push(v)).unwrap();
+        }
+        let value = 1 << bits;
+        assert_eq!(
+            m.apply(0, Cmd::Push(7)),
+            Err(StackError::Overflow { thread: 0, field: "rb_count", value, bits })
+        );
+        assert_eq!(m.rb(0).len() as u64, value - 1, "the refused push changed nothing");
+        assert_eq!(m.apply(0, Cmd::Pop), Ok(Some(value - 2)));
     }
 }

@@ -1,33 +1,129 @@
-//! The stack subsystem of one RT unit, standing alone: stack manager, bank arbiter, memory
-//! scheduler with its response FIFO, and a fixed-latency global memory.
+//! The stack subsystem of one RT unit: stack manager, bank arbiter, and memory scheduler with
+//! its response FIFO, wired once; the RT unit and the standalone [`StandaloneStack`] both use it.
 //!
 //! ```text
-//!            cmds ──► stack_manager ──SH reqs──► bank_arbiter ──done (next cycle)──┐
-//!                       ▲   │                                                       │
-//!                       │   └──global reqs──► mem_sched ──► fixed-latency memory    │
-//!                       │                        ▲   FIFO ◄──── completions ◄───────┘
-//!                       └──── done / delivered ──┴──────────────────────────────────┘
+//!            cmds ──► stack_manager ──sh_req──► bank_arbiter ──done (registered)──┐
+//!                       ▲   │                                                      │
+//!                       │   └──g_req──► mem_sched ──req (head; fires on req_ready)──► memory
+//!                       │                  ▲ FIFO ◄──── completions ◄───── memory ┘
+//!                       └──── done / deq (registered outputs, read next cycle) ────┘
 //! ```
 //!
-//! Each unit reads only what the others registered in the previous cycle. The RT unit uses the
-//! same three units but routes global requests through its cache hierarchy instead.
+//! Dataflow within a cycle: the arbiter's `done` and the FIFO's `deq` are registers, so the
+//! stack manager evaluates first on them and this cycle's commands; its SH and global requests
+//! are then inputs of the arbiter and the scheduler. Nothing changes until [`StackUnit::commit`].
 
-use crate::bank_arbiter::BankArbiter;
+use crate::bank_arbiter::{ArbStep, BankArbiter, MIN_SH_LATENCY};
 use crate::config::{Config, ConfigError};
-use crate::mem_sched::{FixedLatencyMem, MemSched};
-use crate::stack_manager::{Cmd, StackManager, StackStats, StackTiming};
+use crate::mem_sched::{FixedLatencyMem, FixedStep, GReq, MemSched, SchedStep};
+use crate::stack_manager::{
+    Cmd, Entry, StackError, StackIn, StackManager, StackStats, StackStep, StackTiming,
+};
 use crate::trace::{Probe, Sink};
 
 /// Default global-memory latency of the standalone stack unit, in cycles.
 pub const DEFAULT_GLOBAL_LATENCY: u64 = 100;
 
+/// Stack manager, bank arbiter and memory scheduler of one RT unit (registers).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct StackUnit {
-    pub sm: StackManager,
+    pub manager: StackManager,
     pub arb: BankArbiter,
     pub sched: MemSched,
+}
+
+/// This cycle's inputs of the stack subsystem.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StackUnitIn<'a> {
+    /// Commands, at most one per thread, from threads the manager shows `ready`.
+    pub cmds: &'a [(u32, Cmd)],
+    /// The memory port takes the request [`StackUnit::req`] offers.
+    pub req_ready: bool,
+    /// Threads whose global load (or acknowledged store) the memory completed.
+    pub completions: &'a [u32],
+}
+
+/// The cycle of the stack subsystem: every child's outputs and decisions.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct StackUnitStep {
+    pub manager: StackStep,
+    pub arb: ArbStep,
+    pub sched: SchedStep,
+}
+
+impl StackUnitStep {
+    /// What the cycle answered to thread `t`'s command.
+    pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
+        self.manager.answer(t)
+    }
+}
+
+impl StackUnit {
+    /// The stack subsystem of SM `sm`. With [`StackTiming::Blocking`] the sequencer waits for the
+    /// acknowledgement of each global store; `sh_latency` as in [`BankArbiter::with_latency`].
+    pub fn new(cfg: Config, sm: u32, timing: StackTiming, sh_latency: u32) -> Result<Self, ConfigError> {
+        Ok(StackUnit {
+            manager: StackManager::new(cfg, sm)?.with_acked_stores(timing == StackTiming::Blocking),
+            arb: BankArbiter::with_latency(cfg.banks, sh_latency),
+            sched: MemSched::new(),
+        })
+    }
+
+    /// The request offered to the memory port this cycle (from registers).
+    #[inline]
+    pub fn req(&self) -> Option<GReq> {
+        self.sched.head()
+    }
+
+    /// Cycle `now`, combinational, in dataflow order; `d` receives every output and decision.
+    #[inline]
+    pub fn eval(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
+        let sm_in = StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() };
+        self.manager.eval(&sm_in, &mut d.manager);
+        self.arb.eval(now, &d.manager.sh_req, &mut d.arb);
+        self.sched.eval(&d.manager.g_req, i.req_ready, i.completions, &mut d.sched);
+    }
+
+    /// The clock edge.
+    #[inline]
+    pub fn commit(&mut self, d: &StackUnitStep) {
+        self.manager.commit(&d.manager);
+        self.arb.commit(&d.arb);
+        self.sched.commit(&d.sched);
+    }
+
+    /// Nothing in flight: no command waits and no request or response is anywhere.
+    pub fn idle(&self) -> bool {
+        self.manager.quiescent() && self.arb.is_idle() && self.sched.is_idle()
+    }
+
+    /// Registers, and the cycle `d` that `cmds` drove.
+    pub fn probe<S: Sink>(&self, cmds: &[(u32, Cmd)], d: &StackUnitStep, s: &mut S) {
+        if !s.enabled() {
+            return;
+        }
+        let w = self.manager.widths();
+        s.push_scope("stack_manager");
+        self.manager.probe_cycle(cmds, &d.manager.pops, s);
+        s.pop_scope();
+        self.arb.probe(&d.arb, w, s);
+        self.sched.probe(&d.sched, w, s);
+    }
+}
+
+/// The stack subsystem standing alone: a [`StackUnit`] whose global requests go to a
+/// fixed-latency memory. Drives proofs and testbenches that exercise the stack without node
+/// fetches.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct StandaloneStack {
+    pub unit: StackUnit,
     pub mem: FixedLatencyMem,
     pub cycle: u64,
+    /// The last cycle's commands and decisions (what [`StandaloneStack::answer`] and the probe
+    /// show).
+    cmds: Vec<(u32, Cmd)>,
+    d: StackUnitStep,
+    mem_d: FixedStep,
 }
 
 /// What one run cost.
@@ -39,16 +135,11 @@ pub struct UnitStats {
     pub cycles: u64,
 }
 
-impl StackUnit {
+impl StandaloneStack {
     /// The stack subsystem as before issue 12: posted global stores and SH accesses done right
     /// after the banks (`sh_latency` 2).
     pub fn new(cfg: Config, global_latency: u64) -> Result<Self, ConfigError> {
-        StackUnit::with_timing(
-            cfg,
-            global_latency,
-            StackTiming::Overlapped,
-            crate::bank_arbiter::MIN_SH_LATENCY,
-        )
+        StandaloneStack::with_timing(cfg, global_latency, StackTiming::Overlapped, MIN_SH_LATENCY)
     }
 
     /// With `StackTiming::Blocking` the memory acknowledges stores and the sequencer waits for
@@ -60,34 +151,51 @@ impl StackUnit {
         timing: StackTiming,
         sh_latency: u32,
     ) -> Result<Self, ConfigError> {
-        let acked = timing == StackTiming::Blocking;
-        Ok(StackUnit {
-            sm: StackManager::new(cfg, 0)?.with_acked_stores(acked),
-            arb: BankArbiter::with_latency(cfg.banks, sh_latency),
-            sched: MemSched::new(),
-            mem: FixedLatencyMem::with_acks(global_latency, acked),
+        Ok(StandaloneStack {
+            unit: StackUnit::new(cfg, 0, timing, sh_latency)?,
+            mem: FixedLatencyMem::with_acks(global_latency, timing == StackTiming::Blocking),
             cycle: 0,
+            cmds: Vec::new(),
+            d: StackUnitStep::default(),
+            mem_d: FixedStep::default(),
         })
     }
 
-    /// One clock cycle. The answers to `cmds` are in `self.sm.answer(t)`.
+    pub fn manager(&self) -> &StackManager {
+        &self.unit.manager
+    }
+
+    pub fn manager_mut(&mut self) -> &mut StackManager {
+        &mut self.unit.manager
+    }
+
+    /// One clock cycle: evaluate the stack unit and the memory (the port is always ready), then
+    /// commit both. The answers to `cmds` are in [`StandaloneStack::answer`].
     pub fn step(&mut self, cmds: &[(u32, Cmd)]) {
-        self.sm.step(cmds, self.arb.done(), self.sched.delivered());
-        self.arb.step(self.cycle, self.sm.sh_requests());
-        let port = self.sched.step(self.sm.global_requests(), true, self.mem.completions());
-        self.mem.step(port);
+        let i = StackUnitIn { cmds, req_ready: true, completions: self.mem.completions() };
+        self.unit.eval(self.cycle, &i, &mut self.d);
+        self.mem.eval(self.d.sched.req, &mut self.mem_d);
+        self.unit.commit(&self.d);
+        self.mem.commit(&self.mem_d);
+        self.cmds.clear();
+        self.cmds.extend_from_slice(cmds);
         self.cycle += 1;
+    }
+
+    /// What the last cycle answered to thread `t`'s command.
+    pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
+        self.d.answer(t)
     }
 
     /// Nothing in flight anywhere: stepping without commands changes nothing but time.
     pub fn idle(&self) -> bool {
-        self.sm.quiescent() && self.arb.is_idle() && self.sched.is_idle() && self.mem.is_idle()
+        self.unit.idle() && self.mem.is_idle()
     }
 
     /// When only global loads are in flight, nothing happens until the first returns: skips
     /// those cycles, but not past cycle `limit`. Returns how many were skipped.
     pub fn skip_to_next_event(&mut self, limit: u64) -> u64 {
-        let waiting = self.arb.is_idle() && self.sched.is_idle();
+        let waiting = self.unit.arb.is_idle() && self.unit.sched.is_idle();
         match self.mem.next_event() {
             Some(at) if waiting && at.min(limit) > self.cycle + 1 => {
                 let n = at.min(limit) - self.cycle - 1;
@@ -101,23 +209,21 @@ impl StackUnit {
 
     pub fn stats(&self) -> UnitStats {
         UnitStats {
-            stack: self.sm.stats,
-            conflict_cycles: self.arb.conflict_cycles,
-            conflict_word_waits: self.arb.conflict_word_waits,
+            stack: self.unit.manager.stats,
+            conflict_cycles: self.unit.arb.conflict_cycles,
+            conflict_word_waits: self.unit.arb.conflict_word_waits,
             cycles: self.cycle,
         }
     }
 }
 
-impl Probe for StackUnit {
+impl Probe for StandaloneStack {
     fn probe<S: Sink>(&self, s: &mut S) {
         if !s.enabled() {
             return;
         }
         s.push_scope("rt_unit");
-        self.sm.probe(s);
-        self.arb.probe(s);
-        self.sched.probe(s);
+        self.unit.probe(&self.cmds, &self.d, s);
         s.pop_scope();
     }
 }
@@ -134,22 +240,22 @@ mod tests {
     /// sequencer completes the store in 17, the pop goes in 18.
     fn pop_cycle(timing: StackTiming) -> u64 {
         let cfg: Config = "RB_2".parse().unwrap();
-        let mut u = StackUnit::with_timing(cfg, 10, timing, 2).unwrap();
+        let mut u = StandaloneStack::with_timing(cfg, 10, timing, 2).unwrap();
         for v in [1, 2, 3] {
             u.step(&[(0, Cmd::Push(v))]);
         }
-        while !u.sm.ready(0) {
+        while !u.manager().ready(0) {
             u.step(&[]);
         }
         let at = u.cycle;
         u.step(&[(0, Cmd::Pop)]);
-        assert_eq!(u.sm.answer(0), Ok(Some(3)));
+        assert_eq!(u.answer(0), Ok(Some(3)));
         for want in [2, 1] {
-            while !u.sm.ready(0) {
+            while !u.manager().ready(0) {
                 u.step(&[]);
             }
             u.step(&[(0, Cmd::Pop)]);
-            assert_eq!(u.sm.answer(0), Ok(Some(want)), "the spilled entry comes back");
+            assert_eq!(u.answer(0), Ok(Some(want)), "the spilled entry comes back");
         }
         while !u.idle() {
             u.step(&[]);

@@ -118,8 +118,8 @@ impl Snapshot {
 mod tests {
     use super::Kind;
     use crate::mem::ReqKind;
-    use crate::rt_unit::ThreadState;
     use crate::stack_manager::{Cmd, Src, Uop};
+    use crate::thread_fsm::ThreadState;
 
     /// `WaitMem { left: 1, lat: 2 }` → `wait_mem`: the variant's own name, as a waveform shows it.
     fn variant_name(debug: &str) -> String {

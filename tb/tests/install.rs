@@ -13,7 +13,8 @@ use common::TmpDir;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::sync::RwLock;
 
 /// A unit cube (8 vertices, 6 quads), facing outwards.
 const CUBE_OBJ: &str = "\
@@ -29,6 +30,9 @@ element face 6\nproperty list uchar int vertex_indices\nend_header
 4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7
 ";
 
+/// Held for reading while a test spawns a process, for writing while one copies the binary.
+static FORKS: RwLock<()> = RwLock::new(());
+
 /// A folder with `bin/sms` (the binary alone) and an empty working folder `work/`.
 struct Installed {
     tmp: TmpDir,
@@ -39,6 +43,10 @@ impl Installed {
         let tmp = TmpDir::new("install", test);
         std::fs::create_dir_all(tmp.join("bin")).unwrap();
         std::fs::create_dir_all(tmp.join("work")).unwrap();
+        // While the copy is open for writing, a child forked by another test thread inherits it
+        // until its exec, and executing the copy then fails with "Text file busy": copies wait
+        // for every spawn in progress, and spawns for every copy.
+        let _copying = FORKS.write().unwrap();
         std::fs::copy(env!("CARGO_BIN_EXE_sms"), tmp.join("bin/sms")).unwrap();
         Installed { tmp }
     }
@@ -57,13 +65,19 @@ impl Installed {
 
     /// Runs the installed binary in `work/`, with no scene folder configured.
     fn sms(&self, args: &[&str]) -> Output {
-        Command::new(self.tmp.join("bin/sms"))
-            .args(args)
-            .current_dir(self.work())
-            .env_remove("SMS_SCENES_DIR")
-            .env("RUST_BACKTRACE", "1")
-            .output()
-            .unwrap()
+        self.spawn(args, |c| c.env_remove("SMS_SCENES_DIR"))
+    }
+
+    /// Runs the installed binary in `work/` with `env` applied to its environment.
+    fn spawn(&self, args: &[&str], env: impl FnOnce(&mut Command) -> &mut Command) -> Output {
+        let mut cmd = Command::new(self.tmp.join("bin/sms"));
+        cmd.args(args).current_dir(self.work()).env("RUST_BACKTRACE", "1");
+        env(&mut cmd);
+        cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
+        let spawning = FORKS.read().unwrap();
+        let child = cmd.spawn().unwrap();
+        drop(spawning);
+        child.wait_with_output().unwrap()
     }
 
     /// A tiny cycle-level run of `scene`; returns the parsed JSON report.
@@ -155,12 +169,8 @@ fn a_described_scene_without_its_data_says_how_to_point_sms_at_it() {
     std::fs::write(data.join("stanford-bunny-69k.obj.gz"), gzip(CUBE_OBJ.as_bytes())).unwrap();
     let report = sms.run("bunny69k", &["--scenes-dir", data.to_str().unwrap()]);
     assert!(rays_cycles(&report).0 > 0);
-    let out = Command::new(sms.tmp.join("bin/sms"))
-        .args(["run", "--scene", "bunny69k", "--res", "4x4", "--spp", "1", "--bounces", "0", "-c", "RB_8"])
-        .current_dir(sms.work())
-        .env("SMS_SCENES_DIR", &data)
-        .output()
-        .unwrap();
+    let args = ["run", "--scene", "bunny69k", "--res", "4x4", "--spp", "1", "--bounces", "0", "-c", "RB_8"];
+    let out = sms.spawn(&args, |c| c.env("SMS_SCENES_DIR", &data));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
 

@@ -3,7 +3,7 @@
 
 use proofs::harness::CycleOpts;
 use rtl::config::Config;
-use rtl::stack_unit::StackUnit;
+use rtl::stack_unit::StandaloneStack;
 use rtl::trace::NullSink;
 use tb::load_scene;
 use tb::run::stack_tb::run_jobs;
@@ -25,7 +25,7 @@ fn check_scene(name: &str, res: u32, order: ChildOrder) {
     let deepest = jobs.iter().flat_map(|j| j.lanes.iter().flatten()).map(|t| t.max_depth()).max().unwrap();
     let mut traffic = Vec::new();
     for cfg in Config::paper_set() {
-        let mut unit = StackUnit::new(cfg, 100).unwrap();
+        let mut unit = StandaloneStack::new(cfg, 100).unwrap();
         let o = CycleOpts { max_gap: 8, seed: 1, ..CycleOpts::default() };
         let s = run_jobs(&mut unit, jobs.clone(), o, &mut NullSink)
             .unwrap_or_else(|e| panic!("{name} {}: {e}", cfg.name()));

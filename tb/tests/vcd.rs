@@ -203,7 +203,7 @@ fn save_file_opens_the_dump_with_grouped_signals() {
     // Thread fields in display order.
     let thread0: Vec<&str> = save
         .lines()
-        .filter_map(|l| l.strip_prefix("rt_unit.warp[0].thread[0]."))
+        .filter_map(|l| l.strip_prefix("rt_unit.stack_manager.warp[0].thread[0]."))
         .map(|l| l.split('[').next().unwrap())
         .collect();
     assert_eq!(&thread0[..5], ["cmd_valid", "cmd_kind", "cmd_data", "uop", "rb_count"]);

@@ -138,12 +138,11 @@ impl CostReport {
                 copies_per_sm: t,
                 note: "settles Top == Bottom: empty or one entry (DESIGN 9.1)",
             });
-            let seq_states = 2 * m + 4;
             fields.push(Field {
                 name: "seq_step",
                 what: "sequencer step",
                 origin: Origin::Rtl,
-                bits: bits_for(seq_states as u64),
+                bits: w.seq_step,
                 copies_per_sm: t,
                 note: "position in the longest request sequence (a flush: 2M + 1 micro-ops)",
             });

@@ -3,7 +3,7 @@
 //! checked against the reference stack, every warp checked when it leaves).
 
 use proofs::harness::{run_cycle, CycleOpts, Op, RunError, RunSummary, WarpWork};
-use rtl::stack_unit::StackUnit;
+use rtl::stack_unit::StandaloneStack;
 use rtl::trace::Sink;
 
 use crate::workload::trace::{RayTrace, TraceOp, WarpJob};
@@ -28,7 +28,7 @@ pub fn lane_ops(trace: &RayTrace) -> Vec<Op> {
 
 /// Runs `jobs` through `unit` with the scoreboard on.
 pub fn run_jobs<I, S>(
-    unit: &mut StackUnit,
+    unit: &mut StandaloneStack,
     jobs: I,
     opts: CycleOpts,
     sink: &mut S,

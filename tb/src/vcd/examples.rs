@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use proofs::harness::{run_cycle, CycleOpts, RunSummary};
 use proofs::streams::warps;
 use rtl::config::{Config, Realloc};
-use rtl::stack_unit::StackUnit;
+use rtl::stack_unit::StandaloneStack;
 use rtl::trace::Sink;
 
 use super::{Selection, VcdOptions, VcdSink};
@@ -33,7 +33,7 @@ pub struct Example {
 impl Example {
     /// Runs the workload through a fresh stack unit, signals to `sink`.
     pub fn run<S: Sink>(&self, sink: &mut S) -> Result<RunSummary, Box<dyn Error>> {
-        let mut unit = StackUnit::new(self.config, LATENCY)?;
+        let mut unit = StandaloneStack::new(self.config, LATENCY)?;
         let work = warps(self.seed, self.warps, self.config.warp_size, self.max_peak);
         let opts = CycleOpts {
             max_gap: 3,

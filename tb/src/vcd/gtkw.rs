@@ -126,7 +126,7 @@ pub fn filter_text(name: &str, names: &[&str]) -> String {
 pub const ENUMS: [Kind; 4] = [
     rtl::stack_manager::Cmd::KIND,
     rtl::stack_manager::Uop::KIND,
-    rtl::rt_unit::ThreadState::KIND,
+    rtl::thread_fsm::ThreadState::KIND,
     rtl::mem::ReqKind::KIND,
 ];
 
@@ -192,7 +192,10 @@ pub fn write(
     let mut first_thread = true;
     for (scope, group) in groups(signals) {
         let closed = scope.contains("thread[") && !std::mem::take(&mut first_thread);
-        let label = scope.strip_prefix("rt_unit.").unwrap_or(&scope);
+        let label = ["rt_unit.stack_manager.", "rt_unit."]
+            .iter()
+            .find_map(|p| scope.strip_prefix(p))
+            .unwrap_or(&scope);
         let closed_bits = if closed { TR_CLOSED } else { 0 };
         set_flags(&mut f, TR_GRP_BEGIN | TR_BLANK | closed_bits)?;
         writeln!(f, "-{label}")?;

@@ -1,0 +1,261 @@
+//! The warp buffer of an RT unit: `warps` slots, each holding a resident warp's rays (their
+//! traces), its age, and the state of each of its threads.
+//!
+//! ```text
+//!  job (clock edge) ──► slot w: lanes' ops, age (0 = oldest resident), threads[w × ws + l]
+//!                          │  per-lane masks by state (fetch, wait, busy, stack), live count
+//!                          ▼
+//!                 warp leaves (live = 0 and its stacks quiet): ranks of younger warps close up
+//! ```
+//!
+//! The per-lane masks are derived registers kept in step with the thread states, so a cycle
+//! visits only the lanes that can act (woken by a response, due to leave an operation unit,
+//! scheduled, or holding a stack command) instead of all of them. The age is a rank among the
+//! resident warps (what the GTO scheduler compares), so it is a warp index wide.
+
+use crate::config::{Config, Widths};
+use crate::ray_op::RayOp;
+use crate::thread_fsm::{Thread, ThreadState};
+use crate::trace::{Kind, Sink};
+
+/// Per warp, which lanes are in which state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Lanes {
+    pub fetch: u32,
+    pub wait: u32,
+    pub busy: u32,
+    pub stack: u32,
+    /// Earliest `until` among the busy lanes (`u64::MAX` when none).
+    pub busy_until: u64,
+}
+
+impl Lanes {
+    pub const EMPTY: Lanes = Lanes { fetch: 0, wait: 0, busy: 0, stack: 0, busy_until: u64::MAX };
+
+    /// Lanes not Done (the `live` count).
+    #[inline]
+    pub fn live(&self) -> u32 {
+        (self.fetch | self.wait | self.busy | self.stack).count_ones()
+    }
+
+    fn mask(&mut self, state: ThreadState) -> Option<&mut u32> {
+        match state {
+            ThreadState::Done => None,
+            ThreadState::Busy { .. } => Some(&mut self.busy),
+            ThreadState::Fetch => Some(&mut self.fetch),
+            ThreadState::WaitMem { .. } => Some(&mut self.wait),
+            ThreadState::Stack => Some(&mut self.stack),
+        }
+    }
+
+    /// Lane `l` moves from `old` to `new`.
+    #[inline]
+    fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
+        if let Some(m) = self.mask(old) {
+            *m &= !(1 << l);
+        }
+        if let Some(m) = self.mask(new) {
+            *m |= 1 << l;
+        }
+        if let ThreadState::Busy { until } = new {
+            self.busy_until = self.busy_until.min(until);
+        }
+    }
+}
+
+/// Iterates the set bits of `m`, lowest first.
+pub fn lanes_of(mut m: u32) -> impl Iterator<Item = u32> {
+    std::iter::from_fn(move || {
+        (m != 0).then(|| {
+            let l = m.trailing_zeros();
+            m &= m - 1;
+            l
+        })
+    })
+}
+
+/// A resident warp.
+#[derive(Clone, Debug)]
+struct Slot {
+    lanes: Vec<Option<Vec<RayOp>>>,
+    /// Rank among the resident warps by load order: 0 is the oldest.
+    age: u32,
+    /// Load order within the RT unit (testbench bookkeeping: indexes the residence record).
+    job: u64,
+    /// Cycle the warp was loaded.
+    landed: u64,
+}
+
+/// A warp that left: which job, and when it had landed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Left {
+    pub job: u64,
+    pub landed: u64,
+}
+
+#[derive(Clone, Debug)]
+pub struct WarpBuffer {
+    warp_size: u32,
+    slots: Vec<Option<Slot>>,
+    threads: Vec<Thread>,
+    lanes: Vec<Lanes>,
+    /// Warps loaded so far.
+    loaded: u64,
+}
+
+impl WarpBuffer {
+    pub fn new(cfg: &Config) -> Self {
+        WarpBuffer {
+            warp_size: cfg.warp_size,
+            slots: vec![None; cfg.warps as usize],
+            threads: vec![Thread::default(); cfg.threads() as usize],
+            lanes: vec![Lanes::EMPTY; cfg.warps as usize],
+            loaded: 0,
+        }
+    }
+
+    pub fn warps(&self) -> u32 {
+        self.slots.len() as u32
+    }
+
+    /// A slot that can take a job this cycle.
+    #[inline]
+    pub fn free_slot(&self) -> Option<u32> {
+        self.slots.iter().position(Option::is_none).map(|w| w as u32)
+    }
+
+    /// No warp resident.
+    pub fn empty(&self) -> bool {
+        self.slots.iter().all(Option::is_none)
+    }
+
+    #[inline]
+    pub fn occupied(&self, w: u32) -> bool {
+        self.slots[w as usize].is_some()
+    }
+
+    /// Age rank of the warp in slot `w` (`u32::MAX` for an empty slot).
+    #[inline]
+    pub fn age(&self, w: u32) -> u32 {
+        self.slots[w as usize].as_ref().map_or(u32::MAX, |s| s.age)
+    }
+
+    #[inline]
+    pub fn lanes(&self, w: u32) -> Lanes {
+        self.lanes[w as usize]
+    }
+
+    #[inline]
+    pub fn thread(&self, t: u32) -> Thread {
+        self.threads[t as usize]
+    }
+
+    /// The trace of lane `l` of the warp in slot `w` (empty for an inactive lane or slot).
+    #[inline]
+    pub fn ops(&self, w: u32, l: u32) -> &[RayOp] {
+        self.slots[w as usize].as_ref().and_then(|s| s.lanes[l as usize].as_deref()).unwrap_or(&[])
+    }
+
+    /// Clock edge: the warp in slot `w` leaves; younger warps move up one rank.
+    pub fn leave(&mut self, w: u32) -> Option<Left> {
+        let slot = self.slots[w as usize].take()?;
+        for s in self.slots.iter_mut().flatten() {
+            if s.age > slot.age {
+                s.age -= 1;
+            }
+        }
+        Some(Left { job: slot.job, landed: slot.landed })
+    }
+
+    /// Clock edge: `lanes` (the job's rays; `active` the lanes that have one) land in slot `w`
+    /// and start Busy until `start`. Returns the job's load order.
+    pub fn load(&mut self, w: u32, lanes: Vec<Option<Vec<RayOp>>>, active: u32, start: u64, now: u64) -> u64 {
+        let ws = self.warp_size;
+        for l in 0..ws {
+            self.threads[(w * ws + l) as usize] = Thread {
+                state: if active & (1 << l) != 0 {
+                    ThreadState::Busy { until: start }
+                } else {
+                    ThreadState::Done
+                },
+                pos: 0,
+            };
+        }
+        self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
+        let age = self.slots.iter().flatten().count() as u32;
+        let job = self.loaded;
+        self.slots[w as usize] = Some(Slot { lanes, age, job, landed: now });
+        self.loaded += 1;
+        job
+    }
+
+    /// Clock edge: thread `t` takes state `d`.
+    #[inline]
+    pub fn set_thread(&mut self, t: u32, d: Thread) {
+        let (w, l) = (t / self.warp_size, t % self.warp_size);
+        self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
+        self.threads[t as usize] = d;
+    }
+
+    /// Recomputes warp `w`'s earliest Busy deadline (after its due lanes moved on).
+    pub fn refresh_busy_until(&mut self, w: u32) {
+        let ws = self.warp_size;
+        let threads = &self.threads[(w * ws) as usize..((w + 1) * ws) as usize];
+        let lanes = &mut self.lanes[w as usize];
+        lanes.busy_until = lanes_of(lanes.busy)
+            .map(|l| match threads[l as usize].state {
+                ThreadState::Busy { until } => until,
+                _ => u64::MAX,
+            })
+            .min()
+            .unwrap_or(u64::MAX);
+    }
+
+    pub fn probe<S: Sink>(&self, w: &Widths, s: &mut S) {
+        if !s.enabled() {
+            return;
+        }
+        let ws = self.warp_size;
+        s.push_scope("warp_buffer");
+        for wp in 0..self.warps() {
+            let slot = self.slots[wp as usize].as_ref();
+            s.push_scope(&format!("warp[{wp}]"));
+            s.signal("valid", 1, u64::from(slot.is_some()));
+            s.signal("age", w.warp, slot.map_or(0, |x| u64::from(x.age)));
+            let m = self.lanes[wp as usize];
+            s.signal("live", w.live, u64::from(m.live()));
+            s.signal_kind("fetch_mask", ws, u64::from(m.fetch), Kind::Mask);
+            s.signal_kind("wait_mask", ws, u64::from(m.wait), Kind::Mask);
+            s.signal_kind("busy_mask", ws, u64::from(m.busy), Kind::Mask);
+            s.signal_kind("stack_mask", ws, u64::from(m.stack), Kind::Mask);
+            for l in 0..ws {
+                let th = self.threads[(wp * ws + l) as usize];
+                s.push_scope(&format!("thread[{l}]"));
+                s.signal_kind("state", w.thread_state, th.state.code(), ThreadState::KIND);
+                s.pop_scope();
+            }
+            s.pop_scope();
+        }
+        s.pop_scope();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ages_are_ranks_that_close_up_when_a_warp_leaves() {
+        let cfg: Config = "RB_8".parse().unwrap();
+        let mut b = WarpBuffer::new(&Config { warps: 3, ..cfg });
+        for w in 0..3 {
+            assert_eq!(b.load(w, vec![None; 32], 0, 0, 0), u64::from(w));
+        }
+        assert_eq!((0..3).map(|w| b.age(w)).collect::<Vec<_>>(), [0, 1, 2]);
+        assert_eq!(b.leave(1), Some(Left { job: 1, landed: 0 }));
+        assert_eq!((b.age(0), b.age(1), b.age(2)), (0, u32::MAX, 1));
+        assert_eq!(b.load(1, vec![None; 32], 0, 0, 5), 3);
+        assert_eq!(b.age(1), 2, "the newest is the youngest");
+        assert!(b.age(1) < 1 << Config { warps: 3, ..cfg }.widths().unwrap().warp, "fits its width");
+    }
+}
