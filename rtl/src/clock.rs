@@ -24,7 +24,11 @@ pub enum EvalCheck {
 impl EvalCheck {
     /// How many times each kernel is evaluated per cycle.
     pub fn passes(self) -> u32 {
-        if self == EvalCheck::Twice { 2 } else { 1 }
+        if self == EvalCheck::Twice {
+            2
+        } else {
+            1
+        }
     }
 
     /// Fill `order` with the evaluation order of `n` siblings in cycle `cycle`.

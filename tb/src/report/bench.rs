@@ -35,7 +35,7 @@ use crate::run::sim::{
 use crate::workload::bvh::{Bvh, BvhKind};
 use crate::workload::geometry::Ray;
 use crate::workload::scene::Scene;
-use crate::workload::trace::{NodeKind, TraceOp};
+use crate::workload::trace::{FetchKind, TraceOp};
 use crate::workload::traverse::trace;
 use crate::workload::{Workload, WorkloadOpts};
 
@@ -94,7 +94,7 @@ impl Values {
     pub fn of_outcome(o: &Outcome) -> Values {
         Values {
             cycles: Metric::Cycles.of(o),
-            stack_global: o.stack.global() as f64,
+            stack_global: o.stack.global_accesses() as f64,
             dram_stack: Metric::DramStack.of(o),
             conflict_cycles: Metric::ConflictCycles.of(o),
         }
@@ -489,12 +489,12 @@ fn work(scene: &Scene, w: &Workload) -> Work {
             for op in t.ops() {
                 if let TraceOp::Visit { kind, .. } = op {
                     *match kind {
-                        NodeKind::Internal => &mut out.internal,
-                        NodeKind::Leaf => &mut out.leaf,
-                        NodeKind::Triangle => &mut out.triangle,
-                        NodeKind::Procedural => &mut out.procedural,
-                        NodeKind::Instance => &mut out.instance,
-                        NodeKind::BvhHeader => &mut out.header,
+                        FetchKind::Internal => &mut out.internal,
+                        FetchKind::Leaf => &mut out.leaf,
+                        FetchKind::Triangle => &mut out.triangle,
+                        FetchKind::Procedural => &mut out.procedural,
+                        FetchKind::Instance => &mut out.instance,
+                        FetchKind::BvhHeader => &mut out.header,
                     } += 1;
                 }
             }

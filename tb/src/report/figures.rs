@@ -100,7 +100,7 @@ fn offchip_total(o: &Outcome) -> u64 {
 type Count = fn(&Outcome) -> u64;
 
 fn global(o: &Outcome) -> u64 {
-    o.stack.global()
+    o.stack.global_accesses()
 }
 
 fn dram_total(o: &Outcome) -> u64 {
@@ -222,7 +222,7 @@ pub fn offchip(s: &Sweep) -> Figure {
                     "offchip_stack": offchip_stack(&r.outcome),
                     "dram_node": dram_node(&r.outcome),
                     "dram_stack": dram_stack(&r.outcome),
-                    "stack_global": r.outcome.stack.global(),
+                    "stack_global": r.outcome.stack.global_accesses(),
                 })
             })
             .collect();
@@ -351,7 +351,7 @@ pub fn rb_sweep(s: &Sweep) -> Figure {
         let (a, b) = (format!("RB_{n}"), with_sms(n));
         let (ga, gb) = (s.geomean_speedup(&a, kb), s.geomean_speedup(&b, kb));
         let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
-        let glob = |c: &str| s.sum(c, kb, |o| o.stack.global());
+        let glob = |c: &str| s.sum(c, kb, |o| o.stack.global_accesses());
         let dram = |c: &str| s.sum(c, kb, dram_stack);
         table.row([
             n.to_string(),
