@@ -11,7 +11,7 @@ use rtl::trace::NullSink;
 use serde::Serialize;
 
 use crate::cli::stack_config::StackConfigArgs;
-use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
+use crate::cli::{HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
 use crate::report::table::Table;
 use crate::run::sampling::SamplePlan;
 use crate::run::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
@@ -35,9 +35,8 @@ pub struct Args {
     pub fidelity: Fidelity,
     #[command(flatten)]
     pub sampling: SampleArgs,
-    /// Print the results as JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub output: OutputArgs,
     /// Also write the rendered image here (PNG).
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
@@ -191,10 +190,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         fidelity: args.fidelity,
         results,
     };
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", table(&report).to_text());
+    match args.output.table(&table(&report)) {
+        Some(text) => print!("{text}"),
+        None => println!("{}", serde_json::to_string_pretty(&report)?),
     }
     Ok(())
 }
