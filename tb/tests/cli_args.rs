@@ -6,7 +6,9 @@ use tb::cli::stack_config::StackConfigArgs;
 use tb::cli::{Cli, Command, HardwareArgs, SceneArgs, WorkloadArgs};
 
 /// `(long flag, help)` of every argument of a group.
-fn group<G: Args>() -> Vec<(String, String)> {
+type Flags = Vec<(String, String)>;
+
+fn group<G: Args>() -> Flags {
     G::augment_args(clap::Command::new("group"))
         .get_arguments()
         .map(|a| {
@@ -22,7 +24,7 @@ fn group<G: Args>() -> Vec<(String, String)> {
 fn every_subcommand_shows_the_same_shared_flags() {
     let (stack, workload, hardware, scenes) =
         (group::<StackConfigArgs>(), group::<WorkloadArgs>(), group::<HardwareArgs>(), group::<SceneArgs>());
-    let applies: [(&str, Vec<&Vec<(String, String)>>); 6] = [
+    let applies: [(&str, Vec<&Flags>); 6] = [
         ("run", vec![&stack, &workload, &hardware, &scenes]),
         ("sweep", vec![&stack, &workload, &hardware, &scenes]),
         ("bench", vec![&stack, &workload, &hardware, &scenes]),
