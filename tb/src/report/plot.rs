@@ -15,6 +15,47 @@ fn to_err(path: &Path, e: impl std::fmt::Display) -> Error {
     Error::io(path, std::io::Error::other(e.to_string()))
 }
 
+/// The axis range of `values` (and 0 unless `zoom`), padded by 8 %: with `zoom` only the
+/// values' span (speed-ups near 1), otherwise from zero.
+fn value_range(values: impl Iterator<Item = f64> + Clone, zoom: bool) -> (f64, f64) {
+    let hi = values.clone().fold(0.0, f64::max).max(1e-9);
+    let lo = if zoom { values.fold(hi, f64::min) } else { 0.0 };
+    let pad = (hi - lo).max(hi * 1e-3) * 0.08;
+    (if zoom { (lo - pad).max(0.0) } else { 0.0 }, hi + pad)
+}
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+type Chart2d<'a> = ChartContext<
+    'a,
+    SVGBackend<'a>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// A white canvas of `size` pixels writing to `path`.
+fn canvas(path: &Path, size: (u32, u32)) -> Result<Area<'_>> {
+    let root = SVGBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| to_err(path, e))?;
+    Ok(root)
+}
+
+/// The titled plot area of every chart here, `y_area` pixels of labels at the left.
+fn chart_on<'a>(
+    area: &Area<'a>,
+    path: &Path,
+    title: &str,
+    y_area: u32,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+) -> Result<Chart2d<'a>> {
+    ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(y_area)
+        .build_cartesian_2d(x, y)
+        .map_err(|e| to_err(path, e))
+}
+
 /// Colour of series `i`, dark enough for thin lines.
 /// Draws the series legend at `corner` and writes the file: the end of every chart here.
 fn legend_and_present<'a, CT: plotters::coord::CoordTranslate>(
@@ -89,27 +130,16 @@ pub fn hbars(
     rule: Option<f64>,
     zoom: bool,
 ) -> Result<()> {
-    let values = || {
-        bars.iter()
-            .flat_map(|b| b.values.iter().flatten())
-            .chain(dots.iter().map(|d| &d.1))
-            .chain(rule.as_ref())
-    };
-    let hi = values().copied().fold(0.0, f64::max).max(1e-9);
-    let lo = if zoom { values().copied().fold(hi, f64::min) } else { 0.0 };
-    let pad = (hi - lo).max(hi * 1e-3) * 0.08;
-    let (left, top) = (if zoom { (lo - pad).max(0.0) } else { 0.0 }, hi + pad);
+    let values = bars
+        .iter()
+        .flat_map(|b| b.values.iter().flatten())
+        .chain(dots.iter().map(|d| &d.1))
+        .chain(rule.as_ref());
+    let (left, top) = value_range(values.copied(), zoom);
     let n = labels.len().max(1);
     let height = (SIZE.1).max(90 + 28 * n as u32);
-    let root = SVGBackend::new(path, (SIZE.0, height)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| to_err(path, e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(170)
-        .build_cartesian_2d(left..top, -0.5..n as f64 - 0.5)
-        .map_err(|e| to_err(path, e))?;
+    let root = canvas(path, (SIZE.0, height))?;
+    let mut chart = chart_on(&root, path, title, 170, left..top, -0.5..n as f64 - 0.5)?;
     let label = |v: &f64| row_label(labels, *v);
     chart
         .configure_mesh()
@@ -159,26 +189,16 @@ pub fn grouped_bars(
     rule: Option<f64>,
     zoom: bool,
 ) -> Result<()> {
-    let values = || series.iter().flat_map(|b| b.values.iter().flatten()).chain(rule.as_ref());
-    let hi = values().copied().fold(0.0, f64::max).max(1e-9);
-    let lo = if zoom { values().copied().fold(hi, f64::min) } else { 0.0 };
-    let pad = (hi - lo).max(hi * 1e-3) * 0.08;
-    let (bottom, top) = (if zoom { (lo - pad).max(0.0) } else { 0.0 }, hi + pad);
+    let values = series.iter().flat_map(|b| b.values.iter().flatten()).chain(rule.as_ref());
+    let (bottom, top) = value_range(values.copied(), zoom);
     let n = groups.len().max(1);
     let k = series.len().max(1);
     // Every bar at least 6 pixels wide, so a sweep of many scenes and configurations stays legible.
     const LEGEND_W: u32 = 190;
     let width = SIZE.0.max(LEGEND_W + 90 + (n * (k * 6 + 14)) as u32);
-    let root = SVGBackend::new(path, (width, SIZE.1)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| to_err(path, e))?;
+    let root = canvas(path, (width, SIZE.1))?;
     let (plot, legend) = root.split_horizontally(width - LEGEND_W);
-    let mut chart = ChartBuilder::on(&plot)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(70)
-        .build_cartesian_2d(-0.5..n as f64 - 0.5, bottom..top)
-        .map_err(|e| to_err(path, e))?;
+    let mut chart = chart_on(&plot, path, title, 70, -0.5..n as f64 - 0.5, bottom..top)?;
     let label = |v: &f64| row_label(groups, *v);
     chart
         .configure_mesh()
@@ -292,19 +312,9 @@ pub fn lines(
         all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(tx(p.0)), b.max(tx(p.0))));
     let (x0, x1) = if x0.is_finite() { (x0, x1.max(x0 + 1.0)) } else { (0.0, 1.0) };
     let pad = (x1 - x0) * 0.04;
-    let hi = all().map(|p| p.1).fold(0.0, f64::max).max(1e-9);
-    let lo = if zoom { all().map(|p| p.1).fold(hi, f64::min) } else { 0.0 };
-    let ypad = (hi - lo).max(hi * 1e-3) * 0.08;
-    let (y0, y1) = (if zoom { (lo - ypad).max(0.0) } else { 0.0 }, hi + ypad);
-    let root = SVGBackend::new(path, SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| to_err(path, e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0 - pad..x1 + pad, y0..y1)
-        .map_err(|e| to_err(path, e))?;
+    let (y0, y1) = value_range(all().map(|p| p.1), zoom);
+    let root = canvas(path, SIZE)?;
+    let mut chart = chart_on(&root, path, title, 70, x0 - pad..x1 + pad, y0..y1)?;
     let x_label = |v: &f64| {
         if !log2_x {
             return format!("{v}");
@@ -353,15 +363,9 @@ pub fn scatter(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[P
     let (y0, y1) = points.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.y), b.max(p.y)));
     let y0 = if y0.is_finite() { y0 } else { 0.0 };
     let (xpad, ypad) = (((x1 - x0) * 0.06).max(1.0), ((y1 - y0) * 0.08).max(0.01));
-    let root = SVGBackend::new(path, SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| to_err(path, e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0 - xpad..x1 + xpad * 3.0, (y0 - ypad).max(0.0)..y1 + ypad)
-        .map_err(|e| to_err(path, e))?;
+    let root = canvas(path, SIZE)?;
+    let mut chart =
+        chart_on(&root, path, title, 70, x0 - xpad..x1 + xpad * 3.0, (y0 - ypad).max(0.0)..y1 + ypad)?;
     chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw().map_err(|e| to_err(path, e))?;
     let red = RGBColor(214, 39, 40);
     let mut front: Vec<(f64, f64)> = points.iter().filter(|p| p.highlight).map(|p| (p.x, p.y)).collect();
