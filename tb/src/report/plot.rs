@@ -402,6 +402,68 @@ pub fn scatter(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[P
     legend_and_present(&mut chart, &root, SeriesLabelPosition::LowerRight, path)
 }
 
+/// A named set of labelled `(x, y, label)` points.
+#[derive(Clone, Debug)]
+pub struct LabelledPoints {
+    pub name: String,
+    pub points: Vec<(f64, f64, String)>,
+}
+
+/// Scatter of labelled points on logarithmic axes (y from `y_floor`), one colour per set, labels
+/// placed by [`place_labels`]; `hline` a labelled horizontal line (e.g. a tolerance).
+pub fn log_scatter(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    y_floor: f64,
+    sets: &[LabelledPoints],
+    hline: Option<(f64, &str)>,
+) -> Result<()> {
+    let all = || sets.iter().flat_map(|s| s.points.iter());
+    let (xmin, xmax) = all().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (xmin, xmax) = if xmin.is_finite() { (xmin / 1.5, xmax * 1.5) } else { (1e-3, 1.0) };
+    let ymax = all().map(|p| p.1).chain(hline.map(|h| h.0)).fold(1.0, f64::max) * 2.0;
+    let root = canvas(path, SIZE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(16)
+        .x_label_area_size(44)
+        .y_label_area_size(70)
+        .build_cartesian_2d((xmin..xmax).log_scale(), (y_floor..ymax).log_scale())
+        .map_err(|e| to_err(path, e))?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .bold_line_style(RGBColor(225, 225, 225))
+        .light_line_style(TRANSPARENT)
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    if let Some((y, name)) = hline {
+        let red = RGBColor(214, 39, 40);
+        chart
+            .draw_series(LineSeries::new([(xmin, y), (xmax, y)], red.stroke_width(1)))
+            .map_err(|e| to_err(path, e))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], red));
+    }
+    for (i, s) in sets.iter().enumerate() {
+        let c = color(i);
+        chart
+            .draw_series(s.points.iter().map(|p| Circle::new((p.0, p.1), 4, c.filled())))
+            .map_err(|e| to_err(path, e))?
+            .label(s.name.as_str())
+            .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
+    }
+    let pixels: Vec<(i32, i32)> = all().map(|p| chart.backend_coord(&(p.0, p.1))).collect();
+    let texts: Vec<String> = all().map(|p| p.2.clone()).collect();
+    for (text, at) in texts.iter().zip(place_labels(&pixels, &texts, 6, 11, 4)) {
+        root.draw(&Text::new(text.clone(), at, ("sans-serif", 11))).map_err(|e| to_err(path, e))?;
+    }
+    legend_and_present(&mut chart, &root, SeriesLabelPosition::MiddleMiddle, path)
+}
+
 /// A chart as data, drawn by [`Chart::write_svg`].
 #[derive(Clone, Debug)]
 pub enum Chart {
