@@ -1,10 +1,10 @@
 //! Exhaustive checks of the small configurations, and every mutant caught by them.
 
-use proofs::exhaustive::{check, describe, run_bytes_on, small_configs, Bounds, Coverage, Model};
-use proofs::harness::mix;
-use proofs::invariants::Property;
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::Mutant;
+use tb::run::verify::exhaustive::{check, describe, run_bytes_on, small_configs, Bounds, Coverage, Model};
+use tb::run::verify::harness::mix;
+use tb::run::verify::invariants::Property;
 
 /// Depth per configuration: 2-thread warps go deeper (reloads from global need long
 /// sequences), 4-thread warps cover more interleavings at a smaller depth.

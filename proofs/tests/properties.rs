@@ -1,5 +1,5 @@
 //! Every stack property, run three ways from the same function ([`run_bytes`], which checks all
-//! of `proofs::invariants` after every action):
+//! of `tb::run::verify::invariants` after every action):
 //! - as Kani proofs (`cargo kani --tests -p proofs`, where Kani is installed): bolero swaps in
 //!   its Kani engine, inputs become symbolic, bounds shrink through `cfg!(kani)`, and
 //!   `kani::cover!` marks the paths a proof must reach so it cannot pass vacuously;
@@ -7,8 +7,8 @@
 //!   proptest with long sequences on every full-size configuration of SPEC section 8;
 //! - exhaustively over small bounds: `tests/exhaustive.rs` drives the same `Model::act`.
 
-use proofs::exhaustive::{run_bytes, Coverage};
 use rtl::config::{Config, RbSize, Realloc};
+use tb::run::verify::exhaustive::{run_bytes, Coverage};
 
 /// Input length: symbolic under Kani, longer random sequences otherwise.
 const LEN: usize = if cfg!(kani) { 10 } else { 200 };

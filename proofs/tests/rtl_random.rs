@@ -1,12 +1,12 @@
 //! Issue 2's acceptance runs: 4 warps × 32 threads of random streams with depths past 100,
 //! through the cycle-level RTL, for every configuration of SPEC section 8, scoreboard on.
 
-use proofs::harness::{run_cycle, CycleOpts, RunSummary};
-use proofs::streams::warps;
 use rtl::config::Config;
 use rtl::stack_manager::StackTiming;
 use rtl::stack_unit::StandaloneStack;
 use rtl::trace::NullSink;
+use tb::run::verify::harness::{run_cycle, CycleOpts, RunSummary};
+use tb::run::verify::streams::warps;
 
 fn run(cfg: Config, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
     run_timed(StandaloneStack::new(cfg, 40).unwrap(), seed, warp_count, check_every_cycle)

@@ -2,13 +2,13 @@
 //! spills with FULL, skew against bank conflicts, functional = cycle level without RA, and
 //! planted bugs caught by the scoreboard.
 
-use proofs::harness::{run_cycle, run_functional_warps, CycleOpts, Op, RunError, WarpWork};
-use proofs::invariants::Property;
-use proofs::streams::{stream, warps};
 use rtl::config::Config;
 use rtl::stack_manager::{Mutant, StackManager};
 use rtl::stack_unit::StandaloneStack;
 use rtl::trace::NullSink;
+use tb::run::verify::harness::{run_cycle, run_functional_warps, CycleOpts, HarnessError, Op, WarpWork};
+use tb::run::verify::invariants::Property;
+use tb::run::verify::streams::{stream, warps};
 
 fn cfg(name: &str) -> Config {
     name.parse().unwrap()
@@ -107,7 +107,7 @@ fn caught(c: Config, m: Mutant) -> Property {
     unit.unit.manager = unit.unit.manager.clone().with_mutant(Some(m));
     let o = CycleOpts { check_every_cycle: false, ..opts(6) };
     match run_cycle(&mut unit, warps(8, 4, 32, 90), o, &mut NullSink) {
-        Err(RunError::Violation { violation, .. }) => violation.property,
+        Err(HarnessError::Violation { violation, .. }) => violation.property,
         other => panic!("{m:?} on {} escaped the scoreboard: {other:?}", c.name()),
     }
 }

@@ -274,45 +274,70 @@ impl StackError {
     }
 }
 
-/// Event counters. Transfers are counted when planned, so both executors count alike.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct StackStats {
-    pub pushes: u64,
-    pub pops: u64,
-    pub rb_to_sh: u64,
-    pub sh_to_rb: u64,
-    pub sh_to_global: u64,
-    pub global_to_sh: u64,
+/// Declares [`StackStats`] from one list of counters, with their names in the same order.
+macro_rules! stack_stats {
+    ($($(#[$doc:meta])* $f:ident),+ $(,)?) => {
+        /// Event counters. Transfers are counted when planned, so both executors count alike.
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+        pub struct StackStats {
+            $($(#[$doc])* pub $f: u64,)+
+        }
+
+        impl StackStats {
+            /// Number of counters.
+            pub const COUNT: usize = [$(stringify!($f)),+].len();
+
+            /// Every counter's field name, in declaration order (the order of [`Self::values`]).
+            pub const NAMES: [&'static str; StackStats::COUNT] = [$(stringify!($f)),+];
+
+            /// Every counter's value, in the order of [`Self::NAMES`].
+            pub fn values(&self) -> [u64; StackStats::COUNT] {
+                [$(self.$f),+]
+            }
+
+            /// The counters from their values in the order of [`Self::NAMES`].
+            pub fn from_values(v: [u64; StackStats::COUNT]) -> StackStats {
+                let [$($f),+] = v;
+                StackStats { $($f),+ }
+            }
+        }
+    };
+}
+
+stack_stats! {
+    pushes,
+    pops,
+    rb_to_sh,
+    sh_to_rb,
+    sh_to_global,
+    global_to_sh,
     /// M = 0: RB spills straight to global and reloads from it.
-    pub rb_to_global: u64,
-    pub global_to_rb: u64,
-    pub borrows: u64,
-    pub releases: u64,
-    pub flushes: u64,
+    rb_to_global,
+    global_to_rb,
+    borrows,
+    releases,
+    flushes,
     /// Flushes at the flush limit (the counter stayed saturated).
-    pub flushes_saturated: u64,
+    flushes_saturated,
     /// Dedicated stacks that drained under borrowed ones and moved to the chain's bottom.
-    pub demotions: u64,
+    demotions,
 }
 
 impl StackStats {
+    /// `(name, value)` of every counter, in declaration order.
+    pub fn fields(&self) -> impl Iterator<Item = (&'static str, u64)> {
+        Self::NAMES.into_iter().zip(self.values())
+    }
+
     /// Every counter of `self` combined with the same counter of `o` by `f`.
     pub fn zip(&self, o: &StackStats, f: impl Fn(u64, u64) -> u64) -> StackStats {
-        StackStats {
-            pushes: f(self.pushes, o.pushes),
-            pops: f(self.pops, o.pops),
-            rb_to_sh: f(self.rb_to_sh, o.rb_to_sh),
-            sh_to_rb: f(self.sh_to_rb, o.sh_to_rb),
-            sh_to_global: f(self.sh_to_global, o.sh_to_global),
-            global_to_sh: f(self.global_to_sh, o.global_to_sh),
-            rb_to_global: f(self.rb_to_global, o.rb_to_global),
-            global_to_rb: f(self.global_to_rb, o.global_to_rb),
-            borrows: f(self.borrows, o.borrows),
-            releases: f(self.releases, o.releases),
-            flushes: f(self.flushes, o.flushes),
-            flushes_saturated: f(self.flushes_saturated, o.flushes_saturated),
-            demotions: f(self.demotions, o.demotions),
-        }
+        let (a, b) = (self.values(), o.values());
+        StackStats::from_values(std::array::from_fn(|i| f(a[i], b[i])))
+    }
+
+    /// Every counter mapped by `f`.
+    pub fn map(&self, f: impl Fn(u64) -> u64) -> StackStats {
+        StackStats::from_values(self.values().map(f))
     }
 
     /// Adds `o`'s counts to these (totals over RT units).
@@ -343,8 +368,9 @@ impl StackStats {
     }
 }
 
-/// Deliberately broken variants, for showing the checkers catch bugs. Test builds only.
-#[cfg(feature = "mutants")]
+/// Deliberately broken variants, for showing the checkers catch bugs. Only builds with the
+/// `mutants` feature plant them ([`StackManager::mutant`]); the list is the one source of their
+/// names (`sms check --mutant`, the proofs' mutant tests).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Mutant {
     /// The circular queue wraps to entry 1 instead of 0.
@@ -364,6 +390,32 @@ pub enum Mutant {
     /// A drained borrowed stack turns Idle when the pop is planned, before its last entry is read.
     EagerRelease,
 }
+
+impl Mutant {
+    /// Every mutant, in declaration order (the order of [`Self::NAMES`]).
+    pub const ALL: [Mutant; 8] = [
+        Mutant::QueueWrapOffByOne,
+        Mutant::ReloadWrongEntry,
+        Mutant::SpillDropsEntry,
+        Mutant::MissingGlobalReload,
+        Mutant::EarlyRelease,
+        Mutant::SkipOverflowClear,
+        Mutant::FlushKeepsCount,
+        Mutant::EagerRelease,
+    ];
+}
+
+named_enum!(
+    Mutant,
+    Mutant::QueueWrapOffByOne => "queue-wrap-off-by-one",
+    Mutant::ReloadWrongEntry => "reload-wrong-entry",
+    Mutant::SpillDropsEntry => "spill-drops-entry",
+    Mutant::MissingGlobalReload => "missing-global-reload",
+    Mutant::EarlyRelease => "early-release",
+    Mutant::SkipOverflowClear => "skip-overflow-clear",
+    Mutant::FlushKeepsCount => "flush-keeps-count",
+    Mutant::EagerRelease => "eager-release"
+);
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 struct Sequencer {
@@ -677,10 +729,10 @@ impl StackManager {
     }
 
     #[inline(always)]
-    fn mutant(&self, _m: MutantTag) -> bool {
+    fn mutant(&self, _m: Mutant) -> bool {
         #[cfg(feature = "mutants")]
         {
-            self.mutant.map(MutantTag::from) == Some(_m)
+            self.mutant == Some(_m)
         }
         #[cfg(not(feature = "mutants"))]
         {
@@ -1049,7 +1101,7 @@ impl<'a> Planner<'a> {
         Ok(())
     }
 
-    fn mutant(&self, tag: MutantTag) -> bool {
+    fn mutant(&self, tag: Mutant) -> bool {
         self.m.mutant(tag)
     }
 
@@ -1079,7 +1131,7 @@ impl<'a> Planner<'a> {
 
     fn inc(&self, i: u32) -> u32 {
         let m = self.cfg().sh_entries;
-        if self.mutant(MutantTag::QueueWrapOffByOne) && i + 1 >= m {
+        if self.mutant(Mutant::QueueWrapOffByOne) && i + 1 >= m {
             return 1 % m;
         }
         (i + 1) % m
@@ -1167,7 +1219,7 @@ impl<'a> Planner<'a> {
     }
 
     fn reset_flush(&mut self, s: u32) {
-        if !self.mutant(MutantTag::FlushKeepsCount) {
+        if !self.mutant(Mutant::FlushKeepsCount) {
             let r = self.get(s);
             self.set(s, StackRegs { flush: 0, ..r });
         }
@@ -1273,7 +1325,7 @@ impl<'a> Planner<'a> {
 
     fn spill_into(&mut self, s: u32, v: Entry) {
         let e = self.push_top(s);
-        if !self.mutant(MutantTag::SpillDropsEntry) {
+        if !self.mutant(Mutant::SpillDropsEntry) {
             self.emit(Uop::ShStore { stack: s, entry: e, src: Src::Value(v) });
         }
         self.stats.rb_to_sh += 1;
@@ -1332,16 +1384,13 @@ impl<'a> Planner<'a> {
         let chain = self.members(t);
         let top = self.by_priority(&chain, true);
         if !self.get(top).empty {
-            let e = if self.mutant(MutantTag::ReloadWrongEntry) {
-                self.pop_bottom(top)
-            } else {
-                self.pop_top(top)
-            };
+            let e =
+                if self.mutant(Mutant::ReloadWrongEntry) { self.pop_bottom(top) } else { self.pop_top(top) };
             self.emit(Uop::ShLoad { stack: top, entry: e });
             self.emit(Uop::RbBottom);
             self.stats.sh_to_rb += 1;
             let drained = self.get(top).empty
-                || (self.mutant(MutantTag::EarlyRelease)
+                || (self.mutant(Mutant::EarlyRelease)
                     && top != t
                     && self.get(top).count(self.cfg().sh_entries) == 1);
             if drained {
@@ -1349,7 +1398,7 @@ impl<'a> Planner<'a> {
                 if chain.len > 1 {
                     if top != t {
                         self.unlink(t, top);
-                        if self.mutant(MutantTag::EagerRelease) {
+                        if self.mutant(Mutant::EagerRelease) {
                             let r = self.get(top);
                             self.set(top, StackRegs { idle: true, ..r });
                         } else {
@@ -1363,7 +1412,7 @@ impl<'a> Planner<'a> {
                 }
             }
         }
-        if self.th.overflow && !self.mutant(MutantTag::MissingGlobalReload) {
+        if self.th.overflow && !self.mutant(Mutant::MissingGlobalReload) {
             let chain = self.members(t);
             let oldest = self.by_priority(&chain, false);
             if !self.full(oldest) {
@@ -1378,7 +1427,7 @@ impl<'a> Planner<'a> {
     }
 
     fn release_spill_slot(&mut self) -> u32 {
-        let skip_clear = self.mutant(MutantTag::SkipOverflowClear);
+        let skip_clear = self.mutant(Mutant::SkipOverflowClear);
         let th = &mut self.th;
         th.spill_ptr = th.spill_ptr.wrapping_sub(1);
         if th.spill_ptr == 0 && !skip_clear {
@@ -1398,35 +1447,6 @@ impl<'a> Planner<'a> {
             self.set(t, StackRegs { idle: true, ..r });
         }
         Ok(())
-    }
-}
-
-/// Mutant identity without the feature: all checks fold to `false`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum MutantTag {
-    QueueWrapOffByOne,
-    ReloadWrongEntry,
-    SpillDropsEntry,
-    MissingGlobalReload,
-    EarlyRelease,
-    SkipOverflowClear,
-    FlushKeepsCount,
-    EagerRelease,
-}
-
-#[cfg(feature = "mutants")]
-impl From<Mutant> for MutantTag {
-    fn from(m: Mutant) -> Self {
-        match m {
-            Mutant::QueueWrapOffByOne => MutantTag::QueueWrapOffByOne,
-            Mutant::ReloadWrongEntry => MutantTag::ReloadWrongEntry,
-            Mutant::SpillDropsEntry => MutantTag::SpillDropsEntry,
-            Mutant::MissingGlobalReload => MutantTag::MissingGlobalReload,
-            Mutant::EarlyRelease => MutantTag::EarlyRelease,
-            Mutant::SkipOverflowClear => MutantTag::SkipOverflowClear,
-            Mutant::FlushKeepsCount => MutantTag::FlushKeepsCount,
-            Mutant::EagerRelease => MutantTag::EagerRelease,
-        }
     }
 }
 

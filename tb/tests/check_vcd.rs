@@ -3,11 +3,11 @@
 
 mod common;
 use common::TmpDir;
-use proofs::exhaustive::{check, Bounds, Coverage, Model};
 use rtl::config::{Config, RbSize};
 use rtl::stack_manager::{Mutant, StackManager};
 use rtl::trace::{Probe, Sink};
 use tb::cli::check::dump_counterexample;
+use tb::run::verify::exhaustive::{check, Bounds, Coverage, Model};
 use tb::vcd::check::{compare, read, Mode, Recorder};
 
 fn cfg() -> Config {
@@ -20,7 +20,10 @@ fn reload_wrong_entry(mut sm: StackManager) -> StackManager {
 }
 
 /// The registers after each action of `trace`, walked like the dump does.
-fn replay(design: fn(StackManager) -> StackManager, trace: &[proofs::exhaustive::Action]) -> Recorder {
+fn replay(
+    design: fn(StackManager) -> StackManager,
+    trace: &[tb::run::verify::exhaustive::Action],
+) -> Recorder {
     let mut m = Model::new(cfg()).unwrap();
     m.sm = design(m.sm);
     let mut rec = Recorder::default();

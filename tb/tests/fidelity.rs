@@ -3,10 +3,9 @@
 //! difference is measured), and sampled runs' 95 % intervals cover the full run's totals.
 
 use rtl::config::Config;
+use rtl::stack_manager::StackStats;
 use tb::run::sampling::{SampleMode, SamplePlan};
-use tb::run::sim::{
-    simulate_all, simulate_sampled, Counts, Fidelity, Hardware, Metric, Outcome, RunSpec, Sampled,
-};
+use tb::run::sim::{simulate_all, simulate_sampled, Fidelity, Hardware, Metric, Outcome, RunSpec, Sampled};
 use tb::workload::traverse::ChildOrder;
 use tb::workload::Workload;
 
@@ -44,7 +43,7 @@ fn functional_equals_cycle_without_reallocation() {
             assert_eq!(f.pops_checked, c.pops_checked, "{tag} {name}");
             assert_eq!(f.pixel_warps, c.pixel_warps, "{tag} {name}");
             assert!(f.gpu.is_none() && c.gpu.is_some());
-            spilled |= f.stack.global() > 0;
+            spilled |= f.stack.global_accesses() > 0;
             shared |= f.stack.rb_to_sh > 0 && cfg.sh_entries > 0;
         }
         let deepest = w.warp_jobs().flat_map(|j| j.lanes.into_iter().flatten()).map(|t| t.max_depth()).max();
@@ -54,7 +53,7 @@ fn functional_equals_cycle_without_reallocation() {
 }
 
 /// Counters that balance in any correct run: every stack ends empty and every loan is returned.
-fn balanced(s: &Counts) -> bool {
+fn balanced(s: &StackStats) -> bool {
     s.rb_to_sh == s.sh_to_rb
         && s.sh_to_global == s.global_to_sh
         && s.rb_to_global == s.global_to_rb
@@ -90,9 +89,9 @@ fn reallocation_difference_between_levels_is_measured() {
             let d = |a: u64, b: u64| a as i64 - b as i64;
             println!(
                 "  {tag:18} {name:18} {:+6} ({} / {}), {:+5} ({} / {}), {:+4} ({} / {}), {:+3}",
-                d(fs.global(), cs.global()),
-                fs.global(),
-                cs.global(),
+                d(fs.global_accesses(), cs.global_accesses()),
+                fs.global_accesses(),
+                cs.global_accesses(),
                 d(fs.borrows, cs.borrows),
                 fs.borrows,
                 cs.borrows,

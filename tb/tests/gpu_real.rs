@@ -58,7 +58,7 @@ fn more_rb_or_sh_never_adds_off_chip_stack_traffic() {
         names.sort_unstable();
         names.dedup();
         let runs: BTreeMap<&str, Outcome> = names.iter().map(|&n| (n, run(n, Fidelity::Cycle, &w))).collect();
-        let global = |o: &Outcome| o.stack.global();
+        let global = |o: &Outcome| o.stack.global_accesses();
         let dram = |o: &Outcome| o.gpu.unwrap().dram_stack;
         let rb = non_increasing(&runs, &RB_CHAIN, "stack global", global);
         let sh = non_increasing(&runs, &SH_CHAIN, "stack global", global);
@@ -106,14 +106,14 @@ fn rb_full_never_goes_off_chip() {
         let full = run("RB_FULL", Fidelity::Cycle, &w);
         let small = run("RB_2", Fidelity::Cycle, &w);
         let g = full.gpu.unwrap();
-        assert_eq!(full.stack.global(), 0, "{order:?}: {:?}", full.stack);
+        assert_eq!(full.stack.global_accesses(), 0, "{order:?}: {:?}", full.stack);
         assert_eq!(full.stack.rb_to_sh + full.stack.sh_to_rb, 0, "{order:?}: no SH level");
         assert_eq!(g.dram_stack, 0, "{order:?}");
         // Same work as a spilling configuration, so the zero is not from doing nothing.
         assert_eq!((full.stack.pushes, full.pops_checked), (small.stack.pushes, small.pops_checked));
         // RB_2 spills; with the interleaved local layout its spills may all stay in L2, so the
         // check that matters is the spill count (RB_FULL's zero dram_stack follows from its zero).
-        assert!(small.stack.global() > 0, "{order:?}");
+        assert!(small.stack.global_accesses() > 0, "{order:?}");
         assert!(full.pops_checked > 10_000, "{order:?}: {} pops", full.pops_checked);
     }
 }

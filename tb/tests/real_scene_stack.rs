@@ -1,12 +1,12 @@
 //! Real traversals of real scenes drive the RTL under every configuration of SPEC section 8,
 //! scoreboard on: zero mismatches.
 
-use proofs::harness::CycleOpts;
 use rtl::config::Config;
 use rtl::stack_unit::StandaloneStack;
 use rtl::trace::NullSink;
 use tb::load_scene;
 use tb::run::stack_tb::run_jobs;
+use tb::run::verify::harness::CycleOpts;
 use tb::workload::traverse::ChildOrder;
 use tb::workload::{Workload, WorkloadOpts};
 

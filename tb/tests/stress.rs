@@ -56,7 +56,7 @@ fn shoot(
     for _ in 0..random {
         let mut c = [0.0f32; 3];
         for x in &mut c {
-            s = proofs::harness::mix(s);
+            s = tb::run::verify::harness::mix(s);
             *x = (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0;
         }
         dirs.push(Vec3A::from(c));

@@ -195,7 +195,7 @@ fn bad_input_is_an_error_not_a_panic() {
     let out_s = out.to_str().unwrap();
     let cases: [(&[&str], &str); 5] = [
         (&["sweep", "--scenes", "wknd,nosuchscene", "--out", out_s], "unknown scene 'nosuchscene'"),
-        (&["sweep", "--quick", "--configs", "RB_8+SH_6", "--out", out_s], "--configs RB_8+SH_6"),
+        (&["sweep", "--quick", "--configs", "RB_8+SH_6", "--out", out_s], "--config RB_8+SH_6"),
         (&["sweep", "--quick", "--jobs", "0", "--out", out_s], "--jobs"),
         (&["sweep", "--quick", "--l1d-sizes", "8", "--out", out_s], "8 KB"),
         (

@@ -10,8 +10,8 @@ use common::TmpDir;
 use std::path::Path;
 use std::process::Command;
 
-use proofs::harness::RunSummary;
 use rtl::config::Config;
+use tb::run::verify::harness::RunSummary;
 use tb::vcd::check::{compare, read, Mode, Recorder, Waves};
 use tb::vcd::examples::{examples, write_examples, Example};
 use tb::vcd::{Selection, Tee, VcdError, VcdOptions, VcdSink};

@@ -5,8 +5,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Context;
-
+use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
 use crate::report::bench::{bench_scene, BenchOpts, Report};
 use crate::run::sampling::SampleMode;
@@ -14,15 +13,17 @@ use crate::run::sampling::SampleMode;
 /// Resolution when `--res` is not given: the whole default run takes about a minute on one core.
 pub const DEFAULT_RES: (u32, u32) = (64, 64);
 
+/// Configurations when `--config` is not given.
+pub const DEFAULT_CONFIGS: [&str; 3] = ["RB_8", "RB_8+SH_8+SK", "SMS"];
+
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
     /// Scenes, comma-separated: names, or paths to meshes or TOML descriptions, as `sms run
     /// --scene` takes (default: the built-in ones).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
-    /// Stack configurations, comma-separated; RB_8 (the baseline) is always added.
-    #[arg(long, short = 'c', value_delimiter = ',', default_value = "RB_8,RB_8+SH_8+SK,SMS")]
-    pub config: Vec<String>,
+    #[command(flatten)]
+    pub stack: StackConfigArgs,
     /// Sample rates, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "1,0.5,0.25,0.1")]
     pub fractions: Vec<f64>,
@@ -54,11 +55,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
-    let configs = args
-        .config
-        .iter()
-        .map(|name| name.parse().with_context(|| format!("--config {name}")))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    args.stack.names_only("bench")?;
+    let configs = args.stack.resolve(&DEFAULT_CONFIGS)?;
     let opts = BenchOpts {
         configs,
         fractions: args.fractions.clone(),

@@ -2,10 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::run::verify::exhaustive::{check, describe, Action, Bounds, Coverage, Model};
 use anyhow::{bail, Result};
-use proofs::exhaustive::{check, describe, Action, Bounds, Coverage, Model};
 use rtl::config::{Config, RbSize, Realloc};
-use rtl::stack_manager::StackManager;
+use rtl::stack_manager::{Mutant, StackManager};
 use rtl::trace::{Probe, Sink};
 
 use crate::vcd::{Selection, VcdOptions, VcdSink};
@@ -46,45 +46,29 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub vcd: Option<PathBuf>,
     /// Plant a stack-manager bug to watch the checker catch it (needs a build with `--features
-    /// mutants`): queue-wrap-off-by-one, reload-wrong-entry, spill-drops-entry,
-    /// missing-global-reload, early-release, skip-overflow-clear, flush-keeps-count,
-    /// eager-release.
-    #[arg(long)]
+    /// mutants`).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Mutant::NAMES))]
     pub mutant: Option<String>,
 }
 
-/// The design under check: the stack manager as built, or with a planted bug.
-type Design = fn(StackManager) -> StackManager;
-
-#[cfg(feature = "mutants")]
-fn design(name: Option<&str>) -> Result<Design> {
-    use rtl::stack_manager::Mutant;
-    macro_rules! planted {
-        ($($name:literal => $m:ident),*) => {
-            match name {
-                None => Ok(|sm| sm),
-                $(Some($name) => Ok(|mut sm: StackManager| { sm.mutant = Some(Mutant::$m); sm }),)*
-                Some(other) => bail!("--mutant {other}: unknown; one of {}", [$($name),*].join(", ")),
-            }
-        };
+/// The planted bug `--mutant` names, if any.
+fn mutant(name: Option<&str>) -> Result<Option<Mutant>> {
+    let Some(name) = name else { return Ok(None) };
+    if !cfg!(feature = "mutants") {
+        bail!("--mutant {name}: this build has no planted bugs; build with `--features mutants`");
     }
-    planted!(
-        "queue-wrap-off-by-one" => QueueWrapOffByOne,
-        "reload-wrong-entry" => ReloadWrongEntry,
-        "spill-drops-entry" => SpillDropsEntry,
-        "missing-global-reload" => MissingGlobalReload,
-        "early-release" => EarlyRelease,
-        "skip-overflow-clear" => SkipOverflowClear,
-        "flush-keeps-count" => FlushKeepsCount,
-        "eager-release" => EagerRelease
-    )
+    match Mutant::from_name(name) {
+        Some(m) => Ok(Some(m)),
+        None => bail!("--mutant {name}: unknown; one of {}", Mutant::NAMES.join(", ")),
+    }
 }
 
-#[cfg(not(feature = "mutants"))]
-fn design(name: Option<&str>) -> Result<Design> {
-    match name {
-        None => Ok(|sm| sm),
-        Some(m) => bail!("--mutant {m}: this build has no planted bugs; build with `--features mutants`"),
+/// The design under check: the stack manager as built, or with `mutant` planted.
+fn design(_mutant: Option<Mutant>) -> impl Fn(StackManager) -> StackManager + Copy {
+    move |sm| {
+        #[cfg(feature = "mutants")]
+        let sm = sm.with_mutant(_mutant);
+        sm
     }
 }
 
@@ -150,7 +134,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--values {}: at least 2 distinct values are needed to see entries reordered", args.values);
     }
     let configs = grid(&args)?;
-    let design = design(args.mutant.as_deref())?;
+    let design = design(mutant(args.mutant.as_deref())?);
     let mut t = Table::new([
         "configuration",
         "depth",
@@ -206,4 +190,26 @@ pub fn run(args: Args) -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod mutant_tests {
+    use super::*;
+
+    #[test]
+    fn mutant_names_come_from_the_one_list() {
+        assert_eq!(Mutant::ALL.len(), Mutant::NAMES.len());
+        for m in Mutant::ALL {
+            assert_eq!(Mutant::from_name(m.name()), Some(m));
+        }
+        assert!(mutant(None).unwrap().is_none());
+        let e = mutant(Some("no-such-bug")).unwrap_err().to_string();
+        assert!(e.contains("--mutant no-such-bug"), "{e}");
+        match mutant(Some("eager-release")) {
+            Ok(m) => assert!(cfg!(feature = "mutants") && m == Some(Mutant::EagerRelease)),
+            Err(e) => {
+                assert!(!cfg!(feature = "mutants") && e.to_string().contains("--features mutants"), "{e}")
+            }
+        }
+    }
 }

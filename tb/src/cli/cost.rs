@@ -1,32 +1,30 @@
 //! `sms cost`: hardware cost of stack designs, bit by bit.
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 
 use super::stack_config::StackConfigArgs;
-use crate::report::cost::{comparison, CostReport};
+use super::{Format, HardwareArgs, OutputArgs};
+use crate::report::cost::{comparison, fields_of_all, CostReport};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
     #[command(flatten)]
     pub stack: StackConfigArgs,
-    /// SMs per GPU (one RT unit each).
-    #[arg(long, default_value_t = 8)]
-    pub sms: u32,
+    /// SMs per GPU (one RT unit each, `--sms`) come from the hardware.
+    #[command(flatten)]
+    pub hardware: HardwareArgs,
     /// Depth RB_FULL is sized to (the deepest stack of a scene: see `sms depth`).
     #[arg(long, default_value_t = 64)]
     pub full_depth: u32,
-    /// Output: text, markdown or json.
-    #[arg(long, default_value = "text")]
-    pub format: String,
+    #[command(flatten)]
+    pub output: OutputArgs,
     /// With several configurations, add the baselines RB_8, RB_16 and RB_FULL to the comparison.
     #[arg(long)]
     pub baselines: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if args.sms == 0 {
-        bail!("--sms must be at least 1");
-    }
+    let sms = args.hardware.hardware()?.mem.sms;
     let mut configs = args.stack.resolve(&["SMS"])?;
     if args.baselines {
         for name in ["RB_8", "RB_16", "RB_FULL"] {
@@ -36,14 +34,16 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    let reports = configs
-        .iter()
-        .map(|c| CostReport::new(c, args.sms, args.full_depth))
-        .collect::<Result<Vec<_>, _>>()?;
-    match args.format.as_str() {
-        "json" => println!("{}", serde_json::to_string_pretty(&reports)?),
-        f @ ("text" | "markdown") => {
-            let md = f == "markdown";
+    let reports =
+        configs.iter().map(|c| CostReport::new(c, sms, args.full_depth)).collect::<Result<Vec<_>, _>>()?;
+    match args.output.format() {
+        Format::Json => {
+            let json: Vec<_> = reports.iter().map(CostReport::to_json).collect();
+            println!("{}", serde_json::to_string_pretty(&json)?);
+        }
+        Format::Csv => print!("{}", fields_of_all(&reports).to_csv()),
+        f @ (Format::Text | Format::Markdown) => {
+            let md = f == Format::Markdown;
             for r in &reports {
                 println!("{}", r.render(md));
             }
@@ -52,7 +52,6 @@ pub fn run(args: Args) -> Result<()> {
                 println!("{}", if md { t.to_markdown() } else { t.to_text() });
             }
         }
-        other => bail!("--format {other}: expected text, markdown or json"),
     }
     Ok(())
 }

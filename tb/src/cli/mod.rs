@@ -15,6 +15,94 @@ use std::path::PathBuf;
 
 use crate::workload::scene::SceneLibrary;
 
+/// The `sms` command line.
+#[derive(clap::Parser)]
+#[command(version, about = "SMS traversal-stack model tools")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(clap::Subcommand)]
+pub enum Command {
+    /// List the scenes with triangle counts, BVH node counts and build times.
+    Scenes(scenes::Args),
+    /// Stack-depth statistics of a scene.
+    Depth(depth::Args),
+    /// Hardware cost of stack designs, bit by bit, from the RTL's width definitions.
+    Cost(cost::Args),
+    /// Simulate a scene under stack configurations: cycles, off-chip traffic, conflicts.
+    Run(run::Args),
+    /// Exhaustive bounded model checking of stack consistency on small configurations.
+    Check(check::Args),
+    /// Run the paper's experiments over a scene set and write the report.
+    Sweep(sweep::Args),
+    /// Turn each simulator mechanism off in turn and report how the headline speed-ups move.
+    Ablate(ablate::Args),
+    /// Run time against error of each level and sample rate, throughput, savings of skipped work.
+    Bench(bench::Args),
+}
+
+impl Cli {
+    /// Runs the chosen subcommand.
+    pub fn run(self) -> anyhow::Result<()> {
+        match self.command {
+            Command::Scenes(args) => scenes::run(args),
+            Command::Depth(args) => depth::run(args),
+            Command::Cost(args) => cost::run(args),
+            Command::Check(args) => check::run(args),
+            Command::Run(args) => run::run(args),
+            Command::Sweep(args) => sweep::run(args),
+            Command::Ablate(args) => ablate::run(args),
+            Command::Bench(args) => bench::run(args),
+        }
+    }
+}
+
+/// How a report is printed. The JSON layouts are documented in docs/json.md.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Aligned text tables.
+    #[default]
+    Text,
+    Markdown,
+    Csv,
+    /// JSON (layout: docs/json.md in the source tree).
+    Json,
+}
+
+/// The output format of a report printed on stdout, shared by `sms run` and `sms cost`.
+#[derive(Clone, Copy, Debug, Default, clap::Args)]
+pub struct OutputArgs {
+    /// Output format: text, markdown, csv or json (JSON layout: docs/json.md).
+    #[arg(long, value_enum, default_value = "text")]
+    pub format: Format,
+    /// Same as `--format json`.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl OutputArgs {
+    pub fn format(&self) -> Format {
+        if self.json {
+            Format::Json
+        } else {
+            self.format
+        }
+    }
+
+    /// `table` in the text formats (`None` for JSON).
+    pub fn table(&self, table: &crate::report::table::Table) -> Option<String> {
+        match self.format() {
+            Format::Text => Some(table.to_text()),
+            Format::Markdown => Some(table.to_markdown()),
+            Format::Csv => Some(table.to_csv()),
+            Format::Json => None,
+        }
+    }
+}
+
 /// Where scene data are and how scenes are seen, shared by subcommands that load scenes.
 #[derive(Clone, Debug, clap::Args)]
 pub struct SceneArgs {

@@ -11,7 +11,7 @@ use rtl::trace::NullSink;
 use serde::Serialize;
 
 use crate::cli::stack_config::StackConfigArgs;
-use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
+use crate::cli::{HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
 use crate::report::table::Table;
 use crate::run::sampling::SamplePlan;
 use crate::run::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
@@ -34,9 +34,8 @@ pub struct Args {
     pub fidelity: Fidelity,
     #[command(flatten)]
     pub sampling: SampleArgs,
-    /// Print the results as JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub output: OutputArgs,
     /// Also write the rendered image here (PNG).
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
@@ -171,24 +170,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let names: Vec<String> = specs.iter().map(|s| s.config.name()).collect();
     let bar = ProgressLines::new(&names, args.quiet);
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let slots: Vec<std::sync::Mutex<Option<anyhow::Result<ConfigResult>>>> =
-        specs.iter().map(|_| std::sync::Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..jobs.min(specs.len()) {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let Some(spec) = specs.get(i) else { break };
-                let r = run_one(spec, &w, plan.as_ref(), vcd.as_ref(), |t| bar.tick(i, t));
-                bar.done(i);
-                *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
-            });
-        }
-    });
-    let mut results = Vec::new();
-    for slot in slots {
-        results.push(slot.into_inner().unwrap_or_else(|e| e.into_inner()).expect("every configuration ran")?);
-    }
+    let results = crate::run::pool::map_indexed(jobs.min(specs.len()), specs.len(), |i| {
+        let r = run_one(&specs[i], &w, plan.as_ref(), vcd.as_ref(), |t| bar.tick(i, t));
+        bar.done(i);
+        r
+    })
+    .into_iter()
+    .collect::<anyhow::Result<Vec<ConfigResult>>>()?;
     if let Some(v) = &vcd {
         log(format!("wrote {} and {}", v.path.display(), v.path.with_extension("gtkw").display()));
     }
@@ -201,10 +189,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         fidelity: args.fidelity,
         results,
     };
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", table(&report).to_text());
+    match args.output.table(&table(&report)) {
+        Some(text) => print!("{text}"),
+        None => println!("{}", serde_json::to_string_pretty(&report)?),
     }
     Ok(())
 }

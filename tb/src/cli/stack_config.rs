@@ -7,9 +7,11 @@ use rtl::config::{Config, Realloc};
 #[derive(clap::Args, Clone, Debug)]
 pub struct StackConfigArgs {
     /// Stack configurations, comma-separated: RB_N, RB_FULL, RB_N+SH_M, +SK, +RA, or SMS
-    /// (= RB_8+SH_8+SK+RA); `paper` = every configuration of the paper's evaluation.
-    /// Default: `sms run` RB_8,RB_16,SMS (the first is the speed-ups' baseline); otherwise SMS.
-    #[arg(long, short = 'c', value_delimiter = ',')]
+    /// (= RB_8+SH_8+SK+RA); `paper` = every configuration of the paper's evaluation (SPEC
+    /// section 8). Default: `sms run` RB_8,RB_16,SMS (the first is the speed-ups' baseline),
+    /// `sms bench` RB_8,RB_8+SH_8+SK,SMS, `sms sweep` paper, `sms cost` SMS; RB_8 is always run
+    /// by bench and sweep. `--configs` is the same flag.
+    #[arg(long, short = 'c', visible_alias = "configs", value_delimiter = ',')]
     pub config: Vec<String>,
     /// Warps per RT unit.
     #[arg(long)]
@@ -26,6 +28,24 @@ pub struct StackConfigArgs {
 }
 
 impl StackConfigArgs {
+    /// For commands that simulate the configurations beside ones of their own (the baseline, the
+    /// RB and L1D sweeps): the shape overrides would apply to some runs and not others, so they
+    /// are refused.
+    pub fn names_only(&self, command: &str) -> Result<()> {
+        let set = [
+            ("--warps", self.warps.is_some()),
+            ("--warp-size", self.warp_size.is_some()),
+            ("--borrow-limit", self.borrow_limit.is_some()),
+            ("--flush-limit", self.flush_limit.is_some()),
+        ];
+        match set.iter().find(|(_, on)| *on) {
+            Some((flag, _)) => anyhow::bail!(
+                "{flag}: `sms {command}` runs configurations of its own beside these, so it takes names only"
+            ),
+            None => Ok(()),
+        }
+    }
+
     /// The configurations asked for (`default` when none is), each validated after the
     /// overrides.
     pub fn resolve(&self, default: &[&str]) -> Result<Vec<Config>> {

@@ -6,8 +6,8 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use rtl::config::Config;
 
+use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
 use crate::run::sweep::{self, Plan, Progress, Request, DEFAULT_SAMPLE, SAMPLE_ERROR};
 
@@ -81,28 +81,13 @@ impl SweepArgs {
     }
 }
 
-/// Paper configuration names (or `paper` for the 14 of SPEC section 8) as configurations.
-pub fn parse_configs(names: &[String]) -> anyhow::Result<Vec<Config>> {
-    let mut configs = Vec::new();
-    for name in names {
-        if name.eq_ignore_ascii_case("paper") {
-            configs.extend(Config::paper_set());
-        } else {
-            configs.push(name.parse::<Config>().with_context(|| format!("--configs {name}"))?);
-        }
-    }
-    Ok(configs)
-}
-
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
     pub common: SweepArgs,
-    /// Configurations run on the base L1D size, comma-separated: paper names (RB_8,
-    /// RB_8+SH_8+SK+RA, RB_FULL, SMS, ...) or `paper` for the 14 of SPEC section 8. RB_8, the
-    /// baseline, is always run.
-    #[arg(long, short = 'c', value_delimiter = ',', default_value = "paper")]
-    pub configs: Vec<String>,
+    /// Configurations run on the base L1D size (RB_8, the baseline, is always run).
+    #[command(flatten)]
+    pub stack: StackConfigArgs,
     /// N of the RB-size sweep: RB_N and RB_N+SH_8+SK+RA for each.
     #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
     pub rb_sizes: Vec<u32>,
@@ -118,7 +103,10 @@ impl Args {
     /// The sweep these arguments ask for, checked before any simulation starts.
     pub fn request(&self) -> anyhow::Result<Request> {
         let plan = Plan {
-            configs: parse_configs(&self.configs)?,
+            configs: {
+                self.stack.names_only("sweep")?;
+                self.stack.resolve(&["paper"])?
+            },
             rb_sizes: self.rb_sizes.clone(),
             l1d_kb: self.l1d_sizes.clone(),
         };

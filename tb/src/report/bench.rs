@@ -26,6 +26,7 @@ use rtl::trace::{NullSink, Sink};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::report::plot::{log_scatter, LabelledPoints};
 use crate::report::table::Table;
 use crate::run::functional;
 use crate::run::sampling::{SampleMode, SamplePlan};
@@ -35,7 +36,7 @@ use crate::run::sim::{
 use crate::workload::bvh::{Bvh, BvhKind};
 use crate::workload::geometry::Ray;
 use crate::workload::scene::Scene;
-use crate::workload::trace::{NodeKind, TraceOp};
+use crate::workload::trace::{FetchKind, TraceOp};
 use crate::workload::traverse::trace;
 use crate::workload::{Workload, WorkloadOpts};
 
@@ -94,7 +95,7 @@ impl Values {
     pub fn of_outcome(o: &Outcome) -> Values {
         Values {
             cycles: Metric::Cycles.of(o),
-            stack_global: o.stack.global() as f64,
+            stack_global: o.stack.global_accesses() as f64,
             dram_stack: Metric::DramStack.of(o),
             conflict_cycles: Metric::ConflictCycles.of(o),
         }
@@ -489,12 +490,12 @@ fn work(scene: &Scene, w: &Workload) -> Work {
             for op in t.ops() {
                 if let TraceOp::Visit { kind, .. } = op {
                     *match kind {
-                        NodeKind::Internal => &mut out.internal,
-                        NodeKind::Leaf => &mut out.leaf,
-                        NodeKind::Triangle => &mut out.triangle,
-                        NodeKind::Procedural => &mut out.procedural,
-                        NodeKind::Instance => &mut out.instance,
-                        NodeKind::BvhHeader => &mut out.header,
+                        FetchKind::Internal => &mut out.internal,
+                        FetchKind::Leaf => &mut out.leaf,
+                        FetchKind::Triangle => &mut out.triangle,
+                        FetchKind::Procedural => &mut out.procedural,
+                        FetchKind::Instance => &mut out.instance,
+                        FetchKind::BvhHeader => &mut out.header,
                     } += 1;
                 }
             }
@@ -934,8 +935,6 @@ impl Report {
 
     /// Time against worst headline error per setting (functional: the metrics it measures).
     pub fn write_svg(&self, path: &Path) -> Result<()> {
-        use plotters::prelude::*;
-        let to_err = |e: &dyn fmt::Display| Error::io(path, std::io::Error::other(e.to_string()));
         const FLOOR: f64 = 1e-4;
         let points: Vec<(Setting, f64, f64)> = by_setting(&self.rows)
             .into_iter()
@@ -949,53 +948,25 @@ impl Report {
                 (s, wall.max(1e-4), (worst * 100.0).clamp(FLOOR, 1e4))
             })
             .collect();
-        let (tmin, tmax) = points.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
-        let emax = points.iter().map(|p| p.2).fold(1.0, f64::max);
-        let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| to_err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption("run time against worst headline error", ("sans-serif", 20))
-            .margin(16)
-            .x_label_area_size(44)
-            .y_label_area_size(70)
-            .build_cartesian_2d((tmin / 1.5..tmax * 1.5).log_scale(), (FLOOR..emax * 2.0).log_scale())
-            .map_err(|e| to_err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("seconds, all scenes and configurations")
-            .y_desc("worst relative error, % (0 drawn at 1e-4)")
-            .bold_line_style(RGBColor(225, 225, 225))
-            .light_line_style(TRANSPARENT)
-            .draw()
-            .map_err(|e| to_err(&e))?;
-        chart
-            .draw_series(LineSeries::new([(tmin / 1.5, 1.0), (tmax * 1.5, 1.0)], RED.stroke_width(1)))
-            .map_err(|e| to_err(&e))?
-            .label("1 % tolerance")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], RED));
-        for (fidelity, color, label) in [
-            (Fidelity::Cycle, BLUE, "cycle level"),
-            (Fidelity::Functional, GREEN, "functional level (no cycle metrics)"),
-        ] {
-            let mine: Vec<_> = points.iter().filter(|p| p.0.fidelity == fidelity).collect();
-            chart
-                .draw_series(mine.iter().map(|p| {
-                    EmptyElement::at((p.1, p.2))
-                        + Circle::new((0, 0), 4, color.filled())
-                        + Text::new(p.0.to_string(), (6, -6), ("sans-serif", 11))
-                }))
-                .map_err(|e| to_err(&e))?
-                .label(label)
-                .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::MiddleMiddle)
-            .draw()
-            .map_err(|e| to_err(&e))?;
-        root.present().map_err(|e| to_err(&e))
+        let series =
+            [(Fidelity::Cycle, "cycle level"), (Fidelity::Functional, "functional level (no cycle metrics)")]
+                .map(|(fidelity, name)| LabelledPoints {
+                    name: name.into(),
+                    points: points
+                        .iter()
+                        .filter(|p| p.0.fidelity == fidelity)
+                        .map(|p| (p.1, p.2, p.0.to_string()))
+                        .collect(),
+                });
+        log_scatter(
+            path,
+            "run time against worst headline error",
+            "seconds, all scenes and configurations",
+            &format!("worst relative error, % (0 drawn at {FLOOR:e})"),
+            FLOOR,
+            &series,
+            Some((1.0, "1 % tolerance")),
+        )
     }
 
     /// Writes bench.{txt,md,csv,json}, the other tables as CSV and the plot into `dir`.

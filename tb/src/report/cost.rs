@@ -288,6 +288,63 @@ impl CostReport {
     }
 }
 
+/// One configuration's totals, as the text's tables show them: bits per SM by origin (the
+/// `bits/SM` column summed), per GPU, and the summary's bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct CostTotals {
+    pub baseline_bits_per_sm: u64,
+    pub paper_bits_per_sm: u64,
+    pub rtl_bits_per_sm: u64,
+    /// Every field's bits per SM.
+    pub bits_per_sm: u64,
+    pub bits_per_gpu: u64,
+    pub added_bytes_per_sm: u64,
+    pub on_chip_bytes_per_sm: u64,
+}
+
+/// A report as `sms cost --json` writes it: every field of [`CostReport`] plus `totals`.
+#[derive(Clone, Debug, Serialize)]
+pub struct CostJson<'a> {
+    #[serde(flatten)]
+    pub report: &'a CostReport,
+    pub totals: CostTotals,
+}
+
+impl CostReport {
+    pub fn totals(&self) -> CostTotals {
+        let bits_per_sm = self.fields.iter().map(Field::bits_per_sm).sum();
+        CostTotals {
+            baseline_bits_per_sm: self.bits_per_sm(Origin::Baseline),
+            paper_bits_per_sm: self.bits_per_sm(Origin::Paper),
+            rtl_bits_per_sm: self.bits_per_sm(Origin::Rtl),
+            bits_per_sm,
+            bits_per_gpu: bits_per_sm * self.sms as u64,
+            added_bytes_per_sm: self.added_bytes_per_sm(),
+            on_chip_bytes_per_sm: self.on_chip_bytes_per_sm(),
+        }
+    }
+
+    pub fn to_json(&self) -> CostJson<'_> {
+        CostJson { report: self, totals: self.totals() }
+    }
+}
+
+/// Every configuration's fields in one table (the CSV of `sms cost`): the fields table with the
+/// configuration in front.
+pub fn fields_of_all(reports: &[CostReport]) -> Table {
+    let mut out: Option<Table> = None;
+    for r in reports {
+        let t = r.fields_table();
+        let all = out.get_or_insert_with(|| {
+            Table::new(std::iter::once("config".to_string()).chain(t.headers.clone()))
+        });
+        for row in t.rows {
+            all.row(std::iter::once(r.config.clone()).chain(row));
+        }
+    }
+    out.unwrap_or_else(|| Table::new(["config"]))
+}
+
 /// The paper's Priority width: the order of the borrowed stacks only.
 fn paper_priority_bits(borrow_limit: u32) -> u32 {
     bits_for(borrow_limit.saturating_sub(1) as u64).max(1)

@@ -100,7 +100,7 @@ fn offchip_total(o: &Outcome) -> u64 {
 type Count = fn(&Outcome) -> u64;
 
 fn global(o: &Outcome) -> u64 {
-    o.stack.global()
+    o.stack.global_accesses()
 }
 
 fn dram_total(o: &Outcome) -> u64 {
@@ -162,14 +162,12 @@ pub fn performance(s: &Sweep) -> Figure {
     let mut table =
         Table::new(std::iter::once("config".to_string()).chain(scenes.clone()).chain(["geomean".into()]));
     let mut rows = Vec::new();
-    let mut dots = Vec::new();
-    let mut means = Vec::new();
-    for (i, c) in configs.iter().enumerate() {
+    let mut series = Vec::new();
+    for c in &configs {
         let per: Vec<Option<f64>> = scenes.iter().map(|sc| s.speedup(sc, c, kb)).collect();
         let g = s.geomean_speedup(c, kb);
         table.row(std::iter::once(c.clone()).chain(per.iter().map(|&v| f4(v))).chain([f4(g)]));
-        dots.extend(per.iter().flatten().map(|&v| (i, v)));
-        means.push(g);
+        series.push(Bars { name: c.clone(), values: per.iter().copied().chain([g]).collect() });
         let per_scene: Vec<Value> =
             scenes.iter().zip(&per).map(|(sc, v)| json!({ "scene": sc, "speedup": v })).collect();
         rows.push(json!({ "config": c, "per_scene": per_scene, "geomean": g }));
@@ -184,11 +182,10 @@ pub fn performance(s: &Sweep) -> Figure {
         table,
         per_scene: None,
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "rows": rows }),
-        chart: Chart::HBars {
-            x_desc: format!("speed-up over {BASELINE} (bars: geomean, dots: scenes)"),
-            labels: configs,
-            bars: vec![Bars { name: "geomean".into(), values: means }],
-            dots,
+        chart: Chart::Grouped {
+            y_desc: format!("speed-up over {BASELINE}"),
+            groups: scenes.iter().cloned().chain(["geomean".into()]).collect(),
+            series,
             rule: Some(1.0),
             zoom: true,
         },
@@ -222,7 +219,7 @@ pub fn offchip(s: &Sweep) -> Figure {
                     "offchip_stack": offchip_stack(&r.outcome),
                     "dram_node": dram_node(&r.outcome),
                     "dram_stack": dram_stack(&r.outcome),
-                    "stack_global": r.outcome.stack.global(),
+                    "stack_global": r.outcome.stack.global_accesses(),
                 })
             })
             .collect();
@@ -351,7 +348,7 @@ pub fn rb_sweep(s: &Sweep) -> Figure {
         let (a, b) = (format!("RB_{n}"), with_sms(n));
         let (ga, gb) = (s.geomean_speedup(&a, kb), s.geomean_speedup(&b, kb));
         let cell = |v: Option<u64>| v.map_or(String::new(), |v| v.to_string());
-        let glob = |c: &str| s.sum(c, kb, |o| o.stack.global());
+        let glob = |c: &str| s.sum(c, kb, |o| o.stack.global_accesses());
         let dram = |c: &str| s.sum(c, kb, dram_stack);
         table.row([
             n.to_string(),

@@ -13,13 +13,13 @@
 //! against the reference (they are counted in [`FunctionalRun::rays_fast`], not
 //! `pops_checked`); the counts equal the full run's exactly (tested).
 
-use proofs::harness::run_functional_warps;
-use proofs::invariants::Violation;
+use crate::run::verify::harness::run_functional_warps;
+use crate::run::verify::invariants::Violation;
 use rtl::config::{Config, ConfigError};
 use rtl::stack_manager::{StackManager, StackStats};
 
 use crate::run::stack_tb::{lane_ops, warp_work};
-use crate::workload::trace::{TraceOp, WarpJob};
+use crate::workload::trace::{TraceOp, WarpTraces};
 
 /// Stack counts of a whole workload and of each pixel warp.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -35,7 +35,7 @@ pub struct FunctionalRun {
 /// ray through the stack manager.
 pub fn run<I>(cfg: Config, warps: I) -> Result<FunctionalRun, FunctionalError>
 where
-    I: IntoIterator<Item = Vec<WarpJob>>,
+    I: IntoIterator<Item = Vec<WarpTraces>>,
 {
     run_with(cfg, warps, false)
 }
@@ -44,7 +44,7 @@ where
 /// in the RB are counted from their traces instead.
 pub fn run_with<I>(cfg: Config, warps: I, shallow_fast_path: bool) -> Result<FunctionalRun, FunctionalError>
 where
-    I: IntoIterator<Item = Vec<WarpJob>>,
+    I: IntoIterator<Item = Vec<WarpTraces>>,
 {
     // Deepest stack a ray may reach and still never leave the RB (FULL: any).
     let shallow = (shallow_fast_path && cfg.realloc.is_none()).then(|| cfg.rb.capacity().unwrap_or(u32::MAX));
@@ -57,7 +57,7 @@ where
         let sb = match shallow {
             None => run_functional_warps(&mut sm, jobs.iter().map(warp_work))?,
             Some(depth) => {
-                let mut split = |job: &WarpJob| {
+                let mut split = |job: &WarpTraces| {
                     let lanes = job.lanes.iter().map(|lane| match lane {
                         Some(t) if t.max_depth() <= depth => {
                             let pushes = t.ops().filter(|op| matches!(op, TraceOp::Push(_))).count() as u64;
@@ -68,7 +68,7 @@ where
                         }
                         lane => lane.as_ref().map(lane_ops),
                     });
-                    proofs::harness::WarpWork { lanes: lanes.collect() }
+                    crate::run::verify::harness::WarpWork { lanes: lanes.collect() }
                 };
                 let work: Vec<_> =
                     jobs.iter().map(&mut split).filter(|w| w.lanes.iter().any(Option::is_some)).collect();

@@ -3,7 +3,9 @@
 //! of configurations over scenes ([`sweep`]).
 
 pub mod functional;
+pub mod pool;
 pub mod sampling;
 pub mod sim;
 pub mod stack_tb;
 pub mod sweep;
+pub mod verify;

@@ -23,7 +23,7 @@
 //! residence, so it reflects how much warps differ in run time, not where e.g. a spill burst
 //! happened. `sms bench` measures the resulting error against the full run.
 
-use proofs::harness::mix;
+use crate::run::verify::harness::mix;
 
 /// A counter-based stream of 64-bit numbers from [`mix`].
 struct Stream(u64);

@@ -35,7 +35,7 @@ use crate::workload::bvh::{
     BvhKind, BVH2_NODE_SIZE, BVH6_LEAF_DESC_SIZE, BVH6_NODE_SIZE, BVH_HEADER_SIZE, CWBVH_NODE_SIZE,
     INSTANCE_LEAF_SIZE, PRIM_SIZE,
 };
-use crate::workload::trace::{NodeKind, TraceOp, WarpJob, WARP_SIZE};
+use crate::workload::trace::{FetchKind, TraceOp, WarpTraces, WARP_SIZE};
 use crate::workload::Workload;
 
 /// How much of the machine a run models.
@@ -52,15 +52,15 @@ pub enum Fidelity {
 pub use crate::hw::Hardware;
 
 /// Bytes the RT unit fetches for a node of `kind` in hierarchy `bvh` (SPEC section 7 layouts).
-pub fn node_bytes(bvh: BvhKind, kind: NodeKind) -> u32 {
+pub fn node_bytes(bvh: BvhKind, kind: FetchKind) -> u32 {
     let bytes = match (kind, bvh) {
-        (NodeKind::Internal, BvhKind::Bvh2) | (NodeKind::Leaf, BvhKind::Bvh2) => BVH2_NODE_SIZE,
-        (NodeKind::Internal, BvhKind::Bvh6) => BVH6_NODE_SIZE,
-        (NodeKind::Leaf, _) => BVH6_LEAF_DESC_SIZE,
-        (NodeKind::Internal, BvhKind::Cwbvh) => CWBVH_NODE_SIZE,
-        (NodeKind::Triangle | NodeKind::Procedural, _) => PRIM_SIZE,
-        (NodeKind::Instance, _) => INSTANCE_LEAF_SIZE,
-        (NodeKind::BvhHeader, _) => BVH_HEADER_SIZE,
+        (FetchKind::Internal, BvhKind::Bvh2) | (FetchKind::Leaf, BvhKind::Bvh2) => BVH2_NODE_SIZE,
+        (FetchKind::Internal, BvhKind::Bvh6) => BVH6_NODE_SIZE,
+        (FetchKind::Leaf, _) => BVH6_LEAF_DESC_SIZE,
+        (FetchKind::Internal, BvhKind::Cwbvh) => CWBVH_NODE_SIZE,
+        (FetchKind::Triangle | FetchKind::Procedural, _) => PRIM_SIZE,
+        (FetchKind::Instance, _) => INSTANCE_LEAF_SIZE,
+        (FetchKind::BvhHeader, _) => BVH_HEADER_SIZE,
     };
     bytes as u32
 }
@@ -70,19 +70,19 @@ pub fn node_bytes(bvh: BvhKind, kind: NodeKind) -> u32 {
 /// costs every transaction by its type (`-gpgpu_rt_intersection_latency 4,8,8,4,8,8,8`:
 /// structure, internal, instance leaf, leaf descriptor, quad, quad hit, procedural;
 /// `src/gpgpu-sim/shader.h:1604-1611`, `configs/tested-cfgs/MOBILE/gpgpusim.config:197`).
-fn rtl_kind(kind: NodeKind) -> RtlKind {
+fn rtl_kind(kind: FetchKind) -> RtlKind {
     match kind {
-        NodeKind::Instance => RtlKind::InstanceLeaf,
-        NodeKind::BvhHeader => RtlKind::BvhHeader,
-        NodeKind::Internal => RtlKind::Internal,
-        NodeKind::Leaf => RtlKind::LeafDescriptor,
-        NodeKind::Triangle => RtlKind::Triangle,
-        NodeKind::Procedural => RtlKind::Procedural,
+        FetchKind::Instance => RtlKind::InstanceLeaf,
+        FetchKind::BvhHeader => RtlKind::BvhHeader,
+        FetchKind::Internal => RtlKind::Internal,
+        FetchKind::Leaf => RtlKind::LeafDescriptor,
+        FetchKind::Triangle => RtlKind::Triangle,
+        FetchKind::Procedural => RtlKind::Procedural,
     }
 }
 
 /// A traceRay call of a warp as the RT unit's stimulus.
-pub fn rtl_job(job: &WarpJob, bvh: BvhKind) -> ray_op::WarpJob {
+pub fn rtl_job(job: &WarpTraces, bvh: BvhKind) -> ray_op::WarpJob {
     let lane = |t: &crate::workload::trace::RayTrace| {
         t.ops()
             .map(|op| match op {
@@ -103,7 +103,8 @@ pub struct Outcome {
     pub fidelity: Fidelity,
     /// Pixel warps simulated.
     pub pixel_warps: u32,
-    pub stack: Counts,
+    #[serde(serialize_with = "stack_counts")]
+    pub stack: StackStats,
     /// Cycle level only.
     pub gpu: Option<GpuCounts>,
     pub pops_checked: u64,
@@ -115,50 +116,14 @@ fn secs<S: serde::Serializer>(d: &Duration, s: S) -> std::result::Result<S::Ok, 
     s.serialize_f64(d.as_secs_f64())
 }
 
-/// Stack-manager counters, serialisable.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-pub struct Counts {
-    pub pushes: u64,
-    pub pops: u64,
-    pub rb_to_sh: u64,
-    pub sh_to_rb: u64,
-    pub sh_to_global: u64,
-    pub global_to_sh: u64,
-    pub rb_to_global: u64,
-    pub global_to_rb: u64,
-    pub borrows: u64,
-    pub releases: u64,
-    pub flushes: u64,
-    pub flushes_saturated: u64,
-    pub demotions: u64,
-}
-
-impl Counts {
-    /// Stack entries moved to or from global (local) memory: the stack's off-chip requests
-    /// before any cache filters them.
-    pub fn global(&self) -> u64 {
-        self.sh_to_global + self.global_to_sh + self.rb_to_global + self.global_to_rb
+/// Serialises stack-manager counters as an object of every counter by name, in declaration order.
+pub fn stack_counts<S: serde::Serializer>(c: &StackStats, s: S) -> std::result::Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut map = s.serialize_map(Some(StackStats::COUNT))?;
+    for (name, value) in c.fields() {
+        map.serialize_entry(name, &value)?;
     }
-}
-
-impl From<StackStats> for Counts {
-    fn from(s: StackStats) -> Self {
-        Counts {
-            pushes: s.pushes,
-            pops: s.pops,
-            rb_to_sh: s.rb_to_sh,
-            sh_to_rb: s.sh_to_rb,
-            sh_to_global: s.sh_to_global,
-            global_to_sh: s.global_to_sh,
-            rb_to_global: s.rb_to_global,
-            global_to_rb: s.global_to_rb,
-            borrows: s.borrows,
-            releases: s.releases,
-            flushes: s.flushes,
-            flushes_saturated: s.flushes_saturated,
-            demotions: s.demotions,
-        }
-    }
+    map.end()
 }
 
 /// The cycle level's GPU-wide measurements.
@@ -267,7 +232,7 @@ impl Metric {
         let g = o.gpu.as_ref();
         Some(match self {
             Metric::Cycles => g?.cycles as f64,
-            Metric::StackGlobal => o.stack.global() as f64,
+            Metric::StackGlobal => o.stack.global_accesses() as f64,
             Metric::DramStack => g?.dram_stack as f64,
             Metric::DramNode => g?.dram_node as f64,
             Metric::Offchip => (g?.offchip_node + g?.offchip_stack) as f64,
@@ -403,7 +368,7 @@ fn simulate_inner<S: Sink>(
     Ok(Outcome {
         fidelity: spec.fidelity,
         pixel_warps: total,
-        stack: stack.into(),
+        stack,
         gpu,
         pops_checked,
         wall: start.elapsed(),
@@ -512,25 +477,10 @@ pub fn simulate_sampled(
 /// `share` of a launch's counts, for a batch of `pixel_warps` warps (rates unchanged).
 pub(crate) fn share_of(o: &Outcome, share: f64, pixel_warps: u32) -> Outcome {
     let x = |v: u64| (v as f64 * share).round() as u64;
-    let c = &o.stack;
     Outcome {
         fidelity: o.fidelity,
         pixel_warps,
-        stack: Counts {
-            pushes: x(c.pushes),
-            pops: x(c.pops),
-            rb_to_sh: x(c.rb_to_sh),
-            sh_to_rb: x(c.sh_to_rb),
-            sh_to_global: x(c.sh_to_global),
-            global_to_sh: x(c.global_to_sh),
-            rb_to_global: x(c.rb_to_global),
-            global_to_rb: x(c.global_to_rb),
-            borrows: x(c.borrows),
-            releases: x(c.releases),
-            flushes: x(c.flushes),
-            flushes_saturated: x(c.flushes_saturated),
-            demotions: x(c.demotions),
-        },
+        stack: o.stack.map(x),
         gpu: o.gpu.map(|g| GpuCounts {
             cycles: x(g.cycles),
             evaluated_cycles: x(g.evaluated_cycles),
@@ -555,6 +505,20 @@ mod tests {
     use super::*;
     use crate::workload::WorkloadOpts;
 
+    #[test]
+    fn stack_counts_serialise_every_counter_by_name_in_order() {
+        let s = StackStats::from_values(std::array::from_fn(|i| i as u64 + 1));
+        assert_eq!((s.pushes, s.pops, s.demotions), (1, 2, 13));
+        assert_eq!(StackStats::from_values(s.values()), s);
+        let json = stack_counts(&s, serde_json::value::Serializer).unwrap();
+        let map = json.as_object().unwrap();
+        let mut names = StackStats::NAMES;
+        names.sort_unstable();
+        assert_eq!(map.keys().map(String::as_str).collect::<Vec<_>>(), names);
+        assert_eq!(map["sh_to_global"], 5);
+        assert_eq!(s.map(|v| v * 2).zip(&s, |a, b| a - b), s);
+    }
+
     fn workload(scene: &crate::workload::scene::Scene, res: u32) -> Workload<'_> {
         let opts = WorkloadOpts {
             width: res,
@@ -572,22 +536,22 @@ mod tests {
 
     #[test]
     fn node_bytes_follow_the_layouts() {
-        assert_eq!(node_bytes(BvhKind::Bvh6, NodeKind::Internal), 64);
-        assert_eq!(node_bytes(BvhKind::Bvh6, NodeKind::Leaf), 8);
-        assert_eq!(node_bytes(BvhKind::Bvh2, NodeKind::Leaf), 48);
-        assert_eq!(node_bytes(BvhKind::Cwbvh, NodeKind::Internal), 80);
-        assert_eq!(node_bytes(BvhKind::Cwbvh, NodeKind::Triangle), 64);
+        assert_eq!(node_bytes(BvhKind::Bvh6, FetchKind::Internal), 64);
+        assert_eq!(node_bytes(BvhKind::Bvh6, FetchKind::Leaf), 8);
+        assert_eq!(node_bytes(BvhKind::Bvh2, FetchKind::Leaf), 48);
+        assert_eq!(node_bytes(BvhKind::Cwbvh, FetchKind::Internal), 80);
+        assert_eq!(node_bytes(BvhKind::Cwbvh, FetchKind::Triangle), 64);
     }
 
     #[test]
     fn instance_leaves_and_headers_cost_their_bytes_and_latencies() {
         let mut t = crate::workload::trace::RayTrace::default();
         use crate::workload::traverse::Recorder;
-        t.visit(0x100, NodeKind::BvhHeader);
-        t.visit(0x200, NodeKind::Instance);
+        t.visit(0x100, FetchKind::BvhHeader);
+        t.visit(0x200, FetchKind::Instance);
         let mut lanes = vec![None; WARP_SIZE];
         lanes[0] = Some(t);
-        let job = rtl_job(&WarpJob { lanes }, BvhKind::Bvh6);
+        let job = rtl_job(&WarpTraces { lanes }, BvhKind::Bvh6);
         let ops = job.lanes[0].as_ref().unwrap();
         assert_eq!(ops[0], RayOp::Visit { addr: 0x100, kind: RtlKind::BvhHeader, bytes: 64 });
         assert_eq!(ops[1], RayOp::Visit { addr: 0x200, kind: RtlKind::InstanceLeaf, bytes: 128 });
@@ -628,7 +592,7 @@ mod tests {
             let c = simulate_all(&spec(name, Fidelity::Cycle), &w).unwrap();
             assert_eq!(f.stack, c.stack, "{name}");
             assert!(
-                f.stack.rb_to_sh + f.stack.global() > 0,
+                f.stack.rb_to_sh + f.stack.global_accesses() > 0,
                 "{name}: clutter goes deeper than 4 + 4 entries"
             );
             assert_eq!(f.pops_checked, c.pops_checked);
@@ -664,9 +628,9 @@ mod tests {
         let plan =
             SamplePlan { fraction: 1.0, mode: crate::run::sampling::SampleMode::Random, batches: 4, seed: 1 };
         let sampled = simulate_sampled(&s, &w, &plan, |_| {}).unwrap();
-        let sum: u64 = sampled.batches.iter().map(|b| b.stack.global()).sum();
-        assert_eq!(sum, full.stack.global(), "the batches partition the warps");
-        assert!(sampled.get(Metric::StackGlobal).unwrap().contains(full.stack.global() as f64));
+        let sum: u64 = sampled.batches.iter().map(|b| b.stack.global_accesses()).sum();
+        assert_eq!(sum, full.stack.global_accesses(), "the batches partition the warps");
+        assert!(sampled.get(Metric::StackGlobal).unwrap().contains(full.stack.global_accesses() as f64));
         assert!(sampled.get(Metric::Cycles).is_none(), "functional level has no cycles");
     }
 }

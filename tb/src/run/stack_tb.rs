@@ -2,15 +2,15 @@
 //! warp in launch order, run through the cycle-level stack unit with the scoreboard on (every pop
 //! checked against the reference stack, every warp checked when it leaves).
 
-use proofs::harness::{run_cycle, CycleOpts, Op, RunError, RunSummary, WarpWork};
+use crate::run::verify::harness::{run_cycle, CycleOpts, HarnessError, Op, RunSummary, WarpWork};
 use rtl::stack_unit::StandaloneStack;
 use rtl::trace::Sink;
 
-use crate::workload::trace::{RayTrace, TraceOp, WarpJob};
+use crate::workload::trace::{RayTrace, TraceOp, WarpTraces};
 
 /// A warp job's stack operations per lane. Node visits carry no stack work; they become the
 /// driver's gaps between commands.
-pub fn warp_work(job: &WarpJob) -> WarpWork {
+pub fn warp_work(job: &WarpTraces) -> WarpWork {
     WarpWork { lanes: job.lanes.iter().map(|lane| lane.as_ref().map(lane_ops)).collect() }
 }
 
@@ -32,9 +32,9 @@ pub fn run_jobs<I, S>(
     jobs: I,
     opts: CycleOpts,
     sink: &mut S,
-) -> Result<RunSummary, RunError>
+) -> Result<RunSummary, HarnessError>
 where
-    I: IntoIterator<Item = WarpJob>,
+    I: IntoIterator<Item = WarpTraces>,
     S: Sink,
 {
     run_cycle(unit, jobs.into_iter().map(|j| warp_work(&j)), opts, sink)

@@ -175,13 +175,13 @@ impl<Opts: Serialize> DepthReport<Opts> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::workload::trace::NodeKind;
+    use crate::workload::trace::FetchKind;
     use crate::workload::traverse::Recorder;
 
     /// Root, push a, push b, pop b, push c, pop c, pop a: depths 1, 2, 2, 2, 2, 1.
     fn trace() -> RayTrace {
         let mut t = RayTrace::default();
-        t.visit(0, NodeKind::Internal);
+        t.visit(0, FetchKind::Internal);
         t.push(1);
         t.push(2);
         t.pop(2);

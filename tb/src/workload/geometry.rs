@@ -9,7 +9,7 @@
 use glam::{DVec3, Vec3, Vec3A};
 use obvhs::{aabb::Aabb, triangle::Triangle, Boundable};
 
-use crate::workload::trace::NodeKind;
+use crate::workload::trace::FetchKind;
 
 /// A ray with its precomputed reciprocal direction. `tmax` is kept by the caller because it
 /// shrinks as closer hits are found.
@@ -164,10 +164,10 @@ impl Primitives {
     }
 
     /// The node kind an RT unit reports when it tests one of these primitives.
-    pub fn kind(&self) -> NodeKind {
+    pub fn kind(&self) -> FetchKind {
         match self {
-            Primitives::Triangles(_) => NodeKind::Triangle,
-            Primitives::Spheres(_) => NodeKind::Procedural,
+            Primitives::Triangles(_) => FetchKind::Triangle,
+            Primitives::Spheres(_) => FetchKind::Procedural,
         }
     }
 

@@ -4,7 +4,7 @@
 //! Launch order follows a GPU: pixels are numbered row-major and 32 consecutive pixels form a
 //! warp. A warp's shader loops over samples and bounces, so for each warp, for sample `s`, for
 //! bounce `b`, it issues one traceRay per lane whose path is still alive: that is one
-//! [`WarpJob`]. A job whose lanes are all finished is not issued. Warps are traced lazily, one at
+//! [`WarpTraces`]. A job whose lanes are all finished is not issued. Warps are traced lazily, one at
 //! a time, when [`Workload::warp_jobs`] is iterated, so no more than one warp's traces are held.
 //!
 //! The layer's modules, in dependency order (each uses only those before it): [`trace`](mod@trace) (the
@@ -28,7 +28,7 @@ use bvh::{Bvh, TwoLevel};
 use geometry::Ray;
 use raygen::{Image, RayGen, ALBEDO};
 use scene::Scene;
-use trace::{NodeKind, RayTrace, WarpJob, WARP_SIZE};
+use trace::{FetchKind, RayTrace, WarpTraces, WARP_SIZE};
 use traverse::{hit_normal, trace, ChildOrder, Recorder};
 
 use crate::error::{Error, Result};
@@ -193,18 +193,18 @@ impl<'s> Workload<'s> {
     }
 
     /// All warp jobs in launch order, traced on demand.
-    pub fn warp_jobs(&self) -> impl Iterator<Item = WarpJob> + '_ {
+    pub fn warp_jobs(&self) -> impl Iterator<Item = WarpTraces> + '_ {
         self.warps().flatten()
     }
 
     /// The jobs of each warp in launch order, one warp at a time, traced on demand.
-    pub fn warps(&self) -> impl Iterator<Item = Vec<WarpJob>> + '_ {
+    pub fn warps(&self) -> impl Iterator<Item = Vec<WarpTraces>> + '_ {
         (0..self.num_warps()).map(move |warp| self.warp(warp))
     }
 
     /// The jobs of pixel warp `warp` (one per sample and bounce with a live lane), traced now.
-    pub fn warp(&self, warp: u32) -> Vec<WarpJob> {
-        self.run_warp::<RayTrace>(warp).jobs.into_iter().map(|lanes| WarpJob { lanes }).collect()
+    pub fn warp(&self, warp: u32) -> Vec<WarpTraces> {
+        self.run_warp::<RayTrace>(warp).jobs.into_iter().map(|lanes| WarpTraces { lanes }).collect()
     }
 
     /// Every ray of the workload in launch order (warp, sample, bounce, lane), e.g. to time
@@ -216,7 +216,7 @@ impl<'s> Workload<'s> {
             fn ray(&mut self, ray: &Ray) {
                 self.0 = Some(*ray);
             }
-            fn visit(&mut self, _: u64, _: NodeKind) {}
+            fn visit(&mut self, _: u64, _: FetchKind) {}
             fn push(&mut self, _: u64) {}
             fn pop(&mut self, _: u64) {}
         }
@@ -320,7 +320,7 @@ mod tests {
                                 trace.ops().next(),
                                 Some(TraceOp::Visit {
                                     addr: crate::workload::bvh::INTERNAL_BASE,
-                                    kind: NodeKind::Internal
+                                    kind: FetchKind::Internal
                                 })
                             );
                             if bvh != BvhKind::Cwbvh {
@@ -356,7 +356,7 @@ mod tests {
                         trace.check_stack_history().unwrap_or_else(|e| panic!("{name} {order:?}: {e}"));
                         instances += trace
                             .ops()
-                            .filter(|o| matches!(o, TraceOp::Visit { kind: NodeKind::Instance, .. }))
+                            .filter(|o| matches!(o, TraceOp::Visit { kind: FetchKind::Instance, .. }))
                             .count();
                     }
                 }
@@ -375,7 +375,7 @@ mod tests {
     #[test]
     fn a_wrong_pop_is_caught() {
         let mut good = RayTrace::default();
-        good.visit(crate::workload::bvh::INTERNAL_BASE, NodeKind::Internal);
+        good.visit(crate::workload::bvh::INTERNAL_BASE, FetchKind::Internal);
         good.push(0x40);
         good.push(0x80);
         good.pop(0x80);

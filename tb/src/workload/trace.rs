@@ -1,5 +1,5 @@
-//! Recorded traversals: what a node fetch is for ([`NodeKind`]), one operation ([`TraceOp`]), a
-//! ray's whole stack history ([`RayTrace`]) and one traceRay call of a warp ([`WarpJob`]).
+//! Recorded traversals: what a node fetch is for ([`FetchKind`]), one operation ([`TraceOp`]), a
+//! ray's whole stack history ([`RayTrace`]) and one traceRay call of a warp ([`WarpTraces`]).
 //!
 //! Traces are packed one `u64` per operation: 2 bits of operation, 3 bits of node kind and a
 //! 59-bit address.
@@ -11,7 +11,7 @@ pub const WARP_SIZE: usize = 32;
 
 /// What a node fetch is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
-pub enum NodeKind {
+pub enum FetchKind {
     Internal,
     Leaf,
     Triangle,
@@ -26,7 +26,7 @@ pub enum NodeKind {
 /// One operation of a traversal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TraceOp {
-    Visit { addr: u64, kind: NodeKind },
+    Visit { addr: u64, kind: FetchKind },
     Push(u64),
     Pop(u64),
 }
@@ -34,13 +34,13 @@ pub enum TraceOp {
 const OP_SHIFT: u32 = 62;
 const KIND_SHIFT: u32 = 59;
 const ADDR_MASK: u64 = (1 << KIND_SHIFT) - 1;
-const KINDS: [NodeKind; 6] = [
-    NodeKind::Internal,
-    NodeKind::Leaf,
-    NodeKind::Triangle,
-    NodeKind::Procedural,
-    NodeKind::Instance,
-    NodeKind::BvhHeader,
+const KINDS: [FetchKind; 6] = [
+    FetchKind::Internal,
+    FetchKind::Leaf,
+    FetchKind::Triangle,
+    FetchKind::Procedural,
+    FetchKind::Instance,
+    FetchKind::BvhHeader,
 ];
 
 impl TraceOp {
@@ -124,7 +124,7 @@ impl RayTrace {
 
 /// One traceRay call of a warp: exactly [`WARP_SIZE`] lanes, `None` for lanes whose path ended.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct WarpJob {
+pub struct WarpTraces {
     pub lanes: Vec<Option<RayTrace>>,
 }
 

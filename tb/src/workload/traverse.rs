@@ -51,25 +51,25 @@ use crate::workload::geometry::{hit_triangle, Primitives, Ray};
 use crate::workload::scene::{MeshGeometry, Scene};
 use serde::Serialize;
 
-use super::trace::{NodeKind, RayTrace, TraceOp};
+use super::trace::{FetchKind, RayTrace, TraceOp};
 
 /// Receives the operations of one traversal. `()` ignores them (for rendering only).
 pub trait Recorder {
     /// The ray about to be traversed.
     fn ray(&mut self, _ray: &Ray) {}
-    fn visit(&mut self, addr: u64, kind: NodeKind);
+    fn visit(&mut self, addr: u64, kind: FetchKind);
     fn push(&mut self, addr: u64);
     fn pop(&mut self, addr: u64);
 }
 
 impl Recorder for () {
-    fn visit(&mut self, _: u64, _: NodeKind) {}
+    fn visit(&mut self, _: u64, _: FetchKind) {}
     fn push(&mut self, _: u64) {}
     fn pop(&mut self, _: u64) {}
 }
 
 impl Recorder for RayTrace {
-    fn visit(&mut self, addr: u64, kind: NodeKind) {
+    fn visit(&mut self, addr: u64, kind: FetchKind) {
         self.ops.push(TraceOp::Visit { addr, kind }.pack());
     }
     fn push(&mut self, addr: u64) {
@@ -190,7 +190,7 @@ fn trace_tree<R: Recorder>(
     while let Some(node) = current {
         match node {
             NodeRef::Internal(i) => {
-                rec.visit(bvh.node_addr(node), NodeKind::Internal);
+                rec.visit(bvh.node_addr(node), FetchKind::Internal);
                 hits.clear();
                 for_each_child(bvh, i, |aabb, child| {
                     if let Some(t) = child_hit(ray, aabb, tmax, order) {
@@ -203,7 +203,7 @@ fn trace_tree<R: Recorder>(
                 });
             }
             NodeRef::Leaf(j) => {
-                rec.visit(bvh.node_addr(node), NodeKind::Leaf);
+                rec.visit(bvh.node_addr(node), FetchKind::Leaf);
                 for (slot, prim) in leaf_prims(bvh, j) {
                     rec.visit(Bvh::prim_addr(slot), prims.kind());
                     let t = prims.hit(prim as usize, ray, tmax);
@@ -290,7 +290,7 @@ fn trace_two_level<R: Recorder>(
     order: ChildOrder,
     rec: &mut R,
 ) -> Option<Hit> {
-    rec.visit(tl.header_addr(None), NodeKind::BvhHeader);
+    rec.visit(tl.header_addr(None), FetchKind::BvhHeader);
     let mut best = None;
     let mut stack: Vec<Entry> = Vec::new();
     let mut hits: Vec<(f32, NodeRef)> = Vec::with_capacity(crate::workload::bvh::BVH6_WIDTH);
@@ -314,7 +314,7 @@ fn trace_two_level<R: Recorder>(
         };
         match entry {
             Entry::Top(node @ NodeRef::Internal(i)) => {
-                rec.visit(tl.tlas_addr(node), NodeKind::Internal);
+                rec.visit(tl.tlas_addr(node), FetchKind::Internal);
                 hits.clear();
                 for c in tl.tlas.node_children(i) {
                     if let Some(t) = child_hit(ray, &c.aabb, tmax, order) {
@@ -328,10 +328,10 @@ fn trace_two_level<R: Recorder>(
                 .map(Entry::Top);
             }
             Entry::Top(node @ NodeRef::Leaf(j)) => {
-                rec.visit(tl.tlas_addr(node), NodeKind::Instance);
+                rec.visit(tl.tlas_addr(node), FetchKind::Instance);
                 let instance = tl.leaf_instance(j);
                 let mesh = tl.instances[instance as usize].mesh;
-                rec.visit(tl.header_addr(Some(mesh)), NodeKind::BvhHeader);
+                rec.visit(tl.header_addr(Some(mesh)), FetchKind::BvhHeader);
                 let obj_ray = match &tl.to_object[instance as usize] {
                     Some(m) => {
                         Ray::new(m.transform_point3a(ray.origin), m.transform_vector3a(ray.dir), ray.tmin)
@@ -347,7 +347,7 @@ fn trace_two_level<R: Recorder>(
             }
             Entry::Bottom(node @ NodeRef::Internal(i)) => {
                 let c = cur.as_ref().expect("a BLAS entry has its instance");
-                rec.visit(c.blas.node_addr(node), NodeKind::Internal);
+                rec.visit(c.blas.node_addr(node), FetchKind::Internal);
                 hits.clear();
                 for ch in c.blas.bvh.node_children(i) {
                     if let Some(t) = child_hit(&c.ray, &ch.aabb, tmax, order) {
@@ -362,7 +362,7 @@ fn trace_two_level<R: Recorder>(
             }
             Entry::Bottom(node @ NodeRef::Leaf(j)) => {
                 let c = cur.as_ref().expect("a BLAS entry has its instance");
-                rec.visit(c.blas.node_addr(node), NodeKind::Leaf);
+                rec.visit(c.blas.node_addr(node), FetchKind::Leaf);
                 let b = c.blas;
                 for slot in b.bvh.leaves[j as usize].clone() {
                     let local = b.bvh.prim_indices[slot as usize];
@@ -373,7 +373,7 @@ fn trace_two_level<R: Recorder>(
                             (prim, prims.hit(prim as usize, &c.ray, tmax))
                         }
                         MeshGeometry::Local(r) => {
-                            rec.visit(b.prim_addr(slot), NodeKind::Triangle);
+                            rec.visit(b.prim_addr(slot), FetchKind::Triangle);
                             let prim = r.start + local;
                             (prim, hit_triangle(&c.ray, &tl.local[prim as usize], tmax))
                         }
@@ -460,7 +460,7 @@ fn trace_cwbvh<R: Recorder>(
             // The macro hands us the node, not its index: recover it from the node's position.
             let index = (std::ptr::from_ref(node) as usize - cw.nodes.as_ptr() as usize)
                 / std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>();
-            state.stack.rec.visit(INTERNAL_BASE + index as u64 * CWBVH_NODE_SIZE, NodeKind::Internal);
+            state.stack.rec.visit(INTERNAL_BASE + index as u64 * CWBVH_NODE_SIZE, FetchKind::Internal);
             node.intersect_ray(&oray, state.oct_inv4)
         },
         {
@@ -652,11 +652,11 @@ mod tests {
         let ray = Ray::new(Vec3A::ZERO, Vec3A::Z, 0.0);
         let n = |i: u64| INTERNAL_BASE + i * BVH6_NODE_SIZE;
         let l = |j: u64| LEAF_BASE + j * BVH6_LEAF_DESC_SIZE;
-        let visit_n = |i| TraceOp::Visit { addr: n(i), kind: NodeKind::Internal };
+        let visit_n = |i| TraceOp::Visit { addr: n(i), kind: FetchKind::Internal };
         let visit_leaf = |j: u64| {
             [
-                TraceOp::Visit { addr: l(j), kind: NodeKind::Leaf },
-                TraceOp::Visit { addr: PRIM_BASE + j * 64, kind: NodeKind::Triangle },
+                TraceOp::Visit { addr: l(j), kind: FetchKind::Leaf },
+                TraceOp::Visit { addr: PRIM_BASE + j * 64, kind: FetchKind::Triangle },
             ]
         };
         use TraceOp::{Pop, Push};
@@ -790,7 +790,7 @@ mod tests {
             let mut rec = RayTrace::default();
             trace(&two, &scene.primitives, &ray, f32::INFINITY, ChildOrder::VulkanSim, &mut rec);
             let ops: Vec<TraceOp> = rec.ops().collect();
-            assert_eq!(ops[0], TraceOp::Visit { addr: header, kind: NodeKind::BvhHeader });
+            assert_eq!(ops[0], TraceOp::Visit { addr: header, kind: FetchKind::BvhHeader });
             if ops.len() > 1 {
                 // World box hit: the TLAS root is pushed and popped before its visit.
                 assert_eq!(
@@ -798,19 +798,19 @@ mod tests {
                     [
                         TraceOp::Push(INTERNAL_BASE),
                         TraceOp::Pop(INTERNAL_BASE),
-                        TraceOp::Visit { addr: INTERNAL_BASE, kind: NodeKind::Internal }
+                        TraceOp::Visit { addr: INTERNAL_BASE, kind: FetchKind::Internal }
                     ]
                 );
             }
             for (k, w) in ops.windows(5).enumerate() {
-                if let TraceOp::Visit { kind: NodeKind::Instance, addr } = w[0] {
+                if let TraceOp::Visit { kind: FetchKind::Instance, addr } = w[0] {
                     instances += 1;
                     // Every instance leaf was pushed (vulkansim pushes leaves) and popped just before.
                     assert_eq!(ops[k - 1], TraceOp::Pop(addr));
-                    assert!(matches!(w[1], TraceOp::Visit { kind: NodeKind::BvhHeader, .. }));
+                    assert!(matches!(w[1], TraceOp::Visit { kind: FetchKind::BvhHeader, .. }));
                     let TraceOp::Push(root) = w[2] else { panic!("BLAS root not pushed: {w:?}") };
                     assert_eq!(w[3], TraceOp::Pop(root));
-                    assert_eq!(w[4], TraceOp::Visit { addr: root, kind: NodeKind::Internal });
+                    assert_eq!(w[4], TraceOp::Visit { addr: root, kind: FetchKind::Internal });
                 }
             }
         }

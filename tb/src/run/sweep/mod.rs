@@ -4,7 +4,7 @@
 //! ```text
 //!   scenes ──► for each scene: load, build the Workload once
 //!                 │
-//!                 ▼  --jobs threads take (configuration, L1D size) runs off a shared queue,
+//!                 ▼  --jobs threads (one rayon pool, [`crate::run::pool`]) run every (configuration, L1D size),
 //!                 │  plus one pass that records the stack-depth histogram
 //!              Sweep { scenes, runs (sorted by scene, then plan order) }
 //!                 │
@@ -19,7 +19,6 @@
 
 mod progress;
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -30,6 +29,7 @@ use serde::Serialize;
 pub use progress::Progress;
 
 use crate::error::{Error, Result};
+use crate::run::pool;
 use crate::run::sampling::SamplePlan;
 use crate::run::sim::{share_of, simulate, simulate_sampled, Fidelity, Hardware, Metric, Outcome, RunSpec};
 use crate::workload::depth::{DepthHistogram, DepthReport};
@@ -463,22 +463,14 @@ fn run_scene(
     progress: &Progress,
 ) -> Result<(Vec<Measured>, DepthHistogram)> {
     // Index `variants.len()` is the depth pass.
-    let next = AtomicUsize::new(0);
-    let failed = AtomicBool::new(false);
-    let slots: Mutex<Vec<Option<Measured>>> = Mutex::new(vec![None; variants.len()]);
     let depth = Mutex::new(DepthHistogram::default());
-    let error: Mutex<Option<Error>> = Mutex::new(None);
-    let worker = || loop {
-        let i = next.fetch_add(1, Ordering::Relaxed);
-        if i > variants.len() || failed.load(Ordering::Relaxed) {
-            return;
-        }
+    let results = pool::map_indexed(req.jobs, variants.len() + 1, |i| -> Result<Option<Measured>> {
         if i == variants.len() {
             let label = format!("{scene} depth");
             if known.is_some() {
                 // Counted as a run of the progress total, with nothing to do.
                 progress.done(&format!("{label} (shared workload)"));
-                continue;
+                return Ok(None);
             }
             progress.started(&label);
             let mut h = DepthHistogram::default();
@@ -488,32 +480,19 @@ fn run_scene(
             }
             *depth.lock().expect("depth lock") = h;
             progress.done(&label);
-            continue;
+            return Ok(None);
         }
         let v = variants[i];
         let label = format!("{scene} {}", v.name());
         progress.started(&label);
         let hw = Hardware { mem: rtl::mem::MemParams { l1d_bytes: v.l1d_kb * 1024, ..hw.mem }, ..*hw };
         let spec = RunSpec { config: v.config, hw, fidelity: Fidelity::Cycle };
-        match simulate_variant(req, &spec, workload, progress) {
-            Ok(o) => slots.lock().expect("slots lock")[i] = Some(o),
-            Err(e) => {
-                failed.store(true, Ordering::Relaxed);
-                error.lock().expect("error lock").get_or_insert(Error::Invalid(format!("{label}: {e}")));
-            }
-        }
+        let r = simulate_variant(req, &spec, workload, progress)
+            .map_err(|e| Error::Invalid(format!("{label}: {e}")));
         progress.done(&label);
-    };
-    std::thread::scope(|s| {
-        for _ in 0..req.jobs.max(1) {
-            s.spawn(worker);
-        }
+        r.map(Some)
     });
-    if let Some(e) = error.into_inner().expect("error lock") {
-        return Err(e);
-    }
-    let outcomes =
-        slots.into_inner().expect("slots lock").into_iter().map(|o| o.expect("every run finished")).collect();
+    let outcomes = results.into_iter().collect::<Result<Vec<_>>>()?.into_iter().flatten().collect();
     Ok((outcomes, known.unwrap_or_else(|| depth.into_inner().expect("depth lock"))))
 }
 

@@ -11,8 +11,8 @@ use rtl::stack_manager::{Cmd, StackError, StackManager};
 use rtl::stack_unit::{StandaloneStack, UnitStats};
 use rtl::trace::{Probe, Sink};
 
-use crate::invariants::{check_thread, check_warp, check_warp_exit, fail, Property, Violation};
-use crate::reference::RefStack;
+use super::invariants::{check_thread, check_warp, check_warp_exit, fail, Property, Violation};
+use super::reference::RefStack;
 
 /// One stack operation of a thread's stream; the stream ends with an implied finish.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -133,23 +133,23 @@ impl Default for CycleOpts {
 
 /// Why a cycle-level run stopped.
 #[derive(Debug)]
-pub enum RunError {
+pub enum HarnessError {
     Violation { cycle: u64, violation: Violation },
     Stack { cycle: u64, error: StackError },
     Timeout { cycles: u64 },
 }
 
-impl std::fmt::Display for RunError {
+impl std::fmt::Display for HarnessError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            RunError::Violation { cycle, violation } => write!(f, "cycle {cycle}: {violation}"),
-            RunError::Stack { cycle, error } => write!(f, "cycle {cycle}: {error}"),
-            RunError::Timeout { cycles } => write!(f, "no progress after {cycles} cycles"),
+            HarnessError::Violation { cycle, violation } => write!(f, "cycle {cycle}: {violation}"),
+            HarnessError::Stack { cycle, error } => write!(f, "cycle {cycle}: {error}"),
+            HarnessError::Timeout { cycles } => write!(f, "no progress after {cycles} cycles"),
         }
     }
 }
 
-impl std::error::Error for RunError {}
+impl std::error::Error for HarnessError {}
 
 /// What a cycle-level run did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -183,7 +183,7 @@ pub fn run_cycle<I, S>(
     work: I,
     opts: CycleOpts,
     sink: &mut S,
-) -> Result<RunSummary, RunError>
+) -> Result<RunSummary, HarnessError>
 where
     I: IntoIterator<Item = WarpWork>,
     S: Sink,
@@ -196,7 +196,7 @@ where
     let mut summary = RunSummary::default();
     let mut cmds: Vec<(u32, Cmd)> = Vec::new();
     let mut exhausted = false;
-    let violation = |cycle, violation| RunError::Violation { cycle, violation };
+    let violation = |cycle, violation| HarnessError::Violation { cycle, violation };
     loop {
         let now = unit.cycle;
         for (w, slot) in slots.iter_mut().enumerate() {
@@ -258,7 +258,7 @@ where
         for &(t, cmd) in &cmds {
             let got = unit.answer(t);
             if let Err(error @ StackError::SpillRegionFull { .. }) = got {
-                return Err(RunError::Stack { cycle: now, error });
+                return Err(HarnessError::Stack { cycle: now, error });
             }
             sb.check(t, cmd, got).map_err(|v| violation(now, v))?;
         }
@@ -287,7 +287,7 @@ where
             summary.skipped_cycles += unit.skip_to_next_event(earliest);
         }
         if unit.cycle >= opts.max_cycles {
-            return Err(RunError::Timeout { cycles: unit.cycle });
+            return Err(HarnessError::Timeout { cycles: unit.cycle });
         }
     }
     summary.stats = unit.stats();

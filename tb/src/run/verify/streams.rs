@@ -1,6 +1,6 @@
 //! Deterministic random stack streams: valid push/pop histories that end empty.
 
-use crate::harness::{mix, Op, WarpWork};
+use super::harness::{mix, Op, WarpWork};
 
 /// A stream that climbs to about `peak` entries (with random pushes and pops on the way), wanders,
 /// and drains. Values are unique per (seed, position), so a lost, duplicated or reordered entry

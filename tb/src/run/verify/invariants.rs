@@ -5,7 +5,7 @@
 
 use rtl::stack_manager::StackManager;
 
-use crate::reference::RefStack;
+use super::reference::RefStack;
 
 /// The properties of issue 6, one name each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -5,7 +5,7 @@
 //! pop, finish — invalid ones included: the design must refuse them) or the completion of one
 //! pending micro-op of a busy thread. So every interleaving of commands *and* of micro-ops across
 //! threads is covered, including a release racing a borrow. Equal states (design + reference) are
-//! explored once (state hashing). After every action the properties of [`crate::invariants`] are
+//! explored once (state hashing). After every action the properties of [`super::invariants`] are
 //! checked; the first violation comes back with the shortest action sequence that reaches it.
 //!
 //! Push values come from a small alphabet: the stack manager never branches on an entry's value
@@ -19,8 +19,8 @@ use std::time::{Duration, Instant};
 use rtl::config::Config;
 use rtl::stack_manager::{Cmd, StackManager};
 
-use crate::harness::Scoreboard;
-use crate::invariants::{check_thread, check_warp_exit, check_warp_fields, Violation};
+use super::harness::Scoreboard;
+use super::invariants::{check_thread, check_warp_exit, check_warp_fields, Violation};
 
 /// One step of an explored sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
