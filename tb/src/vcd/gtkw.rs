@@ -204,7 +204,8 @@ pub fn write(
             set_flags(&mut f, format.flags())?;
             if let Format::Names { name, .. } = format {
                 let index = filters.iter().position(|n| *n == name).unwrap_or(0) + 1;
-                writeln!(f, "^{index} {}", dir.join(filter_file(name)).display())?;
+                // Written beside the save file, so named by file name (resolved as the dump is).
+                writeln!(f, "^{index} {}", filter_file(name))?;
             }
             if *width == 1 {
                 writeln!(f, "{path}")?;
