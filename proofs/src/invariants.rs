@@ -31,6 +31,11 @@ pub enum Property {
     WarpExit,
     /// The request sequences of SPEC section 3.
     RequestSequence,
+    /// A command's program reads only live data: every SH load an entry inside its stack's
+    /// Bottom..Top when the command is accepted (or stored earlier by the same program), every
+    /// global load a slot below the thread's spill pointer. The exhaustive search relies on it
+    /// to ignore stale memory words (see [`crate::exhaustive`]).
+    LiveReads,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq)]
