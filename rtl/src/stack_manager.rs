@@ -322,6 +322,9 @@ pub enum Mutant {
     FlushKeepsCount,
     /// A drained borrowed stack turns Idle when the pop is planned, before its last entry is read.
     EagerRelease,
+    /// Skew wrong for one M: with M = 2 every lane starts at entry `lane % 2` whatever the
+    /// bank count (right only when 2M ≥ banks / words per entry).
+    SkewWrongForOneM,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -607,7 +610,7 @@ impl StackManager {
         let ws = self.cfg.warp_size;
         for lane in 0..ws {
             let t = (w * ws + lane) as usize;
-            let base = self.cfg.skew_base(lane);
+            let base = self.skew_base(lane);
             let on = active & (1 << lane) != 0;
             self.threads[t] = ThreadRegs { overflow: false, spill_ptr: 0, done: !on };
             self.stacks[t] = StackRegs {
@@ -624,6 +627,14 @@ impl StackManager {
             self.sync_queued(t as u32);
             self.global[t].clear();
         }
+    }
+
+    /// The base entry of `lane`'s stack ([`Config::skew_base`]).
+    fn skew_base(&self, lane: u32) -> u32 {
+        if self.mutant(MutantTag::SkewWrongForOneM) && self.cfg.skew && self.cfg.sh_entries == 2 {
+            return lane % 2;
+        }
+        self.cfg.skew_base(lane)
     }
 
     #[inline(always)]
@@ -1122,7 +1133,7 @@ impl<'a> Planner<'a> {
         let base = self.warp_base(t);
         let lane = s - base;
         let anchor = self.get(t);
-        let b = self.cfg().skew_base(lane);
+        let b = self.m.skew_base(lane);
         self.set(
             s,
             StackRegs {
@@ -1352,6 +1363,7 @@ enum MutantTag {
     SkipOverflowClear,
     FlushKeepsCount,
     EagerRelease,
+    SkewWrongForOneM,
 }
 
 #[cfg(feature = "mutants")]
@@ -1366,6 +1378,7 @@ impl From<Mutant> for MutantTag {
             Mutant::SkipOverflowClear => MutantTag::SkipOverflowClear,
             Mutant::FlushKeepsCount => MutantTag::FlushKeepsCount,
             Mutant::EagerRelease => MutantTag::EagerRelease,
+            Mutant::SkewWrongForOneM => MutantTag::SkewWrongForOneM,
         }
     }
 }

@@ -51,7 +51,7 @@ pub struct Args {
     /// Plant a stack-manager bug to watch the checker catch it (needs a build with `--features
     /// mutants`): queue-wrap-off-by-one, reload-wrong-entry, spill-drops-entry,
     /// missing-global-reload, early-release, skip-overflow-clear, flush-keeps-count,
-    /// eager-release.
+    /// eager-release, skew-wrong-for-one-m.
     #[arg(long)]
     pub mutant: Option<String>,
     /// Prove instead of search: explore every configuration of the full set (the small grid
@@ -89,7 +89,8 @@ fn design(name: Option<&str>) -> Result<Design> {
         "early-release" => EarlyRelease,
         "skip-overflow-clear" => SkipOverflowClear,
         "flush-keeps-count" => FlushKeepsCount,
-        "eager-release" => EagerRelease
+        "eager-release" => EagerRelease,
+        "skew-wrong-for-one-m" => SkewWrongForOneM
     )
 }
 
