@@ -125,3 +125,45 @@ fn cover_goals_follow_the_features() {
     assert!(Goal::RotatedRelease.applies(&three) && Goal::Borrow.applies(&three));
     assert!(!Goal::SkewBase.applies(&three), "32 banks: every base is 0");
 }
+
+/// New planted bugs (issue 14 item 5), each caught by the fixpoint search of a configuration of
+/// the full set, by the property named.
+#[test]
+fn new_mutants_are_caught_by_the_fixpoint_search() {
+    let ra2 =
+        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some());
+    let plain =
+        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_none());
+    let cases = [
+        (ra2, default_cap(&ra2), Mutant::PriorityKeptOnRelease, Property::Chains),
+        // Two global entries are needed to clear Overflow one pop early.
+        (plain, default_cap(&plain) + 1, Mutant::OverflowClearedEarly, Property::Overflow),
+    ];
+    for (c, cap, m, expected) in cases {
+        let cex = check(c, Bounds::fixpoint(cap), |sm| sm.with_mutant(Some(m)))
+            .unwrap_err_or_else(|| panic!("{m:?} survived on {}", describe(&c)));
+        println!(
+            "{m:?} on {}: caught by {:?} after {} actions",
+            describe(&c),
+            cex.violation.property,
+            cex.trace.len()
+        );
+        assert_eq!(cex.violation.property, expected, "{m:?}");
+    }
+}
+
+trait UnwrapErr<E> {
+    fn unwrap_err_or_else(self, f: impl FnOnce()) -> E;
+}
+
+impl<T, E> UnwrapErr<E> for Result<T, E> {
+    fn unwrap_err_or_else(self, f: impl FnOnce()) -> E {
+        match self {
+            Ok(_) => {
+                f();
+                unreachable!()
+            }
+            Err(e) => e,
+        }
+    }
+}

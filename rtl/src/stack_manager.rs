@@ -325,6 +325,10 @@ pub enum Mutant {
     /// Skew wrong for one M: with M = 2 every lane starts at entry `lane % 2` whatever the
     /// bank count (right only when 2M ≥ banks / words per entry).
     SkewWrongForOneM,
+    /// A released stack keeps its Priority (rank in the chain it left).
+    PriorityKeptOnRelease,
+    /// Overflow is cleared when one global entry is still left (one pop early).
+    OverflowClearedEarly,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -1158,7 +1162,8 @@ impl<'a> Planner<'a> {
         let r = self.get(pred);
         self.set(pred, StackRegs { next_tid: next, ..r });
         let r = self.get(s);
-        self.set(s, StackRegs { next_tid: s - base, priority: 0, ..r });
+        let priority = if self.mutant(MutantTag::PriorityKeptOnRelease) { r.priority } else { 0 };
+        self.set(s, StackRegs { next_tid: s - base, priority, ..r });
         self.reset_flush(s);
     }
 
@@ -1330,9 +1335,10 @@ impl<'a> Planner<'a> {
 
     fn release_spill_slot(&mut self) -> u32 {
         let skip_clear = self.mutant(MutantTag::SkipOverflowClear);
+        let early = u32::from(self.mutant(MutantTag::OverflowClearedEarly));
         let th = &mut self.th;
         th.spill_ptr = th.spill_ptr.wrapping_sub(1);
-        if th.spill_ptr == 0 && !skip_clear {
+        if th.spill_ptr <= early && !skip_clear {
             th.overflow = false;
         }
         th.spill_ptr
@@ -1364,6 +1370,8 @@ enum MutantTag {
     FlushKeepsCount,
     EagerRelease,
     SkewWrongForOneM,
+    PriorityKeptOnRelease,
+    OverflowClearedEarly,
 }
 
 #[cfg(feature = "mutants")]
@@ -1379,6 +1387,8 @@ impl From<Mutant> for MutantTag {
             Mutant::FlushKeepsCount => MutantTag::FlushKeepsCount,
             Mutant::EagerRelease => MutantTag::EagerRelease,
             Mutant::SkewWrongForOneM => MutantTag::SkewWrongForOneM,
+            Mutant::PriorityKeptOnRelease => MutantTag::PriorityKeptOnRelease,
+            Mutant::OverflowClearedEarly => MutantTag::OverflowClearedEarly,
         }
     }
 }

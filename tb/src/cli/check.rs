@@ -51,7 +51,7 @@ pub struct Args {
     /// Plant a stack-manager bug to watch the checker catch it (needs a build with `--features
     /// mutants`): queue-wrap-off-by-one, reload-wrong-entry, spill-drops-entry,
     /// missing-global-reload, early-release, skip-overflow-clear, flush-keeps-count,
-    /// eager-release, skew-wrong-for-one-m.
+    /// eager-release, skew-wrong-for-one-m, priority-kept-on-release, overflow-cleared-early.
     #[arg(long)]
     pub mutant: Option<String>,
     /// Prove instead of search: explore every configuration of the full set (the small grid
@@ -90,7 +90,9 @@ fn design(name: Option<&str>) -> Result<Design> {
         "skip-overflow-clear" => SkipOverflowClear,
         "flush-keeps-count" => FlushKeepsCount,
         "eager-release" => EagerRelease,
-        "skew-wrong-for-one-m" => SkewWrongForOneM
+        "skew-wrong-for-one-m" => SkewWrongForOneM,
+        "priority-kept-on-release" => PriorityKeptOnRelease,
+        "overflow-cleared-early" => OverflowClearedEarly
     )
 }
 
