@@ -134,10 +134,15 @@ fn new_mutants_are_caught_by_the_fixpoint_search() {
         find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some());
     let plain =
         find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_none());
+    let three =
+        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 4 && c.realloc.is_some());
     let cases = [
         (ra2, default_cap(&ra2), Mutant::PriorityKeptOnRelease, Property::Chains),
         // Two global entries are needed to clear Overflow one pop early.
         (plain, default_cap(&plain) + 1, Mutant::OverflowClearedEarly, Property::Overflow),
+        // Escaped the bounded search (depth 9 on 4-thread warps); the fixpoint finds the
+        // 14-action race of three threads.
+        (three, default_cap(&three), Mutant::EagerRelease, Property::Conservation),
     ];
     for (c, cap, m, expected) in cases {
         let cex = check(c, Bounds::fixpoint(cap), |sm| sm.with_mutant(Some(m)))
