@@ -10,7 +10,7 @@ use tb::run::verify::invariants::Property;
 /// sequences), 4-thread warps cover more interleavings at a smaller depth.
 fn bounds(c: &Config) -> Bounds {
     let depth = if c.warp_size == 2 { 16 } else { 9 };
-    Bounds { depth, values: 2, max_states: 5_000_000 }
+    Bounds { depth, values: 2, max_states: 5_000_000, cap: None }
 }
 
 fn run(c: Config) -> Coverage {

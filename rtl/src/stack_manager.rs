@@ -389,11 +389,18 @@ pub enum Mutant {
     FlushKeepsCount,
     /// A drained borrowed stack turns Idle when the pop is planned, before its last entry is read.
     EagerRelease,
+    /// Skew wrong for one M: with M = 2 every lane starts at entry `lane % 2` whatever the
+    /// bank count (right only when 2M ≥ banks / words per entry).
+    SkewWrongForOneM,
+    /// A released stack keeps its Priority (rank in the chain it left).
+    PriorityKeptOnRelease,
+    /// Overflow is cleared when one global entry is still left (one pop early).
+    OverflowClearedEarly,
 }
 
 impl Mutant {
     /// Every mutant, in declaration order (the order of [`Self::NAMES`]).
-    pub const ALL: [Mutant; 8] = [
+    pub const ALL: [Mutant; 11] = [
         Mutant::QueueWrapOffByOne,
         Mutant::ReloadWrongEntry,
         Mutant::SpillDropsEntry,
@@ -402,6 +409,9 @@ impl Mutant {
         Mutant::SkipOverflowClear,
         Mutant::FlushKeepsCount,
         Mutant::EagerRelease,
+        Mutant::SkewWrongForOneM,
+        Mutant::PriorityKeptOnRelease,
+        Mutant::OverflowClearedEarly,
     ];
 }
 
@@ -414,7 +424,10 @@ named_enum!(
     Mutant::EarlyRelease => "early-release",
     Mutant::SkipOverflowClear => "skip-overflow-clear",
     Mutant::FlushKeepsCount => "flush-keeps-count",
-    Mutant::EagerRelease => "eager-release"
+    Mutant::EagerRelease => "eager-release",
+    Mutant::SkewWrongForOneM => "skew-wrong-for-one-m",
+    Mutant::PriorityKeptOnRelease => "priority-kept-on-release",
+    Mutant::OverflowClearedEarly => "overflow-cleared-early"
 );
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -709,7 +722,7 @@ impl StackManager {
         let ws = self.cfg.warp_size;
         for lane in 0..ws {
             let t = (w * ws + lane) as usize;
-            let base = self.cfg.skew_base(lane);
+            let base = self.skew_base(lane);
             let on = active & (1 << lane) != 0;
             self.threads[t] = ThreadRegs { overflow: false, spill_ptr: 0, done: !on };
             self.stacks[t] = StackRegs {
@@ -726,6 +739,14 @@ impl StackManager {
             self.sync_queued(t as u32);
             self.global[t].clear();
         }
+    }
+
+    /// The base entry of `lane`'s stack ([`Config::skew_base`]).
+    fn skew_base(&self, lane: u32) -> u32 {
+        if self.mutant(Mutant::SkewWrongForOneM) && self.cfg.skew && self.cfg.sh_entries == 2 {
+            return lane % 2;
+        }
+        self.cfg.skew_base(lane)
     }
 
     #[inline(always)]
@@ -1234,7 +1255,7 @@ impl<'a> Planner<'a> {
         let base = self.warp_base(t);
         let lane = s - base;
         let anchor = self.get(t);
-        let b = self.cfg().skew_base(lane);
+        let b = self.m.skew_base(lane);
         self.set(
             s,
             StackRegs {
@@ -1259,7 +1280,8 @@ impl<'a> Planner<'a> {
         let r = self.get(pred);
         self.set(pred, StackRegs { next_tid: next, ..r });
         let r = self.get(s);
-        self.set(s, StackRegs { next_tid: s - base, priority: 0, ..r });
+        let priority = if self.mutant(Mutant::PriorityKeptOnRelease) { r.priority } else { 0 };
+        self.set(s, StackRegs { next_tid: s - base, priority, ..r });
         self.reset_flush(s);
     }
 
@@ -1428,9 +1450,10 @@ impl<'a> Planner<'a> {
 
     fn release_spill_slot(&mut self) -> u32 {
         let skip_clear = self.mutant(Mutant::SkipOverflowClear);
+        let early = u32::from(self.mutant(Mutant::OverflowClearedEarly));
         let th = &mut self.th;
         th.spill_ptr = th.spill_ptr.wrapping_sub(1);
-        if th.spill_ptr == 0 && !skip_clear {
+        if th.spill_ptr <= early && !skip_clear {
             th.overflow = false;
         }
         th.spill_ptr

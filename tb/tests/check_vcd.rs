@@ -39,7 +39,7 @@ fn replay(
 
 #[test]
 fn counterexample_dump_replays_the_buggy_registers() {
-    let bounds = Bounds { depth: 16, values: 2, max_states: 1_000_000 };
+    let bounds = Bounds { depth: 16, values: 2, max_states: 1_000_000, cap: None };
     let cex = check(cfg(), bounds, reload_wrong_entry).expect_err("the planted bug is caught");
     let dir = TmpDir::new("check-vcd", "cex");
     let path = dir.join("cex.vcd");

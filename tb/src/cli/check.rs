@@ -1,8 +1,13 @@
-//! `sms check`: the exhaustive bounded model checker, with bounds from the command line.
+//! `sms check`: the exhaustive model checker. By default a bounded search over a grid of small
+//! configurations (bounds from the command line); with `--full`, every configuration of
+//! [`crate::run::verify::exhaustive::full_configs`] explored to its fixpoint under a depth cap, every cover
+//! goal asserted.
 
 use std::path::{Path, PathBuf};
 
-use crate::run::verify::exhaustive::{check, describe, Action, Bounds, Coverage, Model};
+use crate::run::verify::exhaustive::{
+    check, default_cap, describe, full_configs, Action, Bounds, Coverage, Model,
+};
 use anyhow::{bail, Result};
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Mutant, StackManager};
@@ -49,6 +54,16 @@ pub struct Args {
     /// mutants`).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Mutant::NAMES))]
     pub mutant: Option<String>,
+    /// Prove instead of search: explore every configuration of the full set (the small grid
+    /// plus skewed ones with 4 and 8 banks) to its fixpoint, every interleaving unbounded in
+    /// time, under a cap on the entries the warp holds; a cover goal never reached fails the run.
+    /// Ignores --rb, --sh, --warp-size, --borrow, --depth and --wide-depth.
+    #[arg(long)]
+    pub full: bool,
+    /// With --full: the cap on the entries the warp holds (default per configuration: RB + SH
+    /// × (1 + borrow limit) + 1, enough to fill a whole chain and reach global memory).
+    #[arg(long)]
+    pub cap: Option<u32>,
 }
 
 /// The planted bug `--mutant` names, if any.
@@ -133,6 +148,12 @@ pub fn run(args: Args) -> Result<()> {
     if args.values < 2 {
         bail!("--values {}: at least 2 distinct values are needed to see entries reordered", args.values);
     }
+    if args.cap == Some(0) {
+        bail!("--cap 0: the warp must be able to hold at least one entry");
+    }
+    if args.full {
+        return run_full(&args);
+    }
     let configs = grid(&args)?;
     let design = design(mutant(args.mutant.as_deref())?);
     let mut t = Table::new([
@@ -151,7 +172,7 @@ pub fn run(args: Args) -> Result<()> {
     for c in &configs {
         let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
         eprintln!("checking {} to depth {depth} ...", describe(c));
-        let bounds = Bounds { depth, values: args.values, max_states: args.max_states };
+        let bounds = Bounds { depth, values: args.values, max_states: args.max_states, cap: None };
         match check(*c, bounds, design) {
             Ok(cov) => t.row([
                 describe(c),
@@ -186,6 +207,80 @@ pub fn run(args: Args) -> Result<()> {
     print!("{}", t.to_text());
     println!(
         "all properties hold on {} configurations ({:.1} s)",
+        configs.len(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// `--full`: every configuration of the full set to its fixpoint, every cover goal asserted.
+fn run_full(args: &Args) -> Result<()> {
+    let design = design(mutant(args.mutant.as_deref())?);
+    let mut t = Table::new([
+        "configuration",
+        "cap",
+        "states",
+        "depth",
+        "seconds",
+        "peak frontier",
+        "visited MB",
+        "fixpoint",
+        "covers missing",
+    ]);
+    let started = std::time::Instant::now();
+    let mut failed = Vec::new();
+    let configs = full_configs();
+    for c in &configs {
+        let cap = args.cap.unwrap_or_else(|| default_cap(c));
+        eprintln!("proving {} under cap {cap} ...", describe(c));
+        let bounds = Bounds { values: args.values, max_states: args.max_states, ..Bounds::fixpoint(cap) };
+        let cov = match check(*c, bounds, design) {
+            Ok(cov) => cov,
+            Err(cex) => {
+                print!("{}", t.to_text());
+                if let Some(path) = &args.vcd {
+                    dump_counterexample(*c, design, &cex.trace, path)?;
+                }
+                bail!(
+                    "{}: property violated; shortest counterexample ({} actions):\n{cex}",
+                    describe(c),
+                    cex.trace.len()
+                );
+            }
+        };
+        let missing = cov.covers.missing(c);
+        eprintln!(
+            "  {} states, depth {}, {:.2} s, fixpoint {}, missing {missing:?}",
+            cov.states,
+            cov.depth_reached,
+            cov.elapsed.as_secs_f64(),
+            cov.fixpoint
+        );
+        if !cov.fixpoint || !missing.is_empty() {
+            failed.push(describe(c));
+        }
+        t.row([
+            describe(c),
+            cap.to_string(),
+            cov.states.to_string(),
+            cov.depth_reached.to_string(),
+            format!("{:.2}", cov.elapsed.as_secs_f64()),
+            cov.peak_frontier.to_string(),
+            format!("{:.1}", cov.visited_bytes as f64 / 1e6),
+            if cov.fixpoint { "yes".into() } else { "state cap".into() },
+            if missing.is_empty() {
+                "-".into()
+            } else {
+                missing.iter().map(|g| format!("{g:?}")).collect::<Vec<_>>().join(" ")
+            },
+        ]);
+    }
+    print!("{}", t.to_text());
+    if !failed.is_empty() {
+        bail!("not proved (state cap hit or a cover goal missed): {}", failed.join(", "));
+    }
+    println!(
+        "every property proved on {} configurations to the fixpoint, every cover reached ({:.1} s)",
         configs.len(),
         started.elapsed().as_secs_f64()
     );

@@ -1,26 +1,56 @@
-//! Exhaustive bounded model checking on stable Rust.
+//! Exhaustive model checking on stable Rust: bounded search, or exploration to a fixpoint.
 //!
-//! Breadth-first over every sequence of actions up to a bound, for one warp of a small
-//! configuration. An action is either a command from a ready thread (push of one of a few values,
-//! pop, finish — invalid ones included: the design must refuse them) or the completion of one
-//! pending micro-op of a busy thread. So every interleaving of commands *and* of micro-ops across
-//! threads is covered, including a release racing a borrow. Equal states (design + reference) are
-//! explored once (state hashing). After every action the properties of [`super::invariants`] are
-//! checked; the first violation comes back with the shortest action sequence that reaches it.
+//! Breadth-first over every sequence of actions, for one warp of a small configuration. An
+//! action is either a command from a ready thread (push of one of a few values, pop, finish —
+//! invalid ones included: the design must refuse them) or the completion of one pending
+//! micro-op of a busy thread. So every interleaving of commands *and* of micro-ops across
+//! threads is covered, including a release racing a borrow. Equal states (design + reference)
+//! are explored once. After every action the properties of [`super::invariants`] are checked;
+//! the first violation comes back with the shortest action sequence that reaches it.
 //!
-//! Push values come from a small alphabet: the stack manager never branches on an entry's value
-//! (data independence), so two distinct values suffice to expose a lost, duplicated or reordered
-//! entry, while keeping equal states equal.
-
+//! **Fixpoint.** With [`Bounds::fixpoint`] there is no bound on the number of actions: the
+//! search runs until a BFS level brings no new state, so every state reachable while the warp
+//! holds at most `cap` entries has been visited and checked — a proof for that configuration
+//! under that cap, for every interleaving and unbounded in time. The cap bounds the *logical*
+//! stack depth (pushes are offered only while the warp holds fewer than `cap` entries); pops,
+//! finishes and micro-op completions are always offered. [`default_cap`] picks a cap that
+//! fills a whole chain and reaches global memory.
+//!
+//! **What a state is.** The state key ([`Model::key`]) covers what decides future behaviour
+//! and nothing else: no event counter (`stats`, `pops_checked`: equal states reached by
+//! different paths would otherwise count as different and the search would never close), and
+//! no stale memory word (a popped SH entry or global slot keeps its old value, which the design
+//! never reads again — [`Property::LiveReads`], checked on every accepted command, makes that
+//! an obligation rather than an assumption). States are stored as 128-bit hashes (hash
+//! compaction); the visited set plus the predecessor table (for counterexample traces) cost
+//! about 25 bytes a state.
+//!
+//! **Why two push values suffice.** The stack manager is data independent: it moves entries
+//! between RB, SH and global memory and compares none of them (no branch, address or register
+//! depends on an entry's value — [`Model::key`] would otherwise need the values anyway). For a
+//! data-independent design, a run that loses, duplicates or reorders an entry does the same to
+//! any renaming of the pushed values; renaming the entry concerned to 1 and everything else to 2
+//! (or the two reordered entries to 1 and 2) keeps the run a run of the design and keeps the
+//! wrong answer wrong against the reference. So every Conservation or Equivalence failure with
+//! arbitrary values has one with values {1, 2} (Wolper's data-independence argument, POPL 1986).
+//!
+//! **No lane symmetry.** Lanes of a warp are not interchangeable here: a borrower takes the
+//! *lowest-numbered* idle stack (`first_idle`), a chain's ring order follows Next TID, and with
+//! skew each lane's stack starts at its own base entry. Permuting lanes changes which stack is
+//! lent and where entries land, so merging lane-permuted states would be unsound; the search
+//! does not do it.
+//!
 use std::collections::{HashMap, HashSet};
 use std::hash::{Hash, Hasher};
 use std::time::{Duration, Instant};
 
 use rtl::config::Config;
-use rtl::stack_manager::{Cmd, StackManager};
+use rtl::stack_manager::{Cmd, Src, StackManager, StackRegs, StackStats, Uop};
 
 use super::harness::Scoreboard;
-use super::invariants::{check_thread, check_warp_exit, check_warp_fields, Violation};
+use super::invariants::{
+    check_placement, check_thread, check_warp_exit, check_warp_fields, fail, Property, Violation,
+};
 
 /// One step of an explored sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -33,12 +63,115 @@ pub enum Action {
 /// Bounds of one exhaustive run.
 #[derive(Clone, Copy, Debug)]
 pub struct Bounds {
-    /// Longest action sequence.
+    /// Longest action sequence (BFS level); `u32::MAX` explores to the fixpoint.
     pub depth: u32,
     /// Distinct push values (≥ 2 to see reordering).
     pub values: u32,
     /// Stop early when this many distinct states have been seen.
     pub max_states: usize,
+    /// Cap on the warp's logical stack depth: the sum over its threads of the entries each
+    /// holds. A push is offered only while the warp holds fewer entries; `None` = no cap.
+    pub cap: Option<u32>,
+}
+
+impl Default for Bounds {
+    fn default() -> Self {
+        Bounds { depth: u32::MAX, values: 2, max_states: usize::MAX, cap: None }
+    }
+}
+
+impl Bounds {
+    /// Every interleaving, unbounded in time, under the depth cap `cap`: a proof for the
+    /// configuration when the run reaches its fixpoint ([`Coverage::fixpoint`]).
+    pub fn fixpoint(cap: u32) -> Bounds {
+        Bounds { cap: Some(cap), ..Bounds::default() }
+    }
+}
+
+/// The depth cap of a configuration's fixpoint run: enough entries for one thread to fill its RB
+/// and a full chain of 1 + borrow-limit SH stacks and put one entry in global memory (RB_FULL:
+/// three entries). Two-thread warps with reallocation and M = 1 get 2 more, so the chain's two
+/// stacks are each flushed once and the first a second time (flush saturation).
+pub fn default_cap(c: &Config) -> u32 {
+    let chain = 1 + c.realloc.map_or(0, |r| r.borrow_limit);
+    let extra = if c.realloc.is_some() && c.warp_size == 2 && c.sh_entries == 1 { 2 } else { 0 };
+    match c.rb.capacity() {
+        Some(n) => n + c.sh_entries * chain + 1 + extra,
+        None => 3,
+    }
+}
+
+/// The cover goals of issue 14, each a situation a run must reach (when the configuration has
+/// the feature) for its "all properties hold" to mean anything.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Goal {
+    /// A thread borrows an idle stack.
+    Borrow,
+    /// A borrowed stack is released from a rotated chain: it does not sit right after its
+    /// owner on the ring, or the ring order is not the priority order.
+    RotatedRelease,
+    /// A chain of 1 + borrow-limit stacks.
+    FullChain,
+    /// A whole SH stack is flushed to global memory.
+    Flush,
+    /// A flush of a stack whose flush count is at its limit.
+    FlushSaturation,
+    /// With reallocation on, a spill falls back to moving one entry SH → global.
+    PerEntryFallback,
+    /// A drained dedicated stack moves to the bottom of its chain.
+    Demotion,
+    /// A pop reloads from global memory into the oldest stack of a chain of two or more.
+    OldestReload,
+    /// A warp exits after one of its threads borrowed.
+    ExitAfterBorrow,
+    /// An SH access to a stack whose skewed base entry is not 0.
+    SkewBase,
+}
+
+impl Goal {
+    pub const ALL: [Goal; 10] = [
+        Goal::Borrow,
+        Goal::RotatedRelease,
+        Goal::FullChain,
+        Goal::Flush,
+        Goal::FlushSaturation,
+        Goal::PerEntryFallback,
+        Goal::Demotion,
+        Goal::OldestReload,
+        Goal::ExitAfterBorrow,
+        Goal::SkewBase,
+    ];
+
+    /// Whether `c` has the feature the goal needs (so it must be reached).
+    pub fn applies(self, c: &Config) -> bool {
+        let ra = c.realloc.is_some();
+        let finite = c.rb.capacity().is_some();
+        match self {
+            Goal::Borrow | Goal::FullChain | Goal::Demotion | Goal::ExitAfterBorrow => ra && finite,
+            Goal::Flush | Goal::FlushSaturation | Goal::PerEntryFallback | Goal::OldestReload => ra && finite,
+            // With one borrowed stack it always sits right after its owner, and the priorities
+            // then follow the ring at every release.
+            Goal::RotatedRelease => finite && c.realloc.is_some_and(|r| r.borrow_limit >= 2),
+            Goal::SkewBase => finite && (0..c.warp_size).any(|l| c.skew_base(l) != 0),
+        }
+    }
+}
+
+/// How often each [`Goal`] was reached.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Covers([u64; Goal::ALL.len()]);
+
+impl Covers {
+    pub fn hit(&mut self, g: Goal) {
+        self.0[g as usize] += 1;
+    }
+    pub fn count(&self, g: Goal) -> u64 {
+        self.0[g as usize]
+    }
+    /// Goals `c` needs that were never reached.
+    pub fn missing(&self, c: &Config) -> Vec<Goal> {
+        Goal::ALL.into_iter().filter(|&g| g.applies(c) && self.count(g) == 0).collect()
+    }
 }
 
 /// What an exhaustive run covered.
@@ -49,8 +182,16 @@ pub struct Coverage {
     /// Action sequences of every length up to the bound (counted through merged states).
     pub sequences: u128,
     pub depth_reached: u32,
+    /// The state cap was not hit.
     pub complete: bool,
+    /// No new state appeared: every reachable state (under the depth cap) was explored.
+    pub fixpoint: bool,
     pub elapsed: Duration,
+    /// Most states in one BFS level.
+    pub peak_frontier: usize,
+    /// Bytes of the visited set and the predecessor table at the end (the search's memory
+    /// besides the frontier).
+    pub visited_bytes: usize,
     /// How often the interesting paths were reached (none may be zero for a non-vacuous run
     /// when the configuration has the feature).
     pub borrows: u64,
@@ -58,6 +199,7 @@ pub struct Coverage {
     pub global_reloads: u64,
     pub releases: u64,
     pub warp_exits: u64,
+    pub covers: Covers,
 }
 
 /// A property violation and the shortest action sequence that reaches it.
@@ -82,24 +224,106 @@ impl std::fmt::Display for Counterexample {
 pub struct Model {
     pub sm: StackManager,
     pub sb: Scoreboard,
+    /// Per thread of the warp: what its sequencer's data latch holds, and the values its
+    /// pending global loads will read (captured when the command is accepted). Tracked here
+    /// from the micro-ops so the state key can leave stale memory out.
+    shadow: Vec<Shadow>,
+    /// Some thread of the warp borrowed on the way here: one bit of path history, part of the
+    /// state so the warp-exit-after-a-borrow cover is not lost when paths merge.
+    borrowed: bool,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+struct Shadow {
+    latch: Option<u64>,
+    global_loads: std::collections::VecDeque<u64>,
+}
+
+/// A fast 64-bit hasher (SplitMix64 finaliser per word); two seeds make a 128-bit state key.
+struct MixHasher(u64);
+
+impl Hasher for MixHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for c in bytes.chunks(8) {
+            let mut w = [0u8; 8];
+            w[..c.len()].copy_from_slice(c);
+            self.write_u64(u64::from_le_bytes(w) ^ (c.len() as u64) << 59);
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = super::harness::mix(self.0 ^ x);
+    }
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(x as u64 | 1 << 40);
+    }
+    fn write_u8(&mut self, x: u8) {
+        self.write_u64(x as u64 | 1 << 41);
+    }
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64 | 1 << 42);
+    }
 }
 
 impl Model {
     /// One warp of `cfg` (its `warps` is forced to 1).
     pub fn new(cfg: Config) -> Result<Model, rtl::config::ConfigError> {
         let cfg = Config { warps: 1, ..cfg };
-        Ok(Model { sm: StackManager::new(cfg, 0)?, sb: Scoreboard::new(cfg.threads()) })
+        Ok(Model {
+            sm: StackManager::new(cfg, 0)?,
+            sb: Scoreboard::new(cfg.threads()),
+            shadow: vec![Shadow::default(); cfg.warp_size as usize],
+            borrowed: false,
+        })
     }
 
-    fn key(&self) -> u128 {
-        let mut h1 = std::collections::hash_map::DefaultHasher::new();
-        let mut h2 = std::collections::hash_map::DefaultHasher::new();
-        0xA5u8.hash(&mut h2);
+    /// The state key: a 128-bit hash of everything that decides the warp's future behaviour —
+    /// thread and stack registers, RB entries, pending micro-ops, data latches, the values
+    /// pending global loads will read, the *live* SH entries (Bottom..Top of every non-empty
+    /// stack, and those pending loads will read), the live global slots (below the spill
+    /// pointer) and the reference stacks — and nothing else: no event counter, no stale word.
+    /// Leaving stale words out is sound because [`Property::LiveReads`] is checked on every
+    /// accepted command: a program reads only words that are live when it is accepted (or that
+    /// it stored itself), so two states with equal keys behave alike forever.
+    pub fn key(&self) -> u128 {
+        let mut h1 = MixHasher(0x5EED_0001);
+        let mut h2 = MixHasher(0xC0FF_EE02);
         for h in [&mut h1, &mut h2] {
-            self.sm.hash_state(h);
-            self.sb.hash(h);
+            self.hash_live(h);
         }
         (h1.finish() as u128) << 64 | h2.finish() as u128
+    }
+
+    fn hash_live<H: Hasher>(&self, h: &mut H) {
+        let sm = &self.sm;
+        let m = sm.config().sh_entries;
+        for t in sm.warp_threads(0) {
+            sm.thread(t).hash(h);
+            let st = sm.stack(t);
+            st.hash(h);
+            sm.rb(t).hash(h);
+            sm.global(t).hash(h);
+            if m > 0 && !st.empty {
+                let mut e = st.bottom;
+                for _ in 0..st.count(m) {
+                    sm.sh_entry(t, e).hash(h);
+                    e = (e + 1) % m;
+                }
+            }
+            h.write_u8(0xEE);
+            for u in sm.pending_uops(t) {
+                u.hash(h);
+                if let Uop::ShLoad { stack, entry } = *u {
+                    sm.sh_entry(stack, entry).hash(h);
+                }
+            }
+            h.write_u8(0xEF);
+        }
+        self.shadow.hash(h);
+        self.borrowed.hash(h);
+        self.sb.hash(h);
     }
 
     /// Applies `a` and checks every property. Returns false if `a` does not apply (a micro-op of
@@ -107,21 +331,50 @@ impl Model {
     pub fn act(&mut self, a: Action, cov: &mut Coverage) -> Result<bool, Violation> {
         let sm = &mut self.sm;
         let before = sm.stats;
+        let ra = sm.config().realloc;
+        // The chain before a pop, in ring order, for the rotated-release cover.
+        let ring_before = match a {
+            Action::Cmd(t, _) if ra.is_some() => Some(sm.chain(t)),
+            _ => None,
+        };
         match a {
             Action::Cmd(t, cmd) => {
+                let stacks: Vec<_> = sm.warp_threads(0).map(|s| *sm.stack(s)).collect();
+                let global = sm.global(t).to_vec();
                 let got = sm.accept(t, cmd);
                 self.sb.check(t, cmd, got)?;
+                let loads = live_reads(sm, t, &stacks, &global)?;
+                self.shadow[t as usize].global_loads = loads;
             }
             Action::Uop(t) => {
-                if !sm.complete_next(t) {
-                    return Ok(false);
+                let Some(&u) = sm.pending_uops(t).next() else { return Ok(false) };
+                let sh = &mut self.shadow[t as usize];
+                match u {
+                    Uop::ShLoad { stack, entry } => sh.latch = Some(sm.sh_entry(stack, entry)),
+                    Uop::GlobalLoad { .. } => sh.latch = sh.global_loads.pop_front(),
+                    Uop::ShStore { src: Src::Latch, .. }
+                    | Uop::GlobalStore { src: Src::Latch, .. }
+                    | Uop::RbBottom => sh.latch = None,
+                    _ => {}
                 }
+                sm.complete_next(t);
             }
         }
-        cov.borrows += sm.stats.borrows - before.borrows;
-        cov.flushes += sm.stats.flushes - before.flushes;
-        cov.global_reloads += sm.stats.global_loads() - before.global_loads();
-        cov.releases += sm.stats.releases - before.releases;
+        let d = sm.stats.since(&before);
+        cov.borrows += d.borrows;
+        self.borrowed |= d.borrows > 0;
+        cov.flushes += d.flushes;
+        cov.global_reloads += d.global_loads();
+        cov.releases += d.releases;
+        if let Action::Cmd(t, _) = a {
+            if let (true, Some(ring)) = (d.borrows > 0, &ring_before) {
+                for s in sm.chain(t).into_iter().filter(|s| !ring.contains(s)) {
+                    check_placement(sm, s)?;
+                }
+            }
+            let ring = ring_before.as_deref().filter(|_| matches!(a, Action::Cmd(_, Cmd::Pop)));
+            observe_covers(sm, t, &d, ring, &mut cov.covers);
+        }
         let quiescent = sm.quiescent();
         check_warp_fields(sm, 0, quiescent)?;
         for t in sm.warp_threads(0).filter(|&t| sm.ready(t)) {
@@ -130,14 +383,29 @@ impl Model {
         if quiescent && sm.warp_done(0) {
             check_warp_exit(sm, 0)?;
             cov.warp_exits += 1;
+            if self.borrowed {
+                cov.covers.hit(Goal::ExitAfterBorrow);
+            }
         }
         Ok(true)
+    }
+
+    /// Entries the warp holds (the reference's view).
+    pub fn held(&self) -> u32 {
+        self.sm.warp_threads(0).map(|t| self.sb.reference(t).len() as u32).sum()
     }
 
     /// Every action possible now: commands (valid or not) of ready unfinished threads with push
     /// values 1..=values, and the next micro-op of each busy thread.
     pub fn actions(&self, values: u32) -> Vec<Action> {
+        self.actions_capped(values, None)
+    }
+
+    /// [`Model::actions`], with pushes offered only while the warp holds fewer than `cap`
+    /// entries.
+    pub fn actions_capped(&self, values: u32, cap: Option<u32>) -> Vec<Action> {
         let sm = &self.sm;
+        let push = cap.is_none_or(|c| self.held() < c);
         let mut out = Vec::new();
         for t in sm.warp_threads(0) {
             if !sm.ready(t) {
@@ -147,7 +415,9 @@ impl Model {
             if sm.thread(t).done {
                 continue;
             }
-            out.extend((1..=values as u64).map(|v| Action::Cmd(t, Cmd::Push(v))));
+            if push {
+                out.extend((1..=values as u64).map(|v| Action::Cmd(t, Cmd::Push(v))));
+            }
             out.push(Action::Cmd(t, Cmd::Pop));
             out.push(Action::Cmd(t, Cmd::Finish));
         }
@@ -167,6 +437,95 @@ impl Model {
             140..=249 => Action::Cmd(t, Cmd::Pop),
             _ => Action::Cmd(t, Cmd::Finish),
         }
+    }
+}
+
+/// [`Property::LiveReads`] for the program thread `t`'s command just queued; `stacks` are the
+/// warp's stack registers and `global` the thread's live global slots before the command.
+/// Returns the values its global loads will read, in order.
+fn live_reads(
+    sm: &StackManager,
+    t: u32,
+    stacks: &[StackRegs],
+    global: &[u64],
+) -> Result<std::collections::VecDeque<u64>, Violation> {
+    let m = sm.config().sh_entries;
+    let base = t - t % sm.config().warp_size;
+    let live = |s: u32, e: u32| {
+        let st = &stacks[(s - base) as usize];
+        !st.empty && (e + m - st.bottom) % m < st.count(m)
+    };
+    let mut stored: Vec<(u32, u32)> = Vec::new();
+    let mut loads = std::collections::VecDeque::new();
+    for (i, u) in sm.pending_uops(t).enumerate() {
+        match *u {
+            Uop::ShStore { stack, entry, .. } => stored.push((stack, entry)),
+            Uop::ShLoad { stack, entry } if !live(stack, entry) && !stored.contains(&(stack, entry)) => {
+                return fail(
+                    Property::LiveReads,
+                    format!("thread {t}: micro-op {i} loads SH entry {entry} of stack {stack}, not live"),
+                );
+            }
+            Uop::GlobalLoad { slot } => match global.get(slot as usize) {
+                Some(&v) => loads.push_back(v),
+                None => {
+                    return fail(
+                        Property::LiveReads,
+                        format!(
+                            "thread {t}: micro-op {i} loads global slot {slot} with {} live",
+                            global.len()
+                        ),
+                    )
+                }
+            },
+            _ => {}
+        }
+    }
+    Ok(loads)
+}
+
+/// Records the cover goals a command of thread `t` reached; `d` is what it counted, `ring` its
+/// chain before a pop (ring order from its dedicated stack).
+fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[u32]>, c: &mut Covers) {
+    let cfg = sm.config();
+    if d.borrows > 0 {
+        c.hit(Goal::Borrow);
+    }
+    if d.flushes > 0 {
+        c.hit(Goal::Flush);
+    }
+    if d.flushes_saturated > 0 {
+        c.hit(Goal::FlushSaturation);
+    }
+    if d.demotions > 0 {
+        c.hit(Goal::Demotion);
+    }
+    if cfg.realloc.is_some() && d.sh_to_global > 0 && d.flushes == 0 {
+        c.hit(Goal::PerEntryFallback);
+    }
+    let chain = sm.chain(t);
+    if let Some(ra) = cfg.realloc {
+        if chain.len() as u32 == 1 + ra.borrow_limit {
+            c.hit(Goal::FullChain);
+        }
+    }
+    if d.global_to_sh > 0 && chain.len() > 1 {
+        c.hit(Goal::OldestReload);
+    }
+    if let (true, Some(ring)) = (d.releases > 0, ring) {
+        let released = ring.iter().copied().find(|s| !chain.contains(s));
+        let in_order = ring.iter().enumerate().all(|(i, &s)| sm.stack(s).priority == i as u32);
+        if released.is_some_and(|s| ring.get(1) != Some(&s)) || !in_order {
+            c.hit(Goal::RotatedRelease);
+        }
+    }
+    let ws = cfg.warp_size;
+    let skewed = sm.pending_uops(t).any(|u| match *u {
+        Uop::ShLoad { stack, .. } | Uop::ShStore { stack, .. } => cfg.skew_base(stack % ws) != 0,
+        _ => false,
+    });
+    if skewed {
+        c.hit(Goal::SkewBase);
     }
 }
 
@@ -193,13 +552,30 @@ pub fn run_bytes_on(mut m: Model, input: &[(u8, u8)]) -> Result<Coverage, Box<Co
 
 struct Node {
     model: Model,
-    trace: Vec<Action>,
+    id: u32,
     paths: u128,
 }
 
-/// Explores every action sequence up to `bounds.depth` on one warp of `cfg`. `design` may
+/// The action sequence that first reached state `id`, from the predecessor table.
+fn trace_of(parents: &[(u32, Option<Action>)], mut id: u32) -> Vec<Action> {
+    let mut out = Vec::new();
+    while let (p, Some(a)) = parents[id as usize] {
+        out.push(a);
+        id = p;
+    }
+    out.reverse();
+    out
+}
+
+/// Explores every action sequence up to `bounds.depth` on one warp of `cfg` (breadth first, so
+/// counterexamples are shortest), or to the fixpoint: until no new state appears. `design` may
 /// replace the stack manager (a mutant). Returns what was covered, or the first violation with
 /// its shortest trace.
+///
+/// States are stored as 128-bit hashes of everything that decides future behaviour — the
+/// design's registers, queues, sequencers and memory words ([`StackManager::hash_state`]) and the
+/// reference stacks — but no event counter (hash compaction: two distinct states collide with
+/// probability about n² / 2¹²⁹ for n states, below 10⁻²⁴ for 10⁸ states).
 pub fn check(
     cfg: Config,
     bounds: Bounds,
@@ -208,27 +584,37 @@ pub fn check(
     let start = Instant::now();
     let mut model = Model::new(cfg).expect("exhaustive configurations are validated by the caller");
     model.sm = design(model.sm);
+    // Load the warp again with the design under check, so its placement is the one checked.
+    model.sm.load_warp(0, u32::MAX >> (32 - cfg.warp_size));
     let mut cov = Coverage { complete: true, ..Default::default() };
+    for s in model.sm.warp_threads(0) {
+        if let Err(violation) = check_placement(&model.sm, s) {
+            return Err(Box::new(Counterexample { violation, trace: vec![] }));
+        }
+    }
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
-    let mut frontier = vec![Node { model, trace: vec![], paths: 1 }];
-    for depth in 1..=bounds.depth {
+    let mut parents: Vec<(u32, Option<Action>)> = vec![(0, None)];
+    let mut frontier = vec![Node { model, id: 0, paths: 1 }];
+    let mut depth = 0;
+    while depth < bounds.depth {
+        depth += 1;
         let mut next: Vec<Node> = Vec::new();
         let mut index: HashMap<u128, usize> = HashMap::new();
         for node in &frontier {
-            for a in node.model.actions(bounds.values) {
+            for a in node.model.actions_capped(bounds.values, bounds.cap) {
                 cov.transitions += 1;
                 let mut model = node.model.clone();
                 match model.act(a, &mut cov) {
                     Ok(true) => {}
                     Ok(false) => continue,
                     Err(violation) => {
-                        let mut trace = node.trace.clone();
+                        let mut trace = trace_of(&parents, node.id);
                         trace.push(a);
                         return Err(Box::new(Counterexample { violation, trace }));
                     }
                 }
-                cov.sequences += node.paths;
+                cov.sequences = cov.sequences.saturating_add(node.paths);
                 let k = model.key();
                 if let Some(&i) = index.get(&k) {
                     next[i].paths = next[i].paths.saturating_add(node.paths);
@@ -237,23 +623,31 @@ pub fn check(
                 if !seen.insert(k) {
                     continue;
                 }
-                let mut trace = node.trace.clone();
-                trace.push(a);
+                let id = parents.len() as u32;
+                parents.push((node.id, Some(a)));
                 index.insert(k, next.len());
-                next.push(Node { model, trace, paths: node.paths });
+                next.push(Node { model, id, paths: node.paths });
             }
         }
-        cov.depth_reached = depth;
         cov.states = seen.len();
+        cov.peak_frontier = cov.peak_frontier.max(next.len());
         if next.is_empty() {
+            // Nothing new at this level: the previous one was the last.
+            depth -= 1;
+            cov.fixpoint = true;
             break;
         }
+        cov.depth_reached = depth;
         if seen.len() >= bounds.max_states {
             cov.complete = false;
             break;
         }
         frontier = next;
     }
+    cov.depth_reached = depth;
+    cov.states = seen.len();
+    cov.visited_bytes = seen.capacity() * (std::mem::size_of::<u128>() + 1)
+        + parents.capacity() * std::mem::size_of::<(u32, Option<Action>)>();
     cov.elapsed = start.elapsed();
     Ok(cov)
 }
@@ -286,9 +680,47 @@ pub fn small_configs() -> Vec<Config> {
     out
 }
 
+/// Every configuration `sms check --full` proves to its fixpoint: [`small_configs`] without the
+/// 4-thread warps that combine M = 2 with reallocation (under a cap that reaches global memory
+/// their state spaces pass 4·10⁶ states; reallocation is proved with M = 2 on 2-thread warps and
+/// with chains of three stacks at M = 1 on 4-thread warps), plus skewed configurations with 4
+/// and 8 banks, where base entries differ between lanes (with the paper's 32 banks every small
+/// configuration has k = 32 / (2M) ≥ warp size, so all bases are 0).
+pub fn full_configs() -> Vec<Config> {
+    let mut out: Vec<Config> = small_configs()
+        .into_iter()
+        .filter(|c| !(c.warp_size == 4 && c.sh_entries == 2 && c.realloc.is_some()))
+        .collect();
+    out.extend(skew_configs().into_iter().filter(|c| c.realloc.is_none()));
+    out
+}
+
+/// Small skewed configurations with few banks: RB_1+SH_2 on 4-thread warps with 4 banks (bases
+/// 0 1 0 1) and 8 banks (bases 0 0 1 1), without and with reallocation (borrow limit 2).
+pub fn skew_configs() -> Vec<Config> {
+    use rtl::config::{RbSize, Realloc};
+    let mut out = Vec::new();
+    for banks in [4, 8] {
+        for borrow in [0, 2] {
+            out.push(Config {
+                rb: RbSize::Entries(1),
+                sh_entries: 2,
+                skew: true,
+                banks,
+                realloc: (borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 }),
+                warp_size: 4,
+                warps: 1,
+                ..Config::default()
+            });
+        }
+    }
+    out
+}
+
 /// A configuration's short description for reports.
 pub fn describe(c: &Config) -> String {
     let ra =
         c.realloc.map_or(String::new(), |r| format!(" borrow {} flush {}", r.borrow_limit, r.flush_limit));
-    format!("{} warp {}{}", c.name(), c.warp_size, ra)
+    let banks = if c.banks == 32 { String::new() } else { format!(" banks {}", c.banks) };
+    format!("{} warp {}{}{}", c.name(), c.warp_size, ra, banks)
 }

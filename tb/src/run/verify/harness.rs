@@ -22,11 +22,22 @@ pub enum Op {
 }
 
 /// Reference stacks of every thread, checking each pop the design answers.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+///
+/// Its hash covers the reference stacks and the finished flags only, not `pops_checked` (a
+/// counter): two scoreboards that agree on everything that decides future answers hash equal,
+/// so the exhaustive search merges them.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Scoreboard {
     refs: Vec<RefStack>,
     done: Vec<bool>,
     pub pops_checked: u64,
+}
+
+impl std::hash::Hash for Scoreboard {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        self.refs.hash(h);
+        self.done.hash(h);
+    }
 }
 
 impl Scoreboard {

@@ -31,6 +31,15 @@ pub enum Property {
     WarpExit,
     /// The request sequences of SPEC section 3.
     RequestSequence,
+    /// A command's program reads only live data: every SH load an entry inside its stack's
+    /// Bottom..Top when the command is accepted (or stored earlier by the same program), every
+    /// global load a slot below the thread's spill pointer. The exhaustive search relies on it
+    /// to ignore stale memory words (see [`crate::exhaustive`]).
+    LiveReads,
+    /// Skew placement (DESIGN 9.6): every lane's stack starts at base entry
+    /// `(lane / k) mod M`, `k = max(1, banks / (M × words per entry))` — at warp load and
+    /// whenever the stack is lent.
+    Placement,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -228,6 +237,36 @@ pub fn check_warp_exit(sm: &StackManager, w: u32) -> Result<(), Violation> {
                 format!("stack {t} not back with its owner: chain {:?}", sm.chain(t)),
             );
         }
+    }
+    Ok(())
+}
+
+/// DESIGN 9.6's base entry of `lane`, written from the formula (not through the design's
+/// `Config::skew_base`).
+pub fn formula_base(c: &rtl::config::Config, lane: u32) -> u32 {
+    let m = c.sh_entries;
+    if !c.skew || m == 0 {
+        return 0;
+    }
+    let words_per_entry = c.entry_bytes / c.bank_bytes;
+    let k = (c.banks / (m * words_per_entry)).max(1);
+    (lane / k) % m
+}
+
+/// [`Property::Placement`] for stack `s`, which has just been loaded or lent and holds at most
+/// one entry: its Bottom is the formula's base entry.
+pub fn check_placement(sm: &StackManager, s: u32) -> Result<(), Violation> {
+    let c = sm.config();
+    if c.sh_entries == 0 {
+        return Ok(());
+    }
+    let want = formula_base(c, s % c.warp_size);
+    let st = sm.stack(s);
+    if st.bottom != want {
+        return fail(
+            Property::Placement,
+            format!("stack {s}: starts at entry {} (top {}), DESIGN 9.6 says {want}", st.bottom, st.top),
+        );
     }
     Ok(())
 }
