@@ -184,9 +184,9 @@ fn save_file_opens_the_dump_with_grouped_signals() {
     let mut sink = VcdSink::create(&opts, &ex.config).unwrap();
     ex.run(&mut sink).unwrap();
     sink.finish().unwrap();
-    let dump = std::fs::canonicalize(&opts.path).unwrap();
     let save = std::fs::read_to_string(opts.path.with_extension("gtkw")).unwrap();
-    assert!(save.contains(&format!("[dumpfile] \"{}\"\n", dump.display())));
+    // Beside its save file, the dump is named by file name (the pair can be moved).
+    assert!(save.contains("[dumpfile] \"grouped.vcd\"\n"), "{save}");
     let waves = strict(&std::fs::read_to_string(&opts.path).unwrap());
     for (path, width) in &waves.signals {
         let trace = match width {
@@ -252,7 +252,7 @@ fn save_file_formats_follow_the_declared_kinds() {
         let t = traces.iter().find(|t| t.0 == path).unwrap_or_else(|| panic!("{path} not in the save file"));
         (t.1, t.2.clone())
     };
-    let thread = "rt_unit.warp[0].thread[0]";
+    let thread = "rt_unit.stack_manager.warp[0].thread[0]";
     assert_eq!(flags_of(&format!("{thread}.cmd_data")).0 & FORMATS, TR_HEX, "data in hex");
     assert_eq!(flags_of("rt_unit.mem_sched.req_addr").0 & FORMATS, TR_HEX, "addresses in hex");
     assert_eq!(flags_of("rt_unit.bank_arbiter.grant").0 & FORMATS, TR_BIN, "masks in binary");
