@@ -176,8 +176,7 @@ fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
 
     // The save file opens this dump and lists every dumped signal, in balanced groups.
     let save = std::fs::read_to_string(tmp.join("gpu.gtkw")).unwrap();
-    let abs = std::fs::canonicalize(tmp.join("gpu.vcd")).unwrap();
-    assert!(save.contains(&format!("[dumpfile] \"{}\"\n", abs.display())), "{save:.300}");
+    assert!(save.contains("[dumpfile] \"gpu.vcd\"\n"), "{save:.300}");
     for (path, width) in &got {
         let trace = if *width == 1 { path.to_string() } else { format!("{path}[{}:0]", width - 1) };
         assert!(save.lines().any(|l| l == trace), "{trace} missing from the save file");
@@ -191,7 +190,13 @@ fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
     let waves = Path::new(env!("CARGO_MANIFEST_DIR")).join("../waves");
     for f in filters {
         let name = Path::new(f).file_name().unwrap();
-        assert_eq!(std::fs::read(f).unwrap(), std::fs::read(waves.join(name)).unwrap(), "{f} not shipped");
+        // Named beside the save file.
+        assert_eq!(Path::new(f), Path::new(name), "{f} is not named by file name");
+        assert_eq!(
+            std::fs::read(tmp.join(f)).unwrap(),
+            std::fs::read(waves.join(name)).unwrap(),
+            "{f} not shipped"
+        );
     }
 
     // The comparison can fail: one value flipped after the first timestamp is found.
