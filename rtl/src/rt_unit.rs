@@ -459,7 +459,10 @@ impl RtUnit {
             let q = self.warp_buffer.lanes(w);
             let due = now >= q.busy_until;
             let scheduled = d.issue.filter(|x| x.0 == w).map_or(0, |x| x.1);
-            let todo = q.stack | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
+            // A Stack lane whose sequencer is busy stays as it is: not visited.
+            let stack_ready =
+                lanes_of(q.stack).filter(|&l| manager.ready(w * ws + l)).fold(0, |a, l| a | 1 << l);
+            let todo = stack_ready | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
             for l in lanes_of(todo) {
                 let t = w * ws + l;
                 let q = self.warp_buffer.thread(t);
