@@ -149,31 +149,35 @@ impl BankArbiter {
             d.done.push(t);
             d.pipe_out += 1;
         }
-        let mut bank_word = [u32::MAX; 64];
         let (mut grant_mask, mut conflict_mask, mut waits) = (0u64, 0u64, 0u64);
         d.served.clear();
-        for p in &self.pending {
-            let mut served = p.served;
-            for (i, &w) in p.req.words().iter().enumerate() {
-                if served & (1 << i) != 0 {
-                    continue;
+        // Nothing pending (most cycles): no grant logic to evaluate.
+        if !self.pending.is_empty() {
+            // The word each granted bank reads (meaningful where `grant_mask` is set).
+            let mut bank_word = [u32::MAX; 64];
+            for p in &self.pending {
+                let mut served = p.served;
+                for (i, &w) in p.req.words().iter().enumerate() {
+                    if served & (1 << i) != 0 {
+                        continue;
+                    }
+                    let bank = (w % self.banks) as usize;
+                    if grant_mask & (1 << bank) == 0 {
+                        grant_mask |= 1 << bank;
+                        bank_word[bank] = w;
+                        served |= 1 << i;
+                    } else if bank_word[bank] == w {
+                        served |= 1 << i;
+                    } else {
+                        conflict_mask |= 1 << bank;
+                        waits += 1;
+                    }
                 }
-                let bank = (w % self.banks) as usize;
-                if grant_mask & (1 << bank) == 0 {
-                    grant_mask |= 1 << bank;
-                    bank_word[bank] = w;
-                    served |= 1 << i;
-                } else if bank_word[bank] == w {
-                    served |= 1 << i;
-                } else {
-                    conflict_mask |= 1 << bank;
-                    waits += 1;
+                if self.stages == 0 && served.count_ones() == p.req.len as u32 {
+                    d.done.push(p.req.thread);
                 }
+                d.served.push(served);
             }
-            if self.stages == 0 && served.count_ones() == p.req.len as u32 {
-                d.done.push(p.req.thread);
-            }
-            d.served.push(served);
         }
         (d.grant_mask, d.conflict_mask, d.waits) = (grant_mask, conflict_mask, waits);
         d.new.clear();

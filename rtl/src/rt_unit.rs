@@ -397,8 +397,8 @@ impl RtUnit {
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
         // must leave nothing behind.
-        for w in 0..warps {
-            if self.warp_buffer.occupied(w) && self.warp_buffer.lanes(w).live() == 0 && manager.warp_done(w) {
+        for w in self.warp_buffer.resident() {
+            if self.warp_buffer.lanes(w).live() == 0 && manager.warp_done(w) {
                 if let Some(thread) = manager.warp_threads(w).find(|&t| !self.stack_clear(t)) {
                     return Err(RunError::ExitNotEmpty { cycle: now, sm: self.id, thread });
                 }
@@ -410,10 +410,18 @@ impl RtUnit {
         // piece is the queue's ready signal).
         if self.fetch.queue_len() == usize::from(d.node_taken) {
             let leaving = &d.leaving;
-            let ready = |w: u32| !leaving.contains(&w) && self.fetchable(w) != 0;
-            if let Some(w) =
-                self.scheduler.pick(|w| leaving.contains(&w), warps, ready, |w| self.warp_buffer.age(w))
-            {
+            // Each resident warp's fetchable lanes are computed once; a free slot has none.
+            let ready = self
+                .warp_buffer
+                .resident()
+                .filter(|&w| !leaving.contains(&w) && self.fetchable(w) != 0)
+                .fold(0u64, |m, w| m | 1 << w);
+            if let Some(w) = self.scheduler.pick(
+                |w| leaving.contains(&w),
+                warps,
+                |w| ready & (1 << w) != 0,
+                |w| self.warp_buffer.age(w),
+            ) {
                 d.issue = Some((w, self.fetchable(w)));
             }
         }
@@ -447,14 +455,14 @@ impl RtUnit {
 
         // Threads: only the lanes that can act this cycle.
         let sector_bytes = self.fetch.sector_bytes();
-        for w in 0..warps {
-            if !self.warp_buffer.occupied(w) {
-                continue;
-            }
+        for w in self.warp_buffer.resident() {
             let q = self.warp_buffer.lanes(w);
             let due = now >= q.busy_until;
             let scheduled = d.issue.filter(|x| x.0 == w).map_or(0, |x| x.1);
-            let todo = q.stack | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
+            // A Stack lane whose sequencer is busy stays as it is: not visited.
+            let stack_ready =
+                lanes_of(q.stack).filter(|&l| manager.ready(w * ws + l)).fold(0, |a, l| a | 1 << l);
+            let todo = stack_ready | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
             for l in lanes_of(todo) {
                 let t = w * ws + l;
                 let q = self.warp_buffer.thread(t);
@@ -549,14 +557,16 @@ impl RtUnit {
         let acts_next = !self.fetch.queue_empty()
             || self.stack_unit.arb.busy()
             || !self.stack_unit.sched.is_idle()
-            || (0..self.cfg.warps).any(|w| {
+            || self.warp_buffer.resident().any(|w| {
                 let m = self.warp_buffer.lanes(w);
-                self.warp_buffer.occupied(w)
-                    && (self.fetchable(w) != 0
-                        || m.live() == 0
-                        || lanes_of(m.stack).any(|l| manager.ready(w * ws + l)))
+                self.fetchable(w) != 0
+                    || m.live() == 0
+                    || lanes_of(m.stack).any(|l| manager.ready(w * ws + l))
             })
             || manager.can_issue();
+        if acts_next {
+            return Some(now + 1);
+        }
         // A lane waiting to fetch on its sequencer (Blocking) moves when the sequencer completes,
         // which one of the events here or a memory response causes.
         let event = (0..self.cfg.warps)
@@ -564,11 +574,7 @@ impl RtUnit {
             .chain(self.stack_unit.arb.pipe_due())
             .min()
             .unwrap_or(u64::MAX);
-        if acts_next {
-            Some(now + 1)
-        } else {
-            (event != u64::MAX).then_some(event)
-        }
+        (event != u64::MAX).then_some(event)
     }
 
     /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with

@@ -99,6 +99,8 @@ pub struct WarpBuffer {
     slots: Vec<Option<Slot>>,
     threads: Vec<Thread>,
     lanes: Vec<Lanes>,
+    /// Bit w: slot w holds a warp (derived from `slots`, so scans visit only resident warps).
+    occupied: u64,
     /// Warps loaded so far.
     loaded: u64,
 }
@@ -110,6 +112,7 @@ impl WarpBuffer {
             slots: vec![None; cfg.warps as usize],
             threads: vec![Thread::default(); cfg.threads() as usize],
             lanes: vec![Lanes::EMPTY; cfg.warps as usize],
+            occupied: 0,
             loaded: 0,
         }
     }
@@ -121,17 +124,32 @@ impl WarpBuffer {
     /// A slot that can take a job this cycle.
     #[inline]
     pub fn free_slot(&self) -> Option<u32> {
-        self.slots.iter().position(Option::is_none).map(|w| w as u32)
+        let free = !self.occupied & (u64::MAX >> (64 - self.slots.len()));
+        (free != 0).then(|| free.trailing_zeros())
     }
 
     /// No warp resident.
+    #[inline]
     pub fn empty(&self) -> bool {
-        self.slots.iter().all(Option::is_none)
+        self.occupied == 0
     }
 
     #[inline]
     pub fn occupied(&self, w: u32) -> bool {
-        self.slots[w as usize].is_some()
+        self.occupied & (1 << w) != 0
+    }
+
+    /// The resident warps' slots, lowest first.
+    #[inline]
+    pub fn resident(&self) -> impl Iterator<Item = u32> {
+        let mut m = self.occupied;
+        std::iter::from_fn(move || {
+            (m != 0).then(|| {
+                let w = m.trailing_zeros();
+                m &= m - 1;
+                w
+            })
+        })
     }
 
     /// Age rank of the warp in slot `w` (`u32::MAX` for an empty slot).
@@ -159,6 +177,7 @@ impl WarpBuffer {
     /// Clock edge: the warp in slot `w` leaves; younger warps move up one rank.
     pub fn leave(&mut self, w: u32) -> Option<Left> {
         let slot = self.slots[w as usize].take()?;
+        self.occupied &= !(1 << w);
         for s in self.slots.iter_mut().flatten() {
             if s.age > slot.age {
                 s.age -= 1;
@@ -182,9 +201,10 @@ impl WarpBuffer {
             };
         }
         self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
-        let age = self.slots.iter().flatten().count() as u32;
+        let age = self.occupied.count_ones();
         let job = self.loaded;
         self.slots[w as usize] = Some(Slot { lanes, age, job, landed: now });
+        self.occupied |= 1 << w;
         self.loaded += 1;
         job
     }

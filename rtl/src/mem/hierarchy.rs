@@ -110,8 +110,10 @@ pub struct MemSystem {
     dram: Dram,
     now: u64,
     check: EvalCheck,
-    /// The step of [`MemSystem::eval`] and [`MemSystem::commit`], kept for the probe.
-    step: MemStep,
+    /// The step of [`MemSystem::eval`] and [`MemSystem::commit`], kept for the probe. Boxed so
+    /// that taking it out to evaluate (`self` is read meanwhile) moves a pointer, not the step;
+    /// `None` only during those calls.
+    step: Option<Box<MemStep>>,
     #[cfg(test)]
     planted: tests::Planted,
 }
@@ -127,7 +129,7 @@ impl MemSystem {
             dram: Dram::new(&params),
             now: 0,
             check: EvalCheck::Dataflow,
-            step: MemStep::default(),
+            step: Some(Box::default()),
             #[cfg(test)]
             planted: tests::Planted::None,
         })
@@ -162,17 +164,16 @@ impl MemSystem {
     /// each SM sees. The step is kept for [`MemSystem::commit`] and the probe (the convenience
     /// form of [`MemSystem::eval_step`]).
     pub fn eval(&mut self, reqs: &[Option<MemReq>]) -> &[SmOut] {
-        let mut d = std::mem::take(&mut self.step);
+        let mut d = self.step.take().unwrap_or_default();
         self.eval_step(reqs, &mut d);
-        self.step = d;
-        &self.step.out
+        &self.step.insert(d).out
     }
 
     /// Clock edge for the step of the last [`MemSystem::eval`].
     pub fn commit(&mut self) {
-        let d = std::mem::take(&mut self.step);
+        let d = self.step.take().unwrap_or_default();
         self.commit_step(&d);
-        self.step = d;
+        self.step = Some(d);
     }
 
     /// One cycle of combinational logic, a pure function of the registers and `reqs`, written
@@ -339,7 +340,9 @@ impl MemSystem {
 impl Probe for MemSystem {
     /// Probes with the step of the last [`MemSystem::eval`].
     fn probe<S: Sink>(&self, sink: &mut S) {
-        self.probe_step(&self.step, sink);
+        if let Some(d) = &self.step {
+            self.probe_step(d, sink);
+        }
     }
 }
 
