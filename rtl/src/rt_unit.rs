@@ -166,6 +166,8 @@ pub enum RunError {
     Stack { cycle: u64, sm: u32, error: StackError },
     /// A pop returned another address than the trace says was popped.
     PopMismatch { cycle: u64, sm: u32, thread: u32, expected: u64, got: u64 },
+    /// A pop the stack manager accepted without answering it (a model bug).
+    PopMissing { cycle: u64, sm: u32, thread: u32, expected: u64 },
     /// A warp left with stack state behind (RB, SH or global entries, or with reallocation a
     /// stack not back with its finished owner): a stack-manager bug.
     ExitNotEmpty { cycle: u64, sm: u32, thread: u32 },
@@ -181,6 +183,10 @@ impl std::fmt::Display for RunError {
             RunError::PopMismatch { cycle, sm, thread, expected, got } => write!(
                 f,
                 "cycle {cycle}, SM {sm}, thread {thread}: pop returned {got:#x}, trace popped {expected:#x}"
+            ),
+            RunError::PopMissing { cycle, sm, thread, expected } => write!(
+                f,
+                "cycle {cycle}, SM {sm}, thread {thread}: the accepted pop returned nothing, trace popped {expected:#x}"
             ),
             RunError::ExitNotEmpty { cycle, sm, thread } => {
                 write!(f, "cycle {cycle}, SM {sm}, thread {thread}: warp left with stack entries behind")
@@ -497,9 +503,16 @@ impl RtUnit {
         if let Some(&error) = d.stack.manager.errors.first() {
             return Err(RunError::Stack { cycle: now, sm: self.id, error });
         }
-        for (&(thread, expected), &(_, got)) in d.expected_pops.iter().zip(&d.stack.manager.pops) {
-            if got != expected {
-                return Err(RunError::PopMismatch { cycle: now, sm: self.id, thread, expected, got });
+        // Each pop the traces expect is matched by thread: a pop the manager did not answer is an
+        // error too, not a check skipped.
+        let pops = &d.stack.manager.pops;
+        for &(thread, expected) in &d.expected_pops {
+            match pops.iter().find(|p| p.0 == thread) {
+                Some(&(_, got)) if got == expected => {}
+                Some(&(_, got)) => {
+                    return Err(RunError::PopMismatch { cycle: now, sm: self.id, thread, expected, got })
+                }
+                None => return Err(RunError::PopMissing { cycle: now, sm: self.id, thread, expected }),
             }
         }
         Ok(())
