@@ -360,7 +360,20 @@ pub struct Widths {
     /// Sequencer step: position in the longest micro-op program a command loads (a flush of M
     /// entries, 2M micro-ops, with the spill and the refill around it): 2M + 4 states.
     pub seq_step: u32,
+    /// Occupancy of the response FIFO of the memory scheduler, 0..=threads: a thread has at most
+    /// one global request that waits for a response (a load, or an acknowledged store).
+    pub gm_responses: u32,
+    /// Occupancy of the memory scheduler's request queue when every request waits for its
+    /// response (acknowledged stores, `StackTiming::Blocking`): 0..=threads, one each. Posted
+    /// stores (`Overlapped`) have no such bound; see [`GM_POSTED_QUEUE_BITS`].
+    pub gm_queue: u32,
 }
+
+/// Bits of the memory scheduler's request queue with posted stores (`StackTiming::Overlapped`):
+/// a thread keeps taking commands while its stores wait for the port, so the model declares no
+/// hardware bound; a dump that sees more than `2^16 - 1` queued requests reports it as an error
+/// (rtl/DESIGN.md, "Widths of the queues").
+pub const GM_POSTED_QUEUE_BITS: u32 = 16;
 
 impl Widths {
     fn derive(c: &Config) -> Widths {
@@ -386,6 +399,8 @@ impl Widths {
             live: bits_for(c.warp_size as u64),
             thread_state: bits_for(crate::thread_fsm::ThreadState::STATES - 1),
             seq_step: bits_for(u64::from(2 * m + 4)),
+            gm_responses: bits_for(c.threads() as u64),
+            gm_queue: bits_for(c.threads() as u64),
         }
     }
 }

@@ -36,6 +36,9 @@ pub struct MemSched {
     /// Thread whose response the FIFO delivered last cycle (the registered `deq` output).
     deq: Option<u32>,
     pub max_queue: usize,
+    /// Width of the request queue's occupancy: [`Widths::gm_queue`], or
+    /// [`crate::config::GM_POSTED_QUEUE_BITS`] with posted stores.
+    queue_bits: u32,
 }
 
 /// The scheduler's decisions in one cycle ([`MemSched::eval`]), applied by
@@ -51,8 +54,10 @@ pub struct SchedStep {
 }
 
 impl MemSched {
-    pub fn new() -> Self {
-        MemSched::default()
+    /// A scheduler whose request queue holds at most `2^queue_bits - 1` requests (the width its
+    /// probe declares).
+    pub fn new(queue_bits: u32) -> Self {
+        MemSched { queue_bits, ..MemSched::default() }
     }
 
     /// Thread whose response the FIFO delivered in the previous cycle (registered output).
@@ -108,10 +113,10 @@ impl MemSched {
         s.signal("req_write", 1, d.req.map_or(0, |r| u64::from(r.write)));
         s.signal_kind("req_addr", 64, d.req.map_or(0, |r| r.addr), Kind::Address);
         s.signal("req_thread", w.thread, d.req.map_or(0, |r| r.thread as u64));
-        s.signal("queue", 16, self.queue.len() as u64);
+        s.signal("queue", self.queue_bits, self.queue.len() as u64);
         s.pop_scope();
         s.push_scope("response_fifo");
-        s.signal("occupancy", 16, self.fifo.len() as u64);
+        s.signal("occupancy", w.gm_responses, self.fifo.len() as u64);
         s.signal("deq_valid", 1, u64::from(self.deq.is_some()));
         s.signal("deq_thread", w.thread, self.deq.unwrap_or(0) as u64);
         s.pop_scope();
@@ -201,7 +206,7 @@ mod tests {
 
     #[test]
     fn load_round_trip_takes_latency_plus_fifo() {
-        let mut s = MemSched::new();
+        let mut s = MemSched::new(4);
         let mut m = FixedLatencyMem::new(10);
         let load = GReq { thread: 3, write: false, addr: 0 };
         let mut arrived = None;
@@ -219,7 +224,7 @@ mod tests {
 
     #[test]
     fn one_request_per_cycle_and_stores_need_no_response() {
-        let mut s = MemSched::new();
+        let mut s = MemSched::new(4);
         let mut m = FixedLatencyMem::new(10);
         let reqs = [GReq { thread: 0, write: true, addr: 0 }, GReq { thread: 1, write: false, addr: 8 }];
         assert_eq!(step(&mut s, &mut m, &reqs, true), None);

@@ -18,7 +18,9 @@
 
 use std::collections::VecDeque;
 
+use crate::config::bits_for;
 use crate::mem::{MemReq, ReqKind};
+use crate::ray_op::MAX_NODE_BYTES;
 use crate::trace::{Kind, Probe, Sink};
 
 /// One queued sector request.
@@ -48,6 +50,8 @@ pub struct NodeFetch {
     pub requests: u64,
     /// Lane pieces that joined another lane's request.
     pub merged: u64,
+    /// Width of the queue and outstanding counts ([`NodeFetch::count_bits`]).
+    count_bits: u32,
 }
 
 /// Number of sector pieces of a node of `bytes` bytes at `addr`.
@@ -58,8 +62,23 @@ pub fn pieces(addr: u64, bytes: u32, sector_bytes: u64) -> u32 {
 }
 
 impl NodeFetch {
-    pub fn new(sector_bytes: u32) -> Self {
-        NodeFetch { sector_bytes: u64::from(sector_bytes), ..Default::default() }
+    /// The fetch unit of an RT unit with `threads` threads, for memory of `sector_bytes`-byte
+    /// sectors.
+    pub fn new(sector_bytes: u32, threads: u32) -> Self {
+        NodeFetch {
+            sector_bytes: u64::from(sector_bytes),
+            count_bits: NodeFetch::count_bits(sector_bytes, threads),
+            ..Default::default()
+        }
+    }
+
+    /// Width of the request queue's and the waiter table's occupancy: a thread has one node in
+    /// flight at a time, and a node of at most [`MAX_NODE_BYTES`] spans at most
+    /// `MAX_NODE_BYTES / sector + 1` sectors at any alignment, so at most `threads` times that
+    /// many pieces are queued or outstanding (fewer when lanes merge).
+    pub fn count_bits(sector_bytes: u32, threads: u32) -> u32 {
+        let pieces = MAX_NODE_BYTES.div_ceil(sector_bytes.max(1)) + 1;
+        bits_for(u64::from(threads) * u64::from(pieces))
     }
 
     #[inline]
@@ -157,14 +176,14 @@ impl Probe for NodeFetch {
             return;
         }
         s.push_scope("node_fetch");
-        s.signal("queue", 16, self.queue.len() as u64);
+        s.signal("queue", self.count_bits, self.queue.len() as u64);
         s.signal_kind(
             "head_addr",
             crate::mem::ADDR_BITS,
             self.queue.front().map_or(0, |p| p.addr),
             Kind::Address,
         );
-        s.signal("outstanding", 16, self.outstanding() as u64);
+        s.signal("outstanding", self.count_bits, self.outstanding() as u64);
         s.pop_scope();
     }
 }
@@ -178,7 +197,7 @@ mod tests {
         assert_eq!(pieces(0x40, 64, 32), 2);
         assert_eq!(pieces(0x48, 8, 32), 1);
         assert_eq!(pieces(0x30, 32, 32), 2, "straddles a sector boundary");
-        let mut f = NodeFetch::new(32);
+        let mut f = NodeFetch::new(32, 4);
         // Lanes 0 and 1 visit the same 64-byte node, lane 2 one straddling two sectors.
         f.coalesce(3, [(0, 0x100, 64), (1, 0x100, 64), (2, 0x210, 32)].into_iter());
         let reqs: Vec<(u64, u32)> = std::iter::from_fn(|| {
@@ -192,5 +211,20 @@ mod tests {
         assert_eq!(f.complete(0), (3, 0b011));
         assert_eq!(f.complete(2 << 2), (3, 0b100));
         assert_eq!(f.outstanding(), 2);
+    }
+
+    /// Four threads, each with a node of the largest size one byte past a sector boundary: 5
+    /// pieces each, 20 in all, the bound [`NodeFetch::count_bits`] sizes for (5 bits); one more
+    /// byte of bound would be a sixth bit.
+    #[test]
+    fn the_widest_unmerged_warp_fills_the_declared_count() {
+        let mut f = NodeFetch::new(32, 4);
+        let visits = (0..4u32).map(|l| (l, 0x1000 * u64::from(l + 1) + 1, MAX_NODE_BYTES));
+        f.coalesce(0, visits);
+        assert_eq!(f.queue_len(), 4 * (MAX_NODE_BYTES as usize / 32 + 1));
+        assert_eq!(f.outstanding(), f.queue_len());
+        assert_eq!(NodeFetch::count_bits(32, 4), 5);
+        assert!(f.outstanding() < 1 << NodeFetch::count_bits(32, 4));
+        assert!(f.outstanding() >= 1 << (NodeFetch::count_bits(32, 4) - 1), "the bound is tight");
     }
 }

@@ -32,6 +32,11 @@ pub enum NodeKind {
     Procedural,
 }
 
+/// The largest node the node fetch unit takes in one visit, in bytes. Every layout the model
+/// builds fits (BVH6 64, CWBVH 80, BVH2 leaves 48); it bounds the fetch unit's queues (a node at
+/// any alignment spans at most `MAX_NODE_BYTES / sector + 1` sectors).
+pub const MAX_NODE_BYTES: u32 = 128;
+
 /// One step of a ray's traversal, in RT-unit order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RayOp {
@@ -57,7 +62,7 @@ impl WarpJob {
     }
 
     /// Checks what the RT unit cannot run: a lane count other than `warp_size`, a node of zero
-    /// bytes or one that runs past the end of the address space. (Pushes and pops are checked
+    /// bytes or more than [`MAX_NODE_BYTES`], or one that runs past the end of the address space. (Pushes and pops are checked
     /// against the stack as the job runs.)
     pub fn validate(&self, warp_size: u32) -> Result<(), String> {
         if self.lanes.len() != warp_size as usize {
@@ -66,6 +71,12 @@ impl WarpJob {
         for (l, ops) in self.lanes.iter().enumerate() {
             for (i, op) in ops.iter().flatten().enumerate() {
                 if let RayOp::Visit { bytes, addr, .. } = *op {
+                    if bytes > MAX_NODE_BYTES {
+                        return Err(format!(
+                            "lane {l}, operation {i}: visit of {bytes} bytes at {addr:#x} is larger than \
+                             the node fetch unit's {MAX_NODE_BYTES}-byte limit"
+                        ));
+                    }
                     if bytes == 0 || addr.checked_add(u64::from(bytes)).is_none() {
                         return Err(format!(
                             "lane {l}, operation {i}: visit of {bytes} bytes at {addr:#x} is not a node"
@@ -75,5 +86,25 @@ impl WarpJob {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn job(bytes: u32, addr: u64) -> WarpJob {
+        let visit = RayOp::Visit { addr, kind: NodeKind::Internal, bytes };
+        WarpJob { lanes: vec![Some(vec![visit]), None] }
+    }
+
+    #[test]
+    fn visits_the_fetch_unit_cannot_take_are_refused() {
+        assert_eq!(job(MAX_NODE_BYTES, 0x40).validate(2), Ok(()));
+        let e = job(MAX_NODE_BYTES + 1, 0x40).validate(2).unwrap_err();
+        assert!(e.contains("larger than the node fetch unit's 128-byte limit"), "{e}");
+        assert!(job(0, 0x40).validate(2).unwrap_err().contains("is not a node"));
+        assert!(job(8, u64::MAX - 2).validate(2).unwrap_err().contains("is not a node"));
+        assert!(job(8, 0).validate(4).unwrap_err().contains("2 lanes, the warp size is 4"));
     }
 }

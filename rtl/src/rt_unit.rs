@@ -334,7 +334,7 @@ impl RtUnit {
             rt,
             w: cfg.widths()?,
             stack_unit: StackUnit::new(cfg, id, rt.stack_timing, rt.sh_latency)?,
-            fetch: NodeFetch::new(sector_bytes),
+            fetch: NodeFetch::new(sector_bytes, cfg.threads()),
             warp_buffer: WarpBuffer::new(&cfg),
             scheduler: GtoScheduler::default(),
             residence: Vec::new(),
@@ -640,9 +640,12 @@ impl RtUnit {
         s.push_scope("rt_unit");
         self.warp_buffer.probe(&self.w, s);
         self.scheduler.probe(d.issue, &self.w, self.cfg.warp_size, s);
+        // The memory port's request handshake: which source the mux offers (`req_stack` wins) and
+        // whether the L1D took it.
         s.push_scope("port");
-        s.signal("node", 1, u64::from(d.port == Port::Node));
-        s.signal("stack", 1, u64::from(d.port == Port::Stack));
+        s.signal("req_node", 1, u64::from(d.port == Port::Node));
+        s.signal("req_stack", 1, u64::from(d.port == Port::Stack));
+        s.signal("req_fire", 1, u64::from(d.node_taken || d.took_stack));
         s.pop_scope();
         self.fetch.probe(s);
         self.stack_unit.probe(&d.cmds, &d.stack, s);

@@ -14,7 +14,7 @@
 //! are then inputs of the arbiter and the scheduler. Nothing changes until [`StackUnit::commit`].
 
 use crate::bank_arbiter::{ArbStep, BankArbiter, MIN_SH_LATENCY};
-use crate::config::{Config, ConfigError};
+use crate::config::{Config, ConfigError, GM_POSTED_QUEUE_BITS};
 use crate::mem_sched::{FixedLatencyMem, FixedStep, GReq, MemSched, SchedStep};
 use crate::stack_manager::{
     Cmd, Entry, StackError, StackIn, StackManager, StackStats, StackStep, StackTiming,
@@ -62,10 +62,14 @@ impl StackUnit {
     /// The stack subsystem of SM `sm`. With [`StackTiming::Blocking`] the sequencer waits for the
     /// acknowledgement of each global store; `sh_latency` as in [`BankArbiter::with_latency`].
     pub fn new(cfg: Config, sm: u32, timing: StackTiming, sh_latency: u32) -> Result<Self, ConfigError> {
+        let queue_bits = match timing {
+            StackTiming::Blocking => cfg.widths()?.gm_queue,
+            StackTiming::Overlapped => GM_POSTED_QUEUE_BITS,
+        };
         Ok(StackUnit {
             manager: StackManager::new(cfg, sm)?.with_acked_stores(timing == StackTiming::Blocking),
             arb: BankArbiter::with_latency(cfg.banks, sh_latency),
-            sched: MemSched::new(),
+            sched: MemSched::new(queue_bits),
         })
     }
 
@@ -267,5 +271,34 @@ mod tests {
     fn acknowledged_stores_hold_the_sequencer_until_the_ack() {
         assert_eq!(pop_cycle(StackTiming::Overlapped), 4);
         assert_eq!(pop_cycle(StackTiming::Blocking), 18);
+    }
+
+    /// Every thread of RB_1 pushes whenever it is ready, so every push after the first spills.
+    /// Returns the most requests the memory scheduler's queue held.
+    fn fullest_queue(timing: StackTiming) -> usize {
+        let cfg: Config = "RB_1".parse().unwrap();
+        let threads = cfg.threads();
+        let mut u = StandaloneStack::with_timing(cfg, 50, timing, 2).unwrap();
+        let mut cmds = Vec::new();
+        for cycle in 0..2000u64 {
+            cmds.clear();
+            cmds.extend((0..threads).filter(|&t| u.manager().ready(t)).map(|t| (t, Cmd::Push(cycle))));
+            u.step(&cmds);
+        }
+        u.unit.sched.max_queue
+    }
+
+    /// The scheduler's queue holds one request per thread when each waits for its response
+    /// (`Widths::gm_queue`); posted stores pile up past that, which is why their queue is given
+    /// `GM_POSTED_QUEUE_BITS`.
+    #[test]
+    fn acknowledged_requests_bound_the_scheduler_queue_by_the_threads() {
+        let cfg: Config = "RB_1".parse().unwrap();
+        let (threads, bits) = (cfg.threads() as usize, cfg.widths().unwrap().gm_queue);
+        let blocking = fullest_queue(StackTiming::Blocking);
+        assert!(blocking <= threads && blocking < 1 << bits, "{blocking} queued, {threads} threads");
+        assert!(blocking > threads / 2, "the run does fill the queue ({blocking})");
+        let posted = fullest_queue(StackTiming::Overlapped);
+        assert!(posted > threads, "posted stores: {posted} queued, {threads} threads");
     }
 }

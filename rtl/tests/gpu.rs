@@ -244,7 +244,7 @@ fn one_memory_request_per_cycle() {
             .collect(),
     };
     let cfg: Config = "RB_8".parse().unwrap();
-    let mut watch = Watch::new("sm0.rt_unit.port.node");
+    let mut watch = Watch::new("sm0.rt_unit.port.req_node");
     let r = Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![job], &mut watch).unwrap();
     assert_eq!(r.node_fetches, 32);
     // The port drives a node request in cycles 6 to 37 and in no other.
@@ -400,7 +400,7 @@ fn probes_name_every_unit_and_progress_is_reported() {
         "sm0.rt_unit.warp_buffer.warp[0].valid",
         "sm0.rt_unit.warp_buffer.warp[3].thread[31].state",
         "sm7.rt_unit.scheduler.greedy",
-        "sm0.rt_unit.port.node",
+        "sm0.rt_unit.port.req_node",
         "sm0.rt_unit.node_fetch.queue",
         "sm0.rt_unit.stack_manager.warp[0].thread[0].top",
         "sm0.rt_unit.bank_arbiter.conflict",
@@ -471,8 +471,11 @@ fn stack_requests_go_before_node_pieces() {
             .unwrap();
         watch.changes
     };
-    assert_eq!(run("sm0.rt_unit.port.stack"), [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)]);
-    assert_eq!(run("sm0.rt_unit.port.node"), [(0, 0), (6, 1), (9, 0), (10, 1), (11, 0), (12, 1), (39, 0)]);
+    assert_eq!(run("sm0.rt_unit.port.req_stack"), [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)]);
+    assert_eq!(
+        run("sm0.rt_unit.port.req_node"),
+        [(0, 0), (6, 1), (9, 0), (10, 1), (11, 0), (12, 1), (39, 0)]
+    );
 }
 
 #[test]
@@ -523,8 +526,8 @@ fn spill_then_fetch(rt: RtParams, paths: &[&'static str]) -> (GpuReport, Vec<Vec
     (report.unwrap(), changes)
 }
 
-const PORT_STACK: &str = "sm0.rt_unit.port.stack";
-const PORT_NODE: &str = "sm0.rt_unit.port.node";
+const PORT_STACK: &str = "sm0.rt_unit.port.req_stack";
+const PORT_NODE: &str = "sm0.rt_unit.port.req_node";
 /// 0 none, 1 push, 2 pop, 3 finish: the command the stack manager accepted in a cycle.
 const CMD: &str = "sm0.rt_unit.stack_manager.warp[0].thread[0].cmd_kind";
 
