@@ -19,6 +19,9 @@ pub enum EvalCheck {
     /// Every kernel evaluated twice per cycle; the second evaluation's results are the ones
     /// committed (they must equal the first's).
     Twice,
+    /// Every unit evaluated every cycle, including those the runner would let sleep (no event
+    /// due, no input): shows the wake-up skip changes nothing.
+    EveryUnit,
 }
 
 impl EvalCheck {
@@ -29,6 +32,11 @@ impl EvalCheck {
         } else {
             1
         }
+    }
+
+    /// Whether a runner may skip a unit that has nothing to do this cycle.
+    pub fn skips_quiet_units(self) -> bool {
+        self != EvalCheck::EveryUnit
     }
 
     /// Fill `order` with the evaluation order of `n` siblings in cycle `cycle`.

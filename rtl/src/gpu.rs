@@ -113,6 +113,8 @@ pub struct Gpu {
     req_ready: Vec<bool>,
     jobs_in: Vec<Option<WarpJob>>,
     steps: Vec<RtStep>,
+    /// Units skipped this cycle: nothing for them to do (see the run loop).
+    quiet: Vec<bool>,
     /// Evaluation order of the RT units this cycle.
     order: Vec<usize>,
 }
@@ -129,6 +131,8 @@ pub enum OrderBug {
     /// An RT unit's step is not cleared between evaluations: a second evaluation in the same
     /// cycle counts the visits again.
     StaleStep,
+    /// The wake-up skip lets a unit sleep through a memory response.
+    SleepThroughResponses,
 }
 
 impl Gpu {
@@ -155,6 +159,7 @@ impl Gpu {
             req_ready: vec![false; n],
             jobs_in: vec![None; n],
             steps: vec![RtStep::default(); n],
+            quiet: vec![false; n],
             order: Vec::with_capacity(n),
         })
     }
@@ -277,7 +282,29 @@ impl Gpu {
             let out = self.mem.eval(&self.reqs);
             evaluated += 1;
             let mut first_error: Option<(usize, RunError)> = None;
+            // A unit with no event due, no response, no job landing and no request offered would
+            // evaluate to a step that changes nothing: it is not evaluated (wake-up instead of a
+            // scan). A cycle the sink shows evaluates every unit, for its combinational signals.
+            #[cfg(not(feature = "untraced"))]
+            let shown = sink.next_wanted(now) == Some(now);
+            #[cfg(feature = "untraced")]
+            let shown = false;
+            #[cfg(feature = "mutants")]
+            let deaf = self.order_bug == Some(OrderBug::SleepThroughResponses);
+            #[cfg(not(feature = "mutants"))]
+            let deaf = false;
+            for (sm, u) in self.units.iter().enumerate() {
+                self.quiet[sm] = !shown
+                    && self.eval_check.skips_quiet_units()
+                    && u.next_event().is_none_or(|e| e > now)
+                    && (out[sm].resp.is_empty() || deaf)
+                    && self.jobs_in[sm].is_none()
+                    && self.reqs[sm].is_none();
+            }
             for &sm in &self.order {
+                if self.quiet[sm] {
+                    continue;
+                }
                 let i = RtIn {
                     now,
                     req_ready: self.req_ready[sm],
@@ -304,7 +331,9 @@ impl Gpu {
                 return Err(e);
             }
             for &sm in &self.order {
-                self.units[sm].commit(&self.steps[sm], self.jobs_in[sm].take());
+                if !self.quiet[sm] {
+                    self.units[sm].commit(&self.steps[sm], self.jobs_in[sm].take());
+                }
             }
             #[cfg(not(feature = "untraced"))]
             if sink.next_wanted(now) == Some(now) {

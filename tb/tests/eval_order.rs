@@ -42,7 +42,7 @@ fn shuffled_and_twice_evaluated_runs_equal_the_dataflow_run() {
         for cfg in Config::paper_set() {
             let normal = run(cfg, &jobs, EvalCheck::Dataflow, None);
             assert!(normal.pops_checked > 0 && normal.cycles > 0, "{scene} {}", cfg.name());
-            for check in [EvalCheck::Shuffled { seed: 13 }, EvalCheck::Twice] {
+            for check in [EvalCheck::Shuffled { seed: 13 }, EvalCheck::Twice, EvalCheck::EveryUnit] {
                 let other = run(cfg, &jobs, check, None);
                 assert_eq!(bits(&other), bits(&normal), "{scene} {} under {check:?}", cfg.name());
             }
@@ -68,4 +68,23 @@ fn planted_order_dependences_are_caught() {
     let (a, b) = (run(cfg, &jobs, EvalCheck::Dataflow, stale), run(cfg, &jobs, EvalCheck::Twice, stale));
     assert_eq!(a.visits, run(cfg, &jobs, EvalCheck::Dataflow, None).visits, "harmless when evaluated once");
     assert_ne!(bits(&a), bits(&b), "evaluating twice must expose the stale step");
+}
+
+/// A wake-up skip that lets a unit sleep through a memory response loses the response: the run
+/// stalls or its report differs from the run that evaluates every unit every cycle.
+#[test]
+fn a_wake_up_that_misses_a_response_is_caught() {
+    let jobs = jobs("clutter", 16);
+    let cfg = Config::sms();
+    let hw = Hardware::default();
+    let deaf = |check| {
+        let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check);
+        gpu.with_order_bug(OrderBug::SleepThroughResponses).run(jobs.iter().cloned(), &mut NullSink)
+    };
+    let every = deaf(EvalCheck::EveryUnit).expect("evaluating every unit never sleeps");
+    assert_eq!(bits(&every), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
+    match deaf(EvalCheck::Dataflow) {
+        Ok(r) => assert_ne!(bits(&r), bits(&every), "the lost response must show"),
+        Err(e) => eprintln!("caught as a failed run: {e}"),
+    }
 }

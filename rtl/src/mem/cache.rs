@@ -10,8 +10,7 @@
 //! The set count need not be a power of two (3 MB / (128 B × 16) = 1536 sets; 56 KB fully
 //! associative = 448 ways), so the plain set index is a modulo. A banked L2 instead takes its set
 //! from [`L2Map`] (bank, then the set within the bank: linear or IPOLY), its banks' sets laid end
-//! to end in one array. LRU is exact: each way carries the stamp
-//! of its last use and each set keeps its ways ordered by stamp. [`TagStore::lookup`] and
+//! to end in one array. LRU is exact: each set keeps its ways in a doubly linked recency list. [`TagStore::lookup`] and
 //! [`TagStore::victim`] are pure; [`TagStore::touch`] and [`TagStore::fill`] are the updates the
 //! owning unit applies at its clock edge. Policy (write-through or write-back) belongs to the
 //! owner: a store is a `fill` with a dirty kind (write-allocate), a `touch` (write-through, no
@@ -19,7 +18,8 @@
 
 use super::addr::L2Map;
 use super::{Assoc, MemParams, ReqKind};
-use std::collections::BTreeMap;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 /// Shape of a cache.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -120,35 +120,66 @@ struct Way {
     valid: u32,
     dirty: u32,
     dirty_kind: ReqKind,
-    /// Last use; 0 = never used (not yet in the LRU order).
-    stamp: u64,
 }
 
-/// Tags, sector state and LRU order of one cache.
+/// No slot: the end of a set's recency list.
+const NIL: u32 = u32::MAX;
+
+/// Hashes a line number for the tag index: one multiply (Fibonacci hashing). Line numbers are
+/// not adversarial, and the index is only looked up, never iterated, so the hash cannot change
+/// a result.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LineHasher(u64);
+
+impl Hasher for LineHasher {
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    #[inline]
+    fn write_u64(&mut self, n: u64) {
+        self.0 = (n ^ self.0).wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29);
+    }
+}
+
+/// Tags, sector state and LRU order of one cache. Each set's ways form a doubly linked recency
+/// list (most recently used at the head), so a use and an eviction are O(1) however many ways
+/// the set has; one hash index maps a line to its slot.
 #[derive(Clone, Debug)]
 pub struct TagStore {
     geom: Geometry,
     /// `sets × ways` slots, set-major.
     slots: Vec<Option<Way>>,
-    /// Per set: line number → way, for lookup only (never iterated).
-    index: Vec<BTreeMap<u64, u32>>,
-    /// Per set: stamp → way, least recently used first.
-    lru: Vec<BTreeMap<u64, u32>>,
+    /// Line number → slot, for lookup only (never iterated).
+    index: HashMap<u64, u32, BuildHasherDefault<LineHasher>>,
+    /// Recency links per slot: toward the head (more recent) and toward the tail.
+    prev: Vec<u32>,
+    next: Vec<u32>,
+    /// Per set: most and least recently used slot, [`NIL`] when the set holds no line.
+    head: Vec<u32>,
+    tail: Vec<u32>,
     /// Per set: empty ways, lowest popped first.
     free: Vec<Vec<u32>>,
-    clock: u64,
 }
 
 impl TagStore {
     pub fn new(geom: Geometry) -> TagStore {
         let sets = geom.sets as usize;
+        let lines = sets * geom.ways as usize;
         TagStore {
             geom,
-            slots: vec![None; sets * geom.ways as usize],
-            index: vec![BTreeMap::new(); sets],
-            lru: vec![BTreeMap::new(); sets],
+            slots: vec![None; lines],
+            index: HashMap::with_capacity_and_hasher(lines, BuildHasherDefault::default()),
+            prev: vec![NIL; lines],
+            next: vec![NIL; lines],
+            head: vec![NIL; sets],
+            tail: vec![NIL; sets],
             free: vec![(0..geom.ways).rev().collect(); sets],
-            clock: 0,
         }
     }
 
@@ -158,7 +189,7 @@ impl TagStore {
 
     /// Lines currently held.
     pub fn lines_held(&self) -> usize {
-        self.index.iter().map(BTreeMap::len).sum()
+        self.index.len()
     }
 
     pub fn lookup(&self, addr: u64) -> Lookup {
@@ -184,8 +215,11 @@ impl TagStore {
         if !self.free[set].is_empty() {
             return None;
         }
-        let (_, &way) = self.lru[set].first_key_value()?;
-        let w = self.slots[self.slot(set, way)].as_ref().expect("ordered way holds a line");
+        let lru = self.tail[set];
+        if lru == NIL {
+            return None;
+        }
+        let w = self.slots[lru as usize].as_ref().expect("listed way holds a line");
         Some(Victim {
             addr: w.line * u64::from(self.geom.line_bytes),
             valid: w.valid,
@@ -211,20 +245,20 @@ impl TagStore {
         let slot = match self.find(addr) {
             Some(slot) => slot,
             None => {
-                let way = match self.free[set].pop() {
-                    Some(way) => way,
+                let slot = match self.free[set].pop() {
+                    Some(way) => self.slot(set, way),
                     None => {
-                        let (_, way) = self.lru[set].pop_first().expect("full set has an LRU way");
-                        let slot = self.slot(set, way);
+                        let slot = self.tail[set] as usize;
+                        assert!(slot != NIL as usize, "full set has an LRU way");
+                        self.unlink(set, slot);
                         let old = self.slots[slot].take().expect("LRU way");
-                        self.index[set].remove(&old.line);
-                        way
+                        self.index.remove(&old.line);
+                        slot
                     }
                 };
-                let slot = self.slot(set, way);
-                self.slots[slot] =
-                    Some(Way { line, valid: 0, dirty: 0, dirty_kind: ReqKind::NodeFetch, stamp: 0 });
-                self.index[set].insert(line, way);
+                self.slots[slot] = Some(Way { line, valid: 0, dirty: 0, dirty_kind: ReqKind::NodeFetch });
+                self.index.insert(line, slot as u32);
+                self.push_head(set, slot);
                 slot
             }
         };
@@ -252,30 +286,55 @@ impl TagStore {
             let ways = self.geom.ways as usize;
             let (set, w) = (slot / ways, (slot % ways) as u32);
             let old = self.slots[slot].take().expect("line");
-            self.index[set].remove(&old.line);
-            self.lru[set].remove(&old.stamp);
+            self.index.remove(&old.line);
+            self.unlink(set, slot);
             self.free[set].push(w);
         }
     }
 
     /// Slot holding the line of `addr`, if present.
+    #[inline]
     fn find(&self, addr: u64) -> Option<usize> {
-        let set = self.geom.set_of(addr);
-        self.index[set].get(&self.geom.line_of(addr)).map(|&way| self.slot(set, way))
+        self.index.get(&self.geom.line_of(addr)).map(|&slot| slot as usize)
     }
 
     fn slot(&self, set: usize, way: u32) -> usize {
         set * self.geom.ways as usize + way as usize
     }
 
+    /// Takes `slot` out of its set's recency list.
+    fn unlink(&mut self, set: usize, slot: usize) {
+        let (p, n) = (self.prev[slot], self.next[slot]);
+        match p {
+            NIL => self.head[set] = n,
+            p => self.next[p as usize] = n,
+        }
+        match n {
+            NIL => self.tail[set] = p,
+            n => self.prev[n as usize] = p,
+        }
+        self.prev[slot] = NIL;
+        self.next[slot] = NIL;
+    }
+
+    /// Puts an unlisted `slot` at the head (most recently used) of its set's list.
+    fn push_head(&mut self, set: usize, slot: usize) {
+        let old = self.head[set];
+        self.prev[slot] = NIL;
+        self.next[slot] = old;
+        match old {
+            NIL => self.tail[set] = slot as u32,
+            o => self.prev[o as usize] = slot as u32,
+        }
+        self.head[set] = slot as u32;
+    }
+
     fn make_mru(&mut self, slot: usize) {
-        let ways = self.geom.ways as usize;
-        let (set, way) = (slot / ways, (slot % ways) as u32);
-        self.clock += 1;
-        let w = self.slots[slot].as_mut().expect("slot holds a line");
-        self.lru[set].remove(&w.stamp);
-        w.stamp = self.clock;
-        self.lru[set].insert(self.clock, way);
+        let set = slot / self.geom.ways as usize;
+        if self.head[set] != slot as u32 {
+            self.unlink(set, slot);
+            self.push_head(set, slot);
+        }
     }
 }
 
