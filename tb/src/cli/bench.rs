@@ -1,13 +1,15 @@
 //! `sms bench`: run time against error of every level and sample rate, the model's throughput
 //! against a plain traversal, and the savings of skipping unneeded work, on the built-in scenes
-//! by default. Prints the tables and writes them (text, Markdown, CSV, JSON) and an SVG plot.
+//! by default. Prints the report (text, Markdown, CSV or JSON) and writes it in every format with
+//! an SVG plot.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::cli::stack_config::StackConfigArgs;
-use crate::cli::{HardwareArgs, SceneArgs, WorkloadArgs};
-use crate::report::bench::{bench_scene, BenchOpts, Report};
+use crate::cli::{Format, HardwareArgs, OutputArgs, SceneArgs, WorkloadArgs};
+use crate::report::bench::Report;
+use crate::run::bench::{bench_scene, BenchOpts};
 use crate::run::sampling::SampleMode;
 
 /// Resolution when `--res` is not given: the whole default run takes about a minute on one core.
@@ -45,6 +47,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
+    // What is printed (csv: one row per scene, configuration and setting, as bench.csv); the
+    // folder gets every format.
+    #[command(flatten)]
+    pub output: OutputArgs,
     #[command(flatten)]
     pub workload: WorkloadArgs,
     #[command(flatten)]
@@ -81,7 +87,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         bench_scene(&scene, wopts, &opts, &mut report, &mut |line| eprintln!("{line}"))?;
     }
-    print!("{}", report.text(args.tolerance, false));
+    match args.output.format() {
+        Format::Text => print!("{}", report.text(args.tolerance, false)),
+        Format::Markdown => print!("{}", report.markdown(args.tolerance)),
+        Format::Csv => print!("{}", report.rows_table().to_csv()),
+        Format::Json => println!("{}", report.json(args.tolerance)?),
+    }
     report.write(&args.out, args.tolerance)?;
     eprintln!(
         "wrote {}/bench.{{txt,md,csv,json}}, summary/throughput/work/savings.csv and time-vs-error.svg; {:.1} s in all",

@@ -72,7 +72,7 @@ pub enum Format {
     Json,
 }
 
-/// The output format of a report printed on stdout, shared by `sms run` and `sms cost`.
+/// The output format of a report printed on stdout, shared by the subcommands that print one.
 #[derive(Clone, Copy, Debug, Default, clap::Args)]
 pub struct OutputArgs {
     /// Output format: text, markdown, csv or json (JSON layout: docs/json.md).
