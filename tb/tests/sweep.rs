@@ -7,6 +7,8 @@ use std::process::{Command, Output};
 
 use serde_json::Value;
 
+mod common;
+
 const FIGURES: [&str; 7] =
     ["performance", "offchip", "bank_conflicts", "rb_sweep", "l1d_sweep", "depth", "cost"];
 const SCENES: [&str; 2] = ["wknd", "clutter"];
@@ -23,22 +25,9 @@ fn sms(args: &[&str]) -> Output {
 
 /// The default plan (14 paper configurations, RB and L1D sweeps) on two scenes, tiny.
 fn sweep(out: &Path, jobs: &str) {
-    let o = sms(&[
-        "sweep",
-        "--scenes",
-        &SCENES.join(","),
-        "--res",
-        "16x16",
-        "--spp",
-        "1",
-        "--bounces",
-        "1",
-        "--jobs",
-        jobs,
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let scenes = SCENES.join(",");
+    let args = ["sweep", "--scenes", &scenes, "--jobs", jobs, "--quiet", "--out", out.to_str().unwrap()];
+    let o = sms(&[&args[..], &common::TINY].concat());
     assert!(o.status.success(), "sms sweep failed: {}", String::from_utf8_lossy(&o.stderr));
 }
 

@@ -359,7 +359,8 @@ mod grid_tests {
             configs(&["--warp-sizes", "4", "--borrow-limits", "0,2"]).unwrap()
         );
         // -c replaces the grid: the names, one warp of --warp-size threads.
-        let named = configs(&["-c", "RB_2+SH_1+RA", "--warp-size", "2", "--borrow-limit", "1", "--flush-limit", "3"]);
+        let named =
+            configs(&["-c", "RB_2+SH_1+RA", "--warp-size", "2", "--borrow-limit", "1", "--flush-limit", "3"]);
         let mut want = "RB_2+SH_1+RA".parse::<Config>().unwrap();
         want.warps = 1;
         want.warp_size = 2;

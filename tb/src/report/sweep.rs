@@ -193,28 +193,19 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
         s.jobs,
         s.wall.as_secs_f64()
     );
-    let mut scenes = crate::report::table::Table::new([
-        "scene",
-        "resolution",
-        "spp",
-        "max bounces",
-        "primitives",
-        "triangles",
-        "pixel warps",
-        "rays",
-    ]);
-    for sc in &s.scenes {
-        scenes.row([
-            sc.name.clone(),
-            format!("{}x{}", sc.opts.width, sc.opts.height),
-            sc.opts.spp.to_string(),
-            sc.opts.max_bounces.to_string(),
-            sc.primitives.to_string(),
-            sc.triangles.to_string(),
-            sc.pixel_warps.to_string(),
-            sc.rays.to_string(),
-        ]);
-    }
+    let scenes = crate::report::table::Table::of(
+        &s.scenes,
+        &[
+            ("scene", &|sc| sc.name.clone()),
+            ("resolution", &|sc| format!("{}x{}", sc.opts.width, sc.opts.height)),
+            ("spp", &|sc| sc.opts.spp.to_string()),
+            ("max bounces", &|sc| sc.opts.max_bounces.to_string()),
+            ("primitives", &|sc| sc.primitives.to_string()),
+            ("triangles", &|sc| sc.triangles.to_string()),
+            ("pixel warps", &|sc| sc.pixel_warps.to_string()),
+            ("rays", &|sc| sc.rays.to_string()),
+        ],
+    );
     out += &scenes.to_markdown();
     out += "\nEach figure is also in its own `.md`, `.csv`, `.json` and `.svg`; `report.json` holds every raw run, \
             `timing.json` the wall-clock times.\n";

@@ -36,6 +36,7 @@ use crate::workload::trace::{FetchKind, TraceOp};
 use crate::workload::traverse::{trace, ChildOrder};
 use crate::workload::{Workload, WorkloadOpts};
 
+/// A waveform sink that is on but keeps nothing: the probe walk's own cost.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct DiscardSink {
     pub signals: u64,

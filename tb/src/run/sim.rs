@@ -520,14 +520,7 @@ mod tests {
     }
 
     fn workload(scene: &crate::workload::scene::Scene, res: u32) -> Workload<'_> {
-        let opts = WorkloadOpts {
-            width: res,
-            height: res,
-            spp: 1,
-            max_bounces: 1,
-            ..WorkloadOpts::for_scene(scene)
-        };
-        Workload::new(scene, opts).unwrap()
+        Workload::new(scene, WorkloadOpts::quick(scene, res)).unwrap()
     }
 
     fn spec(name: &str, fidelity: Fidelity) -> RunSpec {
@@ -566,13 +559,9 @@ mod tests {
             [crate::workload::traverse::ChildOrder::Nearest, crate::workload::traverse::ChildOrder::VulkanSim]
         {
             let opts = WorkloadOpts {
-                width: 16,
-                height: 16,
-                spp: 1,
-                max_bounces: 1,
                 accel: crate::workload::Accel::TwoLevel,
                 order,
-                ..WorkloadOpts::for_scene(&scene)
+                ..WorkloadOpts::quick(&scene, 16)
             };
             let w = Workload::new(&scene, opts).unwrap();
             let f = simulate_all(&spec("RB_4+SH_4", Fidelity::Functional), &w).unwrap();
@@ -682,9 +671,7 @@ mod cycle_sampling_tests {
     #[test]
     fn sampling_every_warp_at_the_cycle_level_is_the_full_run() {
         let scene = crate::load_scene("clutter").unwrap();
-        let opts =
-            WorkloadOpts { width: 32, height: 32, spp: 1, max_bounces: 1, ..WorkloadOpts::for_scene(&scene) };
-        let w = Workload::new(&scene, opts).unwrap();
+        let w = Workload::new(&scene, WorkloadOpts::quick(&scene, 32)).unwrap();
         let s = RunSpec {
             config: "RB_4+SH_4".parse().unwrap(),
             hw: Hardware::default(),

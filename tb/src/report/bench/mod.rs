@@ -307,8 +307,6 @@ pub struct Saving {
     pub note: String,
 }
 
-/// A waveform sink that is on but keeps nothing: the probe walk's own cost.
-
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Report {
     pub rows: Vec<Row>,

@@ -1,7 +1,7 @@
 //! `sms bench`'s tables: one row per run, per setting, and the throughput, work and savings
 //! tables, rendered as text, Markdown or CSV by [`Table`].
 
-use super::{by_setting, worse, Errors, Headline, Report, Setting};
+use super::{by_setting, worse, Errors, Headline, Report, Setting, Work};
 use crate::report::table::Table;
 
 /// A relative error as a percentage; `n/a` where not measured.
@@ -24,38 +24,23 @@ impl Report {
 
     /// One row per scene, configuration and setting.
     pub fn rows_table(&self) -> Table {
-        let mut t = Table::new([
-            "scene",
-            "config",
-            "setting",
-            "warps",
-            "time s",
-            "faster",
-            "err perf",
-            "err off-chip",
-            "err conflicts",
-            "err cycles",
-            "err dram stack",
-            "±95%",
-        ]);
-        for r in &self.rows {
-            let e = &r.errors;
-            t.row([
-                r.scene.clone(),
-                r.config.clone(),
-                r.setting.to_string(),
-                r.pixel_warps.to_string(),
-                format!("{:.3}", r.wall),
-                format!("{:.1}x", self.truth_wall(&r.scene, &r.config) / r.wall),
-                pct(e.norm_cycles),
-                pct(e.stack_global),
-                pct(e.conflict_cycles),
-                pct(e.cycles),
-                pct(e.dram_stack),
-                r.ci.map_or(String::new(), |c| pct(Some(c))),
-            ]);
-        }
-        t
+        Table::of(
+            &self.rows,
+            &[
+                ("scene", &|r| r.scene.clone()),
+                ("config", &|r| r.config.clone()),
+                ("setting", &|r| r.setting.to_string()),
+                ("warps", &|r| r.pixel_warps.to_string()),
+                ("time s", &|r| format!("{:.3}", r.wall)),
+                ("faster", &|r| format!("{:.1}x", self.truth_wall(&r.scene, &r.config) / r.wall)),
+                ("err perf", &|r| pct(r.errors.norm_cycles)),
+                ("err off-chip", &|r| pct(r.errors.stack_global)),
+                ("err conflicts", &|r| pct(r.errors.conflict_cycles)),
+                ("err cycles", &|r| pct(r.errors.cycles)),
+                ("err dram stack", &|r| pct(r.errors.dram_stack)),
+                ("±95%", &|r| r.ci.map_or(String::new(), |c| pct(Some(c)))),
+            ],
+        )
     }
 
     /// One row per setting: total time and worst errors over every scene and configuration.
@@ -92,81 +77,53 @@ impl Report {
     }
 
     pub fn throughput_table(&self) -> Table {
-        let mut t = Table::new([
-            "scene",
-            "config",
-            "rays",
-            "GPU cycles",
-            "run s",
-            "cycles/s",
-            "evaluated/s",
-            "stack ops/s",
-            "BVH6 plain s",
-            "obvhs CWBVH s",
-            "run / obvhs",
-        ]);
-        for p in &self.throughput {
-            t.row([
-                p.scene.clone(),
-                p.config.clone(),
-                p.rays.to_string(),
-                p.cycles.to_string(),
-                format!("{:.3}", p.wall),
-                format!("{:.0}", p.cycles_per_sec()),
-                format!("{:.0}", p.evaluated_cycles as f64 / p.wall),
-                format!("{:.0}", p.stack_ops_per_sec()),
-                format!("{:.4}", p.plain_bvh6),
-                format!("{:.4}", p.obvhs_cwbvh),
-                format!("{:.0}x", p.vs_obvhs()),
-            ]);
-        }
-        t
+        Table::of(
+            &self.throughput,
+            &[
+                ("scene", &|p| p.scene.clone()),
+                ("config", &|p| p.config.clone()),
+                ("rays", &|p| p.rays.to_string()),
+                ("GPU cycles", &|p| p.cycles.to_string()),
+                ("run s", &|p| format!("{:.3}", p.wall)),
+                ("cycles/s", &|p| format!("{:.0}", p.cycles_per_sec())),
+                ("evaluated/s", &|p| format!("{:.0}", p.evaluated_cycles as f64 / p.wall)),
+                ("stack ops/s", &|p| format!("{:.0}", p.stack_ops_per_sec())),
+                ("BVH6 plain s", &|p| format!("{:.4}", p.plain_bvh6)),
+                ("obvhs CWBVH s", &|p| format!("{:.4}", p.obvhs_cwbvh)),
+                ("run / obvhs", &|p| format!("{:.0}x", p.vs_obvhs())),
+            ],
+        )
     }
 
     pub fn work_table(&self) -> Table {
-        let mut t = Table::new([
-            "scene",
-            "triangles",
-            "rays",
-            "max depth",
-            "rays ≤ 8 deep",
-            "internal visits",
-            "leaf visits",
-            "triangle visits",
-            "procedural visits",
-        ]);
-        for w in &self.work {
-            t.row([
-                w.scene.clone(),
-                w.triangles.to_string(),
-                w.rays.to_string(),
-                w.max_depth.to_string(),
-                format!(
-                    "{} ({:.1}%)",
-                    w.rays_within_rb8,
-                    100.0 * w.rays_within_rb8 as f64 / w.rays.max(1) as f64
-                ),
-                w.internal.to_string(),
-                w.leaf.to_string(),
-                w.triangle.to_string(),
-                w.procedural.to_string(),
-            ]);
-        }
-        t
+        let share = |w: &Work| 100.0 * w.rays_within_rb8 as f64 / w.rays.max(1) as f64;
+        Table::of(
+            &self.work,
+            &[
+                ("scene", &|w| w.scene.clone()),
+                ("triangles", &|w| w.triangles.to_string()),
+                ("rays", &|w| w.rays.to_string()),
+                ("max depth", &|w| w.max_depth.to_string()),
+                ("rays ≤ 8 deep", &|w| format!("{} ({:.1}%)", w.rays_within_rb8, share(w))),
+                ("internal visits", &|w| w.internal.to_string()),
+                ("leaf visits", &|w| w.leaf.to_string()),
+                ("triangle visits", &|w| w.triangle.to_string()),
+                ("procedural visits", &|w| w.procedural.to_string()),
+            ],
+        )
     }
 
     pub fn savings_table(&self) -> Table {
-        let mut t = Table::new(["scene", "work skipped", "doing it s", "skipping s", "saving", "result"]);
-        for s in &self.savings {
-            t.row([
-                s.scene.clone(),
-                s.what.clone(),
-                format!("{:.3}", s.with_work),
-                format!("{:.3}", s.skipped),
-                format!("{:.2}x", s.with_work / s.skipped),
-                s.note.clone(),
-            ]);
-        }
-        t
+        Table::of(
+            &self.savings,
+            &[
+                ("scene", &|s| s.scene.clone()),
+                ("work skipped", &|s| s.what.clone()),
+                ("doing it s", &|s| format!("{:.3}", s.with_work)),
+                ("skipping s", &|s| format!("{:.3}", s.skipped)),
+                ("saving", &|s| format!("{:.2}x", s.with_work / s.skipped)),
+                ("result", &|s| s.note.clone()),
+            ],
+        )
     }
 }
