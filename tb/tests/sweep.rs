@@ -211,8 +211,9 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
     let run = |args: &[&str]| {
         let o = sms(args);
         assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).unwrap()
     };
-    run(&[&["ablate", "--out", abl.to_str().unwrap()], &tiny[..]].concat());
+    let printed = run(&[&["ablate", "--out", abl.to_str().unwrap(), "--format", "csv"], &tiny[..]].concat());
     let headline = "RB_16,RB_FULL,RB_8+SH_8,RB_8+SH_8+SK,RB_8+SH_8+SK+RA,RB_2";
     run(&[
         &["sweep", "--order", "vulkansim", "-c", headline, "--rb-sizes", "8", "--l1d-sizes", "64"],
@@ -222,6 +223,7 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
     .concat());
 
     let csv = std::fs::read_to_string(abl.join("ablation.csv")).unwrap();
+    assert_eq!(printed, csv, "--format csv prints the ablation table as written");
     let rows: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
     assert_eq!(rows[0], "all on");
     let mechanisms = tb::report::ablate::MECHANISMS;

@@ -15,6 +15,7 @@ use rtl::stack_manager::{Mutant, StackManager};
 use rtl::trace::{Probe, Sink};
 
 use crate::cli::stack_config::StackConfigArgs;
+use crate::cli::{Format, OutputArgs};
 use crate::report::table::Table;
 use crate::vcd::{Selection, VcdOptions, VcdSink};
 
@@ -65,6 +66,8 @@ pub struct Args {
     /// (-c, --warp-size, --borrow-limit, --flush-limit), --depth and --wide-depth.
     #[arg(long)]
     pub full: bool,
+    #[command(flatten)]
+    pub output: OutputArgs,
     /// With --full: the cap on the entries the warp holds (default per configuration: RB + SH
     /// × (1 + borrow limit) + 1, enough to fill a whole chain and reach global memory).
     #[arg(long)]
@@ -206,7 +209,7 @@ pub fn run(args: Args) -> Result<()> {
                 if cov.complete { "yes".into() } else { "state cap".into() },
             ]),
             Err(cex) => {
-                print!("{}", t.to_text());
+                print_report(&args.output, &t, None)?;
                 if let Some(path) = &args.vcd {
                     dump_counterexample(*c, design, &cex.trace, path)?;
                     eprintln!(
@@ -223,12 +226,28 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    print!("{}", t.to_text());
-    println!(
+    let verdict = format!(
         "all properties hold on {} configurations ({:.1} s)",
         configs.len(),
         started.elapsed().as_secs_f64()
     );
+    print_report(&args.output, &t, Some(&verdict))
+}
+
+/// Prints the table and, when every property held, the verdict line, in the format asked for
+/// (CSV: the table alone; JSON: `{ table, verdict }`, `verdict` null on a failure).
+fn print_report(output: &OutputArgs, t: &Table, verdict: Option<&str>) -> Result<()> {
+    match (output.format(), output.table(t)) {
+        (Format::Csv, Some(table)) => print!("{table}"),
+        (Format::Markdown, Some(table)) => {
+            print!("{table}{}", verdict.map_or(String::new(), |v| format!("\n{v}\n")))
+        }
+        (_, Some(table)) => print!("{table}{}", verdict.map_or(String::new(), |v| format!("{v}\n"))),
+        (_, None) => println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({ "table": t, "verdict": verdict }))?
+        ),
+    }
     Ok(())
 }
 
@@ -256,7 +275,7 @@ fn run_full(args: &Args) -> Result<()> {
         let cov = match check(*c, bounds, design) {
             Ok(cov) => cov,
             Err(cex) => {
-                print!("{}", t.to_text());
+                print_report(&args.output, &t, None)?;
                 if let Some(path) = &args.vcd {
                     dump_counterexample(*c, design, &cex.trace, path)?;
                 }
@@ -294,16 +313,16 @@ fn run_full(args: &Args) -> Result<()> {
             },
         ]);
     }
-    print!("{}", t.to_text());
     if !failed.is_empty() {
+        print_report(&args.output, &t, None)?;
         bail!("not proved (state cap hit or a cover goal missed): {}", failed.join(", "));
     }
-    println!(
+    let verdict = format!(
         "every property proved on {} configurations to the fixpoint, every cover reached ({:.1} s)",
         configs.len(),
         started.elapsed().as_secs_f64()
     );
-    Ok(())
+    print_report(&args.output, &t, Some(&verdict))
 }
 
 #[cfg(test)]

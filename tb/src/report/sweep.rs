@@ -35,7 +35,8 @@ fn pretty(v: &Value) -> String {
     s
 }
 
-fn figure_markdown(f: &Figure, heading: &str) -> String {
+/// A figure's Markdown under `heading` (`#`, `## 1.`, ...).
+pub fn figure_markdown(f: &Figure, heading: &str) -> String {
     let mut md = format!(
         "{heading} {}\n\n{}\n\n![{}]({}.svg)\n\n{}",
         f.title,
@@ -50,6 +51,13 @@ fn figure_markdown(f: &Figure, heading: &str) -> String {
     md
 }
 
+/// A figure's JSON file (layout: docs/json.md).
+pub fn figure_json(f: &Figure) -> Value {
+    json!({
+        "title": f.title, "note": f.note, "table": f.table, "per_scene_table": f.per_scene, "data": f.json,
+    })
+}
+
 /// A figure's Markdown, CSV (and per-scene CSV), JSON and SVG.
 fn write_figure(f: &Figure, dir: &Path, written: &mut Vec<PathBuf>) -> Result<()> {
     write(dir.join(format!("{}.md", f.name)), &figure_markdown(f, "#"), written)?;
@@ -57,10 +65,7 @@ fn write_figure(f: &Figure, dir: &Path, written: &mut Vec<PathBuf>) -> Result<()
     if let Some(t) = &f.per_scene {
         write(dir.join(format!("{}_per_scene.csv", f.name)), &t.to_csv(), written)?;
     }
-    let v = json!({
-        "title": f.title, "note": f.note, "table": f.table, "per_scene_table": f.per_scene, "data": f.json,
-    });
-    write(dir.join(format!("{}.json", f.name)), &pretty(&v), written)?;
+    write(dir.join(format!("{}.json", f.name)), &pretty(&figure_json(f)), written)?;
     let svg = dir.join(format!("{}.svg", f.name));
     f.chart.write_svg(&svg, &f.title)?;
     written.push(svg);
