@@ -33,7 +33,7 @@ pub struct Args {
     pub warp_sizes: Vec<u32>,
     /// Borrow limits of the grid, comma-separated; 0 = reallocation off. `--borrow-limit N`
     /// replaces the nonzero ones; reallocating configurations flush at 1 unless `--flush-limit`.
-    #[arg(long, value_delimiter = ',', default_values_t = [0, 1])]
+    #[arg(long, alias = "borrow", value_delimiter = ',', default_values_t = [0, 1])]
     pub borrow_limits: Vec<u32>,
     // With `-c`, the named configurations are checked instead of the grid, one warp of
     // `--warp-size` threads (which they then need: the names' 32 threads are too many).
@@ -371,6 +371,8 @@ mod grid_tests {
         // --warp-size means threads per warp, as in every subcommand: the grid's other sizes go.
         let two = configs(&["--warp-size", "2"]).unwrap();
         assert_eq!(two, configs(&["--warp-sizes", "2"]).unwrap());
+        // The grid's borrow list was `--borrow` before the shared flags came in; it still parses.
+        assert_eq!(configs(&["--borrow", "0"]).unwrap(), configs(&["--borrow-limits", "0"]).unwrap());
         assert!(two.len() < all.len());
         // --borrow-limit replaces the grid's nonzero limits; borrowing 2 of 2 threads is invalid.
         assert_eq!(

@@ -34,7 +34,8 @@ pub enum Command {
     Cost(cost::Args),
     /// Simulate a scene under stack configurations: cycles, off-chip traffic, conflicts.
     Run(run::Args),
-    /// Exhaustive bounded model checking of stack consistency on small configurations.
+    /// Exhaustive bounded model checking of stack consistency on small configurations (a grid,
+    /// or the ones named with -c, one warp of --warp-size threads).
     Check(check::Args),
     /// Run the paper's experiments over a scene set and write the report.
     Sweep(sweep::Args),
