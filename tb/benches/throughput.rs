@@ -10,7 +10,7 @@
 
 use std::time::Duration;
 
-use tb::report::bench::throughput;
+use tb::run::bench::throughput;
 use tb::run::sim::{simulate_all, Fidelity, Hardware, RunSpec};
 use tb::workload::{Workload, WorkloadOpts};
 

@@ -1,9 +1,9 @@
-//! One grammar: the shared argument groups (configurations, workload, hardware, scene data) are
-//! the same flags with the same help in every subcommand they apply to.
+//! One grammar: the shared argument groups (configurations, workload, hardware, scene data,
+//! output format) are the same flags with the same help in every subcommand they apply to.
 
 use clap::{Args, CommandFactory, Parser};
 use tb::cli::stack_config::StackConfigArgs;
-use tb::cli::{Cli, Command, HardwareArgs, SceneArgs, WorkloadArgs};
+use tb::cli::{Cli, Command, HardwareArgs, OutputArgs, SceneArgs, WorkloadArgs};
 
 /// `(long flag, help)` of every argument of a group.
 type Flags = Vec<(String, String)>;
@@ -22,15 +22,21 @@ fn group<G: Args>() -> Flags {
 
 #[test]
 fn every_subcommand_shows_the_same_shared_flags() {
-    let (stack, workload, hardware, scenes) =
-        (group::<StackConfigArgs>(), group::<WorkloadArgs>(), group::<HardwareArgs>(), group::<SceneArgs>());
-    let applies: [(&str, Vec<&Flags>); 6] = [
-        ("run", vec![&stack, &workload, &hardware, &scenes]),
+    let (stack, workload, hardware, scenes, output) = (
+        group::<StackConfigArgs>(),
+        group::<WorkloadArgs>(),
+        group::<HardwareArgs>(),
+        group::<SceneArgs>(),
+        group::<OutputArgs>(),
+    );
+    let applies: [(&str, Vec<&Flags>); 7] = [
+        ("run", vec![&stack, &workload, &hardware, &scenes, &output]),
         ("sweep", vec![&stack, &workload, &hardware, &scenes]),
-        ("bench", vec![&stack, &workload, &hardware, &scenes]),
-        ("ablate", vec![&workload, &hardware, &scenes]),
-        ("depth", vec![&workload, &scenes]),
-        ("cost", vec![&stack, &hardware]),
+        ("bench", vec![&stack, &workload, &hardware, &scenes, &output]),
+        ("ablate", vec![&workload, &hardware, &scenes, &output]),
+        ("depth", vec![&workload, &scenes, &output]),
+        ("cost", vec![&stack, &hardware, &output]),
+        ("check", vec![&stack, &output]),
     ];
     let mut cli = Cli::command();
     cli.build();
@@ -57,6 +63,7 @@ fn configuration_names_mean_the_same_everywhere() {
         &["sms", "sweep", "-c", "paper"],
         &["sms", "sweep", "--configs", "RB_8,SMS"],
         &["sms", "cost", "--config", "paper"],
+        &["sms", "check", "-c", "paper"],
     ] {
         let cli = Cli::try_parse_from(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
         let stack = match &cli.command {
@@ -64,6 +71,7 @@ fn configuration_names_mean_the_same_everywhere() {
             Command::Bench(a) => &a.stack,
             Command::Sweep(a) => &a.stack,
             Command::Cost(a) => &a.stack,
+            Command::Check(a) => &a.stack,
             _ => unreachable!(),
         };
         let n = stack.resolve(&["SMS"]).expect("resolves").len();
@@ -75,4 +83,40 @@ fn configuration_names_mean_the_same_everywhere() {
     let Command::Bench(a) = cli.command else { unreachable!() };
     let e = a.stack.names_only("bench").unwrap_err().to_string();
     assert!(e.starts_with("--warps"), "{e}");
+}
+
+#[test]
+fn check_prints_its_table_in_every_format() {
+    let check = |format: &str| {
+        let args = [
+            "check",
+            "--rb",
+            "1,2",
+            "--sh",
+            "0",
+            "--warp-sizes",
+            "2",
+            "--borrow-limits",
+            "0",
+            "--depth",
+            "6",
+        ];
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_sms"))
+            .args(args)
+            .args(["--format", format])
+            .output()
+            .expect("sms runs");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let json: serde_json::Value = serde_json::from_str(&check("json")).expect("valid JSON");
+    let rows = json["table"]["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2, "RB_1 and RB_2, one warp of 2 threads");
+    assert_eq!(rows[0][0], "RB_1 warp 2");
+    assert!(json["verdict"].as_str().unwrap().starts_with("all properties hold on 2 configurations"));
+    let csv = check("csv");
+    assert_eq!(csv.lines().count(), 3, "header and two rows, no verdict:\n{csv}");
+    assert!(csv.starts_with("configuration,depth,states,"));
+    assert!(check("markdown").contains("| RB_2 warp 2 | 6 |"));
+    assert!(check("text").contains("all properties hold on 2 configurations"));
 }

@@ -5,29 +5,22 @@ use rtl::config::Config;
 use rtl::stack_unit::StandaloneStack;
 use rtl::trace::NullSink;
 use tb::load_scene;
-use tb::run::stack_tb::run_jobs;
-use tb::run::verify::harness::CycleOpts;
+use tb::run::stack_tb::warp_work;
+use tb::run::verify::harness::{run_cycle, CycleOpts};
 use tb::workload::traverse::ChildOrder;
-use tb::workload::{Workload, WorkloadOpts};
+
+mod common;
 
 fn check_scene(name: &str, res: u32, order: ChildOrder) {
     let scene = load_scene(name).unwrap();
-    let opts = WorkloadOpts {
-        width: res,
-        height: res,
-        spp: 1,
-        max_bounces: 1,
-        order,
-        ..WorkloadOpts::for_scene(&scene)
-    };
-    let w = Workload::new(&scene, opts).unwrap();
+    let w = common::small_workload(&scene, res, order);
     let jobs: Vec<_> = w.warp_jobs().collect();
     let deepest = jobs.iter().flat_map(|j| j.lanes.iter().flatten()).map(|t| t.max_depth()).max().unwrap();
     let mut traffic = Vec::new();
     for cfg in Config::paper_set() {
         let mut unit = StandaloneStack::new(cfg, 100).unwrap();
         let o = CycleOpts { max_gap: 8, seed: 1, ..CycleOpts::default() };
-        let s = run_jobs(&mut unit, jobs.clone(), o, &mut NullSink)
+        let s = run_cycle(&mut unit, jobs.iter().map(warp_work), o, &mut NullSink)
             .unwrap_or_else(|e| panic!("{name} {}: {e}", cfg.name()));
         assert!(s.pops_checked > 500, "{name}: {} pops", s.pops_checked);
         traffic.push((cfg.name(), s.stats.stack.global_accesses()));

@@ -7,6 +7,8 @@ use std::process::{Command, Output};
 
 use serde_json::Value;
 
+mod common;
+
 const FIGURES: [&str; 7] =
     ["performance", "offchip", "bank_conflicts", "rb_sweep", "l1d_sweep", "depth", "cost"];
 const SCENES: [&str; 2] = ["wknd", "clutter"];
@@ -23,22 +25,9 @@ fn sms(args: &[&str]) -> Output {
 
 /// The default plan (14 paper configurations, RB and L1D sweeps) on two scenes, tiny.
 fn sweep(out: &Path, jobs: &str) {
-    let o = sms(&[
-        "sweep",
-        "--scenes",
-        &SCENES.join(","),
-        "--res",
-        "16x16",
-        "--spp",
-        "1",
-        "--bounces",
-        "1",
-        "--jobs",
-        jobs,
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let scenes = SCENES.join(",");
+    let args = ["sweep", "--scenes", &scenes, "--jobs", jobs, "--quiet", "--out", out.to_str().unwrap()];
+    let o = sms(&[&args[..], &common::TINY].concat());
     assert!(o.status.success(), "sms sweep failed: {}", String::from_utf8_lossy(&o.stderr));
 }
 
@@ -222,8 +211,9 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
     let run = |args: &[&str]| {
         let o = sms(args);
         assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).unwrap()
     };
-    run(&[&["ablate", "--out", abl.to_str().unwrap()], &tiny[..]].concat());
+    let printed = run(&[&["ablate", "--out", abl.to_str().unwrap(), "--format", "csv"], &tiny[..]].concat());
     let headline = "RB_16,RB_FULL,RB_8+SH_8,RB_8+SH_8+SK,RB_8+SH_8+SK+RA,RB_2";
     run(&[
         &["sweep", "--order", "vulkansim", "-c", headline, "--rb-sizes", "8", "--l1d-sizes", "64"],
@@ -233,6 +223,7 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
     .concat());
 
     let csv = std::fs::read_to_string(abl.join("ablation.csv")).unwrap();
+    assert_eq!(printed, csv, "--format csv prints the ablation table as written");
     let rows: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
     assert_eq!(rows[0], "all on");
     let mechanisms = tb::report::ablate::MECHANISMS;

@@ -62,9 +62,7 @@ fn spec() -> RunSpec {
 }
 
 fn ship_workload(scene: &tb::Scene, res: u32) -> Workload<'_> {
-    let opts =
-        WorkloadOpts { width: res, height: res, spp: 1, max_bounces: 1, ..WorkloadOpts::for_scene(scene) };
-    Workload::new(scene, opts).unwrap()
+    Workload::new(scene, WorkloadOpts::quick(scene, res)).unwrap()
 }
 
 /// Runs ship through the GPU with a VCD sink writing `path` (and its save file) and a windowed

@@ -1,7 +1,8 @@
 //! `sms check`: the exhaustive model checker. By default a bounded search over a grid of small
-//! configurations (bounds from the command line); with `--full`, every configuration of
-//! [`crate::run::verify::exhaustive::full_configs`] explored to its fixpoint under a depth cap, every cover
-//! goal asserted.
+//! configurations (bounds from the command line) or over the configurations named with `-c`
+//! (the shared configuration flags, as every subcommand takes them); with `--full`, every
+//! configuration of [`crate::run::verify::exhaustive::full_configs`] explored to its fixpoint
+//! under a depth cap, every cover goal asserted.
 
 use std::path::{Path, PathBuf};
 
@@ -13,27 +14,31 @@ use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Mutant, StackManager};
 use rtl::trace::{Probe, Sink};
 
-use crate::vcd::{Selection, VcdOptions, VcdSink};
-
+use crate::cli::stack_config::StackConfigArgs;
+use crate::cli::{Format, OutputArgs};
 use crate::report::table::Table;
+use crate::vcd::{Selection, VcdOptions, VcdSink};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// RB entries to check, comma-separated.
+    /// RB entries of the grid, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [1, 2])]
     pub rb: Vec<u32>,
-    /// SH entries per thread, comma-separated (0 or powers of two).
+    /// SH entries per thread of the grid, comma-separated (0 or powers of two).
     #[arg(long, value_delimiter = ',', default_values_t = [0, 1, 2])]
     pub sh: Vec<u32>,
-    /// Threads per warp, comma-separated (powers of two).
+    /// Threads per warp of the grid, comma-separated (powers of two); `--warp-size N` checks N
+    /// alone.
     #[arg(long, value_delimiter = ',', default_values_t = [2, 4])]
-    pub warp_size: Vec<u32>,
-    /// Borrow limits, comma-separated; 0 = reallocation off.
-    #[arg(long, value_delimiter = ',', default_values_t = [0, 1])]
-    pub borrow: Vec<u32>,
-    /// Flush limit with reallocation.
-    #[arg(long, default_value_t = 1)]
-    pub flush_limit: u32,
+    pub warp_sizes: Vec<u32>,
+    /// Borrow limits of the grid, comma-separated; 0 = reallocation off. `--borrow-limit N`
+    /// replaces the nonzero ones; reallocating configurations flush at 1 unless `--flush-limit`.
+    #[arg(long, alias = "borrow", value_delimiter = ',', default_values_t = [0, 1])]
+    pub borrow_limits: Vec<u32>,
+    // With `-c`, the named configurations are checked instead of the grid, one warp of
+    // `--warp-size` threads (which they then need: the names' 32 threads are too many).
+    #[command(flatten)]
+    pub stack: StackConfigArgs,
     /// Longest action sequence (commands and micro-op completions) for 2-thread warps.
     #[arg(long, default_value_t = 16)]
     pub depth: u32,
@@ -57,9 +62,12 @@ pub struct Args {
     /// Prove instead of search: explore every configuration of the full set (the small grid
     /// plus skewed ones with 4 and 8 banks) to its fixpoint, every interleaving unbounded in
     /// time, under a cap on the entries the warp holds; a cover goal never reached fails the run.
-    /// Ignores --rb, --sh, --warp-size, --borrow, --depth and --wide-depth.
+    /// Ignores the grid (--rb, --sh, --warp-sizes, --borrow-limits), the configuration flags
+    /// (-c, --warp-size, --borrow-limit, --flush-limit), --depth and --wide-depth.
     #[arg(long)]
     pub full: bool,
+    #[command(flatten)]
+    pub output: OutputArgs,
     /// With --full: the cap on the entries the warp holds (default per configuration: RB + SH
     /// × (1 + borrow limit) + 1, enough to fill a whole chain and reach global memory).
     #[arg(long)]
@@ -113,27 +121,41 @@ pub fn dump_counterexample(
     Ok(())
 }
 
+/// The configurations to check: the names given with `-c`, else the grid; every shape override
+/// applied, one warp each, without repeats.
 fn grid(a: &Args) -> Result<Vec<Config>> {
-    let mut out = Vec::new();
+    let stack = &a.stack;
+    if let Some(w) = stack.warps.filter(|&w| w != 1) {
+        bail!("--warps {w}: `sms check` explores one warp");
+    }
+    if !stack.config.is_empty() {
+        if stack.warp_size.is_none() {
+            bail!("--config: give --warp-size too (the names' 32 threads are too many to explore)");
+        }
+        let named = stack.resolve(&[])?.into_iter().map(|c| Config { warps: 1, ..c });
+        return named.map(|c| c.validate().map(|()| c).map_err(Into::into)).collect();
+    }
+    let mut out: Vec<Config> = Vec::new();
     for &n in &a.rb {
         for &m in &a.sh {
-            for &ws in &a.warp_size {
-                for &borrow in &a.borrow {
-                    if borrow > 0 && (m == 0 || borrow >= ws) {
-                        continue;
-                    }
-                    let c = Config {
+            for &warp_size in &a.warp_sizes {
+                for &borrow in &a.borrow_limits {
+                    let c = stack.apply(Config {
                         rb: RbSize::Entries(n),
                         sh_entries: m,
-                        skew: m > 0 && ws > 2,
-                        realloc: (borrow > 0)
-                            .then_some(Realloc { borrow_limit: borrow, flush_limit: a.flush_limit }),
-                        warp_size: ws,
+                        realloc: (borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 }),
+                        warp_size,
                         warps: 1,
                         ..Config::default()
-                    };
+                    });
+                    let c = Config { skew: m > 0 && c.warp_size > 2, ..c };
+                    if c.realloc.is_some_and(|ra| m == 0 || ra.borrow_limit >= c.warp_size) {
+                        continue;
+                    }
                     c.validate()?;
-                    out.push(c);
+                    if !out.contains(&c) {
+                        out.push(c);
+                    }
                 }
             }
         }
@@ -187,7 +209,7 @@ pub fn run(args: Args) -> Result<()> {
                 if cov.complete { "yes".into() } else { "state cap".into() },
             ]),
             Err(cex) => {
-                print!("{}", t.to_text());
+                print_report(&args.output, &t, None)?;
                 if let Some(path) = &args.vcd {
                     dump_counterexample(*c, design, &cex.trace, path)?;
                     eprintln!(
@@ -204,12 +226,28 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    print!("{}", t.to_text());
-    println!(
+    let verdict = format!(
         "all properties hold on {} configurations ({:.1} s)",
         configs.len(),
         started.elapsed().as_secs_f64()
     );
+    print_report(&args.output, &t, Some(&verdict))
+}
+
+/// Prints the table and, when every property held, the verdict line, in the format asked for
+/// (CSV: the table alone; JSON: `{ table, verdict }`, `verdict` null on a failure).
+fn print_report(output: &OutputArgs, t: &Table, verdict: Option<&str>) -> Result<()> {
+    match (output.format(), output.table(t)) {
+        (Format::Csv, Some(table)) => print!("{table}"),
+        (Format::Markdown, Some(table)) => {
+            print!("{table}{}", verdict.map_or(String::new(), |v| format!("\n{v}\n")))
+        }
+        (_, Some(table)) => print!("{table}{}", verdict.map_or(String::new(), |v| format!("{v}\n"))),
+        (_, None) => println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({ "table": t, "verdict": verdict }))?
+        ),
+    }
     Ok(())
 }
 
@@ -237,7 +275,7 @@ fn run_full(args: &Args) -> Result<()> {
         let cov = match check(*c, bounds, design) {
             Ok(cov) => cov,
             Err(cex) => {
-                print!("{}", t.to_text());
+                print_report(&args.output, &t, None)?;
                 if let Some(path) = &args.vcd {
                     dump_counterexample(*c, design, &cex.trace, path)?;
                 }
@@ -275,16 +313,16 @@ fn run_full(args: &Args) -> Result<()> {
             },
         ]);
     }
-    print!("{}", t.to_text());
     if !failed.is_empty() {
+        print_report(&args.output, &t, None)?;
         bail!("not proved (state cap hit or a cover goal missed): {}", failed.join(", "));
     }
-    println!(
+    let verdict = format!(
         "every property proved on {} configurations to the fixpoint, every cover reached ({:.1} s)",
         configs.len(),
         started.elapsed().as_secs_f64()
     );
-    Ok(())
+    print_report(&args.output, &t, Some(&verdict))
 }
 
 #[cfg(test)]
@@ -305,6 +343,57 @@ mod mutant_tests {
             Err(e) => {
                 assert!(!cfg!(feature = "mutants") && e.to_string().contains("--features mutants"), "{e}")
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod grid_tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn configs(argv: &[&str]) -> Result<Vec<String>> {
+        let cli = Cli::try_parse_from(std::iter::once("check").chain(argv.iter().copied()))?;
+        Ok(grid(&cli.args)?.iter().map(describe).collect())
+    }
+
+    #[test]
+    fn the_shared_configuration_flags_narrow_the_grid_or_replace_it() {
+        let all = configs(&[]).unwrap();
+        assert_eq!(all.len(), 20, "the default grid: {all:?}");
+        // --warp-size means threads per warp, as in every subcommand: the grid's other sizes go.
+        let two = configs(&["--warp-size", "2"]).unwrap();
+        assert_eq!(two, configs(&["--warp-sizes", "2"]).unwrap());
+        // The grid's borrow list was `--borrow` before the shared flags came in; it still parses.
+        assert_eq!(configs(&["--borrow", "0"]).unwrap(), configs(&["--borrow-limits", "0"]).unwrap());
+        assert!(two.len() < all.len());
+        // --borrow-limit replaces the grid's nonzero limits; borrowing 2 of 2 threads is invalid.
+        assert_eq!(
+            configs(&["--warp-sizes", "4", "--borrow-limit", "2"]).unwrap(),
+            configs(&["--warp-sizes", "4", "--borrow-limits", "0,2"]).unwrap()
+        );
+        // -c replaces the grid: the names, one warp of --warp-size threads.
+        let named =
+            configs(&["-c", "RB_2+SH_1+RA", "--warp-size", "2", "--borrow-limit", "1", "--flush-limit", "3"]);
+        let mut want = "RB_2+SH_1+RA".parse::<Config>().unwrap();
+        want.warps = 1;
+        want.warp_size = 2;
+        want.realloc = Some(Realloc { borrow_limit: 1, flush_limit: 3 });
+        assert_eq!(named.unwrap(), [describe(&want)]);
+        for (argv, flag) in [
+            (&["-c", "RB_2"][..], "--config"),
+            (&["--warps", "2"], "--warps 2"),
+            (&["-c", "RB_2+SH_1+RA", "--warp-size", "1"], "--config RB_2+SH_1+RA"),
+        ] {
+            let e = format!("{:#}", configs(argv).unwrap_err());
+            assert!(e.starts_with(flag), "{argv:?}: {e}");
         }
     }
 }

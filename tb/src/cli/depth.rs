@@ -1,12 +1,12 @@
-//! `sms depth`: stack-depth statistics of one scene, BVH and child order, printed as a table and
-//! written as CSV, JSON, an SVG histogram and the rendered PNG.
+//! `sms depth`: stack-depth statistics of one scene, BVH and child order, printed as text,
+//! Markdown, CSV or JSON and written as CSV, JSON, an SVG histogram and the rendered PNG.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::cli::{SceneArgs, WorkloadArgs};
+use crate::cli::{Format, OutputArgs, SceneArgs, WorkloadArgs};
 use crate::workload::depth::{DepthHistogram, DepthReport};
 use crate::workload::Workload;
 
@@ -19,6 +19,8 @@ pub struct Args {
     /// Output folder (default: out/depth/<scene>).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub output: OutputArgs,
     #[command(flatten)]
     pub scenes: SceneArgs,
 }
@@ -61,7 +63,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     eprintln!("recorded traces in {:.2} s", start.elapsed().as_secs_f64());
 
     let report = DepthReport::new(&scene.name, opts, workload.num_rays(), histogram);
-    print!("{}", report.table());
+    match args.output.format() {
+        Format::Text => print!("{}", report.table()),
+        Format::Markdown => print!("{}", report.markdown()),
+        Format::Csv => print!("{}", report.csv()),
+        Format::Json => println!("{}", report.json()),
+    }
 
     let out = args.out.unwrap_or_else(|| PathBuf::from("out/depth").join(&scene.name));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;

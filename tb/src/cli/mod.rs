@@ -34,7 +34,8 @@ pub enum Command {
     Cost(cost::Args),
     /// Simulate a scene under stack configurations: cycles, off-chip traffic, conflicts.
     Run(run::Args),
-    /// Exhaustive bounded model checking of stack consistency on small configurations.
+    /// Exhaustive bounded model checking of stack consistency on small configurations (a grid,
+    /// or the ones named with -c, one warp of --warp-size threads).
     Check(check::Args),
     /// Run the paper's experiments over a scene set and write the report.
     Sweep(sweep::Args),
@@ -72,7 +73,7 @@ pub enum Format {
     Json,
 }
 
-/// The output format of a report printed on stdout, shared by `sms run` and `sms cost`.
+/// The output format of a report printed on stdout, shared by the subcommands that print one.
 #[derive(Clone, Copy, Debug, Default, clap::Args)]
 pub struct OutputArgs {
     /// Output format: text, markdown, csv or json (JSON layout: docs/json.md).

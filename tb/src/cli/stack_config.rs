@@ -9,8 +9,9 @@ pub struct StackConfigArgs {
     /// Stack configurations, comma-separated: RB_N, RB_FULL, RB_N+SH_M, +SK, +RA, or SMS
     /// (= RB_8+SH_8+SK+RA); `paper` = every configuration of the paper's evaluation (SPEC
     /// section 8). Default: `sms run` RB_8,RB_16,SMS (the first is the speed-ups' baseline),
-    /// `sms bench` RB_8,RB_8+SH_8+SK,SMS, `sms sweep` paper, `sms cost` SMS; RB_8 is always run
-    /// by bench and sweep. `--configs` is the same flag.
+    /// `sms bench` RB_8,RB_8+SH_8+SK,SMS, `sms sweep` paper, `sms cost` SMS, `sms check` the
+    /// grid of --rb, --sh, --warp-sizes and --borrow-limits; RB_8 is always run by bench and
+    /// sweep. `--configs` is the same flag.
     #[arg(long, short = 'c', visible_alias = "configs", value_delimiter = ',')]
     pub config: Vec<String>,
     /// Warps per RT unit.
@@ -61,22 +62,24 @@ impl StackConfigArgs {
             } else {
                 vec![name.parse().with_context(|| format!("--config {name}"))?]
             };
-            for mut c in base {
-                if let Some(w) = self.warps {
-                    c.warps = w;
-                }
-                if let Some(w) = self.warp_size {
-                    c.warp_size = w;
-                }
-                if let Some(ra) = c.realloc.as_mut() {
-                    let Realloc { borrow_limit, flush_limit } = ra;
-                    *borrow_limit = self.borrow_limit.unwrap_or(*borrow_limit);
-                    *flush_limit = self.flush_limit.unwrap_or(*flush_limit);
-                }
+            for c in base {
+                let c = self.apply(c);
                 c.validate().with_context(|| format!("--config {name}"))?;
                 out.push(c);
             }
         }
         Ok(out)
+    }
+
+    /// `c` with the shape overrides applied (not validated).
+    pub fn apply(&self, mut c: Config) -> Config {
+        c.warps = self.warps.unwrap_or(c.warps);
+        c.warp_size = self.warp_size.unwrap_or(c.warp_size);
+        if let Some(ra) = c.realloc.as_mut() {
+            let Realloc { borrow_limit, flush_limit } = ra;
+            *borrow_limit = self.borrow_limit.unwrap_or(*borrow_limit);
+            *flush_limit = self.flush_limit.unwrap_or(*flush_limit);
+        }
+        c
     }
 }

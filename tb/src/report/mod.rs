@@ -1,10 +1,11 @@
-//! Reports: `sms bench` ([`bench`](mod@bench)), storage cost ([`cost`]), tables ([`table`]), the sweep's
-//! figures ([`figures`]), ablation ([`ablate`]), report folder ([`sweep`]) and SVG charts
-//! ([`plot`]).
+//! Reports: `sms bench` ([`bench`](mod@bench)), storage cost ([`cost`]), stack depth
+//! ([`depth`](mod@depth)), tables ([`table`]), the sweep's figures ([`figures`]), ablation
+//! ([`ablate`]), report folder ([`sweep`]) and SVG charts ([`plot`]).
 
 pub mod ablate;
 pub mod bench;
 pub mod cost;
+pub mod depth;
 pub mod figures;
 pub mod plot;
 pub mod sweep;

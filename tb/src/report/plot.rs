@@ -1,7 +1,7 @@
-//! The SVG charts of every report (sweep, ablation, bench): horizontal bars per configuration,
-//! bars grouped per scene, lines over a power-of-two axis, and scatters with labels placed so
-//! that they do not collide. Every element is drawn in the order given, so the
-//! same data give the same file.
+//! The SVG charts of every report (sweep, ablation, bench, depth): horizontal bars per
+//! configuration, bars grouped per scene, lines over a power-of-two axis, histograms, and
+//! scatters with labels placed so that they do not collide. Every element is drawn in the order
+//! given, so the same data give the same file.
 
 use std::path::Path;
 
@@ -462,6 +462,44 @@ pub fn log_scatter(
         root.draw(&Text::new(text.clone(), at, ("sans-serif", 11))).map_err(|e| to_err(path, e))?;
     }
     legend_and_present(&mut chart, &root, SeriesLabelPosition::MiddleMiddle, path)
+}
+
+/// A histogram over the integer bins `1..=bins`: `values[i]` is bin `i + 1`'s bar, drawn in bin
+/// order (plotters' own `Histogram` sums through a hash map, so its SVG element order changed
+/// from run to run).
+pub fn histogram(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    bins: u32,
+    values: &[f64],
+) -> Result<()> {
+    let top = values.iter().copied().fold(0.0, f64::max).max(1e-6);
+    let root = canvas(path, (800, 480))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((1..bins + 1).into_segmented(), 0.0..top * 1.1)
+        .map_err(|e| to_err(path, e))?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .disable_x_mesh()
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    chart
+        .draw_series(values.iter().zip(1u32..).map(|(&v, bin)| {
+            let span = [(SegmentValue::Exact(bin), 0.0), (SegmentValue::Exact(bin + 1), v)];
+            let mut bar = Rectangle::new(span, BLUE.filled());
+            bar.set_margin(0, 0, 2, 2);
+            bar
+        }))
+        .map_err(|e| to_err(path, e))?;
+    root.present().map_err(|e| to_err(path, e))
 }
 
 /// A chart as data, drawn by [`Chart::write_svg`].

@@ -35,7 +35,8 @@ fn pretty(v: &Value) -> String {
     s
 }
 
-fn figure_markdown(f: &Figure, heading: &str) -> String {
+/// A figure's Markdown under `heading` (`#`, `## 1.`, ...).
+pub fn figure_markdown(f: &Figure, heading: &str) -> String {
     let mut md = format!(
         "{heading} {}\n\n{}\n\n![{}]({}.svg)\n\n{}",
         f.title,
@@ -50,6 +51,13 @@ fn figure_markdown(f: &Figure, heading: &str) -> String {
     md
 }
 
+/// A figure's JSON file (layout: docs/json.md).
+pub fn figure_json(f: &Figure) -> Value {
+    json!({
+        "title": f.title, "note": f.note, "table": f.table, "per_scene_table": f.per_scene, "data": f.json,
+    })
+}
+
 /// A figure's Markdown, CSV (and per-scene CSV), JSON and SVG.
 fn write_figure(f: &Figure, dir: &Path, written: &mut Vec<PathBuf>) -> Result<()> {
     write(dir.join(format!("{}.md", f.name)), &figure_markdown(f, "#"), written)?;
@@ -57,10 +65,7 @@ fn write_figure(f: &Figure, dir: &Path, written: &mut Vec<PathBuf>) -> Result<()
     if let Some(t) = &f.per_scene {
         write(dir.join(format!("{}_per_scene.csv", f.name)), &t.to_csv(), written)?;
     }
-    let v = json!({
-        "title": f.title, "note": f.note, "table": f.table, "per_scene_table": f.per_scene, "data": f.json,
-    });
-    write(dir.join(format!("{}.json", f.name)), &pretty(&v), written)?;
+    write(dir.join(format!("{}.json", f.name)), &pretty(&figure_json(f)), written)?;
     let svg = dir.join(format!("{}.svg", f.name));
     f.chart.write_svg(&svg, &f.title)?;
     written.push(svg);
@@ -193,28 +198,19 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
         s.jobs,
         s.wall.as_secs_f64()
     );
-    let mut scenes = crate::report::table::Table::new([
-        "scene",
-        "resolution",
-        "spp",
-        "max bounces",
-        "primitives",
-        "triangles",
-        "pixel warps",
-        "rays",
-    ]);
-    for sc in &s.scenes {
-        scenes.row([
-            sc.name.clone(),
-            format!("{}x{}", sc.opts.width, sc.opts.height),
-            sc.opts.spp.to_string(),
-            sc.opts.max_bounces.to_string(),
-            sc.primitives.to_string(),
-            sc.triangles.to_string(),
-            sc.pixel_warps.to_string(),
-            sc.rays.to_string(),
-        ]);
-    }
+    let scenes = crate::report::table::Table::of(
+        &s.scenes,
+        &[
+            ("scene", &|sc| sc.name.clone()),
+            ("resolution", &|sc| format!("{}x{}", sc.opts.width, sc.opts.height)),
+            ("spp", &|sc| sc.opts.spp.to_string()),
+            ("max bounces", &|sc| sc.opts.max_bounces.to_string()),
+            ("primitives", &|sc| sc.primitives.to_string()),
+            ("triangles", &|sc| sc.triangles.to_string()),
+            ("pixel warps", &|sc| sc.pixel_warps.to_string()),
+            ("rays", &|sc| sc.rays.to_string()),
+        ],
+    );
     out += &scenes.to_markdown();
     out += "\nEach figure is also in its own `.md`, `.csv`, `.json` and `.svg`; `report.json` holds every raw run, \
             `timing.json` the wall-clock times.\n";

@@ -2,6 +2,9 @@
 
 use serde::Serialize;
 
+/// A column of [`Table::of`]: its header, and its cell of an item.
+pub type Column<'a, T> = (&'a str, &'a dyn Fn(&T) -> String);
+
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Table {
     pub headers: Vec<String>,
@@ -15,6 +18,15 @@ impl Table {
 
     pub fn row<S: ToString>(&mut self, cells: impl IntoIterator<Item = S>) {
         self.rows.push(cells.into_iter().map(|c| c.to_string()).collect());
+    }
+
+    /// One row per item, one cell per column: each header is written beside the cell it heads.
+    pub fn of<T>(items: impl IntoIterator<Item = T>, columns: &[Column<'_, T>]) -> Table {
+        let mut t = Table::new(columns.iter().map(|c| c.0));
+        for item in items {
+            t.row(columns.iter().map(|c| (c.1)(&item)));
+        }
+        t
     }
 
     fn widths(&self) -> Vec<usize> {
@@ -107,5 +119,9 @@ mod tests {
         assert_eq!(t.to_csv(), "field,bits\ntop,3\n\"a,b\",10\n");
         t.row(["x", "many"]);
         assert!(t.to_text().ends_with("x      many\n"), "a text column is left-aligned");
+        let columns: [Column<(&str, u32)>; 2] =
+            [("field", &|r| r.0.to_string()), ("bits", &|r| r.1.to_string())];
+        let of = Table::of([("top", 3), ("a,b", 10)], &columns);
+        assert_eq!(of.to_csv(), "field,bits\ntop,3\n\"a,b\",10\n");
     }
 }

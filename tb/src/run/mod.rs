@@ -1,7 +1,8 @@
 //! Running workloads on the model: the cycle-level simulation ([`sim`]), the functional level
-//! ([`functional`]) over the stack testbench ([`stack_tb`]), sampling ([`sampling`]) and sweeps
-//! of configurations over scenes ([`sweep`]).
+//! ([`functional`]) over the stack testbench ([`stack_tb`]), sampling ([`sampling`]), sweeps
+//! of configurations over scenes ([`sweep`]) and the measurements of `sms bench` ([`bench`]).
 
+pub mod bench;
 pub mod functional;
 pub mod pool;
 pub mod sampling;

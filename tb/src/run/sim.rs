@@ -126,48 +126,61 @@ pub fn stack_counts<S: serde::Serializer>(c: &StackStats, s: S) -> std::result::
     map.end()
 }
 
-/// The cycle level's GPU-wide measurements.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct GpuCounts {
-    pub cycles: u64,
-    pub evaluated_cycles: u64,
-    pub warp_jobs: u64,
-    pub rays: u64,
-    pub visits: u64,
-    pub node_fetches: u64,
-    pub dram_node: u64,
-    pub dram_stack: u64,
-    /// Off-chip accesses as the paper counts them (it counts L2 as off-chip): requests leaving
-    /// the SMs for L2, caused by node fetches.
-    pub offchip_node: u64,
-    /// Requests leaving the SMs for L2 caused by stack spills and reloads.
-    pub offchip_stack: u64,
-    pub l1d_hit_rate: f64,
-    pub l2_hit_rate: f64,
-    pub bank_conflict_cycles: u64,
-    /// Cycle of the last job's dispatch; the rest of the run is the drain.
-    pub last_dispatch: u64,
+/// Declares [`GpuCounts`] from one list of fields, each with its kind and the [`GpuReport`] field
+/// it comes from, so the struct, its construction and its scaling are written once. A `count`
+/// scales with the share of the frame simulated, a `rate` does not, and `last_dispatch` (a cycle
+/// number, kept for the drain) neither.
+macro_rules! gpu_counts {
+    ($($(#[$doc:meta])* $kind:ident $f:ident = $from:ident),+ $(,)?) => {
+        /// The cycle level's GPU-wide measurements.
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+        pub struct GpuCounts {
+            $($(#[$doc])* pub $f: gpu_counts!(@ty $kind),)+
+        }
+
+        impl GpuCounts {
+            /// Every field's name, in declaration order (the JSON's order).
+            pub const NAMES: [&'static str; [$(stringify!($f)),+].len()] = [$(stringify!($f)),+];
+
+            /// Every `count` field mapped by `f`; rates and the last dispatch cycle unchanged.
+            pub fn map_counts(&self, f: impl Fn(u64) -> u64) -> GpuCounts {
+                GpuCounts { $($f: gpu_counts!(@map $kind, self.$f, f)),+ }
+            }
+        }
+
+        impl From<&GpuReport> for GpuCounts {
+            fn from(r: &GpuReport) -> Self {
+                GpuCounts { $($f: r.$from),+ }
+            }
+        }
+    };
+    (@ty count) => { u64 };
+    (@ty cycle) => { u64 };
+    (@ty rate) => { f64 };
+    (@map count, $v:expr, $f:ident) => { $f($v) };
+    (@map cycle, $v:expr, $f:ident) => { $v };
+    (@map rate, $v:expr, $f:ident) => { $v };
 }
 
-impl From<&GpuReport> for GpuCounts {
-    fn from(r: &GpuReport) -> Self {
-        GpuCounts {
-            cycles: r.cycles,
-            evaluated_cycles: r.evaluated_cycles,
-            warp_jobs: r.warps,
-            rays: r.rays,
-            visits: r.visits,
-            node_fetches: r.node_fetches,
-            dram_node: r.dram_node,
-            dram_stack: r.dram_stack,
-            offchip_node: r.l2_node,
-            offchip_stack: r.l2_stack,
-            l1d_hit_rate: r.l1d_hit_rate,
-            l2_hit_rate: r.l2_hit_rate,
-            bank_conflict_cycles: r.bank_conflict_cycles,
-            last_dispatch: r.last_dispatch,
-        }
-    }
+gpu_counts! {
+    count cycles = cycles,
+    count evaluated_cycles = evaluated_cycles,
+    count warp_jobs = warps,
+    count rays = rays,
+    count visits = visits,
+    count node_fetches = node_fetches,
+    count dram_node = dram_node,
+    count dram_stack = dram_stack,
+    /// Off-chip accesses as the paper counts them (it counts L2 as off-chip): requests leaving
+    /// the SMs for L2, caused by node fetches.
+    count offchip_node = l2_node,
+    /// Requests leaving the SMs for L2 caused by stack spills and reloads.
+    count offchip_stack = l2_stack,
+    rate l1d_hit_rate = l1d_hit_rate,
+    rate l2_hit_rate = l2_hit_rate,
+    count bank_conflict_cycles = bank_conflict_cycles,
+    /// Cycle of the last job's dispatch; the rest of the run is the drain.
+    cycle last_dispatch = last_dispatch,
 }
 
 /// The headline metrics every fidelity and sample reports, by name.
@@ -481,20 +494,7 @@ pub(crate) fn share_of(o: &Outcome, share: f64, pixel_warps: u32) -> Outcome {
         fidelity: o.fidelity,
         pixel_warps,
         stack: o.stack.map(x),
-        gpu: o.gpu.map(|g| GpuCounts {
-            cycles: x(g.cycles),
-            evaluated_cycles: x(g.evaluated_cycles),
-            warp_jobs: x(g.warp_jobs),
-            rays: x(g.rays),
-            visits: x(g.visits),
-            node_fetches: x(g.node_fetches),
-            dram_node: x(g.dram_node),
-            dram_stack: x(g.dram_stack),
-            offchip_node: x(g.offchip_node),
-            offchip_stack: x(g.offchip_stack),
-            bank_conflict_cycles: x(g.bank_conflict_cycles),
-            ..g
-        }),
+        gpu: o.gpu.map(|g| g.map_counts(x)),
         pops_checked: x(o.pops_checked),
         wall: o.wall.mul_f64(share),
     }
@@ -520,14 +520,7 @@ mod tests {
     }
 
     fn workload(scene: &crate::workload::scene::Scene, res: u32) -> Workload<'_> {
-        let opts = WorkloadOpts {
-            width: res,
-            height: res,
-            spp: 1,
-            max_bounces: 1,
-            ..WorkloadOpts::for_scene(scene)
-        };
-        Workload::new(scene, opts).unwrap()
+        Workload::new(scene, WorkloadOpts::quick(scene, res)).unwrap()
     }
 
     fn spec(name: &str, fidelity: Fidelity) -> RunSpec {
@@ -566,13 +559,9 @@ mod tests {
             [crate::workload::traverse::ChildOrder::Nearest, crate::workload::traverse::ChildOrder::VulkanSim]
         {
             let opts = WorkloadOpts {
-                width: 16,
-                height: 16,
-                spp: 1,
-                max_bounces: 1,
                 accel: crate::workload::Accel::TwoLevel,
                 order,
-                ..WorkloadOpts::for_scene(&scene)
+                ..WorkloadOpts::quick(&scene, 16)
             };
             let w = Workload::new(&scene, opts).unwrap();
             let f = simulate_all(&spec("RB_4+SH_4", Fidelity::Functional), &w).unwrap();
@@ -597,6 +586,45 @@ mod tests {
             );
             assert_eq!(f.pops_checked, c.pops_checked);
             assert!(c.gpu.unwrap().cycles > 0);
+        }
+    }
+
+    #[test]
+    fn a_share_scales_every_gpu_count_and_keeps_rates_and_the_dispatch_cycle() {
+        let g = GpuCounts {
+            cycles: 10,
+            evaluated_cycles: 20,
+            warp_jobs: 30,
+            rays: 40,
+            visits: 50,
+            node_fetches: 60,
+            dram_node: 70,
+            dram_stack: 80,
+            offchip_node: 90,
+            offchip_stack: 100,
+            l1d_hit_rate: 0.5,
+            l2_hit_rate: 0.25,
+            bank_conflict_cycles: 110,
+            last_dispatch: 120,
+        };
+        let o = Outcome {
+            fidelity: Fidelity::Cycle,
+            pixel_warps: 8,
+            stack: StackStats::default(),
+            gpu: Some(g),
+            pops_checked: 0,
+            wall: Duration::ZERO,
+        };
+        let half = share_of(&o, 0.5, 4).gpu.unwrap();
+        let json = |g: &GpuCounts| serde_json::to_value(g).unwrap();
+        let (full, half) = (json(&g), json(&half));
+        let mut names = GpuCounts::NAMES.to_vec();
+        names.sort_unstable();
+        assert_eq!(full.as_object().unwrap().keys().collect::<Vec<_>>(), names, "NAMES names every field");
+        for name in GpuCounts::NAMES {
+            let kept = matches!(name, "l1d_hit_rate" | "l2_hit_rate" | "last_dispatch");
+            let want = if kept { full[name].as_f64().unwrap() } else { full[name].as_f64().unwrap() / 2.0 };
+            assert_eq!(half[name].as_f64().unwrap(), want, "{name}");
         }
     }
 
@@ -643,9 +671,7 @@ mod cycle_sampling_tests {
     #[test]
     fn sampling_every_warp_at_the_cycle_level_is_the_full_run() {
         let scene = crate::load_scene("clutter").unwrap();
-        let opts =
-            WorkloadOpts { width: 32, height: 32, spp: 1, max_bounces: 1, ..WorkloadOpts::for_scene(&scene) };
-        let w = Workload::new(&scene, opts).unwrap();
+        let w = Workload::new(&scene, WorkloadOpts::quick(&scene, 32)).unwrap();
         let s = RunSpec {
             config: "RB_4+SH_4".parse().unwrap(),
             hw: Hardware::default(),

@@ -1,11 +1,10 @@
 //! Real traversals drive the stack: each lane's pushes and pops of a recorded ray, 32 lanes to a
-//! warp in launch order, run through the cycle-level stack unit with the scoreboard on (every pop
-//! checked against the reference stack, every warp checked when it leaves).
+//! warp in launch order, as the work the harness runs through the cycle-level stack unit
+//! ([`run_cycle`](crate::run::verify::harness::run_cycle)) or the functional level with the
+//! scoreboard on (every pop checked against the reference stack, every warp checked when it
+//! leaves).
 
-use crate::run::verify::harness::{run_cycle, CycleOpts, HarnessError, Op, RunSummary, WarpWork};
-use rtl::stack_unit::StandaloneStack;
-use rtl::trace::Sink;
-
+use crate::run::verify::harness::{Op, WarpWork};
 use crate::workload::trace::{RayTrace, TraceOp, WarpTraces};
 
 /// A warp job's stack operations per lane. Node visits carry no stack work; they become the
@@ -24,18 +23,4 @@ pub fn lane_ops(trace: &RayTrace) -> Vec<Op> {
             TraceOp::Visit { .. } => None,
         })
         .collect()
-}
-
-/// Runs `jobs` through `unit` with the scoreboard on.
-pub fn run_jobs<I, S>(
-    unit: &mut StandaloneStack,
-    jobs: I,
-    opts: CycleOpts,
-    sink: &mut S,
-) -> Result<RunSummary, HarnessError>
-where
-    I: IntoIterator<Item = WarpTraces>,
-    S: Sink,
-{
-    run_cycle(unit, jobs.into_iter().map(|j| warp_work(&j)), opts, sink)
 }

@@ -90,6 +90,12 @@ impl WorkloadOpts {
         Self::rendering(scene.render)
     }
 
+    /// A quick look at `scene`: `res × res` pixels, one sample, one bounce, the rest as
+    /// [`Self::for_scene`] (what the tests and previews run).
+    pub fn quick(scene: &Scene, res: u32) -> Self {
+        WorkloadOpts { width: res, height: res, spp: 1, max_bounces: 1, ..Self::for_scene(scene) }
+    }
+
     fn rendering(r: crate::workload::scene::RenderSettings) -> Self {
         WorkloadOpts {
             bvh: BvhKind::Bvh6,

@@ -136,11 +136,22 @@ pub fn trace<R: Recorder>(
     rec: &mut R,
 ) -> Option<Hit> {
     rec.ray(ray);
+    let q = Query { prims, ray, tmax, order };
     match bvh {
-        Bvh::Cwbvh(cw) => trace_cwbvh(cw, prims, ray, tmax, rec),
-        Bvh::TwoLevel(tl) => trace_two_level(tl, prims, ray, tmax, order, rec),
-        _ => trace_tree(bvh, prims, ray, tmax, order, rec),
+        Bvh::Cwbvh(cw) => trace_cwbvh(cw, q, rec),
+        Bvh::TwoLevel(tl) => trace_two_level(tl, q, rec),
+        _ => trace_tree(bvh, q, rec),
     }
+}
+
+/// What every walk is asked: the closest hit among `prims` of `ray` before `tmax`, children
+/// visited in `order`.
+#[derive(Clone, Copy)]
+struct Query<'a> {
+    prims: &'a Primitives,
+    ray: &'a Ray,
+    tmax: f32,
+    order: ChildOrder,
 }
 
 /// The children of an internal BVH2/BVH6 node, with their boxes, in index order.
@@ -171,14 +182,8 @@ fn leaf_prims(bvh: &Bvh, leaf: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
     range.map(move |slot| (slot, indices[slot as usize]))
 }
 
-fn trace_tree<R: Recorder>(
-    bvh: &Bvh,
-    prims: &Primitives,
-    ray: &Ray,
-    mut tmax: f32,
-    order: ChildOrder,
-    rec: &mut R,
-) -> Option<Hit> {
+fn trace_tree<R: Recorder>(bvh: &Bvh, q: Query, rec: &mut R) -> Option<Hit> {
+    let Query { prims, ray, mut tmax, order } = q;
     let root = match bvh {
         Bvh::Bvh2(b) if b.nodes[0].is_leaf() => NodeRef::Leaf(0),
         _ => NodeRef::Internal(0),
@@ -282,14 +287,8 @@ fn entry_addr(tl: &TwoLevel, cur: Option<&Current>, e: Entry) -> u64 {
 }
 
 /// The two-level walk with one stack across both levels (see the module docs).
-fn trace_two_level<R: Recorder>(
-    tl: &TwoLevel,
-    prims: &Primitives,
-    ray: &Ray,
-    mut tmax: f32,
-    order: ChildOrder,
-    rec: &mut R,
-) -> Option<Hit> {
+fn trace_two_level<R: Recorder>(tl: &TwoLevel, q: Query, rec: &mut R) -> Option<Hit> {
+    let Query { prims, ray, mut tmax, order } = q;
     rec.visit(tl.header_addr(None), FetchKind::BvhHeader);
     let mut best = None;
     let mut stack: Vec<Entry> = Vec::new();
@@ -433,13 +432,8 @@ struct CwState<'r, R> {
     primitive_id: u32,
 }
 
-fn trace_cwbvh<R: Recorder>(
-    cw: &CwBvh,
-    prims: &Primitives,
-    ray: &Ray,
-    tmax: f32,
-    rec: &mut R,
-) -> Option<Hit> {
+fn trace_cwbvh<R: Recorder>(cw: &CwBvh, q: Query, rec: &mut R) -> Option<Hit> {
+    let Query { prims, ray, tmax, .. } = q;
     let mut oray = ray.to_obvhs(tmax);
     let seed = cw.new_traversal(oray.direction);
     let mut state = CwState {

@@ -4,6 +4,21 @@
 
 use std::path::PathBuf;
 
+/// The workload flags of a tiny end-to-end run: 16×16 pixels, 1 sample, 1 bounce.
+pub const TINY: [&str; 6] = ["--res", "16x16", "--spp", "1", "--bounces", "1"];
+
+/// Runs the `sms` binary built for the tests with `args`, then `more`; stdout on success, a panic
+/// with stderr otherwise.
+pub fn sms(args: &[&str], more: &[&str]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_sms"))
+        .args(args)
+        .args(more)
+        .output()
+        .expect("sms runs");
+    assert!(out.status.success(), "sms {args:?} {more:?}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("utf-8")
+}
+
 /// A scratch directory removed when the test ends.
 pub struct TmpDir(PathBuf);
 
@@ -37,13 +52,5 @@ pub fn small_workload(
     order: tb::workload::traverse::ChildOrder,
 ) -> tb::workload::Workload<'_> {
     use tb::workload::{Workload, WorkloadOpts};
-    let opts = WorkloadOpts {
-        width: res,
-        height: res,
-        spp: 1,
-        max_bounces: 1,
-        order,
-        ..WorkloadOpts::for_scene(scene)
-    };
-    Workload::new(scene, opts).unwrap()
+    Workload::new(scene, WorkloadOpts { order, ..WorkloadOpts::quick(scene, res) }).unwrap()
 }

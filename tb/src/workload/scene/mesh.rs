@@ -74,6 +74,14 @@ impl<'a> TriangleSink<'a> {
     }
 }
 
+/// The mesh file a loader reads: its path (named by every error) and its transform to world
+/// space.
+#[derive(Clone, Copy)]
+pub(crate) struct MeshFile<'a> {
+    pub path: &'a Path,
+    pub xf: &'a Affine3A,
+}
+
 /// Transforms a vertex and rejects it if it (or its image) is not finite.
 pub(crate) fn checked_vertex(
     path: &Path,
@@ -120,14 +128,14 @@ pub(crate) fn load_mesh(path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> 
     let before = sink.triangles.len();
     match ext.as_str() {
         // Each file is at least one object (LumiBench makes every OBJ file its own BLAS).
-        "obj" => {
+        "obj" | "ply" => {
+            let (reader, file) = (open(path)?, MeshFile { path, xf });
             sink.begin_object();
-            obj::load(open(path)?, path, xf, sink)?;
-            sink.end_object();
-        }
-        "ply" => {
-            sink.begin_object();
-            ply::load(open(path)?, path, xf, sink)?;
+            if ext == "obj" {
+                obj::load(reader, file, sink)?;
+            } else {
+                ply::load(reader, file, sink)?;
+            }
             sink.end_object();
         }
         "glb" | "gltf" => {

@@ -13,19 +13,15 @@
 //! original file, so splitting on `o` recovers LumiBench's objects.
 
 use std::io::BufRead;
-use std::path::Path;
 
-use glam::{Affine3A, Vec3A};
+use glam::Vec3A;
 
-use super::mesh::{checked_vertex, TriangleSink};
+use super::mesh::{checked_vertex, MeshFile, TriangleSink};
 use crate::error::{Error, Result};
 
-pub(super) fn load(
-    mut reader: impl BufRead,
-    path: &Path,
-    xf: &Affine3A,
-    sink: &mut TriangleSink,
-) -> Result<()> {
+/// Reads the OBJ text in `reader` into `sink`.
+pub(super) fn load(mut reader: impl BufRead, file: MeshFile, sink: &mut TriangleSink) -> Result<()> {
+    let MeshFile { path, xf } = file;
     let mut vertices: Vec<Vec3A> = Vec::new();
     let mut face: Vec<Vec3A> = Vec::new();
     let mut buf = Vec::new();

@@ -7,9 +7,9 @@
 use std::io::BufRead;
 use std::path::Path;
 
-use glam::{Affine3A, Vec3A};
+use glam::Vec3A;
 
-use super::mesh::{checked_vertex, TriangleSink};
+use super::mesh::{checked_vertex, MeshFile, TriangleSink};
 use crate::error::{Error, Result};
 
 #[derive(Clone, Copy, Debug)]
@@ -152,12 +152,9 @@ fn parse_header(reader: &mut impl BufRead, path: &Path) -> Result<(bool, Vec<Ele
     Ok((ascii, elements))
 }
 
-pub(super) fn load(
-    mut reader: impl BufRead,
-    path: &Path,
-    xf: &Affine3A,
-    sink: &mut TriangleSink,
-) -> Result<()> {
+/// Reads the PLY file in `reader` (ASCII or binary) into `sink`.
+pub(super) fn load(mut reader: impl BufRead, file: MeshFile, sink: &mut TriangleSink) -> Result<()> {
+    let MeshFile { path, xf } = file;
     let (ascii, elements) = parse_header(&mut reader, path)?;
     let mut body = if ascii { Body::Ascii(reader, Vec::new()) } else { Body::Binary(reader) };
     let mut vertices: Vec<Vec3A> = Vec::new();

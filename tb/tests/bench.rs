@@ -1,0 +1,44 @@
+//! `sms bench` end to end on two built-in scenes at a tiny resolution: every file it promises,
+//! one row per scene, configuration and setting, and the report it prints is the one it writes.
+
+mod common;
+
+#[test]
+fn bench_runs_end_to_end_and_writes_its_files() {
+    let dir = common::TmpDir::new("bench", "end-to-end");
+    let out = dir.path().to_str().unwrap();
+    let args = ["bench", "--scenes", "wknd,clutter", "--fractions", "1,0.5", "--batches", "2"];
+    let more = ["--more-bounces", "1", "--out", out, "--format", "json"];
+    let printed = common::sms(&[&args[..], &common::TINY, &more].concat(), &[]);
+    let read = |file: &str| std::fs::read_to_string(dir.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+    for file in [
+        "bench.txt",
+        "bench.md",
+        "bench.csv",
+        "bench.json",
+        "summary.csv",
+        "throughput.csv",
+        "work.csv",
+        "savings.csv",
+        "time-vs-error.svg",
+    ] {
+        assert!(!read(file).is_empty(), "{file}");
+    }
+    assert_eq!(printed.trim_end(), read("bench.json"), "--format json prints bench.json");
+    let csv = read("bench.csv");
+    // 2 scenes × 3 configurations × 2 levels × (full + 2 fractions × 2 modes).
+    assert_eq!(csv.lines().count(), 1 + 2 * 3 * 2 * 5);
+    assert!(csv.contains("clutter,RB_8+SH_8+SK+RA,cycle full,"));
+    let json: serde_json::Value = serde_json::from_str(&printed).unwrap();
+    assert!(json["fastest"]["setting"].is_object(), "the full cycle level always qualifies");
+    let work = &json["report"]["work"];
+    assert_eq!(work[0]["scene"], "wknd");
+    assert_eq!(work[0]["triangle"], 0, "the procedural scene does no triangle work");
+    assert!(work[0]["procedural"].as_u64().unwrap() > 0);
+    assert!(work[1]["triangle"].as_u64().unwrap() > 0);
+    let text = read("bench.txt");
+    assert!(text.contains("fastest within 1% on every headline metric"));
+    assert!(!text.contains("DIFFER"), "skipping work never changes results:\n{text}");
+    assert!(read("bench.md").starts_with("# sms bench\n"));
+    assert!(read("time-vs-error.svg").starts_with("<svg"));
+}
