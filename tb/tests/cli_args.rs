@@ -31,7 +31,7 @@ fn every_subcommand_shows_the_same_shared_flags() {
     );
     let applies: [(&str, Vec<&Flags>); 7] = [
         ("run", vec![&stack, &workload, &hardware, &scenes, &output]),
-        ("sweep", vec![&stack, &workload, &hardware, &scenes]),
+        ("sweep", vec![&stack, &workload, &hardware, &scenes, &output]),
         ("bench", vec![&stack, &workload, &hardware, &scenes, &output]),
         ("ablate", vec![&workload, &hardware, &scenes, &output]),
         ("depth", vec![&workload, &scenes, &output]),

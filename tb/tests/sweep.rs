@@ -23,12 +23,14 @@ fn sms(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_sms")).args(args).output().expect("run sms")
 }
 
-/// The default plan (14 paper configurations, RB and L1D sweeps) on two scenes, tiny.
-fn sweep(out: &Path, jobs: &str) {
+/// The default plan (14 paper configurations, RB and L1D sweeps) on two scenes, tiny; what it
+/// prints with `--format json`.
+fn sweep(out: &Path, jobs: &str) -> String {
     let scenes = SCENES.join(",");
     let args = ["sweep", "--scenes", &scenes, "--jobs", jobs, "--quiet", "--out", out.to_str().unwrap()];
-    let o = sms(&[&args[..], &common::TINY].concat());
+    let o = sms(&[&args[..], &common::TINY, &["--format", "json"]].concat());
     assert!(o.status.success(), "sms sweep failed: {}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8(o.stdout).unwrap()
 }
 
 fn json(path: &Path) -> Value {
@@ -54,8 +56,10 @@ fn deterministic_files(dir: &Path) -> Vec<PathBuf> {
 #[test]
 fn a_sweep_writes_every_file_and_does_not_depend_on_thread_count() {
     let (one, two) = (out_dir("jobs1"), out_dir("jobs2"));
-    sweep(&one, "1");
+    let printed = sweep(&one, "1");
     sweep(&two, "2");
+    let cost = std::fs::read_to_string(one.join("cost.json")).unwrap();
+    assert_eq!(printed, cost, "--format json prints the cost figure's file");
 
     for f in FIGURES {
         for ext in ["md", "csv", "json", "svg"] {

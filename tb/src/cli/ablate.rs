@@ -10,10 +10,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::cli::sweep::{start, SweepArgs};
-use crate::cli::{Format, OutputArgs};
+use crate::cli::sweep::{print_figure, start, SweepArgs};
 use crate::report::ablate;
-use crate::report::sweep::{figure_json, figure_markdown};
 use crate::run::sweep::SAMPLE_ERROR;
 
 #[derive(Clone, Debug, clap::Args)]
@@ -26,9 +24,6 @@ pub struct Args {
     /// Report folder.
     #[arg(long, default_value = "out/ablate")]
     pub out: PathBuf,
-    // What is printed: the table of deltas (JSON: ablation.json); the folder gets every format.
-    #[command(flatten)]
-    pub output: OutputArgs,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -40,13 +35,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let progress = start("ablate", &req, per_scene, mechanisms.len() + 1, &args.out, args.common.quiet);
     let result = ablate::run(&req, mechanisms, &args.common.library.library(), &progress)?;
     let written = crate::report::sweep::write_ablation(&result, &args.out)?;
-    let figure = result.figure();
-    match args.output.format() {
-        Format::Text => println!("{}", figure.table.to_text()),
-        Format::Markdown => print!("{}", figure_markdown(&figure, "#")),
-        Format::Csv => print!("{}", figure.table.to_csv()),
-        Format::Json => println!("{}", serde_json::to_string_pretty(&figure_json(&figure))?),
-    }
+    print_figure(&args.common.output, &result.figure())?;
     eprintln!(
         "{} arms in {:.1} s wall time; wrote {} files, summary: {}",
         mechanisms.len() + 1,

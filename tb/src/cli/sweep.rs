@@ -8,7 +8,9 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 
 use crate::cli::stack_config::StackConfigArgs;
-use crate::cli::{HardwareArgs, SampleArgs, SceneArgs, WorkloadArgs};
+use crate::cli::{Format, HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
+use crate::report::figures::Figure;
+use crate::report::sweep::{figure_json, figure_markdown};
 use crate::run::sweep::{self, Plan, Progress, Request, DEFAULT_SAMPLE, SAMPLE_ERROR};
 
 /// `--quick`: the built-in scenes, tiny.
@@ -39,6 +41,21 @@ pub struct SweepArgs {
     pub hardware: HardwareArgs,
     #[command(flatten)]
     pub library: SceneArgs,
+    // What is printed: the headline table (sweep: cost against performance, ablate: the deltas);
+    // the folder gets every format.
+    #[command(flatten)]
+    pub output: OutputArgs,
+}
+
+/// Prints `f`'s table in the format asked for (JSON: the figure's `.json` file).
+pub fn print_figure(output: &OutputArgs, f: &Figure) -> anyhow::Result<()> {
+    match output.format() {
+        Format::Text => println!("{}", f.table.to_text()),
+        Format::Markdown => print!("{}", figure_markdown(f, "#")),
+        Format::Csv => print!("{}", f.table.to_csv()),
+        Format::Json => println!("{}", serde_json::to_string_pretty(&figure_json(f))?),
+    }
+    Ok(())
 }
 
 impl SweepArgs {
@@ -150,8 +167,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let progress = start("sweep", &req, variants, 1, &args.out, args.common.quiet);
     let result = sweep::run(&req, &args.common.library.library(), &progress)?;
     let written = crate::report::sweep::write_all(&result, &args.out)?;
-    let cost = crate::report::figures::cost(&result)?;
-    println!("{}", cost.table.to_text());
+    print_figure(&args.common.output, &crate::report::figures::cost(&result)?)?;
     eprintln!(
         "{} simulations in {:.1} s wall time; wrote {} files, summary: {}",
         result.runs.len(),
