@@ -35,6 +35,15 @@ pub struct SweepArgs {
     /// No progress bar on stderr.
     #[arg(long)]
     pub quiet: bool,
+    /// Result cache folder [default: cache/ in the report folder]. Each simulation's result is
+    /// stored there as it finishes, under a key of scene content, workload, sampling,
+    /// configuration, hardware and model version; a stopped sweep run again continues where it
+    /// stopped, and recomputes whatever changed.
+    #[arg(long, value_name = "DIR", conflicts_with = "no_cache")]
+    pub cache: Option<PathBuf>,
+    /// Compute every result; read and write no cache.
+    #[arg(long)]
+    pub no_cache: bool,
     #[command(flatten)]
     pub hardware: HardwareArgs,
     #[command(flatten)]
@@ -42,6 +51,12 @@ pub struct SweepArgs {
 }
 
 impl SweepArgs {
+    /// The result cache folder for a report in `out`: `--cache`, else `out/cache`; none with
+    /// `--no-cache`.
+    pub fn cache_dir(&self, out: &std::path::Path) -> Option<PathBuf> {
+        (!self.no_cache).then(|| self.cache.clone().unwrap_or_else(|| out.join("cache")))
+    }
+
     /// The request for `plan`, checked before any simulation starts.
     pub fn request(&self, plan: Plan) -> anyhow::Result<Request> {
         let library = self.library.library();
@@ -75,7 +90,7 @@ impl SweepArgs {
         if hw.mem.l1d_bytes % 1024 != 0 {
             bail!("the unified L1D/shared array must be a whole number of KB");
         }
-        let req = Request { scenes, settings, hw, plan, jobs, sample };
+        let req = Request { scenes, settings, hw, plan, jobs, sample, cache: None };
         req.plan.variants(req.base_kb())?;
         Ok(req)
     }
@@ -142,8 +157,26 @@ pub fn start(
     }
 }
 
+/// The lines every sweep-like command ends with on stderr: wall time, peak memory, the cache's
+/// use, and the error a sample is expected to have.
+pub fn finish(what: &str, result: &sweep::Sweep, written: usize, out: &std::path::Path) {
+    eprintln!(
+        "{what} in {:.1} s wall time, peak memory {}; wrote {written} files, summary: {}",
+        result.wall.as_secs_f64(),
+        crate::run::memory::describe(result.peak_rss),
+        out.join("summary.md").display()
+    );
+    if let Some(c) = &result.cache {
+        eprintln!("cache: {}", c.describe());
+    }
+    if result.sample.is_some() {
+        eprintln!("sampled: {SAMPLE_ERROR}");
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let req = args.request()?;
+    let mut req = args.request()?;
+    req.cache = args.common.cache_dir(&args.out);
     crate::report::sweep::prepare(&args.out)
         .with_context(|| format!("report folder {}", args.out.display()))?;
     let variants = req.plan.variants(req.base_kb())?.len();
@@ -152,15 +185,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let written = crate::report::sweep::write_all(&result, &args.out)?;
     let cost = crate::report::figures::cost(&result)?;
     println!("{}", cost.table.to_text());
-    eprintln!(
-        "{} simulations in {:.1} s wall time; wrote {} files, summary: {}",
-        result.runs.len(),
-        result.wall.as_secs_f64(),
-        written.len(),
-        args.out.join("summary.md").display()
-    );
-    if result.sample.is_some() {
-        eprintln!("sampled: {SAMPLE_ERROR}");
-    }
+    finish(&format!("{} simulations", result.runs.len()), &result, written.len(), &args.out);
     Ok(())
 }

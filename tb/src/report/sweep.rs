@@ -2,8 +2,9 @@
 //! histograms, `summary.md` with every table, `report.json` with every raw run and
 //! `timing.json` with wall-clock times.
 //!
-//! Wall-clock times are the only part that varies between identical sweeps, so they are kept out
-//! of every JSON file but `timing.json`: the rest is bit-identical whatever the thread count.
+//! Wall-clock times (and the peak memory in `summary.md`) are the only part that varies between
+//! identical sweeps, so they are kept out of every JSON file but `timing.json`: the rest is
+//! bit-identical whatever the thread count, and whether results came from the cache.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -84,11 +85,12 @@ pub fn write_ablation(a: &Ablation, dir: &Path) -> Result<Vec<PathBuf>> {
     );
     summary += &sampling_note(r);
     summary += &format!(
-        "{} simulations per scene and arm, {} arms; {} worker thread(s), {:.1} s wall time.\n\n",
+        "{} simulations per scene and arm, {} arms; {} worker thread(s), {:.1} s wall time.\n\n{}",
         r.variants.len(),
         a.arms.len() + 1,
         r.jobs,
-        r.wall.as_secs_f64()
+        r.wall.as_secs_f64(),
+        peak_memory_line(r)
     );
     summary += &figure_markdown(&f, "##");
     write(dir.join("summary.md"), &summary, &mut written)?;
@@ -193,6 +195,7 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
         s.jobs,
         s.wall.as_secs_f64()
     );
+    out += &peak_memory_line(s);
     let mut scenes = crate::report::table::Table::new([
         "scene",
         "resolution",
@@ -223,6 +226,12 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
         out += &figure_markdown(f, &format!("## {}.", i + 1));
     }
     out
+}
+
+/// The process's peak resident memory, on a line of its own (it varies between identical runs,
+/// like the wall time).
+fn peak_memory_line(s: &Sweep) -> String {
+    format!("Peak memory: {} resident.\n\n", crate::run::memory::describe(s.peak_rss))
 }
 
 /// How the counts were obtained: every warp, or a sample with its measured and estimated error.

@@ -3,6 +3,7 @@
 //! of configurations over scenes ([`sweep`]).
 
 pub mod functional;
+pub mod memory;
 pub mod pool;
 pub mod sampling;
 pub mod sim;
