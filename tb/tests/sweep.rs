@@ -274,12 +274,10 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
 #[test]
 fn a_sampled_sweep_reports_its_sample_and_error() {
     let out = out_dir("sampled");
-    let o = sms(&[
+    let args = [
         "sweep",
         "--scenes",
         "clutter",
-        "--res",
-        "64x32",
         "--spp",
         "1",
         "--bounces",
@@ -295,9 +293,8 @@ fn a_sampled_sweep_reports_its_sample_and_error() {
         "--batches",
         "4",
         "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    ];
+    let o = sms(&[&args[..], &["--res", "64x32", "--out", out.to_str().unwrap()]].concat());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report = json(&out.join("report.json"));
     let runs = report["runs"].as_array().unwrap();
@@ -308,6 +305,23 @@ fn a_sampled_sweep_reports_its_sample_and_error() {
     }
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(summary.contains("Sampled: 25 %") && summary.contains(tb::run::sweep::SAMPLE_ERROR), "{summary}");
+    assert!(summary.contains(" s wall time") && summary.contains("Peak memory: "), "{summary}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains(&format!("sampled: {}", tb::run::sweep::SAMPLE_ERROR)), "{err}");
+    assert!(err.contains(" s wall time, peak memory "), "{err}");
+
+    // Sampled results come back from the cache bit for bit (their intervals included).
+    let first = std::fs::read(out.join("report.json")).unwrap();
+    let o = sms(&[&args[..], &["--res", "64x32", "--out", out.to_str().unwrap()]].concat());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cache: 2 of 2 "));
+    assert!(first == std::fs::read(out.join("report.json")).unwrap(), "report.json from the cache differs");
+
+    // A sample that would hold every warp is not one, and the summary says so.
+    let o = sms(&[&args[..], &["--res", "8x8", "--out", out.to_str().unwrap()]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("not sampled: a 25 % sample"), "{err}");
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("every warp was simulated") && !summary.contains("Sampled:"), "{summary}");
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -149,6 +149,9 @@ pub fn start(
         req.jobs,
         out.display()
     );
+    if req.sample.is_some() {
+        eprintln!("sampling; expected error: {SAMPLE_ERROR}");
+    }
     let total = req.scenes.len() * arms * (runs_per_scene + 1);
     if quiet {
         Progress::hidden()
@@ -169,8 +172,13 @@ pub fn finish(what: &str, result: &sweep::Sweep, written: usize, out: &std::path
     if let Some(c) = &result.cache {
         eprintln!("cache: {}", c.describe());
     }
-    if result.sample.is_some() {
+    if result.runs.iter().any(|r| r.sample.is_some()) {
         eprintln!("sampled: {SAMPLE_ERROR}");
+    } else if let Some(p) = result.sample {
+        eprintln!(
+            "not sampled: a {:.0} % sample of every scene would hold every warp (at least one per batch)",
+            p.fraction * 100.0
+        );
     }
 }
 

@@ -241,6 +241,13 @@ pub fn sampling_note(s: &Sweep) -> String {
         Some(p) => {
             let widths: Vec<f64> =
                 s.runs.iter().filter_map(|r| r.sample.map(|x| x.cycles_rel_half_width)).collect();
+            if widths.is_empty() {
+                return format!(
+                    "A {:.0} % sample was asked for, but it would hold every pixel warp of every scene (at \
+                     least one per batch): every warp was simulated.\n\n",
+                    p.fraction * 100.0
+                );
+            }
             let mean = widths.iter().sum::<f64>() / widths.len().max(1) as f64;
             let max = widths.iter().copied().fold(0.0, f64::max);
             format!(
