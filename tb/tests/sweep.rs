@@ -423,7 +423,8 @@ fn an_interrupted_sweep_resumes_from_its_cache_with_identical_reports() {
     // Everything cached now; a plan that is a subset reuses the same results.
     let sub_out = out_dir("subset");
     let cache = resumed.join("cache");
-    let subset = ["--configs", "RB_8,SMS", "--rb-sizes", "8", "--l1d-sizes", "64", "--cache", cache.to_str().unwrap()];
+    let subset =
+        ["--configs", "RB_8,SMS", "--rb-sizes", "8", "--l1d-sizes", "64", "--cache", cache.to_str().unwrap()];
     assert_eq!(cache_counts(&ok(tiny_sweep(&sub_out, &subset, None))), (4, 4));
     assert!(!sub_out.join("cache").exists(), "--cache DIR replaces the report folder's");
 

@@ -437,7 +437,12 @@ mod tests {
     use super::*;
 
     fn measured() -> Measured {
-        let gpu = GpuCounts { cycles: 12345, l1d_hit_rate: 0.1 + 0.2, l2_hit_rate: 1.0 / 3.0, ..Default::default() };
+        let gpu = GpuCounts {
+            cycles: 12345,
+            l1d_hit_rate: 0.1 + 0.2,
+            l2_hit_rate: 1.0 / 3.0,
+            ..Default::default()
+        };
         let outcome = Outcome {
             fidelity: Fidelity::Cycle,
             pixel_warps: 7,

@@ -37,9 +37,9 @@ pub use cache::CacheStats;
 pub use progress::Progress;
 
 use crate::error::{Error, Result};
-use crate::run::{memory, pool};
 use crate::run::sampling::SamplePlan;
 use crate::run::sim::{share_of, simulate, simulate_sampled, Fidelity, Hardware, Metric, Outcome, RunSpec};
+use crate::run::{memory, pool};
 use crate::workload::depth::{DepthHistogram, DepthReport};
 use crate::workload::scene::{Scene, SceneLibrary};
 use crate::workload::traverse::ChildOrder;
@@ -373,11 +373,17 @@ pub fn run_arms(
         // Arms with equal workloads share one (built only if some result is not cached), and its
         // statistics (they depend on the traces alone), from the cache or the first arm's pass.
         let mut built: Vec<Built> = Vec::new();
-        for (a, tweak) in arms.iter().enumerate() {
-            let mut opts = req.settings.opts(&scene);
-            if let Some(t) = tweak {
-                t(&mut Hardware::default(), &mut opts);
-            }
+        let arm_opts: Vec<WorkloadOpts> = arms
+            .iter()
+            .map(|tweak| {
+                let mut opts = req.settings.opts(&scene);
+                if let Some(t) = tweak {
+                    t(&mut Hardware::default(), &mut opts);
+                }
+                opts
+            })
+            .collect();
+        for (a, &opts) in arm_opts.iter().enumerate() {
             let i = match built.iter().position(|b| b.opts == opts) {
                 Some(i) => i,
                 None => {
@@ -398,10 +404,8 @@ pub fn run_arms(
                     Some(cache::run_key(k, &opts, req.sample, &v.config, &variant_hw(&sw.hw, v)))
                 })
                 .collect();
-            let cached: Vec<Option<Measured>> = keys
-                .iter()
-                .map(|k| Some(cache.as_ref()?.get_run(k.as_ref()?)?))
-                .collect();
+            let cached: Vec<Option<Measured>> =
+                keys.iter().map(|k| cache.as_ref()?.get_run(k.as_ref()?)).collect();
             let b = &mut built[i];
             if b.workload.is_none() && (b.info.is_none() || cached.iter().any(Option::is_none)) {
                 progress.status(&format!("building {name}"));
@@ -431,6 +435,10 @@ pub fn run_arms(
                 sample,
             }));
             sw.scenes.push(scene_result(&scene, opts, info, load_secs, b.secs));
+            // Only one workload in memory at a time: dropped after the last arm that renders it.
+            if !arm_opts[a + 1..].contains(&opts) {
+                b.workload = None;
+            }
         }
     }
     progress.finish();
@@ -572,7 +580,8 @@ fn run_scene(
                 jobs.iter().flat_map(|j| j.lanes.iter().flatten()).for_each(|t| h.add_trace(t));
                 progress.tick();
             }
-            let computed = SceneInfo { rays: workload.num_rays(), pixel_warps: workload.num_warps(), depth: h };
+            let computed =
+                SceneInfo { rays: workload.num_rays(), pixel_warps: workload.num_warps(), depth: h };
             if let (Some(c), Some(k)) = (cache, info_key) {
                 c.put_scene(k, &computed)?;
             }
@@ -584,7 +593,7 @@ fn run_scene(
         let label = format!("{scene} {}", v.name());
         if let Some(m) = &cached[i] {
             progress.done(&format!("{label} (cached)"));
-            return Ok(Some(m.clone()));
+            return Ok(Some(*m));
         }
         if let Some(c) = cache {
             c.check_stop()?;
