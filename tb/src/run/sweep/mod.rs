@@ -570,7 +570,7 @@ fn run_scene(
             let label = format!("{scene} depth");
             if known.is_some() {
                 // Counted as a run of the progress total, with nothing to do.
-                progress.done(&format!("{label} (known)"));
+                progress.skipped(&format!("{label} (known)"));
                 return Ok(None);
             }
             progress.started(&label);
@@ -592,7 +592,7 @@ fn run_scene(
         let v = variants[i];
         let label = format!("{scene} {}", v.name());
         if let Some(m) = &cached[i] {
-            progress.done(&format!("{label} (cached)"));
+            progress.skipped(&format!("{label} (cached)"));
             return Ok(Some(*m));
         }
         if let Some(c) = cache {
