@@ -37,8 +37,9 @@ pub struct SweepArgs {
     pub quiet: bool,
     /// Result cache folder [default: cache/ in the report folder]. Each simulation's result is
     /// stored there as it finishes, under a key of scene content, workload, sampling,
-    /// configuration, hardware and model version; a stopped sweep run again continues where it
-    /// stopped, and recomputes whatever changed.
+    /// configuration, hardware and model version (a hash of sms's sources: a rebuilt sms with
+    /// changed sources recomputes everything); a stopped sweep run again continues where it
+    /// stopped, and recomputes whatever changed. Old results stay until the folder is deleted.
     #[arg(long, value_name = "DIR", conflicts_with = "no_cache")]
     pub cache: Option<PathBuf>,
     /// Compute every result; read and write no cache.
