@@ -1,8 +1,69 @@
 //! Embeds the shipped scene descriptions (`../scenes/*.toml`) in the library, so an installed
 //! `sms` knows the described scenes without its source tree: `$OUT_DIR/shipped_scenes.rs` is
 //! a `&[(name, text)]` list sorted by name, read by `tb::workload::scene::SHIPPED`.
+//!
+//! Also sets `SMS_MODEL_VERSION`, a hash of every source the model's results can depend on
+//! (`rtl/src`, `tb/src`, both manifests, the workspace lock file and the enabled features): the
+//! sweep's result cache keys on it, so any change to the model invalidates every cached result.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// FNV-1a, 128 bits.
+struct Fnv(u128);
+
+impl Fnv {
+    fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 = (self.0 ^ u128::from(x)).wrapping_mul(0x0000000001000000000000000000013B);
+        }
+    }
+}
+
+/// Every file under `dir`, recursively.
+fn files(dir: &Path, out: &mut Vec<PathBuf>) {
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                files(&path, out);
+            } else {
+                out.push(path);
+            }
+        }
+    }
+}
+
+/// The model version: the hash of the sources under `manifest` (tb) and `manifest/../rtl`, by
+/// path relative to the workspace and content.
+fn model_version(manifest: &Path) -> String {
+    let root = manifest.join("..");
+    let mut sources = Vec::new();
+    for dir in ["rtl/src", "tb/src"] {
+        let dir = root.join(dir);
+        println!("cargo:rerun-if-changed={}", dir.display());
+        files(&dir, &mut sources);
+    }
+    for file in ["Cargo.lock", "Cargo.toml", "rtl/Cargo.toml", "tb/Cargo.toml"] {
+        let file = root.join(file);
+        println!("cargo:rerun-if-changed={}", file.display());
+        sources.push(file);
+    }
+    sources.sort();
+    let mut h = Fnv(0x6c62272e07bb014262b821756295c58d);
+    for path in &sources {
+        let name = path.strip_prefix(&root).unwrap_or(path);
+        h.bytes(name.to_string_lossy().as_bytes());
+        h.bytes(&[0]);
+        let text = std::fs::read(path).unwrap_or_default();
+        h.bytes(&(text.len() as u64).to_le_bytes());
+        h.bytes(&text);
+    }
+    let mut features: Vec<String> =
+        std::env::vars().map(|(k, _)| k).filter(|k| k.starts_with("CARGO_FEATURE_")).collect();
+    features.sort();
+    h.bytes(features.join(",").as_bytes());
+    format!("{:032x}", h.0)
+}
 
 fn main() {
     let manifest = std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
@@ -27,4 +88,5 @@ fn main() {
     code += "]\n";
     let out = Path::new(&std::env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("shipped_scenes.rs");
     std::fs::write(out, code).expect("write shipped_scenes.rs");
+    println!("cargo:rustc-env=SMS_MODEL_VERSION={}", model_version(Path::new(&manifest)));
 }

@@ -186,7 +186,7 @@ fn check_pareto(dir: &Path) {
 fn bad_input_is_an_error_not_a_panic() {
     let out = out_dir("bad");
     let out_s = out.to_str().unwrap();
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 7] = [
         (&["sweep", "--scenes", "wknd,nosuchscene", "--out", out_s], "unknown scene 'nosuchscene'"),
         (&["sweep", "--quick", "--configs", "RB_8+SH_6", "--out", out_s], "--config RB_8+SH_6"),
         (&["sweep", "--quick", "--jobs", "0", "--out", out_s], "--jobs"),
@@ -194,6 +194,11 @@ fn bad_input_is_an_error_not_a_panic() {
         (
             &["sweep", "--quick", "--out", "/proc/sms-sweep-cannot-write-here"],
             "/proc/sms-sweep-cannot-write-here",
+        ),
+        (&["sweep", "--quick", "--cache", out_s, "--no-cache", "--out", out_s], "--no-cache"),
+        (
+            &["sweep", "--scenes", "nosuchscene", "--cache", "/proc/sms-no-cache-here", "--out", out_s],
+            "unknown scene",
         ),
     ];
     for (args, expected) in cases {
@@ -264,12 +269,10 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
 #[test]
 fn a_sampled_sweep_reports_its_sample_and_error() {
     let out = out_dir("sampled");
-    let o = sms(&[
+    let args = [
         "sweep",
         "--scenes",
         "clutter",
-        "--res",
-        "64x32",
         "--spp",
         "1",
         "--bounces",
@@ -285,9 +288,8 @@ fn a_sampled_sweep_reports_its_sample_and_error() {
         "--batches",
         "4",
         "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    ];
+    let o = sms(&[&args[..], &["--res", "64x32", "--out", out.to_str().unwrap()]].concat());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report = json(&out.join("report.json"));
     let runs = report["runs"].as_array().unwrap();
@@ -298,5 +300,153 @@ fn a_sampled_sweep_reports_its_sample_and_error() {
     }
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(summary.contains("Sampled: 25 %") && summary.contains(tb::run::sweep::SAMPLE_ERROR), "{summary}");
+    assert!(summary.contains(" s wall time") && summary.contains("Peak memory: "), "{summary}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains(&format!("sampled: {}", tb::run::sweep::SAMPLE_ERROR)), "{err}");
+    assert!(err.contains(" s wall time, peak memory "), "{err}");
+
+    // Sampled results come back from the cache bit for bit (their intervals included).
+    let first = std::fs::read(out.join("report.json")).unwrap();
+    let o = sms(&[&args[..], &["--res", "64x32", "--out", out.to_str().unwrap()]].concat());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cache: 2 of 2 "));
+    assert!(first == std::fs::read(out.join("report.json")).unwrap(), "report.json from the cache differs");
+
+    // A sample that would hold every warp is not one, and the summary says so.
+    let o = sms(&[&args[..], &["--res", "8x8", "--out", out.to_str().unwrap()]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("not sampled: a 25 % sample"), "{err}");
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("every warp was simulated") && !summary.contains("Sampled:"), "{summary}");
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Every file of a report folder (recursively, the cache excluded) with its bytes; the run's wall
+/// times and peak memory removed (`timing.json`, two lines of `summary.md`).
+fn report_files(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<(PathBuf, Vec<u8>)>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            let rel = p.strip_prefix(root).unwrap().to_path_buf();
+            if p.is_dir() {
+                if rel != Path::new("cache") {
+                    walk(root, &p, out);
+                }
+            } else if rel != Path::new("timing.json") {
+                let mut bytes = std::fs::read(&p).unwrap();
+                if rel == Path::new("summary.md") {
+                    let text = String::from_utf8(bytes).unwrap();
+                    let kept: Vec<&str> = text
+                        .lines()
+                        .map(|l| if l.contains(" s wall time") { "(wall time)" } else { l })
+                        .filter(|l| !l.starts_with("Peak memory: "))
+                        .collect();
+                    bytes = kept.join("\n").into_bytes();
+                }
+                out.push((rel, bytes));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out);
+    out.sort();
+    out
+}
+
+fn assert_same_reports(a: &Path, b: &Path, what: &str) {
+    let (x, y) = (report_files(a), report_files(b));
+    assert_eq!(
+        x.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        y.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        "{what}: the same files"
+    );
+    assert!(x.len() > 30, "every figure, depth histogram and report");
+    for ((name, p), (_, q)) in x.iter().zip(&y) {
+        assert!(p == q, "{what}: {} differs", name.display());
+    }
+}
+
+/// `(from the cache, in all)` from the sweep's stderr line `cache: K of N simulation results …`.
+fn cache_counts(stderr: &str) -> (usize, usize) {
+    let line = stderr.lines().find_map(|l| l.strip_prefix("cache: ")).unwrap_or_else(|| panic!("{stderr}"));
+    let words: Vec<&str> = line.split(' ').collect();
+    (words[0].parse().unwrap(), words[2].parse().unwrap())
+}
+
+fn tiny_sweep(out: &Path, extra: &[&str], env: Option<(&str, &str)>) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_sms"));
+    cmd.args(["sweep", "--scenes", &SCENES.join(","), "--res", "16x16", "--spp", "1", "--bounces", "1"])
+        .args(["--jobs", "2", "--quiet", "--out", out.to_str().unwrap()])
+        .args(extra)
+        .env_remove("SMS_SWEEP_STOP_AFTER");
+    if let Some((k, v)) = env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("run sms")
+}
+
+fn ok(o: Output) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "sms sweep failed: {err}");
+    err
+}
+
+/// Issue 16: a sweep stopped part-way and run again gives byte-identical reports to one that ran
+/// through, taking what was finished from the cache; a changed key part (seed, hardware) is
+/// recomputed, and corrupt cache files are recomputed, never used.
+#[test]
+fn an_interrupted_sweep_resumes_from_its_cache_with_identical_reports() {
+    let (whole, resumed) = (out_dir("whole"), out_dir("resumed"));
+    let err = ok(tiny_sweep(&whole, &["--no-cache"], None));
+    assert!(!err.contains("cache: "), "--no-cache: {err}");
+    assert!(!whole.join("cache").exists(), "--no-cache writes no cache");
+    let total = SCENES.len() * 25;
+
+    // Stopped after 30 fresh results (the testing hook), as a kill would stop it.
+    let o = tiny_sweep(&resumed, &[], Some(("SMS_SWEEP_STOP_AFTER", "30")));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("stopped after 30"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!resumed.join("report.json").exists(), "no report from a stopped sweep");
+    let stored = std::fs::read_dir(resumed.join("cache")).unwrap().count();
+    assert!((30..total).contains(&stored), "{stored} results stored before the stop");
+
+    let (hits, all) = cache_counts(&ok(tiny_sweep(&resumed, &[], None)));
+    assert_eq!(all, total);
+    assert!((30..total).contains(&hits), "resumed with {hits} results from the cache");
+    assert_same_reports(&whole, &resumed, "resumed");
+
+    // Everything cached now; a plan that is a subset reuses the same results.
+    let sub_out = out_dir("subset");
+    let cache = resumed.join("cache");
+    let subset =
+        ["--configs", "RB_8,SMS", "--rb-sizes", "8", "--l1d-sizes", "64", "--cache", cache.to_str().unwrap()];
+    assert_eq!(cache_counts(&ok(tiny_sweep(&sub_out, &subset, None))), (4, 4));
+    assert!(!sub_out.join("cache").exists(), "--cache DIR replaces the report folder's");
+
+    // A changed seed (workload) or hardware parameter recomputes everything.
+    assert_eq!(cache_counts(&ok(tiny_sweep(&resumed, &["--seed", "7"], None))), (0, total));
+    let hw = sub_out.join("slow-dram.toml");
+    std::fs::write(&hw, "[mem]\ndram_latency = 101\n").unwrap();
+    let (hits, _) = cache_counts(&ok(tiny_sweep(&resumed, &["--hw", hw.to_str().unwrap()], None)));
+    assert_eq!(hits, 0, "a hardware change recomputes");
+
+    // Corrupt files: one truncated, one garbage, one holding another result's key.
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().path()).collect();
+    files.sort();
+    let first = std::fs::read(&files[0]).unwrap();
+    std::fs::write(&files[0], &first[..first.len() / 2]).unwrap();
+    std::fs::write(&files[1], b"\x00\x01 not json").unwrap();
+    std::fs::copy(&files[3], &files[2]).unwrap();
+    let err = ok(tiny_sweep(&resumed, &[], None));
+    assert!(err.contains("unusable cache file(s) ignored"), "{err}");
+    let (hits, _) = cache_counts(&err);
+    assert!(hits < total, "the damaged results were recomputed: {err}");
+    assert_same_reports(&whole, &resumed, "after corrupt cache files");
+    // and repaired: everything from the cache again.
+    assert_eq!(cache_counts(&ok(tiny_sweep(&resumed, &[], None))), (total, total));
+    assert_same_reports(&whole, &resumed, "all from the cache");
+
+    for d in [whole, resumed, sub_out] {
+        let _ = std::fs::remove_dir_all(d);
+    }
 }

@@ -10,9 +10,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::cli::sweep::{print_figure, start, SweepArgs};
+use crate::cli::sweep::{finish, print_figure, start, SweepArgs};
 use crate::report::ablate;
-use crate::run::sweep::SAMPLE_ERROR;
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
@@ -27,7 +26,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let req = args.common.request(ablate::plan()?)?;
+    let mut req = args.common.request(ablate::plan()?)?;
+    req.cache = args.common.cache_dir(&args.out);
     crate::report::sweep::prepare(&args.out)
         .with_context(|| format!("report folder {}", args.out.display()))?;
     let per_scene = req.plan.variants(req.base_kb())?.len();
@@ -36,15 +36,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let result = ablate::run(&req, mechanisms, &args.common.library.library(), &progress)?;
     let written = crate::report::sweep::write_ablation(&result, &args.out)?;
     print_figure(&args.common.output, &result.figure())?;
-    eprintln!(
-        "{} arms in {:.1} s wall time; wrote {} files, summary: {}",
-        mechanisms.len() + 1,
-        result.reference.wall.as_secs_f64(),
-        written.len(),
-        args.out.join("summary.md").display()
-    );
-    if result.reference.sample.is_some() {
-        eprintln!("sampled: {SAMPLE_ERROR}");
-    }
+    finish(&format!("{} arms", mechanisms.len() + 1), &result.reference, written.len(), &args.out);
     Ok(())
 }

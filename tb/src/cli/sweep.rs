@@ -37,6 +37,16 @@ pub struct SweepArgs {
     /// No progress bar on stderr.
     #[arg(long)]
     pub quiet: bool,
+    /// Result cache folder [default: cache/ in the report folder]. Each simulation's result is
+    /// stored there as it finishes, under a key of scene content, workload, sampling,
+    /// configuration, hardware and model version (a hash of sms's sources: a rebuilt sms with
+    /// changed sources recomputes everything); a stopped sweep run again continues where it
+    /// stopped, and recomputes whatever changed. Old results stay until the folder is deleted.
+    #[arg(long, value_name = "DIR", conflicts_with = "no_cache")]
+    pub cache: Option<PathBuf>,
+    /// Compute every result; read and write no cache.
+    #[arg(long)]
+    pub no_cache: bool,
     #[command(flatten)]
     pub hardware: HardwareArgs,
     #[command(flatten)]
@@ -59,6 +69,12 @@ pub fn print_figure(output: &OutputArgs, f: &Figure) -> anyhow::Result<()> {
 }
 
 impl SweepArgs {
+    /// The result cache folder for a report in `out`: `--cache`, else `out/cache`; none with
+    /// `--no-cache`.
+    pub fn cache_dir(&self, out: &std::path::Path) -> Option<PathBuf> {
+        (!self.no_cache).then(|| self.cache.clone().unwrap_or_else(|| out.join("cache")))
+    }
+
     /// The request for `plan`, checked before any simulation starts.
     pub fn request(&self, plan: Plan) -> anyhow::Result<Request> {
         let library = self.library.library();
@@ -92,7 +108,7 @@ impl SweepArgs {
         if hw.mem.l1d_bytes % 1024 != 0 {
             bail!("the unified L1D/shared array must be a whole number of KB");
         }
-        let req = Request { scenes, settings, hw, plan, jobs, sample };
+        let req = Request { scenes, settings, hw, plan, jobs, sample, cache: None };
         req.plan.variants(req.base_kb())?;
         Ok(req)
     }
@@ -151,6 +167,9 @@ pub fn start(
         req.jobs,
         out.display()
     );
+    if req.sample.is_some() {
+        eprintln!("sampling; expected error: {SAMPLE_ERROR}");
+    }
     let total = req.scenes.len() * arms * (runs_per_scene + 1);
     if quiet {
         Progress::hidden()
@@ -159,8 +178,31 @@ pub fn start(
     }
 }
 
+/// The lines every sweep-like command ends with on stderr: wall time, peak memory, the cache's
+/// use, and the error a sample is expected to have.
+pub fn finish(what: &str, result: &sweep::Sweep, written: usize, out: &std::path::Path) {
+    eprintln!(
+        "{what} in {:.1} s wall time, peak memory {}; wrote {written} files, summary: {}",
+        result.wall.as_secs_f64(),
+        crate::run::memory::describe(result.peak_rss),
+        out.join("summary.md").display()
+    );
+    if let Some(c) = &result.cache {
+        eprintln!("cache: {}", c.describe());
+    }
+    if result.runs.iter().any(|r| r.sample.is_some()) {
+        eprintln!("sampled: {SAMPLE_ERROR}");
+    } else if let Some(p) = result.sample {
+        eprintln!(
+            "not sampled: a {:.0} % sample of every scene would hold every warp (at least one per batch)",
+            p.fraction * 100.0
+        );
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let req = args.request()?;
+    let mut req = args.request()?;
+    req.cache = args.common.cache_dir(&args.out);
     crate::report::sweep::prepare(&args.out)
         .with_context(|| format!("report folder {}", args.out.display()))?;
     let variants = req.plan.variants(req.base_kb())?.len();
@@ -168,15 +210,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let result = sweep::run(&req, &args.common.library.library(), &progress)?;
     let written = crate::report::sweep::write_all(&result, &args.out)?;
     print_figure(&args.common.output, &crate::report::figures::cost(&result)?)?;
-    eprintln!(
-        "{} simulations in {:.1} s wall time; wrote {} files, summary: {}",
-        result.runs.len(),
-        result.wall.as_secs_f64(),
-        written.len(),
-        args.out.join("summary.md").display()
-    );
-    if result.sample.is_some() {
-        eprintln!("sampled: {SAMPLE_ERROR}");
-    }
+    finish(&format!("{} simulations", result.runs.len()), &result, written.len(), &args.out);
     Ok(())
 }

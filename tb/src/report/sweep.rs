@@ -2,8 +2,9 @@
 //! histograms, `summary.md` with every table, `report.json` with every raw run and
 //! `timing.json` with wall-clock times.
 //!
-//! Wall-clock times are the only part that varies between identical sweeps, so they are kept out
-//! of every JSON file but `timing.json`: the rest is bit-identical whatever the thread count.
+//! Wall-clock times (and the peak memory in `summary.md`) are the only part that varies between
+//! identical sweeps, so they are kept out of every JSON file but `timing.json`: the rest is
+//! bit-identical whatever the thread count, and whether results came from the cache.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -89,11 +90,12 @@ pub fn write_ablation(a: &Ablation, dir: &Path) -> Result<Vec<PathBuf>> {
     );
     summary += &sampling_note(r);
     summary += &format!(
-        "{} simulations per scene and arm, {} arms; {} worker thread(s), {:.1} s wall time.\n\n",
+        "{} simulations per scene and arm, {} arms; {} worker thread(s), {:.1} s wall time.\n\n{}",
         r.variants.len(),
         a.arms.len() + 1,
         r.jobs,
-        r.wall.as_secs_f64()
+        r.wall.as_secs_f64(),
+        peak_memory_line(r)
     );
     summary += &figure_markdown(&f, "##");
     write(dir.join("summary.md"), &summary, &mut written)?;
@@ -198,6 +200,7 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
         s.jobs,
         s.wall.as_secs_f64()
     );
+    out += &peak_memory_line(s);
     let scenes = crate::report::table::Table::of(
         &s.scenes,
         &[
@@ -221,6 +224,12 @@ fn summary(s: &Sweep, figures: &[Figure]) -> String {
     out
 }
 
+/// The process's peak resident memory, on a line of its own (it varies between identical runs,
+/// like the wall time).
+fn peak_memory_line(s: &Sweep) -> String {
+    format!("Peak memory: {} resident.\n\n", crate::run::memory::describe(s.peak_rss))
+}
+
 /// How the counts were obtained: every warp, or a sample with its measured and estimated error.
 pub fn sampling_note(s: &Sweep) -> String {
     match s.sample {
@@ -228,6 +237,13 @@ pub fn sampling_note(s: &Sweep) -> String {
         Some(p) => {
             let widths: Vec<f64> =
                 s.runs.iter().filter_map(|r| r.sample.map(|x| x.cycles_rel_half_width)).collect();
+            if widths.is_empty() {
+                return format!(
+                    "A {:.0} % sample was asked for, but it would hold every pixel warp of every scene (at \
+                     least one per batch): every warp was simulated.\n\n",
+                    p.fraction * 100.0
+                );
+            }
             let mean = widths.iter().sum::<f64>() / widths.len().max(1) as f64;
             let max = widths.iter().copied().fold(0.0, f64::max);
             format!(

@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod functional;
+pub mod memory;
 pub mod pool;
 pub mod sampling;
 pub mod sim;

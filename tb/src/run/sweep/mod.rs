@@ -16,9 +16,16 @@
 //! largest takes about 2 GB); the runs of a scene share its workload across threads. Every
 //! result is stored at its place in the plan, so the report does not depend on thread count or
 //! scheduling.
+//!
+//! With a [`cache`] folder, every result is written there as it finishes and read back instead of
+//! simulated when its key (scene, workload, sampling, configuration, hardware, model version)
+//! is there: a stopped sweep run again continues where it stopped. A scene whose results are all
+//! cached is loaded (its content is part of the key) but its BVH and traces are not built.
 
+pub mod cache;
 mod progress;
 
+use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -26,12 +33,13 @@ use rtl::config::Config;
 use rtl::trace::NullSink;
 use serde::Serialize;
 
+pub use cache::CacheStats;
 pub use progress::Progress;
 
 use crate::error::{Error, Result};
-use crate::run::pool;
 use crate::run::sampling::SamplePlan;
 use crate::run::sim::{share_of, simulate, simulate_sampled, Fidelity, Hardware, Metric, Outcome, RunSpec};
+use crate::run::{memory, pool};
 use crate::workload::depth::{DepthHistogram, DepthReport};
 use crate::workload::scene::{Scene, SceneLibrary};
 use crate::workload::traverse::ChildOrder;
@@ -211,6 +219,8 @@ pub struct Request {
     /// Simulate a sample of each scene's pixel warps (cycle level: one launch of the sample,
     /// counts scaled to the whole frame); `None` simulates every warp.
     pub sample: Option<SamplePlan>,
+    /// Folder of the result cache ([`cache`]); `None` computes everything and stores nothing.
+    pub cache: Option<PathBuf>,
 }
 
 impl Request {
@@ -272,6 +282,11 @@ pub struct Sweep {
     pub jobs: usize,
     pub sample: Option<SamplePlan>,
     pub wall: Duration,
+    /// The process's peak resident memory at the end of the sweep ([`memory::peak_rss_bytes`]).
+    pub peak_rss: Option<u64>,
+    /// How many results came from the cache (not part of any report: a resumed sweep's reports
+    /// equal an uninterrupted one's).
+    pub cache: Option<CacheStats>,
 }
 
 impl Sweep {
@@ -330,6 +345,7 @@ pub fn run_arms(
         .collect();
     let variants: Vec<Vec<Variant>> =
         hws.iter().map(|hw| req.plan.variants(hw.mem.l1d_bytes / 1024)).collect::<Result<_>>()?;
+    let cache = req.cache.as_deref().map(cache::Cache::open).transpose()?;
     let start = Instant::now();
     let mut out: Vec<Sweep> = hws
         .iter()
@@ -344,6 +360,8 @@ pub fn run_arms(
             jobs: req.jobs,
             sample: req.sample,
             wall: Duration::ZERO,
+            peak_rss: None,
+            cache: None,
         })
         .collect();
     for name in &req.scenes {
@@ -351,29 +369,64 @@ pub fn run_arms(
         let t = Instant::now();
         let scene = library.load(name)?;
         let load_secs = t.elapsed().as_secs_f64();
-        // Arms with equal workloads share one, and its depth histogram (it depends on the traces
-        // alone), recorded by the first arm that runs on it.
-        let mut built: Vec<(WorkloadOpts, Workload, f64, Option<DepthHistogram>)> = Vec::new();
-        for (a, tweak) in arms.iter().enumerate() {
-            let mut opts = req.settings.opts(&scene);
-            if let Some(t) = tweak {
-                t(&mut Hardware::default(), &mut opts);
-            }
-            let i = match built.iter().position(|b| b.0 == opts) {
+        let scene_key = cache.as_ref().map(|_| cache::scene_key(&scene));
+        // Arms with equal workloads share one (built only if some result is not cached), and its
+        // statistics (they depend on the traces alone), from the cache or the first arm's pass.
+        let mut built: Vec<Built> = Vec::new();
+        let arm_opts: Vec<WorkloadOpts> = arms
+            .iter()
+            .map(|tweak| {
+                let mut opts = req.settings.opts(&scene);
+                if let Some(t) = tweak {
+                    t(&mut Hardware::default(), &mut opts);
+                }
+                opts
+            })
+            .collect();
+        for (a, &opts) in arm_opts.iter().enumerate() {
+            let i = match built.iter().position(|b| b.opts == opts) {
                 Some(i) => i,
                 None => {
-                    progress.status(&format!("building {name}"));
-                    let t = Instant::now();
-                    let w = Workload::new(&scene, opts)?;
-                    built.push((opts, w, t.elapsed().as_secs_f64(), None));
+                    let info = match (&cache, &scene_key) {
+                        (Some(c), Some(k)) => c.get_scene(&cache::scene_info_key(k, &opts)),
+                        _ => None,
+                    };
+                    built.push(Built { opts, workload: None, secs: 0.0, info });
                     built.len() - 1
                 }
             };
-            let (_, workload, workload_secs, known_depth) = &mut built[i];
             let sw = &mut out[a];
-            let (outcomes, depth) =
-                run_scene(req, &sw.hw, workload, &sw.variants, known_depth.clone(), name, progress)?;
-            *known_depth = Some(depth.clone());
+            let keys: Vec<Option<String>> = sw
+                .variants
+                .iter()
+                .map(|v| {
+                    let k = scene_key.as_ref()?;
+                    Some(cache::run_key(k, &opts, req.sample, &v.config, &variant_hw(&sw.hw, v)))
+                })
+                .collect();
+            let cached: Vec<Option<Measured>> =
+                keys.iter().map(|k| cache.as_ref()?.get_run(k.as_ref()?)).collect();
+            let b = &mut built[i];
+            if b.workload.is_none() && (b.info.is_none() || cached.iter().any(Option::is_none)) {
+                progress.status(&format!("building {name}"));
+                let t = Instant::now();
+                b.workload = Some(Workload::new(&scene, opts)?);
+                b.secs = t.elapsed().as_secs_f64();
+            }
+            let job = SceneJob {
+                req,
+                hw: &sw.hw,
+                workload: b.workload.as_ref(),
+                variants: &sw.variants,
+                cached,
+                keys: &keys,
+                cache: cache.as_ref(),
+                scene: name,
+                progress,
+            };
+            let info_key = scene_key.as_ref().map(|k| cache::scene_info_key(k, &opts));
+            let (outcomes, info) = run_scene(job, b.info.clone(), info_key.as_deref())?;
+            b.info = Some(info.clone());
             sw.runs.extend(outcomes.into_iter().zip(&sw.variants).map(|((outcome, sample), v)| Run {
                 scene: name.clone(),
                 config: v.config.name(),
@@ -381,32 +434,63 @@ pub fn run_arms(
                 outcome,
                 sample,
             }));
-            sw.scenes.push(scene_result(&scene, workload, depth, load_secs, *workload_secs));
+            sw.scenes.push(scene_result(&scene, opts, info, load_secs, b.secs));
+            // Only one workload in memory at a time: dropped after the last arm that renders it.
+            if !arm_opts[a + 1..].contains(&opts) {
+                b.workload = None;
+            }
         }
     }
     progress.finish();
     let wall = start.elapsed();
+    let peak_rss = memory::peak_rss_bytes();
+    let stats = cache.as_ref().map(cache::Cache::stats);
     for sw in &mut out {
         sw.wall = wall;
+        sw.peak_rss = peak_rss;
+        sw.cache = stats.clone();
     }
     Ok(out)
 }
 
+/// A workload of a scene shared by the arms that render it alike.
+struct Built<'s> {
+    opts: WorkloadOpts,
+    /// Built only when something is not cached.
+    workload: Option<Workload<'s>>,
+    /// Seconds to build it.
+    secs: f64,
+    info: Option<SceneInfo>,
+}
+
+/// What a scene's workload is, beside the simulations: computed by the depth pass, or cached.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneInfo {
+    pub rays: u64,
+    pub pixel_warps: u32,
+    pub depth: DepthHistogram,
+}
+
+/// The hardware of variant `v`: `hw` with the variant's unified-array size.
+fn variant_hw(hw: &Hardware, v: &Variant) -> Hardware {
+    Hardware { mem: rtl::mem::MemParams { l1d_bytes: v.l1d_kb * 1024, ..hw.mem }, ..*hw }
+}
+
 fn scene_result(
     scene: &Scene,
-    workload: &Workload,
-    depth: DepthHistogram,
+    opts: WorkloadOpts,
+    info: SceneInfo,
     load_secs: f64,
     workload_secs: f64,
 ) -> SceneResult {
     SceneResult {
         name: scene.name.clone(),
-        opts: *workload.opts(),
+        opts,
         primitives: scene.primitives.len(),
         triangles: scene.primitives.triangle_count(),
-        rays: workload.num_rays(),
-        pixel_warps: workload.num_warps(),
-        depth: DepthReport::new(&scene.name, *workload.opts(), workload.num_rays(), depth),
+        rays: info.rays,
+        pixel_warps: info.pixel_warps,
+        depth: DepthReport::new(&scene.name, opts, info.rays, info.depth),
         load_secs,
         workload_secs,
     }
@@ -451,49 +535,84 @@ fn simulate_variant(
     }
 }
 
-/// Every variant of one scene on `req.jobs` threads, plus the depth pass unless the workload's
-/// histogram is `known`; outcomes in plan order.
+/// One arm's simulations of one scene.
+struct SceneJob<'a> {
+    req: &'a Request,
+    hw: &'a Hardware,
+    /// `None` only when every result and the scene's statistics are known.
+    workload: Option<&'a Workload<'a>>,
+    variants: &'a [Variant],
+    /// Results read from the cache, by variant.
+    cached: Vec<Option<Measured>>,
+    /// Cache keys by variant (`None` without a cache).
+    keys: &'a [Option<String>],
+    cache: Option<&'a cache::Cache>,
+    scene: &'a str,
+    progress: &'a Progress,
+}
+
+/// Every variant of one scene not in the cache on `req.jobs` threads, plus the depth pass unless
+/// the workload's statistics are `known`; outcomes in plan order. Fresh results are stored in the
+/// cache as each finishes, the statistics under `info_key`.
 fn run_scene(
-    req: &Request,
-    hw: &Hardware,
-    workload: &Workload,
-    variants: &[Variant],
-    known: Option<DepthHistogram>,
-    scene: &str,
-    progress: &Progress,
-) -> Result<(Vec<Measured>, DepthHistogram)> {
+    job: SceneJob,
+    known: Option<SceneInfo>,
+    info_key: Option<&str>,
+) -> Result<(Vec<Measured>, SceneInfo)> {
+    let SceneJob { req, hw, workload, variants, cached, keys, cache, scene, progress } = job;
+    let need = |what: &str| {
+        workload.ok_or_else(|| Error::Invalid(format!("{scene} {what}: no workload built (internal)")))
+    };
     // Index `variants.len()` is the depth pass.
-    let depth = Mutex::new(DepthHistogram::default());
+    let info = Mutex::new(known.clone());
     let results = pool::map_indexed(req.jobs, variants.len() + 1, |i| -> Result<Option<Measured>> {
         if i == variants.len() {
             let label = format!("{scene} depth");
             if known.is_some() {
                 // Counted as a run of the progress total, with nothing to do.
-                progress.done(&format!("{label} (shared workload)"));
+                progress.skipped(&format!("{label} (known)"));
                 return Ok(None);
             }
             progress.started(&label);
+            let workload = need("depth")?;
             let mut h = DepthHistogram::default();
             for jobs in workload.warps() {
                 jobs.iter().flat_map(|j| j.lanes.iter().flatten()).for_each(|t| h.add_trace(t));
                 progress.tick();
             }
-            *depth.lock().expect("depth lock") = h;
+            let computed =
+                SceneInfo { rays: workload.num_rays(), pixel_warps: workload.num_warps(), depth: h };
+            if let (Some(c), Some(k)) = (cache, info_key) {
+                c.put_scene(k, &computed)?;
+            }
+            *info.lock().expect("info lock") = Some(computed);
             progress.done(&label);
             return Ok(None);
         }
         let v = variants[i];
         let label = format!("{scene} {}", v.name());
+        if let Some(m) = &cached[i] {
+            progress.skipped(&format!("{label} (cached)"));
+            return Ok(Some(*m));
+        }
+        if let Some(c) = cache {
+            c.check_stop()?;
+        }
         progress.started(&label);
-        let hw = Hardware { mem: rtl::mem::MemParams { l1d_bytes: v.l1d_kb * 1024, ..hw.mem }, ..*hw };
-        let spec = RunSpec { config: v.config, hw, fidelity: Fidelity::Cycle };
-        let r = simulate_variant(req, &spec, workload, progress)
+        let spec = RunSpec { config: v.config, hw: variant_hw(hw, &v), fidelity: Fidelity::Cycle };
+        let r = need(&v.name())
+            .and_then(|w| simulate_variant(req, &spec, w, progress))
             .map_err(|e| Error::Invalid(format!("{label}: {e}")));
         progress.done(&label);
-        r.map(Some)
+        let m = r?;
+        if let (Some(c), Some(k)) = (cache, &keys[i]) {
+            c.put_run(k, &m)?;
+        }
+        Ok(Some(m))
     });
     let outcomes = results.into_iter().collect::<Result<Vec<_>>>()?.into_iter().flatten().collect();
-    Ok((outcomes, known.unwrap_or_else(|| depth.into_inner().expect("depth lock"))))
+    let info = info.into_inner().expect("info lock").expect("the depth pass ran or the info was known");
+    Ok((outcomes, info))
 }
 
 /// Geometric mean; `None` for no values or a value that is not positive.

@@ -17,6 +17,8 @@ pub struct Progress {
 #[derive(Default)]
 struct State {
     done: usize,
+    /// Of `done`, how many took no time (cached): left out of the estimate.
+    skipped: usize,
     running: Vec<String>,
     status: String,
     last_draw: Option<Instant>,
@@ -72,6 +74,13 @@ impl Progress {
         self.draw(&mut st, true);
     }
 
+    /// A run that needed no simulation (its result was cached, or known): counted as done, but
+    /// not in the rate the estimate of the rest assumes.
+    pub fn skipped(&self, label: &str) {
+        self.lock().skipped += 1;
+        self.done(label);
+    }
+
     /// Redraws now and then, so elapsed time moves during long runs.
     pub fn tick(&self) {
         let mut st = self.lock();
@@ -101,9 +110,9 @@ impl Progress {
         let elapsed = self.start.elapsed();
         let width = 24;
         let filled = (st.done * width).checked_div(self.total).unwrap_or(0).min(width);
-        let eta = match st.done {
+        let eta = match st.done - st.skipped {
             0 => "?".to_string(),
-            d => clock(elapsed.mul_f64(self.total.saturating_sub(d) as f64 / d as f64)),
+            d => clock(elapsed.mul_f64(self.total.saturating_sub(st.done) as f64 / d as f64)),
         };
         let what = if st.status.is_empty() { st.running.join(", ") } else { st.status.clone() };
         let mut line = format!(
