@@ -40,5 +40,9 @@ fn bench_runs_end_to_end_and_writes_its_files() {
     assert!(text.contains("fastest within 1% on every headline metric"));
     assert!(!text.contains("DIFFER"), "skipping work never changes results:\n{text}");
     assert!(read("bench.md").starts_with("# sms bench\n"));
+    // The bench's own peak memory, from /proc (this is Linux): a real number of bytes.
+    let rss = json["report"]["peak_rss"].as_u64().expect("peak_rss on Linux");
+    assert!(rss > 1 << 20, "{rss} bytes");
+    assert!(text.contains("peak resident memory of this bench"));
     assert!(read("time-vs-error.svg").starts_with("<svg"));
 }

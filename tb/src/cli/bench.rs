@@ -87,6 +87,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         bench_scene(&scene, wopts, &opts, &mut report, &mut |line| eprintln!("{line}"))?;
     }
+    report.peak_rss = crate::run::memory::peak_rss_bytes();
     match args.output.format() {
         Format::Text => print!("{}", report.text(args.tolerance, false)),
         Format::Markdown => print!("{}", report.markdown(args.tolerance)),

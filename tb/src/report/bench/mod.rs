@@ -314,6 +314,8 @@ pub struct Report {
     pub work: Vec<Work>,
     pub savings: Vec<Saving>,
     pub scenes: Vec<SceneInfo>,
+    /// Peak resident memory of the whole bench, bytes (Linux `VmHWM`; `None` elsewhere).
+    pub peak_rss: Option<u64>,
 }
 
 /// A scene's workload as benchmarked.

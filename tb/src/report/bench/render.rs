@@ -73,6 +73,11 @@ impl Report {
         out += &render(self.work_table());
         out += &heading("Savings of skipping work a run does not need");
         out += &render(self.savings_table());
+        out += &heading("Memory");
+        out += &format!(
+            "peak resident memory of this bench (every scene and setting): {}\n",
+            crate::run::memory::describe(self.peak_rss)
+        );
         out
     }
 
