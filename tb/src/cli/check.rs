@@ -172,7 +172,7 @@ pub fn run(args: Args) -> Result<()> {
     for c in &configs {
         let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
         eprintln!("checking {} to depth {depth} ...", describe(c));
-        let bounds = Bounds { depth, values: args.values, max_states: args.max_states, cap: None };
+        let bounds = Bounds { depth, values: args.values, max_states: args.max_states, ..Bounds::default() };
         match check(*c, bounds, design) {
             Ok(cov) => t.row([
                 describe(c),

@@ -49,8 +49,10 @@ use rtl::stack_manager::{Cmd, Src, StackManager, StackRegs, StackStats, Uop};
 
 use super::harness::Scoreboard;
 use super::invariants::{
-    check_placement, check_thread, check_warp_exit, check_warp_fields, fail, Property, Violation,
+    check_bank_map, check_no_overlap, check_placement, check_thread, check_warp_exit, check_warp_fields,
+    fail, Property, Violation,
 };
+use super::sequence::{check_sequence, Before};
 
 /// One step of an explored sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -72,11 +74,24 @@ pub struct Bounds {
     /// Cap on the warp's logical stack depth: the sum over its threads of the entries each
     /// holds. A push is offered only while the warp holds fewer entries; `None` = no cap.
     pub cap: Option<u32>,
+    /// Check [`Property::RequestSequence`] (default); off to see which state property catches a
+    /// bug without it.
+    pub request_sequence: bool,
+    /// Lanes active when the warp loads (bit per lane; the others start finished, their stacks
+    /// Idle with reallocation); `None` = every lane.
+    pub active: Option<u32>,
 }
 
 impl Default for Bounds {
     fn default() -> Self {
-        Bounds { depth: u32::MAX, values: 2, max_states: usize::MAX, cap: None }
+        Bounds {
+            depth: u32::MAX,
+            values: 2,
+            max_states: usize::MAX,
+            cap: None,
+            request_sequence: true,
+            active: None,
+        }
     }
 }
 
@@ -231,6 +246,9 @@ pub struct Model {
     /// Some thread of the warp borrowed on the way here: one bit of path history, part of the
     /// state so the warp-exit-after-a-borrow cover is not lost when paths merge.
     borrowed: bool,
+    /// Check [`Property::RequestSequence`] on every accepted command (on by default; off to
+    /// show the state properties catch a bug on their own).
+    pub request_sequence: bool,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -276,6 +294,7 @@ impl Model {
             sb: Scoreboard::new(cfg.threads()),
             shadow: vec![Shadow::default(); cfg.warp_size as usize],
             borrowed: false,
+            request_sequence: true,
         })
     }
 
@@ -341,13 +360,22 @@ impl Model {
             Action::Cmd(t, cmd) => {
                 let stacks: Vec<_> = sm.warp_threads(0).map(|s| *sm.stack(s)).collect();
                 let global = sm.global(t).to_vec();
+                let (thread, rb) = (*sm.thread(t), sm.rb(t).clone());
                 let got = sm.accept(t, cmd);
+                let accepted = got.is_ok();
                 self.sb.check(t, cmd, got)?;
+                if self.request_sequence {
+                    let before = Before { cfg: sm.config(), stacks: &stacks, thread, rb: &rb };
+                    check_sequence(&before, 0, t, cmd, accepted, sm.pending_uops(t))?;
+                }
                 let loads = live_reads(sm, t, &stacks, &global)?;
                 self.shadow[t as usize].global_loads = loads;
             }
             Action::Uop(t) => {
                 let Some(&u) = sm.pending_uops(t).next() else { return Ok(false) };
+                if let Uop::ShLoad { stack, entry } | Uop::ShStore { stack, entry, .. } = u {
+                    check_bank_map(sm.config(), stack, entry, sm.sh_read_request(stack, entry).words())?;
+                }
                 let sh = &mut self.shadow[t as usize];
                 match u {
                     Uop::ShLoad { stack, entry } => sh.latch = Some(sm.sh_entry(stack, entry)),
@@ -536,11 +564,29 @@ pub fn run_bytes(cfg: Config, input: &[(u8, u8)]) -> Result<Coverage, Box<Counte
 }
 
 /// [`run_bytes`] on a given model (e.g. one whose stack manager is a mutant).
-pub fn run_bytes_on(mut m: Model, input: &[(u8, u8)]) -> Result<Coverage, Box<Counterexample>> {
+pub fn run_bytes_on(m: Model, input: &[(u8, u8)]) -> Result<Coverage, Box<Counterexample>> {
+    run_decoded(m, input.iter().enumerate().map(|(i, &pair)| (pair, i as u64 + 1)))
+}
+
+/// [`run_bytes`] with the push values given too: `(thread byte, command byte, value)` per
+/// action. The Kani harnesses use it so push values are symbolic (any value, equal ones
+/// included), not fixed by position.
+pub fn run_valued(cfg: Config, input: &[(u8, u8, u64)]) -> Result<Coverage, Box<Counterexample>> {
+    let m = Model::new(cfg).expect("harness configurations are valid");
+    run_decoded(m, input.iter().map(|&(a, b, v)| ((a, b), v)))
+}
+
+fn run_decoded(
+    mut m: Model,
+    input: impl Iterator<Item = ((u8, u8), u64)>,
+) -> Result<Coverage, Box<Counterexample>> {
     let mut cov = Coverage::default();
     let mut trace = Vec::new();
-    for (i, &pair) in input.iter().enumerate() {
-        let a = m.decode(pair, i as u64 + 1);
+    if let Err(violation) = check_no_overlap(&m.sm) {
+        return Err(Box::new(Counterexample { violation, trace }));
+    }
+    for (pair, value) in input {
+        let a = m.decode(pair, value);
         trace.push(a);
         if let Err(violation) = m.act(a, &mut cov) {
             return Err(Box::new(Counterexample { violation, trace }));
@@ -585,12 +631,14 @@ pub fn check(
     let mut model = Model::new(cfg).expect("exhaustive configurations are validated by the caller");
     model.sm = design(model.sm);
     // Load the warp again with the design under check, so its placement is the one checked.
-    model.sm.load_warp(0, u32::MAX >> (32 - cfg.warp_size));
+    let active = bounds.active.unwrap_or(u32::MAX) & u32::MAX >> (32 - cfg.warp_size);
+    model.sm.load_warp(0, active);
+    model.sb.load_warp(model.sm.warp_threads(0), active);
+    model.request_sequence = bounds.request_sequence;
     let mut cov = Coverage { complete: true, ..Default::default() };
-    for s in model.sm.warp_threads(0) {
-        if let Err(violation) = check_placement(&model.sm, s) {
-            return Err(Box::new(Counterexample { violation, trace: vec![] }));
-        }
+    let placed = model.sm.warp_threads(0).try_for_each(|s| check_placement(&model.sm, s));
+    if let Err(violation) = placed.and_then(|_| check_no_overlap(&model.sm)) {
+        return Err(Box::new(Counterexample { violation, trace: vec![] }));
     }
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
