@@ -157,7 +157,7 @@ fn lockstep_bank_conflicts_stay_within_the_skew_bound() {
     use tb::run::verify::invariants::lockstep_bank_load;
     let bound = |c: &Config, st: &rtl::stack_unit::UnitStats| {
         let accesses = st.stack.sh_loads() + st.stack.sh_stores();
-        assert!(accesses > 0 && accesses % 32 == 0, "{}: {accesses} SH accesses", c.name());
+        assert!(accesses > 0 && accesses.is_multiple_of(32), "{}: {accesses} SH accesses", c.name());
         (accesses / 32) * (lockstep_bank_load(c, 0) as u64 - 1)
     };
     for m in [1, 2, 4, 8, 16, 32] {
