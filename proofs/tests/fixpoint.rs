@@ -6,7 +6,7 @@
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Cmd, Mutant};
 use tb::run::verify::exhaustive::{
-    check, default_cap, describe, full_configs, Action, Bounds, Coverage, Goal, Model,
+    check, default_cap, describe, full_cases, full_configs, Action, Bounds, Coverage, Goal, Model,
 };
 use tb::run::verify::invariants::{formula_base, Property};
 
@@ -129,7 +129,8 @@ fn cover_goals_follow_the_features() {
 }
 
 /// New planted bugs (issue 14 item 5), each caught by the fixpoint search of a configuration of
-/// the full set, by the property named.
+/// the full set, by the state property named (RequestSequence off: `tests/mutants.rs` runs them
+/// with every property on).
 #[test]
 fn new_mutants_are_caught_by_the_fixpoint_search() {
     let ra2 =
@@ -147,7 +148,8 @@ fn new_mutants_are_caught_by_the_fixpoint_search() {
         (three, default_cap(&three), Mutant::EagerRelease, Property::Conservation),
     ];
     for (c, cap, m, expected) in cases {
-        let cex = check(c, Bounds::fixpoint(cap), |sm| sm.with_mutant(Some(m)))
+        let bounds = Bounds { request_sequence: false, ..Bounds::fixpoint(cap) };
+        let cex = check(c, bounds, |sm| sm.with_mutant(Some(m)))
             .unwrap_err_or_else(|| panic!("{m:?} survived on {}", describe(&c)));
         println!(
             "{m:?} on {}: caught by {:?} after {} actions",
@@ -173,4 +175,57 @@ impl<T, E> UnwrapErr<E> for Result<T, E> {
             Err(e) => e,
         }
     }
+}
+
+/// The one-lane case of `sms check --full` with 1-entry stacks (4-thread warps, chains of
+/// three, lanes 1 to 3 finished from the start; the other partial cases run in
+/// `sms check --full`): every interleaving to the fixpoint, its goals reached — among them
+/// a release of a stack that is not the one after its owner, which the full warps reach only
+/// past their default cap — and the planted ReleaseAssumesAdjacent caught there.
+#[test]
+fn one_lane_case_rotates_its_chains_and_catches_release_assumes_adjacent() {
+    let cases: Vec<_> = full_cases().into_iter().filter(|c| c.active == 1 && c.cfg.sh_entries == 1).collect();
+    assert_eq!(cases.len(), 1);
+    for case in &cases {
+        let cov =
+            check(case.cfg, case.bounds(), |sm| sm).unwrap_or_else(|e| panic!("{}: {e}", case.describe()));
+        println!(
+            "{:52} cap {} states {:8} depth {:3} in {:>7.2?}",
+            case.describe(),
+            case.cap,
+            cov.states,
+            cov.depth_reached,
+            cov.elapsed
+        );
+        assert!(cov.fixpoint, "{}", case.describe());
+        assert!(case.goals().contains(&Goal::NonAdjacentRelease));
+        assert_eq!(cov.covers.missing_of(&case.goals()), vec![], "{}", case.describe());
+        let cex = check(case.cfg, case.bounds(), |sm| sm.with_mutant(Some(Mutant::ReleaseAssumesAdjacent)))
+            .expect_err("ReleaseAssumesAdjacent survived");
+        println!("  ReleaseAssumesAdjacent: {} after {} actions", cex.violation, cex.trace.len());
+        assert_eq!(cex.violation.property, Property::Chains);
+    }
+}
+
+/// One marked push per run (`Bounds::one_mark`, the fixpoint default; the data-independence
+/// argument in the module doc of `exhaustive`) reaches the same fixpoint and covers as every
+/// value at every push, with far fewer states, and still catches a reordering bug by
+/// Conservation alone.
+#[test]
+fn one_marked_push_per_run_proves_the_same_with_fewer_states() {
+    let c =
+        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some());
+    let cap = default_cap(&c);
+    let one = check(c, Bounds::fixpoint(cap), |sm| sm).unwrap();
+    let all = check(c, Bounds { one_mark: false, ..Bounds::fixpoint(cap) }, |sm| sm).unwrap();
+    println!("{}: {} states with one mark, {} with every value", describe(&c), one.states, all.states);
+    assert!(one.fixpoint && all.fixpoint);
+    assert_eq!(one.covers.missing(&c), vec![]);
+    assert!(one.states * 2 < all.states, "{} vs {}", one.states, all.states);
+    let sh2 =
+        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 2 && c.warp_size == 2 && c.realloc.is_none());
+    let bounds = Bounds { request_sequence: false, ..Bounds::fixpoint(default_cap(&sh2)) };
+    let cex = check(sh2, bounds, |sm| sm.with_mutant(Some(Mutant::ReloadWrongEntry)))
+        .expect_err("ReloadWrongEntry survived one mark");
+    assert_eq!(cex.violation.property, Property::Conservation);
 }

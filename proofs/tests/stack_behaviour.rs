@@ -133,3 +133,65 @@ fn the_unmutated_design_passes_the_same_runs() {
         run_cycle(&mut unit, warps(8, 4, 32, 90), opts(6), &mut NullSink).unwrap();
     }
 }
+
+/// All 32 lanes of one warp run the same stream in lockstep through the cycle-level unit
+/// (optionally with a planted bug): the run's stats.
+fn lockstep_run(c: Config, m: Option<Mutant>) -> rtl::stack_unit::UnitStats {
+    let s = stream(9, 40);
+    let work = vec![WarpWork { lanes: vec![Some(s); 32] }];
+    let mut unit = StandaloneStack::new(Config { warps: 1, ..c }, 50).unwrap();
+    unit.unit.manager = unit.unit.manager.clone().with_mutant(m);
+    let o = CycleOpts { max_gap: 0, lockstep: true, ..opts(4) };
+    run_cycle(&mut unit, work, o, &mut NullSink).unwrap().stats
+}
+
+/// The lockstep bank-conflict bound of issue 14 item 3, for full 32-thread warps and every M
+/// from 1 to 32 (the issue asks 4 to 32; 1 and 2 are cheap and M = 2 is where the planted skew
+/// bug is): in lockstep every lane makes the same SH accesses, one access round per micro-op,
+/// and a round costs at most `lockstep_bank_load − 1` conflict cycles, the load computed from
+/// DESIGN 9.6's skew formula and SPEC section 4's bank map in the spec layer. With skew the
+/// load is 2 for every M (lanes t and t + 16 share a bank pair); the arbiter and manager never
+/// exceed rounds × (load − 1). A skew formula wrong for M = 2 (every lane at `lane % 2`) does.
+#[test]
+fn lockstep_bank_conflicts_stay_within_the_skew_bound() {
+    use tb::run::verify::invariants::lockstep_bank_load;
+    let bound = |c: &Config, st: &rtl::stack_unit::UnitStats| {
+        let accesses = st.stack.sh_loads() + st.stack.sh_stores();
+        assert!(accesses > 0 && accesses.is_multiple_of(32), "{}: {accesses} SH accesses", c.name());
+        (accesses / 32) * (lockstep_bank_load(c, 0) as u64 - 1)
+    };
+    for m in [1, 2, 4, 8, 16, 32] {
+        let c =
+            Config { rb: rtl::config::RbSize::Entries(8), sh_entries: m, skew: true, ..Config::default() };
+        assert_eq!(lockstep_bank_load(&c, 0), 2, "{}", c.name());
+        let st = lockstep_run(c, None);
+        let b = bound(&c, &st);
+        println!("{}: {} conflict cycles, bound {b}", c.name(), st.conflict_cycles);
+        assert!(
+            st.conflict_cycles <= b,
+            "{}: {} conflict cycles over the bound {b}",
+            c.name(),
+            st.conflict_cycles
+        );
+        let plain = Config { skew: false, ..c };
+        let st = lockstep_run(plain, None);
+        let b = bound(&plain, &st);
+        println!("{}: {} conflict cycles, bound {b}", plain.name(), st.conflict_cycles);
+        assert!(st.conflict_cycles <= b, "{}: {} over {b}", plain.name(), st.conflict_cycles);
+    }
+    let c: Config = "RB_8+SH_2+SK".parse().unwrap();
+    let good = lockstep_run(c, None);
+    let bad = lockstep_run(c, Some(Mutant::SkewWrongForOneM));
+    let b = bound(&c, &bad);
+    println!(
+        "SkewWrongForOneM on {}: {} conflict cycles (correct {}), bound {b}",
+        c.name(),
+        bad.conflict_cycles,
+        good.conflict_cycles
+    );
+    assert!(
+        bad.conflict_cycles > b,
+        "SkewWrongForOneM kept within the bound: {} <= {b}",
+        bad.conflict_cycles
+    );
+}

@@ -396,11 +396,20 @@ pub enum Mutant {
     PriorityKeptOnRelease,
     /// Overflow is cleared when one global entry is still left (one pop early).
     OverflowClearedEarly,
+    /// A release assumes the borrowed stack sits right after its owner on the ring: the owner's
+    /// Next TID takes the released stack's, whatever stack really points at it (wrong once a
+    /// flush has rotated the chain).
+    ReleaseAssumesAdjacent,
+    /// A pop's global reload goes into the top stack of the chain instead of the oldest.
+    ReloadIntoTop,
+    /// The idle-stack search also takes an active thread's empty, unchained dedicated stack: a
+    /// stack lent while its owner is still active.
+    LendActiveStack,
 }
 
 impl Mutant {
     /// Every mutant, in declaration order (the order of [`Self::NAMES`]).
-    pub const ALL: [Mutant; 11] = [
+    pub const ALL: [Mutant; 14] = [
         Mutant::QueueWrapOffByOne,
         Mutant::ReloadWrongEntry,
         Mutant::SpillDropsEntry,
@@ -412,6 +421,9 @@ impl Mutant {
         Mutant::SkewWrongForOneM,
         Mutant::PriorityKeptOnRelease,
         Mutant::OverflowClearedEarly,
+        Mutant::ReleaseAssumesAdjacent,
+        Mutant::ReloadIntoTop,
+        Mutant::LendActiveStack,
     ];
 }
 
@@ -427,7 +439,10 @@ named_enum!(
     Mutant::EagerRelease => "eager-release",
     Mutant::SkewWrongForOneM => "skew-wrong-for-one-m",
     Mutant::PriorityKeptOnRelease => "priority-kept-on-release",
-    Mutant::OverflowClearedEarly => "overflow-cleared-early"
+    Mutant::OverflowClearedEarly => "overflow-cleared-early",
+    Mutant::ReleaseAssumesAdjacent => "release-assumes-adjacent",
+    Mutant::ReloadIntoTop => "reload-into-top",
+    Mutant::LendActiveStack => "lend-active-stack"
 );
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -856,6 +871,12 @@ impl StackManager {
         Ok(r)
     }
 
+    /// The SH request that reads entry `entry` of stack `s`: the words (and so the banks) the
+    /// design addresses for it.
+    pub fn sh_read_request(&self, s: u32, entry: u32) -> ShReq {
+        self.sh_request(s, s, entry, false)
+    }
+
     fn sh_request(&self, t: u32, stack: u32, entry: u32, write: bool) -> ShReq {
         let wpe = self.cfg.entry_bytes / self.cfg.bank_bytes;
         let first = (stack * self.cfg.sh_entries + entry) * wpe;
@@ -1248,7 +1269,12 @@ impl<'a> Planner<'a> {
 
     fn first_idle(&self, t: u32) -> Option<u32> {
         let base = self.warp_base(t);
-        (base..base + self.cfg().warp_size).find(|&s| self.get(s).idle)
+        let active_unchained = |s: u32| {
+            let r = self.get(s);
+            s != t && r.empty && r.next_tid == s - base && !self.m.threads[s as usize].done
+        };
+        (base..base + self.cfg().warp_size)
+            .find(|&s| self.get(s).idle || (self.mutant(Mutant::LendActiveStack) && active_unchained(s)))
     }
 
     fn borrow(&mut self, t: u32, s: u32, rank: u32) {
@@ -1275,7 +1301,11 @@ impl<'a> Planner<'a> {
     fn unlink(&mut self, t: u32, s: u32) {
         let base = self.warp_base(t);
         let c = self.members(t);
-        let pred = c.iter().find(|&p| base + self.get(p).next_tid == s).unwrap_or(t);
+        let pred = if self.mutant(Mutant::ReleaseAssumesAdjacent) {
+            t
+        } else {
+            c.iter().find(|&p| base + self.get(p).next_tid == s).unwrap_or(t)
+        };
         let next = self.get(s).next_tid;
         let r = self.get(pred);
         self.set(pred, StackRegs { next_tid: next, ..r });
@@ -1436,7 +1466,7 @@ impl<'a> Planner<'a> {
         }
         if self.th.overflow && !self.mutant(Mutant::MissingGlobalReload) {
             let chain = self.members(t);
-            let oldest = self.by_priority(&chain, false);
+            let oldest = self.by_priority(&chain, self.mutant(Mutant::ReloadIntoTop));
             if !self.full(oldest) {
                 let slot = self.release_spill_slot();
                 let e = self.push_bottom(oldest);

@@ -39,11 +39,12 @@ fn replay(
 
 #[test]
 fn counterexample_dump_replays_the_buggy_registers() {
-    let bounds = Bounds { depth: 16, values: 2, max_states: 1_000_000, cap: None };
+    let bounds = Bounds { depth: 16, values: 2, max_states: 1_000_000, ..Bounds::default() };
     let cex = check(cfg(), bounds, reload_wrong_entry).expect_err("the planted bug is caught");
     let dir = TmpDir::new("check-vcd", "cex");
     let path = dir.join("cex.vcd");
-    dump_counterexample(cfg(), reload_wrong_entry, &cex.trace, &path).unwrap();
+    dump_counterexample(cfg(), reload_wrong_entry, u32::MAX >> (32 - cfg().warp_size), &cex.trace, &path)
+        .unwrap();
     assert!(path.with_extension("gtkw").is_file(), "a save file next to the dump");
 
     let text = std::fs::read(&path).unwrap();

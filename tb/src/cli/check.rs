@@ -1,14 +1,12 @@
 //! `sms check`: the exhaustive model checker. By default a bounded search over a grid of small
 //! configurations (bounds from the command line) or over the configurations named with `-c`
 //! (the shared configuration flags, as every subcommand takes them); with `--full`, every
-//! configuration of [`crate::run::verify::exhaustive::full_configs`] explored to its fixpoint
+//! case of [`crate::run::verify::exhaustive::full_cases`] explored to its fixpoint
 //! under a depth cap, every cover goal asserted.
 
 use std::path::{Path, PathBuf};
 
-use crate::run::verify::exhaustive::{
-    check, default_cap, describe, full_configs, Action, Bounds, Coverage, Model,
-};
+use crate::run::verify::exhaustive::{check, describe, full_cases, Action, Bounds, Coverage, Model};
 use anyhow::{bail, Result};
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Mutant, StackManager};
@@ -45,9 +43,14 @@ pub struct Args {
     /// Longest action sequence for wider warps.
     #[arg(long, default_value_t = 9)]
     pub wide_depth: u32,
-    /// Distinct push values.
+    /// Distinct push values (with --full only together with --all-values).
     #[arg(long, default_value_t = 2)]
     pub values: u32,
+    /// With --full: offer every value 1..=--values at every push, instead of one marked push
+    /// per run (a distinguished value at most once, every other push one common value: enough
+    /// for a data-independent design, and far fewer states).
+    #[arg(long)]
+    pub all_values: bool,
     /// Stop a configuration after this many distinct states.
     #[arg(long, default_value_t = 20_000_000)]
     pub max_states: usize,
@@ -59,17 +62,20 @@ pub struct Args {
     /// mutants`).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Mutant::NAMES))]
     pub mutant: Option<String>,
-    /// Prove instead of search: explore every configuration of the full set (the small grid
-    /// plus skewed ones with 4 and 8 banks) to its fixpoint, every interleaving unbounded in
-    /// time, under a cap on the entries the warp holds; a cover goal never reached fails the run.
+    /// Prove instead of search: explore every case of the full set (the small grid, skewed
+    /// configurations with 4 and 8 banks, and 4-thread warps with one active lane whose chains
+    /// of three stacks rotate) to its fixpoint, every interleaving unbounded in time, under a
+    /// cap on the entries the warp holds; a cover goal never reached fails the run.
     /// Ignores the grid (--rb, --sh, --warp-sizes, --borrow-limits), the configuration flags
     /// (-c, --warp-size, --borrow-limit, --flush-limit), --depth and --wide-depth.
     #[arg(long)]
     pub full: bool,
     #[command(flatten)]
     pub output: OutputArgs,
-    /// With --full: the cap on the entries the warp holds (default per configuration: RB + SH
-    /// × (1 + borrow limit) + 1, enough to fill a whole chain and reach global memory).
+    /// With --full: the cap on the entries the warp holds (default per case: RB + SH × (1 +
+    /// borrow limit) + 1, enough to fill a whole chain and reach global memory; for the one-lane
+    /// cases RB + 2 × SH × (1 + borrow limit) + 1, so every stack is flushed once and the first
+    /// twice).
     #[arg(long)]
     pub cap: Option<u32>,
 }
@@ -97,14 +103,18 @@ fn design(_mutant: Option<Mutant>) -> impl Fn(StackManager) -> StackManager + Co
 
 /// Replays `trace` on a fresh warp of `cfg` built by `design` and dumps every register after
 /// each action (time step i = after i actions) to `path`, with a GTKWave save file.
+/// `active`: the lanes active when the warp loads (as the search had them).
 pub fn dump_counterexample(
     cfg: Config,
     design: impl Fn(StackManager) -> StackManager,
+    active: u32,
     trace: &[Action],
     path: &Path,
 ) -> Result<()> {
     let mut model = Model::new(cfg)?;
     model.sm = design(model.sm);
+    model.sm.load_warp(0, active);
+    model.sb.load_warp(model.sm.warp_threads(0), active);
     let opts = VcdOptions { path: path.to_path_buf(), select: Selection::default() };
     let mut sink = VcdSink::create(&opts, &Config { warps: 1, ..cfg })?;
     let mut cov = Coverage::default();
@@ -194,7 +204,7 @@ pub fn run(args: Args) -> Result<()> {
     for c in &configs {
         let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
         eprintln!("checking {} to depth {depth} ...", describe(c));
-        let bounds = Bounds { depth, values: args.values, max_states: args.max_states, cap: None };
+        let bounds = Bounds { depth, values: args.values, max_states: args.max_states, ..Bounds::default() };
         match check(*c, bounds, design) {
             Ok(cov) => t.row([
                 describe(c),
@@ -211,7 +221,7 @@ pub fn run(args: Args) -> Result<()> {
             Err(cex) => {
                 print_report(&args.output, &t, None)?;
                 if let Some(path) = &args.vcd {
-                    dump_counterexample(*c, design, &cex.trace, path)?;
+                    dump_counterexample(*c, design, u32::MAX >> (32 - c.warp_size), &cex.trace, path)?;
                     eprintln!(
                         "wrote {} and {} (time step i = after action i)",
                         path.display(),
@@ -267,26 +277,33 @@ fn run_full(args: &Args) -> Result<()> {
     ]);
     let started = std::time::Instant::now();
     let mut failed = Vec::new();
-    let configs = full_configs();
-    for c in &configs {
-        let cap = args.cap.unwrap_or_else(|| default_cap(c));
-        eprintln!("proving {} under cap {cap} ...", describe(c));
-        let bounds = Bounds { values: args.values, max_states: args.max_states, ..Bounds::fixpoint(cap) };
+    let cases = full_cases();
+    for case in &cases {
+        let c = &case.cfg;
+        let cap = args.cap.unwrap_or(case.cap);
+        let name = case.describe();
+        eprintln!("proving {name} under cap {cap} ...");
+        let bounds = Bounds {
+            values: args.values,
+            max_states: args.max_states,
+            cap: Some(cap),
+            one_mark: !args.all_values,
+            ..case.bounds()
+        };
         let cov = match check(*c, bounds, design) {
             Ok(cov) => cov,
             Err(cex) => {
                 print_report(&args.output, &t, None)?;
                 if let Some(path) = &args.vcd {
-                    dump_counterexample(*c, design, &cex.trace, path)?;
+                    dump_counterexample(*c, design, case.active, &cex.trace, path)?;
                 }
                 bail!(
-                    "{}: property violated; shortest counterexample ({} actions):\n{cex}",
-                    describe(c),
+                    "{name}: property violated; shortest counterexample ({} actions):\n{cex}",
                     cex.trace.len()
                 );
             }
         };
-        let missing = cov.covers.missing(c);
+        let missing = cov.covers.missing_of(&case.goals());
         eprintln!(
             "  {} states, depth {}, {:.2} s, fixpoint {}, missing {missing:?}",
             cov.states,
@@ -295,10 +312,10 @@ fn run_full(args: &Args) -> Result<()> {
             cov.fixpoint
         );
         if !cov.fixpoint || !missing.is_empty() {
-            failed.push(describe(c));
+            failed.push(name.clone());
         }
         t.row([
-            describe(c),
+            name,
             cap.to_string(),
             cov.states.to_string(),
             cov.depth_reached.to_string(),
@@ -319,7 +336,7 @@ fn run_full(args: &Args) -> Result<()> {
     }
     let verdict = format!(
         "every property proved on {} configurations to the fixpoint, every cover reached ({:.1} s)",
-        configs.len(),
+        cases.len(),
         started.elapsed().as_secs_f64()
     );
     print_report(&args.output, &t, Some(&verdict))

@@ -25,14 +25,21 @@
 //! compaction); the visited set plus the predecessor table (for counterexample traces) cost
 //! about 25 bytes a state.
 //!
-//! **Why two push values suffice.** The stack manager is data independent: it moves entries
-//! between RB, SH and global memory and compares none of them (no branch, address or register
-//! depends on an entry's value — [`Model::key`] would otherwise need the values anyway). For a
-//! data-independent design, a run that loses, duplicates or reorders an entry does the same to
-//! any renaming of the pushed values; renaming the entry concerned to 1 and everything else to 2
-//! (or the two reordered entries to 1 and 2) keeps the run a run of the design and keeps the
-//! wrong answer wrong against the reference. So every Conservation or Equivalence failure with
-//! arbitrary values has one with values {1, 2} (Wolper's data-independence argument, POPL 1986).
+//! **Why two push values suffice, and one marked push per run.** The stack manager is data
+//! independent: it moves entries between RB, SH and global memory and compares none of them (no
+//! branch, address or register depends on an entry's value — [`Model::key`] would otherwise
+//! need the values anyway). So a run's control (every register, pointer and micro-op) does not
+//! depend on the values pushed, and every value the hardware holds or answers is a copy of one
+//! pushed value (or [`rtl::stack_manager::POISON`]). A Conservation or Equivalence failure is a
+//! position where the hardware holds (or answers) a copy of push *a*, or poison, while the
+//! reference has push *b* ≠ *a* there (or the lengths differ, seen with any values). Giving push
+//! *b* the value [`MARKED`] and every other push [`UNMARKED`] keeps the run a run of the design
+//! and the position wrong (UNMARKED or POISON against MARKED). So every such failure with
+//! arbitrary values has one in which at most one push per run is marked (Wolper's
+//! data-independence argument, POPL 1986). The fixpoint runs use exactly that
+//! ([`Bounds::one_mark`]): a push offers MARKED only while no push of the run has taken it,
+//! which keeps the states linear rather than exponential in the entries held; the bounded
+//! search offers every value 1..=`values` at every push.
 //!
 //! **No lane symmetry.** Lanes of a warp are not interchangeable here: a borrower takes the
 //! *lowest-numbered* idle stack (`first_idle`), a chain's ring order follows Next TID, and with
@@ -49,8 +56,10 @@ use rtl::stack_manager::{Cmd, Src, StackManager, StackRegs, StackStats, Uop};
 
 use super::harness::Scoreboard;
 use super::invariants::{
-    check_placement, check_thread, check_warp_exit, check_warp_fields, fail, Property, Violation,
+    check_bank_map, check_no_overlap, check_placement, check_thread, check_warp_exit, check_warp_fields,
+    fail, Property, Violation,
 };
+use super::sequence::{check_sequence, Before};
 
 /// One step of an explored sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -72,11 +81,28 @@ pub struct Bounds {
     /// Cap on the warp's logical stack depth: the sum over its threads of the entries each
     /// holds. A push is offered only while the warp holds fewer entries; `None` = no cap.
     pub cap: Option<u32>,
+    /// Check [`Property::RequestSequence`] (default); off to see which state property catches a
+    /// bug without it.
+    pub request_sequence: bool,
+    /// Lanes active when the warp loads (bit per lane; the others start finished, their stacks
+    /// Idle with reallocation); `None` = every lane.
+    pub active: Option<u32>,
+    /// At most one push per run carries a distinguished value, the others all one value
+    /// ([`Model::one_mark`]); `values` is then unused. On for [`Bounds::fixpoint`].
+    pub one_mark: bool,
 }
 
 impl Default for Bounds {
     fn default() -> Self {
-        Bounds { depth: u32::MAX, values: 2, max_states: usize::MAX, cap: None }
+        Bounds {
+            depth: u32::MAX,
+            values: 2,
+            max_states: usize::MAX,
+            cap: None,
+            request_sequence: true,
+            active: None,
+            one_mark: false,
+        }
     }
 }
 
@@ -84,7 +110,7 @@ impl Bounds {
     /// Every interleaving, unbounded in time, under the depth cap `cap`: a proof for the
     /// configuration when the run reaches its fixpoint ([`Coverage::fixpoint`]).
     pub fn fixpoint(cap: u32) -> Bounds {
-        Bounds { cap: Some(cap), ..Bounds::default() }
+        Bounds { cap: Some(cap), one_mark: true, ..Bounds::default() }
     }
 }
 
@@ -126,10 +152,14 @@ pub enum Goal {
     ExitAfterBorrow,
     /// An SH access to a stack whose skewed base entry is not 0.
     SkewBase,
+    /// A released stack is not the one right after its owner on the ring (two flushes rotated
+    /// a chain of three). Asked of the partial-warp cases ([`Case::goals`]) only: a full warp
+    /// reaches it only past the default cap.
+    NonAdjacentRelease,
 }
 
 impl Goal {
-    pub const ALL: [Goal; 10] = [
+    pub const ALL: [Goal; 11] = [
         Goal::Borrow,
         Goal::RotatedRelease,
         Goal::FullChain,
@@ -140,6 +170,7 @@ impl Goal {
         Goal::OldestReload,
         Goal::ExitAfterBorrow,
         Goal::SkewBase,
+        Goal::NonAdjacentRelease,
     ];
 
     /// Whether `c` has the feature the goal needs (so it must be reached).
@@ -153,6 +184,7 @@ impl Goal {
             // then follow the ring at every release.
             Goal::RotatedRelease => finite && c.realloc.is_some_and(|r| r.borrow_limit >= 2),
             Goal::SkewBase => finite && (0..c.warp_size).any(|l| c.skew_base(l) != 0),
+            Goal::NonAdjacentRelease => false,
         }
     }
 }
@@ -171,6 +203,10 @@ impl Covers {
     /// Goals `c` needs that were never reached.
     pub fn missing(&self, c: &Config) -> Vec<Goal> {
         Goal::ALL.into_iter().filter(|&g| g.applies(c) && self.count(g) == 0).collect()
+    }
+    /// Of `goals`, those never reached.
+    pub fn missing_of(&self, goals: &[Goal]) -> Vec<Goal> {
+        goals.iter().copied().filter(|&g| self.count(g) == 0).collect()
     }
 }
 
@@ -231,7 +267,20 @@ pub struct Model {
     /// Some thread of the warp borrowed on the way here: one bit of path history, part of the
     /// state so the warp-exit-after-a-borrow cover is not lost when paths merge.
     borrowed: bool,
+    /// Check [`Property::RequestSequence`] on every accepted command (on by default; off to
+    /// show the state properties catch a bug on their own).
+    pub request_sequence: bool,
+    /// Offer the marked value [`MARKED`] to at most one push per run; every other push carries
+    /// [`UNMARKED`] (see the module doc: one mark suffices). Off: every value 1..=values.
+    pub one_mark: bool,
+    /// A push of [`MARKED`] was accepted on the way here (path history, part of the state).
+    marked: bool,
 }
+
+/// The one distinguished push value of a [`Bounds::one_mark`] run.
+pub const MARKED: u64 = 1;
+/// Every other push value of such a run.
+pub const UNMARKED: u64 = 2;
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 struct Shadow {
@@ -276,6 +325,9 @@ impl Model {
             sb: Scoreboard::new(cfg.threads()),
             shadow: vec![Shadow::default(); cfg.warp_size as usize],
             borrowed: false,
+            request_sequence: true,
+            one_mark: false,
+            marked: false,
         })
     }
 
@@ -323,6 +375,7 @@ impl Model {
         }
         self.shadow.hash(h);
         self.borrowed.hash(h);
+        self.marked.hash(h);
         self.sb.hash(h);
     }
 
@@ -341,13 +394,23 @@ impl Model {
             Action::Cmd(t, cmd) => {
                 let stacks: Vec<_> = sm.warp_threads(0).map(|s| *sm.stack(s)).collect();
                 let global = sm.global(t).to_vec();
+                let (thread, rb) = (*sm.thread(t), sm.rb(t).clone());
                 let got = sm.accept(t, cmd);
+                let accepted = got.is_ok();
+                self.marked |= self.one_mark && accepted && cmd == Cmd::Push(MARKED);
                 self.sb.check(t, cmd, got)?;
+                if self.request_sequence {
+                    let before = Before { cfg: sm.config(), stacks: &stacks, thread, rb: &rb };
+                    check_sequence(&before, 0, t, cmd, accepted, sm.pending_uops(t))?;
+                }
                 let loads = live_reads(sm, t, &stacks, &global)?;
                 self.shadow[t as usize].global_loads = loads;
             }
             Action::Uop(t) => {
                 let Some(&u) = sm.pending_uops(t).next() else { return Ok(false) };
+                if let Uop::ShLoad { stack, entry } | Uop::ShStore { stack, entry, .. } = u {
+                    check_bank_map(sm.config(), stack, entry, sm.sh_read_request(stack, entry).words())?;
+                }
                 let sh = &mut self.shadow[t as usize];
                 match u {
                     Uop::ShLoad { stack, entry } => sh.latch = Some(sm.sh_entry(stack, entry)),
@@ -415,7 +478,12 @@ impl Model {
             if sm.thread(t).done {
                 continue;
             }
-            if push {
+            if push && self.one_mark {
+                out.push(Action::Cmd(t, Cmd::Push(UNMARKED)));
+                if !self.marked {
+                    out.push(Action::Cmd(t, Cmd::Push(MARKED)));
+                }
+            } else if push {
                 out.extend((1..=values as u64).map(|v| Action::Cmd(t, Cmd::Push(v))));
             }
             out.push(Action::Cmd(t, Cmd::Pop));
@@ -515,8 +583,12 @@ fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[u32]
     if let (true, Some(ring)) = (d.releases > 0, ring) {
         let released = ring.iter().copied().find(|s| !chain.contains(s));
         let in_order = ring.iter().enumerate().all(|(i, &s)| sm.stack(s).priority == i as u32);
-        if released.is_some_and(|s| ring.get(1) != Some(&s)) || !in_order {
+        let apart = released.is_some_and(|s| ring.get(1) != Some(&s));
+        if apart || !in_order {
             c.hit(Goal::RotatedRelease);
+        }
+        if apart {
+            c.hit(Goal::NonAdjacentRelease);
         }
     }
     let ws = cfg.warp_size;
@@ -536,11 +608,29 @@ pub fn run_bytes(cfg: Config, input: &[(u8, u8)]) -> Result<Coverage, Box<Counte
 }
 
 /// [`run_bytes`] on a given model (e.g. one whose stack manager is a mutant).
-pub fn run_bytes_on(mut m: Model, input: &[(u8, u8)]) -> Result<Coverage, Box<Counterexample>> {
+pub fn run_bytes_on(m: Model, input: &[(u8, u8)]) -> Result<Coverage, Box<Counterexample>> {
+    run_decoded(m, input.iter().enumerate().map(|(i, &pair)| (pair, i as u64 + 1)))
+}
+
+/// [`run_bytes`] with the push values given too: `(thread byte, command byte, value)` per
+/// action. The Kani harnesses use it so push values are symbolic (any value, equal ones
+/// included), not fixed by position.
+pub fn run_valued(cfg: Config, input: &[(u8, u8, u64)]) -> Result<Coverage, Box<Counterexample>> {
+    let m = Model::new(cfg).expect("harness configurations are valid");
+    run_decoded(m, input.iter().map(|&(a, b, v)| ((a, b), v)))
+}
+
+fn run_decoded(
+    mut m: Model,
+    input: impl Iterator<Item = ((u8, u8), u64)>,
+) -> Result<Coverage, Box<Counterexample>> {
     let mut cov = Coverage::default();
     let mut trace = Vec::new();
-    for (i, &pair) in input.iter().enumerate() {
-        let a = m.decode(pair, i as u64 + 1);
+    if let Err(violation) = check_no_overlap(&m.sm) {
+        return Err(Box::new(Counterexample { violation, trace }));
+    }
+    for (pair, value) in input {
+        let a = m.decode(pair, value);
         trace.push(a);
         if let Err(violation) = m.act(a, &mut cov) {
             return Err(Box::new(Counterexample { violation, trace }));
@@ -585,12 +675,15 @@ pub fn check(
     let mut model = Model::new(cfg).expect("exhaustive configurations are validated by the caller");
     model.sm = design(model.sm);
     // Load the warp again with the design under check, so its placement is the one checked.
-    model.sm.load_warp(0, u32::MAX >> (32 - cfg.warp_size));
+    let active = bounds.active.unwrap_or(u32::MAX) & u32::MAX >> (32 - cfg.warp_size);
+    model.sm.load_warp(0, active);
+    model.sb.load_warp(model.sm.warp_threads(0), active);
+    model.request_sequence = bounds.request_sequence;
+    model.one_mark = bounds.one_mark;
     let mut cov = Coverage { complete: true, ..Default::default() };
-    for s in model.sm.warp_threads(0) {
-        if let Err(violation) = check_placement(&model.sm, s) {
-            return Err(Box::new(Counterexample { violation, trace: vec![] }));
-        }
+    let placed = model.sm.warp_threads(0).try_for_each(|s| check_placement(&model.sm, s));
+    if let Err(violation) = placed.and_then(|_| check_no_overlap(&model.sm)) {
+        return Err(Box::new(Counterexample { violation, trace: vec![] }));
     }
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
@@ -692,6 +785,94 @@ pub fn full_configs() -> Vec<Config> {
         .filter(|c| !(c.warp_size == 4 && c.sh_entries == 2 && c.realloc.is_some()))
         .collect();
     out.extend(skew_configs().into_iter().filter(|c| c.realloc.is_none()));
+    out
+}
+
+/// One case of `sms check --full`: a configuration, the lanes active when its warp loads, and
+/// the depth cap.
+#[derive(Clone, Copy, Debug)]
+pub struct Case {
+    pub cfg: Config,
+    /// Bit per lane; the others start finished (their stacks Idle with reallocation).
+    pub active: u32,
+    pub cap: u32,
+}
+
+impl Case {
+    fn all_lanes(c: &Config) -> u32 {
+        u32::MAX >> (32 - c.warp_size)
+    }
+    /// Every lane active, under [`default_cap`].
+    pub fn full(cfg: Config) -> Case {
+        Case { cfg, active: Case::all_lanes(&cfg), cap: default_cap(&cfg) }
+    }
+    pub fn partial(&self) -> bool {
+        self.active != Case::all_lanes(&self.cfg)
+    }
+    /// The cover goals the case must reach: those its configuration has the feature for. A
+    /// partial warp never falls back to per-entry spills (an Idle stack is always there to
+    /// borrow). A one-lane warp is where a chain of three rotates twice within a small cap
+    /// ([`Goal::NonAdjacentRelease`]); a two-lane warp under [`default_cap`] shares that cap
+    /// between its lanes, so it is not asked for flush saturation or that rotation (its
+    /// one-lane sibling reaches both).
+    pub fn goals(&self) -> Vec<Goal> {
+        let mut g: Vec<Goal> = Goal::ALL.into_iter().filter(|g| g.applies(&self.cfg)).collect();
+        if self.partial() {
+            g.retain(|&g| g != Goal::PerEntryFallback);
+            let three = self.cfg.realloc.is_some_and(|r| r.borrow_limit >= 2);
+            match self.active.count_ones() {
+                1 if three => g.push(Goal::NonAdjacentRelease),
+                1 => {}
+                _ => g.retain(|&g| g != Goal::FlushSaturation),
+            }
+        }
+        g
+    }
+    pub fn bounds(&self) -> Bounds {
+        Bounds { active: Some(self.active), ..Bounds::fixpoint(self.cap) }
+    }
+    pub fn describe(&self) -> String {
+        let lanes = if self.partial() {
+            format!(" lanes {:0w$b}", self.active, w = self.cfg.warp_size as usize)
+        } else {
+            String::new()
+        };
+        format!("{}{lanes}", describe(&self.cfg))
+    }
+}
+
+/// Every case `sms check --full` proves: [`full_configs`] with every lane active under
+/// [`default_cap`], plus one-lane warps with chains of three stacks (lanes 1–3 start finished,
+/// so lane 0 borrows at once) under a cap that lets every stack of a full chain be flushed once
+/// and the first again, so flushes rotate the chain far enough that a release is not of the
+/// stack after its owner — with 1-entry stacks (cap 8), and with 2-entry skewed stacks over 8
+/// banks (bases 0 0 1 1: skew with reallocation; cap 14); and the skewed 2-entry
+/// configurations with reallocation of [`skew_configs`] (4 and 8 banks) with two lanes active,
+/// racing to borrow the two Idle stacks, under [`default_cap`]. (With all four lanes active,
+/// 4-thread warps with M = 2 and reallocation pass 8 · 10⁶ states and 5 GB of frontier before
+/// their fixpoint; two lanes with the one-lane cap 14 pass 8 · 10⁶ states too.)
+pub fn full_cases() -> Vec<Case> {
+    use rtl::config::{RbSize, Realloc};
+    let mut out: Vec<Case> = full_configs().into_iter().map(Case::full).collect();
+    for (m, banks) in [(1, 32), (2, 8)] {
+        let cfg = Config {
+            rb: RbSize::Entries(1),
+            sh_entries: m,
+            skew: true,
+            banks,
+            realloc: Some(Realloc { borrow_limit: 2, flush_limit: 1 }),
+            warp_size: 4,
+            warps: 1,
+            ..Config::default()
+        };
+        // RB, then every stack of the chain filled, flushed once, and the first flushed again
+        // (flush saturation), then one more entry.
+        let cap = 1 + 2 * m * 3 + 1;
+        out.push(Case { cfg, active: 1, cap });
+    }
+    for c in skew_configs().into_iter().filter(|c| c.realloc.is_some()) {
+        out.push(Case { cfg: c, active: 0b0011, cap: default_cap(&c) });
+    }
     out
 }
 

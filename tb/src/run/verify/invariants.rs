@@ -36,9 +36,11 @@ pub enum Property {
     /// global load a slot below the thread's spill pointer. The exhaustive search relies on it
     /// to ignore stale memory words (see [`crate::exhaustive`]).
     LiveReads,
-    /// Skew placement (DESIGN 9.6): every lane's stack starts at base entry
+    /// Skew placement (DESIGN 9.6, SPEC section 4): every lane's stack starts at base entry
     /// `(lane / k) mod M`, `k = max(1, banks / (M × words per entry))` — at warp load and
-    /// whenever the stack is lent.
+    /// whenever the stack is lent; every SH entry's words sit in the banks SPEC section 4's
+    /// address formula gives (thread t owns M entries from byte t × M × entry bytes); and no two
+    /// entries of any stacks share a word (no two lanes' stacks overlap).
     Placement,
 }
 
@@ -269,4 +271,81 @@ pub fn check_placement(sm: &StackManager, s: u32) -> Result<(), Violation> {
         );
     }
     Ok(())
+}
+
+/// SPEC section 4's word address of word `i` of entry `e` of stack `s` (its thread index in the
+/// RT unit): thread s owns M entries from byte s × M × entry bytes.
+pub fn formula_word(c: &rtl::config::Config, s: u32, e: u32, i: u32) -> u32 {
+    ((s * c.sh_entries + e) * c.entry_bytes + i * c.bank_bytes) / c.bank_bytes
+}
+
+/// SPEC section 4's bank of word `i` of entry `e` of stack `s`: (byte address / bank bytes) mod
+/// banks.
+pub fn formula_bank(c: &rtl::config::Config, s: u32, e: u32, i: u32) -> u32 {
+    formula_word(c, s, e, i) % c.banks
+}
+
+/// [`Property::Placement`]'s bank map for entry `e` of stack `s`, addressed by the design as
+/// the word addresses `words`: one word per bank-width of the entry, each in the bank the
+/// formula gives.
+pub fn check_bank_map(c: &rtl::config::Config, s: u32, e: u32, words: &[u32]) -> Result<(), Violation> {
+    let wpe = c.entry_bytes / c.bank_bytes;
+    let banks: Vec<u32> = words.iter().map(|w| w % c.banks).collect();
+    let want: Vec<u32> = (0..wpe).map(|i| formula_bank(c, s, e, i)).collect();
+    if banks != want {
+        return fail(
+            Property::Placement,
+            format!("stack {s} entry {e}: words {words:?} in banks {banks:?}, SPEC section 4 says {want:?}"),
+        );
+    }
+    Ok(())
+}
+
+/// [`Property::Placement`] over the whole SH array of `sm`: every entry of every stack in the
+/// banks the formula gives, and no word shared by two entries (no two lanes' stacks overlap).
+pub fn check_no_overlap(sm: &StackManager) -> Result<(), Violation> {
+    let c = sm.config();
+    let mut owner = std::collections::HashMap::new();
+    for s in 0..c.threads() {
+        for e in 0..c.sh_entries {
+            let req = sm.sh_read_request(s, e);
+            check_bank_map(c, s, e, req.words())?;
+            for &w in req.words() {
+                if let Some((s2, e2)) = owner.insert(w, (s, e)) {
+                    return fail(
+                        Property::Placement,
+                        format!("word {w} belongs to entry {e2} of stack {s2} and entry {e} of stack {s}"),
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The most distinct words one bank must serve when every lane of a `warp_size`-thread warp
+/// (warp slot `w`) accesses the entry the same distance from its skewed base (DESIGN 9.6,
+/// [`formula_base`]) — the largest over the M distances. In lockstep, one such access round
+/// costs at most this many bank cycles, so `bound − 1` conflict cycles: RB_8+SH_8+SK gives 2
+/// (lanes t and t + 16 share a bank pair), RB_8+SH_8 without skew 16.
+pub fn lockstep_bank_load(c: &rtl::config::Config, w: u32) -> u32 {
+    let m = c.sh_entries;
+    let wpe = c.entry_bytes / c.bank_bytes;
+    let mut worst = 0;
+    for j in 0..m {
+        let mut words: Vec<Vec<u32>> = vec![Vec::new(); c.banks as usize];
+        for lane in 0..c.warp_size {
+            let s = w * c.warp_size + lane;
+            let e = (formula_base(c, lane) + j) % m;
+            for i in 0..wpe {
+                let word = formula_word(c, s, e, i);
+                let b = &mut words[(word % c.banks) as usize];
+                if !b.contains(&word) {
+                    b.push(word);
+                }
+            }
+        }
+        worst = worst.max(words.iter().map(Vec::len).max().unwrap_or(0) as u32);
+    }
+    worst
 }

@@ -9,4 +9,5 @@ pub mod exhaustive;
 pub mod harness;
 pub mod invariants;
 pub mod reference;
+pub mod sequence;
 pub mod streams;
