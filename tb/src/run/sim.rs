@@ -146,6 +146,19 @@ macro_rules! gpu_counts {
             pub fn map_counts(&self, f: impl Fn(u64) -> u64) -> GpuCounts {
                 GpuCounts { $($f: gpu_counts!(@map $kind, self.$f, f)),+ }
             }
+
+            /// Every field as a 64-bit word in declaration order, rates as their bit patterns
+            /// (exact: for the result cache).
+            pub fn to_words(&self) -> Vec<u64> {
+                vec![$(gpu_counts!(@word $kind, self.$f)),+]
+            }
+
+            /// The inverse of [`GpuCounts::to_words`]; `None` for the wrong number of words.
+            pub fn from_words(words: &[u64]) -> Option<GpuCounts> {
+                let mut w = words.iter().copied();
+                let g = GpuCounts { $($f: gpu_counts!(@unword $kind, w.next()?)),+ };
+                w.next().is_none().then_some(g)
+            }
         }
 
         impl From<&GpuReport> for GpuCounts {
@@ -160,6 +173,10 @@ macro_rules! gpu_counts {
     (@map count, $v:expr, $f:ident) => { $f($v) };
     (@map cycle, $v:expr, $f:ident) => { $v };
     (@map rate, $v:expr, $f:ident) => { $v };
+    (@word rate, $v:expr) => { $v.to_bits() };
+    (@word $kind:ident, $v:expr) => { $v };
+    (@unword rate, $v:expr) => { f64::from_bits($v) };
+    (@unword $kind:ident, $v:expr) => { $v };
 }
 
 gpu_counts! {
@@ -615,6 +632,12 @@ mod tests {
             pops_checked: 0,
             wall: Duration::ZERO,
         };
+        let words = g.to_words();
+        assert_eq!(words.len(), GpuCounts::NAMES.len());
+        assert_eq!(words[10], 0.5f64.to_bits(), "rates as bit patterns");
+        assert_eq!(GpuCounts::from_words(&words), Some(g), "exact round trip");
+        assert_eq!(GpuCounts::from_words(&words[1..]), None, "too few words");
+        assert_eq!(GpuCounts::from_words(&[&words[..], &[0]].concat()), None, "too many words");
         let half = share_of(&o, 0.5, 4).gpu.unwrap();
         let json = |g: &GpuCounts| serde_json::to_value(g).unwrap();
         let (full, half) = (json(&g), json(&half));

@@ -174,65 +174,6 @@ struct SceneRecord {
     depth_traces: u64,
 }
 
-fn gpu_words(g: &GpuCounts) -> Vec<u64> {
-    let GpuCounts {
-        cycles,
-        evaluated_cycles,
-        warp_jobs,
-        rays,
-        visits,
-        node_fetches,
-        dram_node,
-        dram_stack,
-        offchip_node,
-        offchip_stack,
-        l1d_hit_rate,
-        l2_hit_rate,
-        bank_conflict_cycles,
-        last_dispatch,
-    } = *g;
-    vec![
-        cycles,
-        evaluated_cycles,
-        warp_jobs,
-        rays,
-        visits,
-        node_fetches,
-        dram_node,
-        dram_stack,
-        offchip_node,
-        offchip_stack,
-        l1d_hit_rate.to_bits(),
-        l2_hit_rate.to_bits(),
-        bank_conflict_cycles,
-        last_dispatch,
-    ]
-}
-
-fn gpu_from_words(w: &[u64]) -> Option<GpuCounts> {
-    let &[cycles, evaluated_cycles, warp_jobs, rays, visits, node_fetches, dram_node, dram_stack, offchip_node, offchip_stack, l1d, l2, bank_conflict_cycles, last_dispatch] =
-        w
-    else {
-        return None;
-    };
-    Some(GpuCounts {
-        cycles,
-        evaluated_cycles,
-        warp_jobs,
-        rays,
-        visits,
-        node_fetches,
-        dram_node,
-        dram_stack,
-        offchip_node,
-        offchip_stack,
-        l1d_hit_rate: f64::from_bits(l1d),
-        l2_hit_rate: f64::from_bits(l2),
-        bank_conflict_cycles,
-        last_dispatch,
-    })
-}
-
 impl RunRecord {
     fn new(key: &str, (o, s): &Measured) -> Self {
         RunRecord {
@@ -240,7 +181,7 @@ impl RunRecord {
             functional: o.fidelity == Fidelity::Functional,
             pixel_warps: o.pixel_warps,
             stack: o.stack.values().to_vec(),
-            gpu: o.gpu.as_ref().map(gpu_words),
+            gpu: o.gpu.as_ref().map(GpuCounts::to_words),
             pops_checked: o.pops_checked,
             wall_nanos: u64::try_from(o.wall.as_nanos()).unwrap_or(u64::MAX),
             sample: s.map(|s| SampleRecord {
@@ -255,7 +196,7 @@ impl RunRecord {
         let stack = StackStats::from_values(self.stack.as_slice().try_into().ok()?);
         let gpu = match &self.gpu {
             None => None,
-            Some(w) => Some(gpu_from_words(w)?),
+            Some(w) => Some(GpuCounts::from_words(w)?),
         };
         let outcome = Outcome {
             fidelity: if self.functional { Fidelity::Functional } else { Fidelity::Cycle },
