@@ -336,7 +336,7 @@ impl Gpu {
                 }
             }
             #[cfg(not(feature = "untraced"))]
-            if sink.next_wanted(now) == Some(now) {
+            if shown {
                 sink.begin_cycle(now);
                 self.probe(sink);
             }
