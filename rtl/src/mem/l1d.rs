@@ -30,7 +30,8 @@ use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, MemWidths, ReqKind, ADDR_BITS, FLAG_BITS};
 use crate::trace::{Kind, Sink};
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{HashMap, VecDeque};
+use std::hash::BuildHasherDefault;
 
 /// What the tag-check stage does with its request this cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,7 +99,7 @@ pub struct L1d {
     /// Requests for L2; the head is offered on the down port.
     miss_queue: VecDeque<MemReq>,
     /// Down requests awaiting L2's response, by down id.
-    pending: BTreeMap<u64, Pending>,
+    pending: HashMap<u64, Pending, BuildHasherDefault<super::cache::LineHasher>>,
     next_down_id: u64,
     parked: Option<MemReq>,
     /// Responses visible this cycle (the response register).
@@ -116,7 +117,7 @@ impl L1d {
             mshr: Mshr::new(p.l1d_mshrs, p.l1d_mshr_merge),
             hit_pipe: VecDeque::new(),
             miss_queue: VecDeque::new(),
-            pending: BTreeMap::new(),
+            pending: HashMap::default(),
             next_down_id: 0,
             parked: None,
             out: Vec::new(),
@@ -258,8 +259,8 @@ impl L1d {
                 Some(Pending::Fill(key)) => {
                     // Write-through: L1D lines are never dirty, so a victim needs no write-back.
                     self.tags.fill(key, None);
-                    self.out
-                        .extend(self.mshr.release(key).iter().map(|w| MemResp { id: w.id, addr: w.addr }));
+                    let out = &mut self.out;
+                    self.mshr.release_each(key, |w| out.push(MemResp { id: w.id, addr: w.addr }));
                 }
                 Some(Pending::Write(ack)) => self.out.push(ack),
                 None => panic!("L1D got a response for unknown down id {}", f.id),

@@ -31,7 +31,8 @@ use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, MemParams, MemReq, MemResp, MemWidths, ADDR_BITS};
 use crate::trace::{Kind, Sink};
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{HashMap, VecDeque};
+use std::hash::BuildHasherDefault;
 
 /// A request travelling through a bank pipeline.
 #[derive(Clone, Copy, Debug)]
@@ -104,7 +105,7 @@ pub struct L2 {
     /// Requests for DRAM; the head is offered.
     dram_queue: VecDeque<MemReq>,
     /// DRAM reads in flight: id → sector.
-    pending: BTreeMap<u64, u64>,
+    pending: HashMap<u64, u64, BuildHasherDefault<super::cache::LineHasher>>,
     next_dram_id: u64,
     /// Per SM: responses visible this cycle (the response registers).
     out: Vec<Vec<MemResp>>,
@@ -123,7 +124,7 @@ impl L2 {
             banks: vec![VecDeque::new(); p.l2_banks as usize],
             rr: vec![0; p.l2_banks as usize],
             dram_queue: VecDeque::new(),
-            pending: BTreeMap::new(),
+            pending: HashMap::default(),
             next_dram_id: 0,
             out: vec![Vec::new(); sms],
             now: 0,
@@ -283,9 +284,8 @@ impl L2 {
                 .unwrap_or_else(|| panic!("L2 got a DRAM response for unknown id {}", f.id));
             let victim = self.tags.fill(key, None);
             self.write_back(victim);
-            for w in self.mshr.release(key) {
-                self.out[w.port as usize].push(MemResp { id: w.id, addr: w.addr });
-            }
+            let out = &mut self.out;
+            self.mshr.release_each(key, |w| out[w.port as usize].push(MemResp { id: w.id, addr: w.addr }));
         }
         self.now += 1;
     }

@@ -9,11 +9,16 @@
 //!   fill(key) ─► release: every waiter of key, oldest first; the entry frees
 //! ```
 //!
-//! Entries live in a `BTreeMap` so nothing depends on hash order. The table is RAM-like state of
+//! Entries live in a hash map that is never iterated (every access names its key), so nothing
+//! depends on hash order; released waiter lists are kept for reuse, so a miss allocates nothing
+//! once the table has been that full before. The table is RAM-like state of
 //! its owner (an L1D or the L2): [`Mshr::check`] is a pure read, used by the owner's `eval`;
 //! [`Mshr::insert`] and [`Mshr::release`] are the write port, used only by the owner's `commit`.
 
-use std::collections::BTreeMap;
+use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
+
+use super::cache::LineHasher;
 
 /// A request waiting for a fill.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -35,7 +40,9 @@ pub enum Outcome {
 
 #[derive(Clone, Debug)]
 pub struct Mshr {
-    entries: BTreeMap<u64, Vec<Waiter>>,
+    entries: HashMap<u64, Vec<Waiter>, BuildHasherDefault<LineHasher>>,
+    /// Emptied waiter lists, reused by the next allocations (no allocation per miss).
+    spare: Vec<Vec<Waiter>>,
     capacity: usize,
     max_merge: usize,
 }
@@ -43,7 +50,12 @@ pub struct Mshr {
 impl Mshr {
     /// `capacity` entries of up to `max_merge` waiters each.
     pub fn new(capacity: u32, max_merge: u32) -> Mshr {
-        Mshr { entries: BTreeMap::new(), capacity: capacity as usize, max_merge: max_merge as usize }
+        Mshr {
+            entries: HashMap::default(),
+            spare: Vec::new(),
+            capacity: capacity as usize,
+            max_merge: max_merge as usize,
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -78,7 +90,9 @@ impl Mshr {
         match outcome {
             Outcome::Merge => self.entries.get_mut(&key).expect("merge").push(waiter),
             Outcome::Allocate => {
-                self.entries.insert(key, vec![waiter]);
+                let mut list = self.spare.pop().unwrap_or_default();
+                list.push(waiter);
+                self.entries.insert(key, list);
             }
             Outcome::Full => {}
         }
@@ -87,7 +101,18 @@ impl Mshr {
 
     /// The fill for `key` arrived: frees its entry and returns its waiters, oldest first.
     pub fn release(&mut self, key: u64) -> Vec<Waiter> {
-        self.entries.remove(&key).unwrap_or_default()
+        let mut out = Vec::new();
+        self.release_each(key, |w| out.push(*w));
+        out
+    }
+
+    /// [`Mshr::release`] without allocating: `f` sees each waiter of `key`, oldest first.
+    pub fn release_each(&mut self, key: u64, f: impl FnMut(&Waiter)) {
+        if let Some(mut list) = self.entries.remove(&key) {
+            list.iter().for_each(f);
+            list.clear();
+            self.spare.push(list);
+        }
     }
 }
 

@@ -334,11 +334,10 @@ fn simulate_inner<S: Sink>(
     w: &Workload,
     warps: Option<&[u32]>,
     sink: &mut S,
-    mut progress: impl FnMut(Tick),
+    progress: impl FnMut(Tick),
     residence: &mut Vec<u64>,
 ) -> Result<Outcome> {
     spec.validate()?;
-    let start = Instant::now();
     let all: Vec<u32>;
     let warps = match warps {
         Some(ws) => ws,
@@ -347,12 +346,62 @@ fn simulate_inner<S: Sink>(
             &all
         }
     };
+    std::thread::scope(|scope| simulate_traced(spec, w, warps, traced(scope, w, warps), sink, progress, residence))
+}
+
+/// How many pixel warps the tracing thread may run ahead of the simulation.
+const TRACE_AHEAD: usize = 16;
+
+/// The traces of `warps`, in order. Tracing is independent of the simulation, so when a core is
+/// free for it (not inside a parallel sweep, whose runs already fill the cores) a second thread
+/// traces up to [`TRACE_AHEAD`] pixel warps ahead; otherwise each is traced when the simulation
+/// asks for it. The order, so every result, is the same either way; only the wall time differs.
+fn traced<'a, 'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    w: &'a Workload<'a>,
+    warps: &'a [u32],
+) -> Box<dyn Iterator<Item = Vec<WarpTraces>> + 'a>
+where
+    'a: 'scope,
+{
+    if !traces_ahead() || warps.len() < 2 {
+        return Box::new(warps.iter().map(|&i| w.warp(i)));
+    }
+    let (tx, rx) = std::sync::mpsc::sync_channel(TRACE_AHEAD);
+    scope.spawn(move || {
+        for &i in warps {
+            // The simulation stopped early (an error): nothing more to trace.
+            if tx.send(w.warp(i)).is_err() {
+                break;
+            }
+        }
+    });
+    Box::new(rx.into_iter())
+}
+
+/// Whether a run started here traces on a second thread: a second core exists and this is not
+/// one of a parallel sweep's runs (a rayon worker).
+pub fn traces_ahead() -> bool {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    cores >= 2 && rayon::current_thread_index().is_none()
+}
+
+/// [`simulate_inner`] on the traces `traces` of `warps`.
+fn simulate_traced<S: Sink>(
+    spec: &RunSpec,
+    w: &Workload,
+    warps: &[u32],
+    traces: impl Iterator<Item = Vec<WarpTraces>>,
+    sink: &mut S,
+    mut progress: impl FnMut(Tick),
+    residence: &mut Vec<u64>,
+) -> Result<Outcome> {
+    let start = Instant::now();
     let total = warps.len() as u32;
     let done = Cell::new(0u32);
     // Jobs of each pixel warp, in order: maps the GPU's per-job residence back to pixel warps.
     let jobs_per_warp = std::cell::RefCell::new(Vec::with_capacity(warps.len()));
-    let pixel_warps = warps.iter().map(|&i| {
-        let jobs = w.warp(i);
+    let pixel_warps = traces.map(|jobs| {
         done.set(done.get() + 1);
         jobs_per_warp.borrow_mut().push(jobs.len());
         jobs
@@ -603,6 +652,22 @@ mod tests {
             );
             assert_eq!(f.pops_checked, c.pops_checked);
             assert!(c.gpu.unwrap().cycles > 0);
+        }
+    }
+
+    #[test]
+    fn tracing_on_a_second_thread_changes_no_result() {
+        let scene = crate::load_scene("clutter").unwrap();
+        let w = workload(&scene, 32);
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        for fidelity in [Fidelity::Cycle, Fidelity::Functional] {
+            let s = spec("SMS", fidelity);
+            let here = simulate_all(&s, &w).unwrap();
+            let (inline, ahead_there) = one.install(|| (simulate_all(&s, &w).unwrap(), traces_ahead()));
+            assert!(!ahead_there, "a rayon worker traces inline");
+            let strip = |o: Outcome| Outcome { wall: Duration::ZERO, ..o };
+            assert_eq!(strip(here), strip(inline), "{fidelity:?}");
+            assert!(here.pops_checked > 0);
         }
     }
 
