@@ -240,26 +240,33 @@ impl TagStore {
     /// line, which is [`TagStore::victim`] as it was before the fill.
     pub fn fill(&mut self, addr: u64, dirty: Option<ReqKind>) -> Option<Victim> {
         let line = self.geom.line_of(addr);
-        let victim = self.victim(addr);
         let set = self.geom.set_of(addr);
-        let slot = match self.find(addr) {
-            Some(slot) => slot,
+        // One index lookup: a present line is refilled in place; otherwise a free way, else the
+        // LRU way is evicted (what `victim` reports).
+        let (slot, victim) = match self.find(addr) {
+            Some(slot) => (slot, None),
             None => {
-                let slot = match self.free[set].pop() {
-                    Some(way) => self.slot(set, way),
+                let (slot, victim) = match self.free[set].pop() {
+                    Some(way) => (self.slot(set, way), None),
                     None => {
                         let slot = self.tail[set] as usize;
                         assert!(slot != NIL as usize, "full set has an LRU way");
                         self.unlink(set, slot);
                         let old = self.slots[slot].take().expect("LRU way");
                         self.index.remove(&old.line);
-                        slot
+                        let victim = Victim {
+                            addr: old.line * u64::from(self.geom.line_bytes),
+                            valid: old.valid,
+                            dirty: old.dirty,
+                            dirty_kind: old.dirty_kind,
+                        };
+                        (slot, Some(victim))
                     }
                 };
                 self.slots[slot] = Some(Way { line, valid: 0, dirty: 0, dirty_kind: ReqKind::NodeFetch });
                 self.index.insert(line, slot as u32);
                 self.push_head(set, slot);
-                slot
+                (slot, victim)
             }
         };
         let bit = self.geom.sector_bit(addr);
