@@ -28,6 +28,7 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut req = args.common.request(ablate::plan()?)?;
     req.cache = args.common.cache_dir(&args.out);
+    req.prune_cache = args.common.prune_cache;
     crate::report::sweep::prepare(&args.out)
         .with_context(|| format!("report folder {}", args.out.display()))?;
     let per_scene = req.plan.variants(req.base_kb())?.len();

@@ -41,12 +41,17 @@ pub struct SweepArgs {
     /// stored there as it finishes, under a key of scene content, workload, sampling,
     /// configuration, hardware and model version (a hash of sms's sources: a rebuilt sms with
     /// changed sources recomputes everything); a stopped sweep run again continues where it
-    /// stopped, and recomputes whatever changed. Old results stay until the folder is deleted.
+    /// stopped, and recomputes whatever changed. Results of other model versions can never be
+    /// used again: the sweep counts them and --prune-cache deletes them.
     #[arg(long, value_name = "DIR", conflicts_with = "no_cache")]
     pub cache: Option<PathBuf>,
     /// Compute every result; read and write no cache.
     #[arg(long)]
     pub no_cache: bool,
+    /// Delete the cache's stale files first: results of other model versions (never usable
+    /// again), files that cannot be parsed, and temporary files of killed runs.
+    #[arg(long, conflicts_with = "no_cache")]
+    pub prune_cache: bool,
     #[command(flatten)]
     pub hardware: HardwareArgs,
     #[command(flatten)]
@@ -108,7 +113,7 @@ impl SweepArgs {
         if hw.mem.l1d_bytes % 1024 != 0 {
             bail!("the unified L1D/shared array must be a whole number of KB");
         }
-        let req = Request { scenes, settings, hw, plan, jobs, sample, cache: None };
+        let req = Request { scenes, settings, hw, plan, jobs, sample, cache: None, prune_cache: false };
         req.plan.variants(req.base_kb())?;
         Ok(req)
     }
@@ -203,6 +208,7 @@ pub fn finish(what: &str, result: &sweep::Sweep, written: usize, out: &std::path
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut req = args.request()?;
     req.cache = args.common.cache_dir(&args.out);
+    req.prune_cache = args.common.prune_cache;
     crate::report::sweep::prepare(&args.out)
         .with_context(|| format!("report folder {}", args.out.display()))?;
     let variants = req.plan.variants(req.base_kb())?.len();

@@ -19,6 +19,12 @@
 //! (floats by their bit patterns), so a report built from cached results is byte-identical to
 //! one built from fresh ones.
 //!
+//! Results of other model versions can never be used again (the version is part of every key):
+//! opening a cache counts them, with files that cannot be parsed and temporary files a killed run
+//! left behind, as *stale*; the sweep says how many and how large, and with `--prune-cache`
+//! deletes them first ([`Cache::open_pruning`]). Files not named like the cache's are never
+//! touched.
+//!
 //! Testing hook (not a user feature): with `SMS_SWEEP_STOP_AFTER=N` in the environment, the sweep
 //! fails after storing N fresh results, as if it had been killed there.
 
@@ -225,6 +231,11 @@ pub struct CacheStats {
     pub fresh: usize,
     /// Files under a wanted key that could not be used (unreadable, corrupt, another key).
     pub ignored: usize,
+    /// Stale files found when the cache was opened (see the module documentation), and their
+    /// bytes; with `pruned`, they were deleted.
+    pub stale: usize,
+    pub stale_bytes: u64,
+    pub pruned: bool,
 }
 
 impl CacheStats {
@@ -234,14 +245,55 @@ impl CacheStats {
             0 => String::new(),
             n => format!("; {n} unusable cache file(s) ignored and recomputed"),
         };
+        let stale = match (self.stale, self.pruned) {
+            (0, _) => String::new(),
+            (n, true) => format!("; {n} stale file(s) ({}) deleted first", mib(self.stale_bytes)),
+            (n, false) => format!(
+                "; {n} stale file(s) ({}) of other model versions or killed runs: --prune-cache deletes them",
+                mib(self.stale_bytes)
+            ),
+        };
         format!(
-            "{} of {} simulation results from the cache {}, {} computed{ignored}",
+            "{} of {} simulation results from the cache {}, {} computed{ignored}{stale}",
             self.hits,
             self.hits + self.fresh,
             self.dir.display(),
             self.fresh
         )
     }
+}
+
+fn mib(bytes: u64) -> String {
+    format!("{:.1} MiB", bytes as f64 / (1024.0 * 1024.0))
+}
+
+/// A temporary file of another process younger than this may still be in use.
+const TEMP_GRACE: Duration = Duration::from_secs(600);
+
+/// A cache file whose key is of this model version and file format.
+#[derive(Deserialize)]
+struct KeyOnly {
+    key: String,
+}
+
+fn current(key: &str) -> bool {
+    key.starts_with(FORMAT) && key.contains(&format!("\nmodel {MODEL_VERSION}\n"))
+}
+
+/// Whether the cache folder's file `path` (named `name`) is stale; `None` for a file the cache
+/// does not own (left alone).
+fn stale(path: &Path, name: &str) -> Option<bool> {
+    if let Some(rest) = name.strip_prefix(".tmp-") {
+        let ours = rest.split('-').next() == Some(&std::process::id().to_string());
+        let age = std::fs::metadata(path).and_then(|m| m.modified()).ok()?.elapsed().unwrap_or_default();
+        return Some(!ours && age > TEMP_GRACE);
+    }
+    let stem = name.strip_suffix(".json")?;
+    if stem.len() != 32 || !stem.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return None;
+    }
+    let text = std::fs::read(path).ok()?;
+    Some(serde_json::from_slice::<KeyOnly>(&text).map_or(true, |k| !current(&k.key)))
 }
 
 /// A cache folder in use by one sweep.
@@ -253,12 +305,36 @@ pub struct Cache {
     temp_counter: AtomicUsize,
     stop_after: Option<usize>,
     stopped: AtomicBool,
+    /// Stale files found at opening, their bytes, and whether they were deleted.
+    stale: (usize, u64, bool),
 }
 
 impl Cache {
-    /// The cache in `dir`, created if missing.
+    /// The cache in `dir`, created if missing; stale files are counted, not deleted.
     pub fn open(dir: &Path) -> Result<Self> {
+        Cache::open_with(dir, false)
+    }
+
+    /// [`Cache::open`], deleting stale files first.
+    pub fn open_pruning(dir: &Path) -> Result<Self> {
+        Cache::open_with(dir, true)
+    }
+
+    fn open_with(dir: &Path, prune: bool) -> Result<Self> {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let mut stale_files = (0, 0, prune);
+        for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+            let entry = entry.map_err(|e| Error::io(dir, e))?;
+            let (path, name) = (entry.path(), entry.file_name());
+            if stale(&path, &name.to_string_lossy()) != Some(true) {
+                continue;
+            }
+            stale_files.0 += 1;
+            stale_files.1 += entry.metadata().map_or(0, |m| m.len());
+            if prune {
+                std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
+            }
+        }
         let stop_after = match std::env::var(STOP_AFTER_ENV) {
             Ok(v) => Some(v.trim().parse().map_err(|_| {
                 Error::Invalid(format!("{STOP_AFTER_ENV}={v}: expected a number of results"))
@@ -273,6 +349,7 @@ impl Cache {
             temp_counter: AtomicUsize::new(0),
             stop_after,
             stopped: AtomicBool::new(false),
+            stale: stale_files,
         })
     }
 
@@ -282,6 +359,9 @@ impl Cache {
             hits: self.hits.load(Ordering::Relaxed),
             fresh: self.fresh.load(Ordering::Relaxed),
             ignored: self.ignored.load(Ordering::Relaxed),
+            stale: self.stale.0,
+            stale_bytes: self.stale.1,
+            pruned: self.stale.2,
         }
     }
 
@@ -437,6 +517,46 @@ mod tests {
         std::fs::write(c.path("k"), serde_json::to_vec(&r).unwrap()).unwrap();
         assert_eq!(c.get_run("k"), None);
         assert_eq!(c.stats().ignored, 5);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn stale_files_are_counted_and_pruned_and_nothing_else_is_touched() {
+        let dir = temp("prune");
+        let c = Cache::open(&dir).unwrap();
+        let key = run_key("scene", &WorkloadOpts::default(), None, &Config::default(), &Hardware::default());
+        c.put_run(&key, &measured()).unwrap();
+        // The same result under another model version's key, a corrupt file, a temporary file a
+        // killed run left an hour ago, and one another run may still be writing.
+        let old_key = key.replace(MODEL_VERSION, "0123456789abcdef");
+        assert_ne!(old_key, key);
+        c.put_run(&old_key, &measured()).unwrap();
+        std::fs::write(c.path("corrupt"), b"{ not json").unwrap();
+        let old_temp = dir.join(".tmp-1-0");
+        std::fs::write(&old_temp, b"partial").unwrap();
+        let hour_ago = std::time::SystemTime::now() - Duration::from_secs(3600);
+        std::fs::File::options().write(true).open(&old_temp).unwrap().set_modified(hour_ago).unwrap();
+        std::fs::write(dir.join(".tmp-1-1"), b"being written").unwrap();
+        // Not the cache's: left alone.
+        std::fs::write(dir.join("notes.txt"), b"mine").unwrap();
+        std::fs::write(dir.join("abc.json"), b"{}").unwrap();
+        let files = || std::fs::read_dir(&dir).unwrap().count();
+        assert_eq!(files(), 7);
+
+        let counted = Cache::open(&dir).unwrap();
+        let s = counted.stats();
+        assert_eq!((s.stale, s.pruned), (3, false));
+        assert!(s.stale_bytes > 0);
+        assert!(s.describe().contains("3 stale file(s)") && s.describe().contains("--prune-cache"));
+        assert_eq!(files(), 7, "counting deletes nothing");
+
+        let pruned = Cache::open_pruning(&dir).unwrap();
+        assert_eq!((pruned.stats().stale, pruned.stats().pruned), (3, true));
+        assert!(pruned.stats().describe().contains("deleted first"));
+        assert_eq!(files(), 4);
+        assert!(!c.path(&old_key).exists() && !old_temp.exists() && dir.join(".tmp-1-1").exists());
+        assert_eq!(pruned.get_run(&key), Some(measured()), "the current result stays usable");
+        assert_eq!(Cache::open(&dir).unwrap().stats().stale, 0);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

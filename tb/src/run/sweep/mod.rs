@@ -221,6 +221,8 @@ pub struct Request {
     pub sample: Option<SamplePlan>,
     /// Folder of the result cache ([`cache`]); `None` computes everything and stores nothing.
     pub cache: Option<PathBuf>,
+    /// Delete the cache's stale files before the sweep ([`cache::Cache::open_pruning`]).
+    pub prune_cache: bool,
 }
 
 impl Request {
@@ -345,7 +347,8 @@ pub fn run_arms(
         .collect();
     let variants: Vec<Vec<Variant>> =
         hws.iter().map(|hw| req.plan.variants(hw.mem.l1d_bytes / 1024)).collect::<Result<_>>()?;
-    let cache = req.cache.as_deref().map(cache::Cache::open).transpose()?;
+    let open = if req.prune_cache { cache::Cache::open_pruning } else { cache::Cache::open };
+    let cache = req.cache.as_deref().map(open).transpose()?;
     let start = Instant::now();
     let mut out: Vec<Sweep> = hws
         .iter()
