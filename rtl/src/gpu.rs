@@ -342,13 +342,15 @@ impl Gpu {
             }
             self.mem.commit();
             let dispatch_next = more_jobs && self.units.iter().any(|u| u.free_slot().is_some());
-            let next = self
-                .units
-                .iter()
-                .filter_map(RtUnit::next_event)
-                .chain(self.mem.next_event_cycle())
-                .chain(dispatch_next.then_some(now + 1))
-                .min();
+            // The next cycle is the earliest possible: the memory system's events need not be
+            // looked at (they are never before the cycle it is in now).
+            let soon = self.mem.cycle();
+            let units_next = self.units.iter().filter_map(RtUnit::next_event).min();
+            let next = if dispatch_next || units_next == Some(soon) {
+                Some(soon)
+            } else {
+                units_next.into_iter().chain(self.mem.next_event_cycle()).min()
+            };
             match next {
                 None if more_jobs || !self.units.iter().all(RtUnit::empty) => {
                     return Err(RunError::Stalled { cycle: now });
