@@ -1,11 +1,13 @@
 //! `cargo bench -p tb --bench throughput`: throughput of the full cycle-level model on the
 //! built-in `clutter` scene (simulated GPU cycles per second, stack operations per second) and
-//! its run time against obvhs's own traversal of the same rays.
+//! its run time against obvhs's own traversal of the same rays. A run traces its rays on a second
+//! thread ahead of the simulation (`run::sim`), so each run's process CPU time (both threads) is
+//! printed beside its wall time; the ratio to obvhs is of wall time.
 //!
 //! `-- --overhead` times only the SMS run with a `NullSink` (best of 3) and prints one
 //! `overhead_run_seconds BUILD WALL CPU` line, for `scripts/trace-overhead.sh`, which compares
 //! this build with one whose probe calls are compiled out (`--features untraced`). CPU is the
-//! thread's time on a CPU (Linux schedstat), which other processes' load disturbs far less than
+//! main thread's time on a CPU (Linux schedstat; the simulation, not the tracing thread), which other processes' load disturbs far less than
 //! wall time; it is NaN where unavailable.
 
 use std::time::Duration;
@@ -43,11 +45,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         opts.max_bounces,
         w.num_rays()
     );
-    let runs = vec![run("RB_8")?, run("SMS")?];
-    for t in throughput(&scene, &w, &runs)? {
+    // Process CPU of each run (its tracing thread included), beside its wall time.
+    let mut cpu = Vec::new();
+    let mut runs = Vec::new();
+    for name in ["RB_8", "SMS"] {
+        let before = tb::run::memory::process_cpu_seconds().unwrap_or(f64::NAN);
+        runs.push(run(name)?);
+        cpu.push(tb::run::memory::process_cpu_seconds().unwrap_or(f64::NAN) - before);
+    }
+    for (t, cpu) in throughput(&scene, &w, &runs)?.into_iter().zip(cpu) {
         println!(
-            "{:<16} {:>8} GPU cycles in {:.3} s: {:>9.0} cycles/s, {:>9.0} stack ops/s; \
-             obvhs CWBVH {:.4} s, our BVH6 {:.4} s: full model = {:.0}x obvhs",
+            "{:<16} {:>8} GPU cycles in {:.3} s (CPU {cpu:.2} s, both threads): {:>9.0} cycles/s, \
+             {:>9.0} stack ops/s; obvhs CWBVH {:.4} s, our BVH6 {:.4} s: full model = {:.0}x obvhs",
             t.config,
             t.cycles,
             t.wall,
