@@ -346,7 +346,9 @@ fn simulate_inner<S: Sink>(
             &all
         }
     };
-    std::thread::scope(|scope| simulate_traced(spec, w, warps, traced(scope, w, warps), sink, progress, residence))
+    std::thread::scope(|scope| {
+        simulate_traced(spec, w, warps, traced(scope, w, warps), sink, progress, residence)
+    })
 }
 
 /// How many pixel warps the tracing thread may run ahead of the simulation.
@@ -401,10 +403,9 @@ fn simulate_traced<S: Sink>(
     let done = Cell::new(0u32);
     // Jobs of each pixel warp, in order: maps the GPU's per-job residence back to pixel warps.
     let jobs_per_warp = std::cell::RefCell::new(Vec::with_capacity(warps.len()));
-    let pixel_warps = traces.map(|jobs| {
+    let pixel_warps = traces.inspect(|jobs| {
         done.set(done.get() + 1);
         jobs_per_warp.borrow_mut().push(jobs.len());
-        jobs
     });
     let bvh = w.opts().bvh;
     let (stack, gpu, pops_checked) = match spec.fidelity {
