@@ -78,6 +78,20 @@ pub struct Args {
     /// twice).
     #[arg(long)]
     pub cap: Option<u32>,
+    /// With --full: explore without the partial-order reduction (every interleaving of private
+    /// micro-ops — global loads and stores, latch → RB bottom — with other threads' actions; same
+    /// verdict and covers, more states).
+    #[arg(long)]
+    pub no_por: bool,
+    /// With --full: prove only the cases whose description contains this text (e.g. "SH_2+SK+RA
+    /// warp 4"); an error if none does.
+    #[arg(long, value_name = "TEXT")]
+    pub only: Option<String>,
+    /// With --full: explore every case depth first (by default only the 4-thread warps with M =
+    /// 2 and reallocation are: their BFS levels hold millions of states); the same states are
+    /// visited, counterexamples are no longer shortest.
+    #[arg(long)]
+    pub dfs: bool,
 }
 
 /// The planted bug `--mutant` names, if any.
@@ -271,13 +285,21 @@ fn run_full(args: &Args) -> Result<()> {
         "depth",
         "seconds",
         "peak frontier",
+        "frontier MB",
         "visited MB",
+        "reduced",
         "fixpoint",
         "covers missing",
     ]);
     let started = std::time::Instant::now();
     let mut failed = Vec::new();
-    let cases = full_cases();
+    let mut cases = full_cases();
+    if let Some(only) = &args.only {
+        cases.retain(|c| c.describe().contains(only.as_str()));
+        if cases.is_empty() {
+            bail!("--only {only:?}: no case of the full set matches");
+        }
+    }
     for case in &cases {
         let c = &case.cfg;
         let cap = args.cap.unwrap_or(case.cap);
@@ -288,6 +310,9 @@ fn run_full(args: &Args) -> Result<()> {
             max_states: args.max_states,
             cap: Some(cap),
             one_mark: !args.all_values,
+            por: !args.no_por,
+            dfs: args.dfs || case.dfs,
+            progress: true,
             ..case.bounds()
         };
         let cov = match check(*c, bounds, design) {
@@ -321,7 +346,9 @@ fn run_full(args: &Args) -> Result<()> {
             cov.depth_reached.to_string(),
             format!("{:.2}", cov.elapsed.as_secs_f64()),
             cov.peak_frontier.to_string(),
+            format!("{:.1}", cov.peak_frontier_bytes as f64 / 1e6),
             format!("{:.1}", cov.visited_bytes as f64 / 1e6),
+            cov.reduced.to_string(),
             if cov.fixpoint { "yes".into() } else { "state cap".into() },
             if missing.is_empty() {
                 "-".into()

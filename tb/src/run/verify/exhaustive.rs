@@ -90,6 +90,18 @@ pub struct Bounds {
     /// At most one push per run carries a distinguished value, the others all one value
     /// ([`Model::one_mark`]); `values` is then unused. On for [`Bounds::fixpoint`].
     pub one_mark: bool,
+    /// Partial-order reduction (module doc): a state whose thread has a private micro-op next
+    /// (global load, global store, latch → RB bottom) is expanded by that action alone. On for
+    /// [`Bounds::fixpoint`]; `sms check --no-por` turns it off.
+    pub por: bool,
+    /// Depth first instead of breadth first ([`check`]): the search then holds one model per
+    /// step of the current path instead of a whole BFS level, so memory is the visited set plus
+    /// the path; counterexamples are no longer shortest, and `depth` is ignored (to the
+    /// fixpoint only). For the large cases of [`full_cases`] ([`Case::dfs`]).
+    pub dfs: bool,
+    /// Print a progress line to stderr every 2²² states of a depth-first search (`sms check
+    /// --full`).
+    pub progress: bool,
 }
 
 impl Default for Bounds {
@@ -102,6 +114,9 @@ impl Default for Bounds {
             request_sequence: true,
             active: None,
             one_mark: false,
+            por: false,
+            dfs: false,
+            progress: false,
         }
     }
 }
@@ -110,7 +125,7 @@ impl Bounds {
     /// Every interleaving, unbounded in time, under the depth cap `cap`: a proof for the
     /// configuration when the run reaches its fixpoint ([`Coverage::fixpoint`]).
     pub fn fixpoint(cap: u32) -> Bounds {
-        Bounds { cap: Some(cap), one_mark: true, ..Bounds::default() }
+        Bounds { cap: Some(cap), one_mark: true, por: true, ..Bounds::default() }
     }
 }
 
@@ -223,8 +238,13 @@ pub struct Coverage {
     /// No new state appeared: every reachable state (under the depth cap) was explored.
     pub fixpoint: bool,
     pub elapsed: Duration,
-    /// Most states in one BFS level.
+    /// Most states in one BFS level (depth first: the longest path held, in models).
     pub peak_frontier: usize,
+    /// Bytes of the models the search held at its peak (one BFS level, or the depth-first
+    /// path), from [`Model::heap_bytes`] plus each model's inline size.
+    pub peak_frontier_bytes: usize,
+    /// States expanded by one private micro-op alone ([`Bounds::por`]).
+    pub reduced: usize,
     /// Bytes of the visited set and the predecessor table at the end (the search's memory
     /// besides the frontier).
     pub visited_bytes: usize,
@@ -451,6 +471,47 @@ impl Model {
             }
         }
         Ok(true)
+    }
+
+    /// The lowest-numbered thread whose next micro-op is *private* — a global load, a global
+    /// store or latch → RB bottom: it reads and writes only that thread's RB, spill region,
+    /// sequencer and data latch, which no other thread's action reads or writes — or `None`.
+    /// The ample set of the partial-order reduction (module doc).
+    pub fn private_uop(&self) -> Option<u32> {
+        self.sm.warp_threads(0).find(|&t| {
+            matches!(
+                self.sm.pending_uops(t).next(),
+                Some(Uop::GlobalLoad { .. } | Uop::GlobalStore { .. } | Uop::RbBottom)
+            )
+        })
+    }
+
+    /// Bytes the model occupies: its inline size plus the heap blocks it owns (an estimate from
+    /// lengths through the public accessors, each block rounded up to 16 bytes with 16 bytes of
+    /// allocator overhead; the stack manager's own vectors are counted from the configuration).
+    pub fn bytes(&self) -> usize {
+        let block = |n: usize| if n == 0 { 0 } else { n.div_ceil(16) * 16 + 16 };
+        let sm = &self.sm;
+        let n = sm.config().warp_size as usize;
+        let m = sm.config().sh_entries as usize;
+        let mut b = std::mem::size_of::<Model>();
+        // threads, stacks, rb, seq, queued, sh_data, global: one block each.
+        b += block(n * std::mem::size_of::<rtl::stack_manager::ThreadRegs>());
+        b += block(n * std::mem::size_of::<StackRegs>());
+        b += block(n * std::mem::size_of::<std::collections::VecDeque<u64>>());
+        b += block(n * (std::mem::size_of::<std::collections::VecDeque<Uop>>() + 48));
+        b += block(8) + block(n * m * 8);
+        b += block(n * std::mem::size_of::<Vec<u64>>());
+        for t in sm.warp_threads(0) {
+            b += block(sm.rb(t).len() * 8);
+            b += block(sm.pending_uops(t).count() * std::mem::size_of::<Uop>());
+            b += block(sm.global(t).len() * 8);
+            b += block(self.sb.reference(t).len() * 8);
+        }
+        b += block(n * std::mem::size_of::<super::reference::RefStack>()) + block(n);
+        b += block(n * std::mem::size_of::<Shadow>());
+        b += self.shadow.iter().map(|s| block(s.global_loads.len() * 8)).sum::<usize>();
+        b
     }
 
     /// Entries the warp holds (the reference's view).
@@ -685,6 +746,9 @@ pub fn check(
     if let Err(violation) = placed.and_then(|_| check_no_overlap(&model.sm)) {
         return Err(Box::new(Counterexample { violation, trace: vec![] }));
     }
+    if bounds.dfs {
+        return check_dfs(model, bounds, cov, start);
+    }
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
     let mut parents: Vec<(u32, Option<Action>)> = vec![(0, None)];
@@ -695,7 +759,15 @@ pub fn check(
         let mut next: Vec<Node> = Vec::new();
         let mut index: HashMap<u128, usize> = HashMap::new();
         for node in &frontier {
-            for a in node.model.actions_capped(bounds.values, bounds.cap) {
+            let ample = if bounds.por { node.model.private_uop() } else { None };
+            if ample.is_some() {
+                cov.reduced += 1;
+            }
+            let actions = match ample {
+                Some(t) => vec![Action::Uop(t)],
+                None => node.model.actions_capped(bounds.values, bounds.cap),
+            };
+            for a in actions {
                 cov.transitions += 1;
                 let mut model = node.model.clone();
                 match model.act(a, &mut cov) {
@@ -723,7 +795,10 @@ pub fn check(
             }
         }
         cov.states = seen.len();
-        cov.peak_frontier = cov.peak_frontier.max(next.len());
+        if next.len() > cov.peak_frontier {
+            cov.peak_frontier = next.len();
+            cov.peak_frontier_bytes = next.iter().map(|n| n.model.bytes()).sum();
+        }
         if next.is_empty() {
             // Nothing new at this level: the previous one was the last.
             depth -= 1;
@@ -741,6 +816,87 @@ pub fn check(
     cov.states = seen.len();
     cov.visited_bytes = seen.capacity() * (std::mem::size_of::<u128>() + 1)
         + parents.capacity() * std::mem::size_of::<(u32, Option<Action>)>();
+    cov.elapsed = start.elapsed();
+    Ok(cov)
+}
+
+/// [`check`] depth first (`bounds.dfs`), to the fixpoint: every state reachable from `model`
+/// (under the cap, with the reduction if `bounds.por`) is visited once and every property
+/// checked on every transition out of it. The search holds the visited set (128-bit keys) and
+/// the current path: one model per step, with the actions still to try from it.
+fn check_dfs(
+    model: Model,
+    bounds: Bounds,
+    mut cov: Coverage,
+    start: Instant,
+) -> Result<Coverage, Box<Counterexample>> {
+    struct Frame {
+        model: Model,
+        actions: Vec<Action>,
+        next: usize,
+        /// The action that led here (none at the root).
+        via: Option<Action>,
+    }
+    let expand = |m: &Model, cov: &mut Coverage| -> Vec<Action> {
+        match if bounds.por { m.private_uop() } else { None } {
+            Some(t) => {
+                cov.reduced += 1;
+                vec![Action::Uop(t)]
+            }
+            None => m.actions_capped(bounds.values, bounds.cap),
+        }
+    };
+    let mut seen: HashSet<u128> = HashSet::new();
+    seen.insert(model.key());
+    let actions = expand(&model, &mut cov);
+    let mut path = vec![Frame { model, actions, next: 0, via: None }];
+    let mut path_bytes = path[0].model.bytes();
+    cov.fixpoint = true;
+    while let Some(top) = path.last_mut() {
+        let Some(&a) = top.actions.get(top.next) else {
+            let done = path.pop().expect("a frame");
+            path_bytes -= done.model.bytes();
+            continue;
+        };
+        top.next += 1;
+        cov.transitions += 1;
+        let mut model = top.model.clone();
+        match model.act(a, &mut cov) {
+            Ok(true) => {}
+            Ok(false) => continue,
+            Err(violation) => {
+                let mut trace: Vec<Action> = path.iter().filter_map(|f| f.via).collect();
+                trace.push(a);
+                return Err(Box::new(Counterexample { violation, trace }));
+            }
+        }
+        if !seen.insert(model.key()) {
+            continue;
+        }
+        if seen.len() >= bounds.max_states {
+            cov.complete = false;
+            cov.fixpoint = false;
+            break;
+        }
+        if bounds.progress && seen.len().is_multiple_of(1 << 22) {
+            eprintln!(
+                "  ... {} states, path {}, {:.0} s",
+                seen.len(),
+                path.len(),
+                start.elapsed().as_secs_f64()
+            );
+        }
+        let actions = expand(&model, &mut cov);
+        path_bytes += model.bytes();
+        path.push(Frame { model, actions, next: 0, via: Some(a) });
+        if path.len() > cov.peak_frontier {
+            cov.peak_frontier = path.len();
+            cov.peak_frontier_bytes = path_bytes;
+        }
+        cov.depth_reached = cov.depth_reached.max(path.len() as u32 - 1);
+    }
+    cov.states = seen.len();
+    cov.visited_bytes = seen.capacity() * (std::mem::size_of::<u128>() + 1);
     cov.elapsed = start.elapsed();
     Ok(cov)
 }
@@ -796,6 +952,9 @@ pub struct Case {
     /// Bit per lane; the others start finished (their stacks Idle with reallocation).
     pub active: u32,
     pub cap: u32,
+    /// Explore depth first ([`Bounds::dfs`]): the 4-thread warps with M = 2 and reallocation,
+    /// whose BFS levels would hold millions of models.
+    pub dfs: bool,
 }
 
 impl Case {
@@ -804,7 +963,8 @@ impl Case {
     }
     /// Every lane active, under [`default_cap`].
     pub fn full(cfg: Config) -> Case {
-        Case { cfg, active: Case::all_lanes(&cfg), cap: default_cap(&cfg) }
+        let dfs = cfg.warp_size == 4 && cfg.sh_entries == 2 && cfg.realloc.is_some();
+        Case { cfg, active: Case::all_lanes(&cfg), cap: default_cap(&cfg), dfs }
     }
     pub fn partial(&self) -> bool {
         self.active != Case::all_lanes(&self.cfg)
@@ -829,7 +989,7 @@ impl Case {
         g
     }
     pub fn bounds(&self) -> Bounds {
-        Bounds { active: Some(self.active), ..Bounds::fixpoint(self.cap) }
+        Bounds { active: Some(self.active), dfs: self.dfs, ..Bounds::fixpoint(self.cap) }
     }
     pub fn describe(&self) -> String {
         let lanes = if self.partial() {
@@ -868,10 +1028,10 @@ pub fn full_cases() -> Vec<Case> {
         // RB, then every stack of the chain filled, flushed once, and the first flushed again
         // (flush saturation), then one more entry.
         let cap = 1 + 2 * m * 3 + 1;
-        out.push(Case { cfg, active: 1, cap });
+        out.push(Case { cfg, active: 1, cap, dfs: false });
     }
     for c in skew_configs().into_iter().filter(|c| c.realloc.is_some()) {
-        out.push(Case { cfg: c, active: 0b0011, cap: default_cap(&c) });
+        out.push(Case { cfg: c, active: 0b0011, cap: default_cap(&c), dfs: false });
     }
     out
 }
