@@ -6,7 +6,8 @@
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Cmd, Mutant};
 use tb::run::verify::exhaustive::{
-    check, default_cap, describe, full_cases, full_configs, Action, Bounds, Coverage, Goal, Model,
+    check, default_cap, describe, full_cases, full_configs, is_large, large_cap, Action, Bounds, Case,
+    Coverage, Goal, Model,
 };
 use tb::run::verify::invariants::{formula_base, Property};
 
@@ -291,4 +292,36 @@ fn depth_first_search_proves_what_breadth_first_proves() {
         assert_eq!(reached(&bfs), reached(&dfs), "{}", describe(&c));
         assert_eq!(dfs.covers.missing(&c), vec![], "{}", describe(&c));
     }
+}
+
+/// The 4-thread warps with M = 2 and reallocation are in `sms check --full`, depth first under
+/// `large_cap` (minutes there). Here the cheap part: RB_1's under cap 4, depth first with the
+/// reduction, reaches its fixpoint with a borrow, a rotated release, a flush and a warp exit
+/// after a borrow reached, and catches a planted bug.
+#[test]
+fn four_thread_m2_reallocation_depth_first_under_a_small_cap() {
+    let large: Vec<Case> = full_cases().into_iter().filter(|c| is_large(&c.cfg) && !c.partial()).collect();
+    assert_eq!(large.len(), 2, "RB_1 and RB_2");
+    assert!(large.iter().all(|c| c.dfs && c.cap == large_cap(&c.cfg)));
+    assert!(full_cases().iter().all(|c| c.dfs == large.iter().any(|l| l.describe() == c.describe())));
+    let c = large[0].cfg;
+    assert_eq!((c.rb, large_cap(&c)), (RbSize::Entries(1), 6));
+    let bounds = Bounds { cap: Some(4), ..large[0].bounds() };
+    let cov = check(c, bounds, |sm| sm).unwrap_or_else(|e| panic!("{}: {e}", describe(&c)));
+    println!(
+        "{} cap 4: {} states, longest path {}, {} models held at the peak ({} B), visited {} B, {:.2?}",
+        describe(&c),
+        cov.states,
+        cov.depth_reached,
+        cov.peak_frontier,
+        cov.peak_frontier_bytes,
+        cov.visited_bytes,
+        cov.elapsed
+    );
+    assert!(cov.fixpoint);
+    let goals = [Goal::Borrow, Goal::RotatedRelease, Goal::Flush, Goal::ExitAfterBorrow];
+    assert_eq!(cov.covers.missing_of(&goals), vec![]);
+    let cex = check(c, bounds, |sm| sm.with_mutant(Some(Mutant::LendActiveStack)))
+        .expect_err("LendActiveStack survived");
+    println!("  LendActiveStack: {} after {} actions", cex.violation, cex.trace.len());
 }

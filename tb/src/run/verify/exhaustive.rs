@@ -41,6 +41,59 @@
 //! which keeps the states linear rather than exponential in the entries held; the bounded
 //! search offers every value 1..=`values` at every push.
 //!
+//! **Partial-order reduction** ([`Bounds::por`], on for the fixpoint runs). An ample-set
+//! reduction (Peled, CAV 1993; Godefroid, LNCS 1032, 1996; Clarke, Grumberg and Peled, *Model
+//! Checking*, ch. 10): a state whose thread `t` has a *private* micro-op next — a global load,
+//! a global store, or latch → RB bottom ([`Model::private_uop`], the lowest such thread) — is
+//! expanded by that one action α; every other state by all its actions. Private means α reads
+//! and writes only thread `t`'s RB (`rb[t]`), its own spill region (`global[t]`: a global
+//! micro-op carries a slot of the *issuing* thread's region), its sequencer and data latch, and
+//! the model's shadow of that latch. In the design's code the only writers of those are `t`'s
+//! own micro-ops and `t`'s own commands (the planner's `Write::Rb*`, `Write::Global` and
+//! `Write::Seq` all name the planning or completing thread), and no other thread's planner or
+//! micro-op reads them: a command of `u` plans from `u`'s registers, the stack registers and the
+//! threads' Done bits. That is a property of the code that writes, not of the values it writes,
+//! so it holds for every mutant too (they change decisions, not which thread's RB or region a
+//! write names). The conditions:
+//! - C0: α is enabled, so the ample set is empty only when the state has no action.
+//! - C1 (independence): no action of another thread reads or writes what α touches, so α and
+//!   any such action commute (same state either order) and neither enables or disables the
+//!   other; the actions of `t` itself cannot run before α (its sequencer is in order and a
+//!   busy thread takes no command). So on every path from the state, only actions independent
+//!   of α occur before α.
+//! - C2 (invisibility): every check is monotone in α. The state checks after an action read the
+//!   stack and thread registers and the SH words (not written by α), the logical stacks of
+//!   *ready* threads (`t` is busy before α, so α can only add `t`'s check), and the quiescent
+//!   and warp-exit checks, which α can only switch on (as `t`'s last micro-op). So a check that
+//!   fails before α fails after it. The checks on another thread's action (Equivalence,
+//!   RequestSequence, LiveReads, the bank map, placement, the cover goals) read that thread's
+//!   state and the shared registers only, so they see the same before and after α.
+//! - C3 (cycle proviso): every reduced step completes a micro-op, so it lowers the number of
+//!   pending micro-ops by one; a cycle must contain a command, taken only from a fully expanded
+//!   state. So no action is ignored around a cycle, whatever the search order (BFS or DFS).
+//!
+//! Then any run of the full graph that reaches a failing check has a permutation, with α moved
+//! to the front, that the reduced graph contains and that fails a check too; by induction over
+//! the run, the reduced search finds a violation whenever the full one does, and reaches the
+//! same cover goals (observed on commands, which see the same state). SH micro-ops and releases
+//! are *not* private: which stack a command's micro-ops name, and who may take a stack next, is
+//! the planner's decision — the very thing under check — so treating them as independent would
+//! assume the Chains property the search is proving. `tests/fixpoint.rs` runs every BFS case
+//! with and without the reduction (same verdicts and covers, 6 % fewer states over the set) and
+//! `tests/mutants.rs` catches every mutant both ways. `sms check --full --no-por` turns it off.
+//!
+//! **Depth first.** The 4-thread warps with M = 2 and reallocation ([`Case::dfs`]) are searched
+//! depth first ([`Bounds::dfs`]): a BFS level of theirs holds millions of models (about 2.3 kB
+//! each: the stack manager's vectors, the scoreboard, the shadows), the depth-first path only
+//! one model per [`CHECKPOINT`] steps and the last [`CHECKPOINT`] steps' (a step otherwise costs
+//! its action list and the action that led there, about 100 bytes; a model dropped from the path
+//! is rebuilt by replaying the path's actions from the checkpoint below). Memory is then the
+//! visited set (17 to 34 bytes a state, no predecessor table). Same checks on every transition;
+//! the counterexamples are no longer shortest. (The key hashes a live SH word that a pending
+//! store is about to overwrite, so a state reached with different stale words there counts
+//! twice; which of them is met first depends on the order, so BFS and DFS counts differ by a
+//! few per cent.)
+//!
 //! **No lane symmetry.** Lanes of a warp are not interchangeable here: a borrower takes the
 //! *lowest-numbered* idle stack (`first_idle`), a chain's ring order follows Next TID, and with
 //! skew each lane's stack starts at its own base entry. Permuting lanes changes which stack is
@@ -142,6 +195,23 @@ pub fn default_cap(c: &Config) -> u32 {
     }
 }
 
+/// The 4-thread warps with M = 2 and reallocation: the largest state spaces of the full set.
+pub fn is_large(c: &Config) -> bool {
+    c.warp_size == 4 && c.sh_entries == 2 && c.realloc.is_some()
+}
+
+/// The depth cap of the [`is_large`] configurations' fixpoint runs: one thread's RB, two full
+/// SH stacks and one entry more (the third stack of a chain), shared by the four lanes — 6
+/// entries for RB_1, 7 for RB_2. Every cover goal of the configuration is reached under it (the
+/// lanes' entries together force flushes, saturation, demotion and reloads into the oldest
+/// stack), and the search reaches its fixpoint: RB_1 in 10.6 · 10⁶ states, RB_2 in 4.8 · 10⁶.
+/// Under [`default_cap`] (8 and 9: a whole chain and one entry in global memory) RB_1 passed
+/// 41.9 · 10⁶ states in 618 s (1.4 GB resident, depth first with the reduction) without a
+/// fixpoint, and was stopped.
+pub fn large_cap(c: &Config) -> u32 {
+    c.rb.capacity().unwrap_or(0) + 2 * c.sh_entries + 1
+}
+
 /// The cover goals of issue 14, each a situation a run must reach (when the configuration has
 /// the feature) for its "all properties hold" to mean anything.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -232,13 +302,14 @@ pub struct Coverage {
     pub transitions: u64,
     /// Action sequences of every length up to the bound (counted through merged states).
     pub sequences: u128,
+    /// The last BFS level (depth first: the longest path).
     pub depth_reached: u32,
     /// The state cap was not hit.
     pub complete: bool,
     /// No new state appeared: every reachable state (under the depth cap) was explored.
     pub fixpoint: bool,
     pub elapsed: Duration,
-    /// Most states in one BFS level (depth first: the longest path held, in models).
+    /// Most states in one BFS level (depth first: the models held on the path at its peak).
     pub peak_frontier: usize,
     /// Bytes of the models the search held at its peak (one BFS level, or the depth-first
     /// path), from [`Model::heap_bytes`] plus each model's inline size.
@@ -823,7 +894,10 @@ pub fn check(
 /// [`check`] depth first (`bounds.dfs`), to the fixpoint: every state reachable from `model`
 /// (under the cap, with the reduction if `bounds.por`) is visited once and every property
 /// checked on every transition out of it. The search holds the visited set (128-bit keys) and
-/// the current path: one model per step, with the actions still to try from it.
+/// the current path: per step the action that led there and the actions still to try, and the
+/// model itself only at every [`CHECKPOINT`]-th step and in the last [`CHECKPOINT`] steps —
+/// backtracking below that window rebuilds a step's model by replaying the path's actions from
+/// the checkpoint under it (the actions are deterministic, so it is the same model).
 fn check_dfs(
     model: Model,
     bounds: Bounds,
@@ -831,7 +905,8 @@ fn check_dfs(
     start: Instant,
 ) -> Result<Coverage, Box<Counterexample>> {
     struct Frame {
-        model: Model,
+        /// Held at checkpoints and in the window of the last steps (see above).
+        model: Option<Box<Model>>,
         actions: Vec<Action>,
         next: usize,
         /// The action that led here (none at the root).
@@ -849,18 +924,37 @@ fn check_dfs(
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
     let actions = expand(&model, &mut cov);
-    let mut path = vec![Frame { model, actions, next: 0, via: None }];
-    let mut path_bytes = path[0].model.bytes();
+    let mut path_bytes = model.bytes();
+    let mut path = vec![Frame { model: Some(Box::new(model)), actions, next: 0, via: None }];
+    let mut held = 1;
     cov.fixpoint = true;
-    while let Some(top) = path.last_mut() {
-        let Some(&a) = top.actions.get(top.next) else {
-            let done = path.pop().expect("a frame");
-            path_bytes -= done.model.bytes();
+    while let Some(i) = path.len().checked_sub(1) {
+        if path[i].next >= path[i].actions.len() {
+            if let Some(m) = path.pop().and_then(|f| f.model) {
+                path_bytes -= m.bytes();
+                held -= 1;
+            }
             continue;
-        };
-        top.next += 1;
+        }
+        if path[i].model.is_none() {
+            // Rebuild from the checkpoint below (which holds its model).
+            let mut scratch = Coverage::default();
+            for j in i - i % CHECKPOINT + 1..=i {
+                if path[j].model.is_some() {
+                    continue;
+                }
+                let mut m = path[j - 1].model.clone().expect("the step below holds its model");
+                let via = path[j].via.expect("a step above the root");
+                assert!(matches!(m.act(via, &mut scratch), Ok(true)), "replaying a checked action");
+                path_bytes += m.bytes();
+                held += 1;
+                path[j].model = Some(m);
+            }
+        }
+        let a = path[i].actions[path[i].next];
+        path[i].next += 1;
         cov.transitions += 1;
-        let mut model = top.model.clone();
+        let mut model = Model::clone(path[i].model.as_ref().expect("the top step holds its model"));
         match model.act(a, &mut cov) {
             Ok(true) => {}
             Ok(false) => continue,
@@ -880,7 +974,7 @@ fn check_dfs(
         }
         if bounds.progress && seen.len().is_multiple_of(1 << 22) {
             eprintln!(
-                "  ... {} states, path {}, {:.0} s",
+                "  ... {} states, path {}, {held} models held, {:.0} s",
                 seen.len(),
                 path.len(),
                 start.elapsed().as_secs_f64()
@@ -888,18 +982,31 @@ fn check_dfs(
         }
         let actions = expand(&model, &mut cov);
         path_bytes += model.bytes();
-        path.push(Frame { model, actions, next: 0, via: Some(a) });
-        if path.len() > cov.peak_frontier {
-            cov.peak_frontier = path.len();
+        held += 1;
+        path.push(Frame { model: Some(Box::new(model)), actions, next: 0, via: Some(a) });
+        // The step leaving the window drops its model unless it is a checkpoint.
+        let d = path.len() - 1;
+        if let Some(old) = d.checked_sub(CHECKPOINT).filter(|&j| j % CHECKPOINT != 0) {
+            if let Some(m) = path[old].model.take() {
+                path_bytes -= m.bytes();
+                held -= 1;
+            }
+        }
+        if path_bytes > cov.peak_frontier_bytes {
+            cov.peak_frontier = held;
             cov.peak_frontier_bytes = path_bytes;
         }
-        cov.depth_reached = cov.depth_reached.max(path.len() as u32 - 1);
+        cov.depth_reached = cov.depth_reached.max(d as u32);
     }
     cov.states = seen.len();
-    cov.visited_bytes = seen.capacity() * (std::mem::size_of::<u128>() + 1);
+    cov.visited_bytes =
+        seen.capacity() * (std::mem::size_of::<u128>() + 1) + path.capacity() * std::mem::size_of::<Frame>();
     cov.elapsed = start.elapsed();
     Ok(cov)
 }
+
+/// Every how many steps of its path the depth-first search keeps a model ([`check_dfs`]).
+pub const CHECKPOINT: usize = 32;
 
 /// The small configurations the test suite checks exhaustively: N in {1, 2}, M in {0, 1, 2},
 /// warps of 2 and 4 threads, with and without skew and reallocation (borrow limit 1–2, flush
@@ -929,17 +1036,12 @@ pub fn small_configs() -> Vec<Config> {
     out
 }
 
-/// Every configuration `sms check --full` proves to its fixpoint: [`small_configs`] without the
-/// 4-thread warps that combine M = 2 with reallocation (under a cap that reaches global memory
-/// their state spaces pass 4·10⁶ states; reallocation is proved with M = 2 on 2-thread warps and
-/// with chains of three stacks at M = 1 on 4-thread warps), plus skewed configurations with 4
-/// and 8 banks, where base entries differ between lanes (with the paper's 32 banks every small
+/// Every configuration `sms check --full` proves to its fixpoint: [`small_configs`] (the
+/// 4-thread warps that combine M = 2 with reallocation depth first under [`large_cap`]), plus
+/// skewed configurations with 4 and 8 banks, where base entries differ between lanes (with the paper's 32 banks every small
 /// configuration has k = 32 / (2M) ≥ warp size, so all bases are 0).
 pub fn full_configs() -> Vec<Config> {
-    let mut out: Vec<Config> = small_configs()
-        .into_iter()
-        .filter(|c| !(c.warp_size == 4 && c.sh_entries == 2 && c.realloc.is_some()))
-        .collect();
+    let mut out: Vec<Config> = small_configs().into_iter().collect();
     out.extend(skew_configs().into_iter().filter(|c| c.realloc.is_none()));
     out
 }
@@ -961,10 +1063,12 @@ impl Case {
     fn all_lanes(c: &Config) -> u32 {
         u32::MAX >> (32 - c.warp_size)
     }
-    /// Every lane active, under [`default_cap`].
+    /// Every lane active, under [`default_cap`] — or, for the 4-thread warps with M = 2 and
+    /// reallocation, depth first under [`large_cap`].
     pub fn full(cfg: Config) -> Case {
-        let dfs = cfg.warp_size == 4 && cfg.sh_entries == 2 && cfg.realloc.is_some();
-        Case { cfg, active: Case::all_lanes(&cfg), cap: default_cap(&cfg), dfs }
+        let dfs = is_large(&cfg);
+        let cap = if dfs { large_cap(&cfg) } else { default_cap(&cfg) };
+        Case { cfg, active: Case::all_lanes(&cfg), cap, dfs }
     }
     pub fn partial(&self) -> bool {
         self.active != Case::all_lanes(&self.cfg)
@@ -1008,9 +1112,8 @@ impl Case {
 /// stack after its owner — with 1-entry stacks (cap 8), and with 2-entry skewed stacks over 8
 /// banks (bases 0 0 1 1: skew with reallocation; cap 14); and the skewed 2-entry
 /// configurations with reallocation of [`skew_configs`] (4 and 8 banks) with two lanes active,
-/// racing to borrow the two Idle stacks, under [`default_cap`]. (With all four lanes active,
-/// 4-thread warps with M = 2 and reallocation pass 8 · 10⁶ states and 5 GB of frontier before
-/// their fixpoint; two lanes with the one-lane cap 14 pass 8 · 10⁶ states too.)
+/// racing to borrow the two Idle stacks, under [`default_cap`]. (Two lanes with the one-lane
+/// cap 14 pass 8 · 10⁶ states.)
 pub fn full_cases() -> Vec<Case> {
     use rtl::config::{RbSize, Realloc};
     let mut out: Vec<Case> = full_configs().into_iter().map(Case::full).collect();
