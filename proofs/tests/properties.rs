@@ -25,6 +25,7 @@
 //!   scratch vectors — a snapshot of the W stack registers and of one spill region before a
 //!   command, the chains walked (≤ 1 + borrow limit stacks), the logical stacks rebuilt for
 //!   Conservation (≤ `LEN` entries), the holder table of Chains (W).
+//!
 //! The stack manager's vectors are sized from the configuration at run time (one type serves
 //! every warp size and M), so making them fixed arrays would change the design's types, which
 //! this layer does not own; the checks' scratch vectors are the next candidates.

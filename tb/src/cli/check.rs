@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::run::verify::exhaustive::{check, describe, full_cases, Action, Bounds, Coverage, Model};
+use crate::run::verify::exhaustive::{check, describe, full_cases, Action, Bounds, Case, Coverage, Model};
 use anyhow::{bail, Result};
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Mutant, StackManager};
@@ -66,8 +66,8 @@ pub struct Args {
     /// configurations with 4 and 8 banks, and 4-thread warps with one active lane whose chains
     /// of three stacks rotate) to its fixpoint, every interleaving unbounded in time, under a
     /// cap on the entries the warp holds; a cover goal never reached fails the run. The 4-thread
-    /// warps with M = 2 and reallocation are searched depth first under a smaller cap (RB + 2M +
-    /// 1) and take minutes; --quick leaves them out.
+    /// warps with M = 2 and reallocation are searched depth first under a smaller cap, RB plus
+    /// twice SH plus one, and take minutes; --quick leaves them out.
     /// Ignores the grid (--rb, --sh, --warp-sizes, --borrow-limits), the configuration flags
     /// (-c, --warp-size, --borrow-limit, --flush-limit), --depth and --wide-depth.
     #[arg(long)]
@@ -90,8 +90,8 @@ pub struct Args {
     #[arg(long, value_name = "TEXT")]
     pub only: Option<String>,
     /// With --full: explore every case depth first (by default only the 4-thread warps with M =
-    /// 2 and reallocation are: their BFS levels hold millions of states); the same states are
-    /// visited, counterexamples are no longer shortest.
+    /// 2 and reallocation are: their BFS levels hold millions of states); the same properties
+    /// are checked on every reachable state, counterexamples are no longer shortest.
     #[arg(long)]
     pub dfs: bool,
     /// With --full: leave out the 4-thread warps with M = 2 and reallocation (minutes each).
@@ -280,6 +280,21 @@ fn print_report(output: &OutputArgs, t: &Table, verdict: Option<&str>) -> Result
     Ok(())
 }
 
+/// The cases of the full set `--quick` and `--only` leave.
+fn selected_cases(args: &Args) -> Result<Vec<Case>> {
+    let mut cases = full_cases();
+    if args.quick {
+        cases.retain(|c| !c.dfs);
+    }
+    if let Some(only) = &args.only {
+        cases.retain(|c| c.describe().contains(only.as_str()));
+        if cases.is_empty() {
+            bail!("--only {only:?}: no case of the full set matches");
+        }
+    }
+    Ok(cases)
+}
+
 /// `--full`: every configuration of the full set to its fixpoint, every cover goal asserted.
 fn run_full(args: &Args) -> Result<()> {
     let design = design(mutant(args.mutant.as_deref())?);
@@ -298,16 +313,7 @@ fn run_full(args: &Args) -> Result<()> {
     ]);
     let started = std::time::Instant::now();
     let mut failed = Vec::new();
-    let mut cases = full_cases();
-    if args.quick {
-        cases.retain(|c| !c.dfs);
-    }
-    if let Some(only) = &args.only {
-        cases.retain(|c| c.describe().contains(only.as_str()));
-        if cases.is_empty() {
-            bail!("--only {only:?}: no case of the full set matches");
-        }
-    }
+    let cases = selected_cases(args)?;
     for case in &cases {
         let c = &case.cfg;
         let cap = args.cap.unwrap_or(case.cap);
@@ -409,6 +415,24 @@ mod grid_tests {
     struct Cli {
         #[command(flatten)]
         args: Args,
+    }
+
+    fn cases(argv: &[&str]) -> Result<Vec<String>> {
+        let cli = Cli::try_parse_from(["check", "--full"].into_iter().chain(argv.iter().copied()))?;
+        Ok(selected_cases(&cli.args)?.iter().map(Case::describe).collect())
+    }
+
+    #[test]
+    fn quick_and_only_select_cases_of_the_full_set() {
+        let all = cases(&[]).unwrap();
+        let quick = cases(&["--quick"]).unwrap();
+        assert_eq!(all.len(), quick.len() + 2, "--quick leaves out the two large cases");
+        assert!(!quick
+            .iter()
+            .any(|c| c.starts_with("RB_1+SH_2+SK+RA warp 4 borrow 2 flush 1") && !c.contains("lanes")));
+        assert_eq!(cases(&["--only", "lanes 0001"]).unwrap().len(), 2);
+        let e = cases(&["--only", "no such case"]).unwrap_err().to_string();
+        assert!(e.contains("--only \"no such case\""), "{e}");
     }
 
     fn configs(argv: &[&str]) -> Result<Vec<String>> {
