@@ -6,7 +6,9 @@
 //! micro-op of a busy thread. So every interleaving of commands *and* of micro-ops across
 //! threads is covered, including a release racing a borrow. Equal states (design + reference)
 //! are explored once. After every action the properties of [`super::invariants`] are checked;
-//! the first violation comes back with the shortest action sequence that reaches it.
+//! the first violation comes back with the shortest action sequence that reaches it (depth
+//! first, for the largest cases: a sequence that reaches it). Micro-ops private to one thread
+//! are not interleaved with other threads' actions (partial-order reduction, below).
 //!
 //! **Fixpoint.** With [`Bounds::fixpoint`] there is no bound on the number of actions: the
 //! search runs until a BFS level brings no new state, so every state reachable while the warp
@@ -312,7 +314,7 @@ pub struct Coverage {
     /// Most states in one BFS level (depth first: the models held on the path at its peak).
     pub peak_frontier: usize,
     /// Bytes of the models the search held at its peak (one BFS level, or the depth-first
-    /// path), from [`Model::heap_bytes`] plus each model's inline size.
+    /// path), from [`Model::bytes`].
     pub peak_frontier_bytes: usize,
     /// States expanded by one private micro-op alone ([`Bounds::por`]).
     pub reduced: usize,
@@ -792,7 +794,8 @@ fn trace_of(parents: &[(u32, Option<Action>)], mut id: u32) -> Vec<Action> {
 /// Explores every action sequence up to `bounds.depth` on one warp of `cfg` (breadth first, so
 /// counterexamples are shortest), or to the fixpoint: until no new state appears. `design` may
 /// replace the stack manager (a mutant). Returns what was covered, or the first violation with
-/// its shortest trace.
+/// its shortest trace (shortest in the reduced graph with [`Bounds::por`]; with [`Bounds::dfs`]
+/// the search is depth first and the trace is the path that reached it).
 ///
 /// States are stored as 128-bit hashes of everything that decides future behaviour — the
 /// design's registers, queues, sequencers and memory words ([`StackManager::hash_state`]) and the
@@ -1005,7 +1008,7 @@ fn check_dfs(
     Ok(cov)
 }
 
-/// Every how many steps of its path the depth-first search keeps a model ([`check_dfs`]).
+/// Every how many steps of its path the depth-first search ([`Bounds::dfs`]) keeps a model.
 pub const CHECKPOINT: usize = 32;
 
 /// The small configurations the test suite checks exhaustively: N in {1, 2}, M in {0, 1, 2},
