@@ -6,7 +6,8 @@
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Cmd, Mutant};
 use tb::run::verify::exhaustive::{
-    check, default_cap, describe, full_cases, full_configs, Action, Bounds, Coverage, Goal, Model,
+    check, default_cap, describe, full_cases, full_configs, is_large, large_cap, Action, Bounds, Case,
+    Coverage, Goal, Model,
 };
 use tb::run::verify::invariants::{formula_base, Property};
 
@@ -228,4 +229,99 @@ fn one_marked_push_per_run_proves_the_same_with_fewer_states() {
     let cex = check(sh2, bounds, |sm| sm.with_mutant(Some(Mutant::ReloadWrongEntry)))
         .expect_err("ReloadWrongEntry survived one mark");
     assert_eq!(cex.violation.property, Property::Conservation);
+}
+
+/// The goals a run reached (count > 0), of every goal.
+fn reached(cov: &Coverage) -> Vec<Goal> {
+    Goal::ALL.into_iter().filter(|&g| cov.covers.count(g) > 0).collect()
+}
+
+/// The partial-order reduction (`Bounds::por`, the fixpoint default; soundness argument in the
+/// module doc of `exhaustive`) in practice: on every breadth-first case of `sms check --full`,
+/// the reduced and the unreduced search both reach their fixpoint and reach the same cover
+/// goals, and the reduction expands some states by one action and visits fewer states in all.
+#[test]
+fn partial_order_reduction_keeps_every_verdict_and_cover() {
+    let (mut with, mut without) = (0, 0);
+    for case in full_cases().into_iter().filter(|c| !c.dfs) {
+        let on =
+            check(case.cfg, case.bounds(), |sm| sm).unwrap_or_else(|e| panic!("{}: {e}", case.describe()));
+        let off = check(case.cfg, Bounds { por: false, ..case.bounds() }, |sm| sm)
+            .unwrap_or_else(|e| panic!("{} without POR: {e}", case.describe()));
+        println!(
+            "{:60} states {:7} with POR ({} reduced), {:7} without",
+            case.describe(),
+            on.states,
+            on.reduced,
+            off.states
+        );
+        assert!(on.fixpoint && off.fixpoint, "{}", case.describe());
+        assert_eq!(off.reduced, 0);
+        assert_eq!(reached(&on), reached(&off), "{}: covers differ with POR", case.describe());
+        assert_eq!(on.covers.missing_of(&case.goals()), vec![], "{}", case.describe());
+        with += on.states;
+        without += off.states;
+    }
+    println!("all cases: {with} states with POR, {without} without");
+    assert!(with < without, "{with} vs {without}");
+}
+
+/// Depth first (`Bounds::dfs`) proves what breadth first proves: on one case per feature both
+/// reach their fixpoint with the same covers, the depth-first search holding far fewer models.
+#[test]
+fn depth_first_search_proves_what_breadth_first_proves() {
+    let picks = [
+        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some()),
+        find(|c| c.rb == RbSize::Entries(2) && c.sh_entries == 1 && c.warp_size == 4 && c.realloc.is_some()),
+        find(|c| c.banks == 8 && c.realloc.is_none()),
+    ];
+    for c in picks {
+        let bfs = check(c, Bounds::fixpoint(default_cap(&c)), |sm| sm).unwrap();
+        let dfs = check(c, Bounds { dfs: true, ..Bounds::fixpoint(default_cap(&c)) }, |sm| sm).unwrap();
+        println!(
+            "{:48} BFS {} states, peak {} models ({} B); DFS {} states, peak {} models ({} B)",
+            describe(&c),
+            bfs.states,
+            bfs.peak_frontier,
+            bfs.peak_frontier_bytes,
+            dfs.states,
+            dfs.peak_frontier,
+            dfs.peak_frontier_bytes
+        );
+        assert!(bfs.fixpoint && dfs.fixpoint, "{}", describe(&c));
+        assert_eq!(reached(&bfs), reached(&dfs), "{}", describe(&c));
+        assert_eq!(dfs.covers.missing(&c), vec![], "{}", describe(&c));
+    }
+}
+
+/// The 4-thread warps with M = 2 and reallocation are in `sms check --full`, depth first under
+/// `large_cap` (minutes there). Here the cheap part: RB_1's under cap 4, depth first with the
+/// reduction, reaches its fixpoint with a borrow, a rotated release, a flush and a warp exit
+/// after a borrow reached, and catches a planted bug.
+#[test]
+fn four_thread_m2_reallocation_depth_first_under_a_small_cap() {
+    let large: Vec<Case> = full_cases().into_iter().filter(|c| is_large(&c.cfg) && !c.partial()).collect();
+    assert_eq!(large.len(), 2, "RB_1 and RB_2");
+    assert!(large.iter().all(|c| c.dfs && c.cap == large_cap(&c.cfg)));
+    assert!(full_cases().iter().all(|c| c.dfs == large.iter().any(|l| l.describe() == c.describe())));
+    let c = large[0].cfg;
+    assert_eq!((c.rb, large_cap(&c)), (RbSize::Entries(1), 6));
+    let bounds = Bounds { cap: Some(4), ..large[0].bounds() };
+    let cov = check(c, bounds, |sm| sm).unwrap_or_else(|e| panic!("{}: {e}", describe(&c)));
+    println!(
+        "{} cap 4: {} states, longest path {}, {} models held at the peak ({} B), visited {} B, {:.2?}",
+        describe(&c),
+        cov.states,
+        cov.depth_reached,
+        cov.peak_frontier,
+        cov.peak_frontier_bytes,
+        cov.visited_bytes,
+        cov.elapsed
+    );
+    assert!(cov.fixpoint);
+    let goals = [Goal::Borrow, Goal::RotatedRelease, Goal::Flush, Goal::ExitAfterBorrow];
+    assert_eq!(cov.covers.missing_of(&goals), vec![]);
+    let cex = check(c, bounds, |sm| sm.with_mutant(Some(Mutant::LendActiveStack)))
+        .expect_err("LendActiveStack survived");
+    println!("  LendActiveStack: {} after {} actions", cex.violation, cex.trace.len());
 }

@@ -12,8 +12,23 @@
 //!   full-size configuration of SPEC section 8;
 //! - exhaustively: `tests/fixpoint.rs` and `tests/exhaustive.rs` drive the same `Model::act`.
 //!
-//! The harness bodies allocate nothing themselves (fixed-size input arrays, covers as flags);
-//! the model under them allocates its registers once, at construction.
+//! The harness bodies allocate nothing themselves (fixed-size input arrays, covers as static
+//! flags, no `Vec`). What still allocates under them, all of it bounded by the configuration
+//! (warp size W ≤ 4, M ≤ 2 here) and by `LEN`, so Kani's bounded-`Vec` model covers it within
+//! `unwind(12)`:
+//! - at construction (`Model::new`): the stack manager's per-thread vectors (registers, RB
+//!   queues, sequencers, SH array, spill regions: W or W·M elements each, sized by
+//!   `Config`), the scoreboard's W reference stacks and Done flags, and the W latch shadows;
+//! - per action: the RB queue, spill region, reference stack and sequencer grow by at most
+//!   the entries one command moves (≤ 4 micro-ops; each grows at most `LEN` deep over a run),
+//!   `run_valued`'s counterexample trace (one `Action` per action, ≤ `LEN`), and the checks'
+//!   scratch vectors — a snapshot of the W stack registers and of one spill region before a
+//!   command, the chains walked (≤ 1 + borrow limit stacks), the logical stacks rebuilt for
+//!   Conservation (≤ `LEN` entries), the holder table of Chains (W).
+//!
+//! The stack manager's vectors are sized from the configuration at run time (one type serves
+//! every warp size and M), so making them fixed arrays would change the design's types, which
+//! this layer does not own; the checks' scratch vectors are the next candidates.
 
 use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 

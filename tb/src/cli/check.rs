@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::run::verify::exhaustive::{check, describe, full_cases, Action, Bounds, Coverage, Model};
+use crate::run::verify::exhaustive::{check, describe, full_cases, Action, Bounds, Case, Coverage, Model};
 use anyhow::{bail, Result};
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Mutant, StackManager};
@@ -65,7 +65,9 @@ pub struct Args {
     /// Prove instead of search: explore every case of the full set (the small grid, skewed
     /// configurations with 4 and 8 banks, and 4-thread warps with one active lane whose chains
     /// of three stacks rotate) to its fixpoint, every interleaving unbounded in time, under a
-    /// cap on the entries the warp holds; a cover goal never reached fails the run.
+    /// cap on the entries the warp holds; a cover goal never reached fails the run. The 4-thread
+    /// warps with M = 2 and reallocation are searched depth first under a smaller cap, RB plus
+    /// twice SH plus one, and take minutes; --quick leaves them out.
     /// Ignores the grid (--rb, --sh, --warp-sizes, --borrow-limits), the configuration flags
     /// (-c, --warp-size, --borrow-limit, --flush-limit), --depth and --wide-depth.
     #[arg(long)]
@@ -75,9 +77,26 @@ pub struct Args {
     /// With --full: the cap on the entries the warp holds (default per case: RB + SH × (1 +
     /// borrow limit) + 1, enough to fill a whole chain and reach global memory; for the one-lane
     /// cases RB + 2 × SH × (1 + borrow limit) + 1, so every stack is flushed once and the first
-    /// twice).
+    /// twice; for the 4-thread warps with M = 2 and reallocation RB + 2 × SH + 1).
     #[arg(long)]
     pub cap: Option<u32>,
+    /// With --full: explore without the partial-order reduction (every interleaving of private
+    /// micro-ops — global loads and stores, latch → RB bottom — with other threads' actions; same
+    /// verdict and covers, more states).
+    #[arg(long)]
+    pub no_por: bool,
+    /// With --full: prove only the cases whose description contains this text (e.g. "SH_2+SK+RA
+    /// warp 4"); an error if none does.
+    #[arg(long, value_name = "TEXT")]
+    pub only: Option<String>,
+    /// With --full: explore every case depth first (by default only the 4-thread warps with M =
+    /// 2 and reallocation are: their BFS levels hold millions of states); the same properties
+    /// are checked on every reachable state, counterexamples are no longer shortest.
+    #[arg(long)]
+    pub dfs: bool,
+    /// With --full: leave out the 4-thread warps with M = 2 and reallocation (minutes each).
+    #[arg(long)]
+    pub quick: bool,
 }
 
 /// The planted bug `--mutant` names, if any.
@@ -261,6 +280,21 @@ fn print_report(output: &OutputArgs, t: &Table, verdict: Option<&str>) -> Result
     Ok(())
 }
 
+/// The cases of the full set `--quick` and `--only` leave.
+fn selected_cases(args: &Args) -> Result<Vec<Case>> {
+    let mut cases = full_cases();
+    if args.quick {
+        cases.retain(|c| !c.dfs);
+    }
+    if let Some(only) = &args.only {
+        cases.retain(|c| c.describe().contains(only.as_str()));
+        if cases.is_empty() {
+            bail!("--only {only:?}: no case of the full set matches");
+        }
+    }
+    Ok(cases)
+}
+
 /// `--full`: every configuration of the full set to its fixpoint, every cover goal asserted.
 fn run_full(args: &Args) -> Result<()> {
     let design = design(mutant(args.mutant.as_deref())?);
@@ -271,13 +305,15 @@ fn run_full(args: &Args) -> Result<()> {
         "depth",
         "seconds",
         "peak frontier",
+        "frontier MB",
         "visited MB",
+        "reduced",
         "fixpoint",
         "covers missing",
     ]);
     let started = std::time::Instant::now();
     let mut failed = Vec::new();
-    let cases = full_cases();
+    let cases = selected_cases(args)?;
     for case in &cases {
         let c = &case.cfg;
         let cap = args.cap.unwrap_or(case.cap);
@@ -288,6 +324,9 @@ fn run_full(args: &Args) -> Result<()> {
             max_states: args.max_states,
             cap: Some(cap),
             one_mark: !args.all_values,
+            por: !args.no_por,
+            dfs: args.dfs || case.dfs,
+            progress: true,
             ..case.bounds()
         };
         let cov = match check(*c, bounds, design) {
@@ -321,7 +360,9 @@ fn run_full(args: &Args) -> Result<()> {
             cov.depth_reached.to_string(),
             format!("{:.2}", cov.elapsed.as_secs_f64()),
             cov.peak_frontier.to_string(),
+            format!("{:.1}", cov.peak_frontier_bytes as f64 / 1e6),
             format!("{:.1}", cov.visited_bytes as f64 / 1e6),
+            cov.reduced.to_string(),
             if cov.fixpoint { "yes".into() } else { "state cap".into() },
             if missing.is_empty() {
                 "-".into()
@@ -374,6 +415,24 @@ mod grid_tests {
     struct Cli {
         #[command(flatten)]
         args: Args,
+    }
+
+    fn cases(argv: &[&str]) -> Result<Vec<String>> {
+        let cli = Cli::try_parse_from(["check", "--full"].into_iter().chain(argv.iter().copied()))?;
+        Ok(selected_cases(&cli.args)?.iter().map(Case::describe).collect())
+    }
+
+    #[test]
+    fn quick_and_only_select_cases_of_the_full_set() {
+        let all = cases(&[]).unwrap();
+        let quick = cases(&["--quick"]).unwrap();
+        assert_eq!(all.len(), quick.len() + 2, "--quick leaves out the two large cases");
+        assert!(!quick
+            .iter()
+            .any(|c| c.starts_with("RB_1+SH_2+SK+RA warp 4 borrow 2 flush 1") && !c.contains("lanes")));
+        assert_eq!(cases(&["--only", "lanes 0001"]).unwrap().len(), 2);
+        let e = cases(&["--only", "no such case"]).unwrap_err().to_string();
+        assert!(e.contains("--only \"no such case\""), "{e}");
     }
 
     fn configs(argv: &[&str]) -> Result<Vec<String>> {

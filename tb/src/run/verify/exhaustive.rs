@@ -6,7 +6,9 @@
 //! micro-op of a busy thread. So every interleaving of commands *and* of micro-ops across
 //! threads is covered, including a release racing a borrow. Equal states (design + reference)
 //! are explored once. After every action the properties of [`super::invariants`] are checked;
-//! the first violation comes back with the shortest action sequence that reaches it.
+//! the first violation comes back with the shortest action sequence that reaches it (depth
+//! first, for the largest cases: a sequence that reaches it). Micro-ops private to one thread
+//! are not interleaved with other threads' actions (partial-order reduction, below).
 //!
 //! **Fixpoint.** With [`Bounds::fixpoint`] there is no bound on the number of actions: the
 //! search runs until a BFS level brings no new state, so every state reachable while the warp
@@ -40,6 +42,59 @@
 //! ([`Bounds::one_mark`]): a push offers MARKED only while no push of the run has taken it,
 //! which keeps the states linear rather than exponential in the entries held; the bounded
 //! search offers every value 1..=`values` at every push.
+//!
+//! **Partial-order reduction** ([`Bounds::por`], on for the fixpoint runs). An ample-set
+//! reduction (Peled, CAV 1993; Godefroid, LNCS 1032, 1996; Clarke, Grumberg and Peled, *Model
+//! Checking*, ch. 10): a state whose thread `t` has a *private* micro-op next — a global load,
+//! a global store, or latch → RB bottom ([`Model::private_uop`], the lowest such thread) — is
+//! expanded by that one action α; every other state by all its actions. Private means α reads
+//! and writes only thread `t`'s RB (`rb[t]`), its own spill region (`global[t]`: a global
+//! micro-op carries a slot of the *issuing* thread's region), its sequencer and data latch, and
+//! the model's shadow of that latch. In the design's code the only writers of those are `t`'s
+//! own micro-ops and `t`'s own commands (the planner's `Write::Rb*`, `Write::Global` and
+//! `Write::Seq` all name the planning or completing thread), and no other thread's planner or
+//! micro-op reads them: a command of `u` plans from `u`'s registers, the stack registers and the
+//! threads' Done bits. That is a property of the code that writes, not of the values it writes,
+//! so it holds for every mutant too (they change decisions, not which thread's RB or region a
+//! write names). The conditions:
+//! - C0: α is enabled, so the ample set is empty only when the state has no action.
+//! - C1 (independence): no action of another thread reads or writes what α touches, so α and
+//!   any such action commute (same state either order) and neither enables or disables the
+//!   other; the actions of `t` itself cannot run before α (its sequencer is in order and a
+//!   busy thread takes no command). So on every path from the state, only actions independent
+//!   of α occur before α.
+//! - C2 (invisibility): every check is monotone in α. The state checks after an action read the
+//!   stack and thread registers and the SH words (not written by α), the logical stacks of
+//!   *ready* threads (`t` is busy before α, so α can only add `t`'s check), and the quiescent
+//!   and warp-exit checks, which α can only switch on (as `t`'s last micro-op). So a check that
+//!   fails before α fails after it. The checks on another thread's action (Equivalence,
+//!   RequestSequence, LiveReads, the bank map, placement, the cover goals) read that thread's
+//!   state and the shared registers only, so they see the same before and after α.
+//! - C3 (cycle proviso): every reduced step completes a micro-op, so it lowers the number of
+//!   pending micro-ops by one; a cycle must contain a command, taken only from a fully expanded
+//!   state. So no action is ignored around a cycle, whatever the search order (BFS or DFS).
+//!
+//! Then any run of the full graph that reaches a failing check has a permutation, with α moved
+//! to the front, that the reduced graph contains and that fails a check too; by induction over
+//! the run, the reduced search finds a violation whenever the full one does, and reaches the
+//! same cover goals (observed on commands, which see the same state). SH micro-ops and releases
+//! are *not* private: which stack a command's micro-ops name, and who may take a stack next, is
+//! the planner's decision — the very thing under check — so treating them as independent would
+//! assume the Chains property the search is proving. `tests/fixpoint.rs` runs every BFS case
+//! with and without the reduction (same verdicts and covers, 6 % fewer states over the set) and
+//! `tests/mutants.rs` catches every mutant both ways. `sms check --full --no-por` turns it off.
+//!
+//! **Depth first.** The 4-thread warps with M = 2 and reallocation ([`Case::dfs`]) are searched
+//! depth first ([`Bounds::dfs`]): a BFS level of theirs holds millions of models (about 2.3 kB
+//! each: the stack manager's vectors, the scoreboard, the shadows), the depth-first path only
+//! one model per [`CHECKPOINT`] steps and the last [`CHECKPOINT`] steps' (a step otherwise costs
+//! its action list and the action that led there, about 100 bytes; a model dropped from the path
+//! is rebuilt by replaying the path's actions from the checkpoint below). Memory is then the
+//! visited set (17 to 34 bytes a state, no predecessor table). Same checks on every transition;
+//! the counterexamples are no longer shortest. (The key hashes a live SH word that a pending
+//! store is about to overwrite, so a state reached with different stale words there counts
+//! twice; which of them is met first depends on the order, so BFS and DFS counts differ by a
+//! few per cent.)
 //!
 //! **No lane symmetry.** Lanes of a warp are not interchangeable here: a borrower takes the
 //! *lowest-numbered* idle stack (`first_idle`), a chain's ring order follows Next TID, and with
@@ -90,6 +145,18 @@ pub struct Bounds {
     /// At most one push per run carries a distinguished value, the others all one value
     /// ([`Model::one_mark`]); `values` is then unused. On for [`Bounds::fixpoint`].
     pub one_mark: bool,
+    /// Partial-order reduction (module doc): a state whose thread has a private micro-op next
+    /// (global load, global store, latch → RB bottom) is expanded by that action alone. On for
+    /// [`Bounds::fixpoint`]; `sms check --no-por` turns it off.
+    pub por: bool,
+    /// Depth first instead of breadth first ([`check`]): the search then holds one model per
+    /// step of the current path instead of a whole BFS level, so memory is the visited set plus
+    /// the path; counterexamples are no longer shortest, and `depth` is ignored (to the
+    /// fixpoint only). For the large cases of [`full_cases`] ([`Case::dfs`]).
+    pub dfs: bool,
+    /// Print a progress line to stderr every 2²² states of a depth-first search (`sms check
+    /// --full`).
+    pub progress: bool,
 }
 
 impl Default for Bounds {
@@ -102,6 +169,9 @@ impl Default for Bounds {
             request_sequence: true,
             active: None,
             one_mark: false,
+            por: false,
+            dfs: false,
+            progress: false,
         }
     }
 }
@@ -110,7 +180,7 @@ impl Bounds {
     /// Every interleaving, unbounded in time, under the depth cap `cap`: a proof for the
     /// configuration when the run reaches its fixpoint ([`Coverage::fixpoint`]).
     pub fn fixpoint(cap: u32) -> Bounds {
-        Bounds { cap: Some(cap), one_mark: true, ..Bounds::default() }
+        Bounds { cap: Some(cap), one_mark: true, por: true, ..Bounds::default() }
     }
 }
 
@@ -125,6 +195,23 @@ pub fn default_cap(c: &Config) -> u32 {
         Some(n) => n + c.sh_entries * chain + 1 + extra,
         None => 3,
     }
+}
+
+/// The 4-thread warps with M = 2 and reallocation: the largest state spaces of the full set.
+pub fn is_large(c: &Config) -> bool {
+    c.warp_size == 4 && c.sh_entries == 2 && c.realloc.is_some()
+}
+
+/// The depth cap of the [`is_large`] configurations' fixpoint runs: one thread's RB, two full
+/// SH stacks and one entry more (the third stack of a chain), shared by the four lanes — 6
+/// entries for RB_1, 7 for RB_2. Every cover goal of the configuration is reached under it (the
+/// lanes' entries together force flushes, saturation, demotion and reloads into the oldest
+/// stack), and the search reaches its fixpoint: RB_1 in 10.6 · 10⁶ states, RB_2 in 4.8 · 10⁶.
+/// Under [`default_cap`] (8 and 9: a whole chain and one entry in global memory) RB_1 passed
+/// 41.9 · 10⁶ states in 618 s (1.4 GB resident, depth first with the reduction) without a
+/// fixpoint, and was stopped.
+pub fn large_cap(c: &Config) -> u32 {
+    c.rb.capacity().unwrap_or(0) + 2 * c.sh_entries + 1
 }
 
 /// The cover goals of issue 14, each a situation a run must reach (when the configuration has
@@ -217,14 +304,20 @@ pub struct Coverage {
     pub transitions: u64,
     /// Action sequences of every length up to the bound (counted through merged states).
     pub sequences: u128,
+    /// The last BFS level (depth first: the longest path).
     pub depth_reached: u32,
     /// The state cap was not hit.
     pub complete: bool,
     /// No new state appeared: every reachable state (under the depth cap) was explored.
     pub fixpoint: bool,
     pub elapsed: Duration,
-    /// Most states in one BFS level.
+    /// Most states in one BFS level (depth first: the models held on the path at its peak).
     pub peak_frontier: usize,
+    /// Bytes of the models the search held at its peak (one BFS level, or the depth-first
+    /// path), from [`Model::bytes`].
+    pub peak_frontier_bytes: usize,
+    /// States expanded by one private micro-op alone ([`Bounds::por`]).
+    pub reduced: usize,
     /// Bytes of the visited set and the predecessor table at the end (the search's memory
     /// besides the frontier).
     pub visited_bytes: usize,
@@ -453,6 +546,47 @@ impl Model {
         Ok(true)
     }
 
+    /// The lowest-numbered thread whose next micro-op is *private* — a global load, a global
+    /// store or latch → RB bottom: it reads and writes only that thread's RB, spill region,
+    /// sequencer and data latch, which no other thread's action reads or writes — or `None`.
+    /// The ample set of the partial-order reduction (module doc).
+    pub fn private_uop(&self) -> Option<u32> {
+        self.sm.warp_threads(0).find(|&t| {
+            matches!(
+                self.sm.pending_uops(t).next(),
+                Some(Uop::GlobalLoad { .. } | Uop::GlobalStore { .. } | Uop::RbBottom)
+            )
+        })
+    }
+
+    /// Bytes the model occupies: its inline size plus the heap blocks it owns (an estimate from
+    /// lengths through the public accessors, each block rounded up to 16 bytes with 16 bytes of
+    /// allocator overhead; the stack manager's own vectors are counted from the configuration).
+    pub fn bytes(&self) -> usize {
+        let block = |n: usize| if n == 0 { 0 } else { n.div_ceil(16) * 16 + 16 };
+        let sm = &self.sm;
+        let n = sm.config().warp_size as usize;
+        let m = sm.config().sh_entries as usize;
+        let mut b = std::mem::size_of::<Model>();
+        // threads, stacks, rb, seq, queued, sh_data, global: one block each.
+        b += block(n * std::mem::size_of::<rtl::stack_manager::ThreadRegs>());
+        b += block(n * std::mem::size_of::<StackRegs>());
+        b += block(n * std::mem::size_of::<std::collections::VecDeque<u64>>());
+        b += block(n * (std::mem::size_of::<std::collections::VecDeque<Uop>>() + 48));
+        b += block(8) + block(n * m * 8);
+        b += block(n * std::mem::size_of::<Vec<u64>>());
+        for t in sm.warp_threads(0) {
+            b += block(sm.rb(t).len() * 8);
+            b += block(sm.pending_uops(t).count() * std::mem::size_of::<Uop>());
+            b += block(sm.global(t).len() * 8);
+            b += block(self.sb.reference(t).len() * 8);
+        }
+        b += block(n * std::mem::size_of::<super::reference::RefStack>()) + block(n);
+        b += block(n * std::mem::size_of::<Shadow>());
+        b += self.shadow.iter().map(|s| block(s.global_loads.len() * 8)).sum::<usize>();
+        b
+    }
+
     /// Entries the warp holds (the reference's view).
     pub fn held(&self) -> u32 {
         self.sm.warp_threads(0).map(|t| self.sb.reference(t).len() as u32).sum()
@@ -660,7 +794,8 @@ fn trace_of(parents: &[(u32, Option<Action>)], mut id: u32) -> Vec<Action> {
 /// Explores every action sequence up to `bounds.depth` on one warp of `cfg` (breadth first, so
 /// counterexamples are shortest), or to the fixpoint: until no new state appears. `design` may
 /// replace the stack manager (a mutant). Returns what was covered, or the first violation with
-/// its shortest trace.
+/// its shortest trace (shortest in the reduced graph with [`Bounds::por`]; with [`Bounds::dfs`]
+/// the search is depth first and the trace is the path that reached it).
 ///
 /// States are stored as 128-bit hashes of everything that decides future behaviour — the
 /// design's registers, queues, sequencers and memory words ([`StackManager::hash_state`]) and the
@@ -685,6 +820,9 @@ pub fn check(
     if let Err(violation) = placed.and_then(|_| check_no_overlap(&model.sm)) {
         return Err(Box::new(Counterexample { violation, trace: vec![] }));
     }
+    if bounds.dfs {
+        return check_dfs(model, bounds, cov, start);
+    }
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
     let mut parents: Vec<(u32, Option<Action>)> = vec![(0, None)];
@@ -695,7 +833,15 @@ pub fn check(
         let mut next: Vec<Node> = Vec::new();
         let mut index: HashMap<u128, usize> = HashMap::new();
         for node in &frontier {
-            for a in node.model.actions_capped(bounds.values, bounds.cap) {
+            let ample = if bounds.por { node.model.private_uop() } else { None };
+            if ample.is_some() {
+                cov.reduced += 1;
+            }
+            let actions = match ample {
+                Some(t) => vec![Action::Uop(t)],
+                None => node.model.actions_capped(bounds.values, bounds.cap),
+            };
+            for a in actions {
                 cov.transitions += 1;
                 let mut model = node.model.clone();
                 match model.act(a, &mut cov) {
@@ -723,7 +869,10 @@ pub fn check(
             }
         }
         cov.states = seen.len();
-        cov.peak_frontier = cov.peak_frontier.max(next.len());
+        if next.len() > cov.peak_frontier {
+            cov.peak_frontier = next.len();
+            cov.peak_frontier_bytes = next.iter().map(|n| n.model.bytes()).sum();
+        }
         if next.is_empty() {
             // Nothing new at this level: the previous one was the last.
             depth -= 1;
@@ -744,6 +893,123 @@ pub fn check(
     cov.elapsed = start.elapsed();
     Ok(cov)
 }
+
+/// [`check`] depth first (`bounds.dfs`), to the fixpoint: every state reachable from `model`
+/// (under the cap, with the reduction if `bounds.por`) is visited once and every property
+/// checked on every transition out of it. The search holds the visited set (128-bit keys) and
+/// the current path: per step the action that led there and the actions still to try, and the
+/// model itself only at every [`CHECKPOINT`]-th step and in the last [`CHECKPOINT`] steps —
+/// backtracking below that window rebuilds a step's model by replaying the path's actions from
+/// the checkpoint under it (the actions are deterministic, so it is the same model).
+fn check_dfs(
+    model: Model,
+    bounds: Bounds,
+    mut cov: Coverage,
+    start: Instant,
+) -> Result<Coverage, Box<Counterexample>> {
+    struct Frame {
+        /// Held at checkpoints and in the window of the last steps (see above).
+        model: Option<Box<Model>>,
+        actions: Vec<Action>,
+        next: usize,
+        /// The action that led here (none at the root).
+        via: Option<Action>,
+    }
+    let expand = |m: &Model, cov: &mut Coverage| -> Vec<Action> {
+        match if bounds.por { m.private_uop() } else { None } {
+            Some(t) => {
+                cov.reduced += 1;
+                vec![Action::Uop(t)]
+            }
+            None => m.actions_capped(bounds.values, bounds.cap),
+        }
+    };
+    let mut seen: HashSet<u128> = HashSet::new();
+    seen.insert(model.key());
+    let actions = expand(&model, &mut cov);
+    let mut path_bytes = model.bytes();
+    let mut path = vec![Frame { model: Some(Box::new(model)), actions, next: 0, via: None }];
+    let mut held = 1;
+    cov.fixpoint = true;
+    while let Some(i) = path.len().checked_sub(1) {
+        if path[i].next >= path[i].actions.len() {
+            if let Some(m) = path.pop().and_then(|f| f.model) {
+                path_bytes -= m.bytes();
+                held -= 1;
+            }
+            continue;
+        }
+        if path[i].model.is_none() {
+            // Rebuild from the checkpoint below (which holds its model).
+            let mut scratch = Coverage::default();
+            for j in i - i % CHECKPOINT + 1..=i {
+                if path[j].model.is_some() {
+                    continue;
+                }
+                let mut m = path[j - 1].model.clone().expect("the step below holds its model");
+                let via = path[j].via.expect("a step above the root");
+                assert!(matches!(m.act(via, &mut scratch), Ok(true)), "replaying a checked action");
+                path_bytes += m.bytes();
+                held += 1;
+                path[j].model = Some(m);
+            }
+        }
+        let a = path[i].actions[path[i].next];
+        path[i].next += 1;
+        cov.transitions += 1;
+        let mut model = Model::clone(path[i].model.as_ref().expect("the top step holds its model"));
+        match model.act(a, &mut cov) {
+            Ok(true) => {}
+            Ok(false) => continue,
+            Err(violation) => {
+                let mut trace: Vec<Action> = path.iter().filter_map(|f| f.via).collect();
+                trace.push(a);
+                return Err(Box::new(Counterexample { violation, trace }));
+            }
+        }
+        if !seen.insert(model.key()) {
+            continue;
+        }
+        if seen.len() >= bounds.max_states {
+            cov.complete = false;
+            cov.fixpoint = false;
+            break;
+        }
+        if bounds.progress && seen.len().is_multiple_of(1 << 22) {
+            eprintln!(
+                "  ... {} states, path {}, {held} models held, {:.0} s",
+                seen.len(),
+                path.len(),
+                start.elapsed().as_secs_f64()
+            );
+        }
+        let actions = expand(&model, &mut cov);
+        path_bytes += model.bytes();
+        held += 1;
+        path.push(Frame { model: Some(Box::new(model)), actions, next: 0, via: Some(a) });
+        // The step leaving the window drops its model unless it is a checkpoint.
+        let d = path.len() - 1;
+        if let Some(old) = d.checked_sub(CHECKPOINT).filter(|&j| j % CHECKPOINT != 0) {
+            if let Some(m) = path[old].model.take() {
+                path_bytes -= m.bytes();
+                held -= 1;
+            }
+        }
+        if path_bytes > cov.peak_frontier_bytes {
+            cov.peak_frontier = held;
+            cov.peak_frontier_bytes = path_bytes;
+        }
+        cov.depth_reached = cov.depth_reached.max(d as u32);
+    }
+    cov.states = seen.len();
+    cov.visited_bytes =
+        seen.capacity() * (std::mem::size_of::<u128>() + 1) + path.capacity() * std::mem::size_of::<Frame>();
+    cov.elapsed = start.elapsed();
+    Ok(cov)
+}
+
+/// Every how many steps of its path the depth-first search ([`Bounds::dfs`]) keeps a model.
+pub const CHECKPOINT: usize = 32;
 
 /// The small configurations the test suite checks exhaustively: N in {1, 2}, M in {0, 1, 2},
 /// warps of 2 and 4 threads, with and without skew and reallocation (borrow limit 1–2, flush
@@ -773,17 +1039,12 @@ pub fn small_configs() -> Vec<Config> {
     out
 }
 
-/// Every configuration `sms check --full` proves to its fixpoint: [`small_configs`] without the
-/// 4-thread warps that combine M = 2 with reallocation (under a cap that reaches global memory
-/// their state spaces pass 4·10⁶ states; reallocation is proved with M = 2 on 2-thread warps and
-/// with chains of three stacks at M = 1 on 4-thread warps), plus skewed configurations with 4
-/// and 8 banks, where base entries differ between lanes (with the paper's 32 banks every small
+/// Every configuration `sms check --full` proves to its fixpoint: [`small_configs`] (the
+/// 4-thread warps that combine M = 2 with reallocation depth first under [`large_cap`]), plus
+/// skewed configurations with 4 and 8 banks, where base entries differ between lanes (with the paper's 32 banks every small
 /// configuration has k = 32 / (2M) ≥ warp size, so all bases are 0).
 pub fn full_configs() -> Vec<Config> {
-    let mut out: Vec<Config> = small_configs()
-        .into_iter()
-        .filter(|c| !(c.warp_size == 4 && c.sh_entries == 2 && c.realloc.is_some()))
-        .collect();
+    let mut out: Vec<Config> = small_configs().into_iter().collect();
     out.extend(skew_configs().into_iter().filter(|c| c.realloc.is_none()));
     out
 }
@@ -796,15 +1057,21 @@ pub struct Case {
     /// Bit per lane; the others start finished (their stacks Idle with reallocation).
     pub active: u32,
     pub cap: u32,
+    /// Explore depth first ([`Bounds::dfs`]): the 4-thread warps with M = 2 and reallocation,
+    /// whose BFS levels would hold millions of models.
+    pub dfs: bool,
 }
 
 impl Case {
     fn all_lanes(c: &Config) -> u32 {
         u32::MAX >> (32 - c.warp_size)
     }
-    /// Every lane active, under [`default_cap`].
+    /// Every lane active, under [`default_cap`] — or, for the 4-thread warps with M = 2 and
+    /// reallocation, depth first under [`large_cap`].
     pub fn full(cfg: Config) -> Case {
-        Case { cfg, active: Case::all_lanes(&cfg), cap: default_cap(&cfg) }
+        let dfs = is_large(&cfg);
+        let cap = if dfs { large_cap(&cfg) } else { default_cap(&cfg) };
+        Case { cfg, active: Case::all_lanes(&cfg), cap, dfs }
     }
     pub fn partial(&self) -> bool {
         self.active != Case::all_lanes(&self.cfg)
@@ -829,7 +1096,7 @@ impl Case {
         g
     }
     pub fn bounds(&self) -> Bounds {
-        Bounds { active: Some(self.active), ..Bounds::fixpoint(self.cap) }
+        Bounds { active: Some(self.active), dfs: self.dfs, ..Bounds::fixpoint(self.cap) }
     }
     pub fn describe(&self) -> String {
         let lanes = if self.partial() {
@@ -848,9 +1115,8 @@ impl Case {
 /// stack after its owner — with 1-entry stacks (cap 8), and with 2-entry skewed stacks over 8
 /// banks (bases 0 0 1 1: skew with reallocation; cap 14); and the skewed 2-entry
 /// configurations with reallocation of [`skew_configs`] (4 and 8 banks) with two lanes active,
-/// racing to borrow the two Idle stacks, under [`default_cap`]. (With all four lanes active,
-/// 4-thread warps with M = 2 and reallocation pass 8 · 10⁶ states and 5 GB of frontier before
-/// their fixpoint; two lanes with the one-lane cap 14 pass 8 · 10⁶ states too.)
+/// racing to borrow the two Idle stacks, under [`default_cap`]. (Two lanes with the one-lane
+/// cap 14 pass 8 · 10⁶ states.)
 pub fn full_cases() -> Vec<Case> {
     use rtl::config::{RbSize, Realloc};
     let mut out: Vec<Case> = full_configs().into_iter().map(Case::full).collect();
@@ -868,10 +1134,10 @@ pub fn full_cases() -> Vec<Case> {
         // RB, then every stack of the chain filled, flushed once, and the first flushed again
         // (flush saturation), then one more entry.
         let cap = 1 + 2 * m * 3 + 1;
-        out.push(Case { cfg, active: 1, cap });
+        out.push(Case { cfg, active: 1, cap, dfs: false });
     }
     for c in skew_configs().into_iter().filter(|c| c.realloc.is_some()) {
-        out.push(Case { cfg: c, active: 0b0011, cap: default_cap(&c) });
+        out.push(Case { cfg: c, active: 0b0011, cap: default_cap(&c), dfs: false });
     }
     out
 }

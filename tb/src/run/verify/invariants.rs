@@ -34,7 +34,7 @@ pub enum Property {
     /// A command's program reads only live data: every SH load an entry inside its stack's
     /// Bottom..Top when the command is accepted (or stored earlier by the same program), every
     /// global load a slot below the thread's spill pointer. The exhaustive search relies on it
-    /// to ignore stale memory words (see [`crate::exhaustive`]).
+    /// to ignore stale memory words (see [`super::exhaustive`]).
     LiveReads,
     /// Skew placement (DESIGN 9.6, SPEC section 4): every lane's stack starts at base entry
     /// `(lane / k) mod M`, `k = max(1, banks / (M × words per entry))` — at warp load and
