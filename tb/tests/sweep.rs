@@ -418,6 +418,9 @@ fn an_interrupted_sweep_resumes_from_its_cache_with_identical_reports() {
     // Everything cached now; a plan that is a subset reuses the same results.
     let sub_out = out_dir("subset");
     let cache = resumed.join("cache");
+    // This sweep's files (the seed and hardware changes below add others, which it never reads).
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().path()).collect();
+    files.sort();
     let subset =
         ["--configs", "RB_8,SMS", "--rb-sizes", "8", "--l1d-sizes", "64", "--cache", cache.to_str().unwrap()];
     assert_eq!(cache_counts(&ok(tiny_sweep(&sub_out, &subset, None))), (4, 4));
@@ -430,9 +433,8 @@ fn an_interrupted_sweep_resumes_from_its_cache_with_identical_reports() {
     let (hits, _) = cache_counts(&ok(tiny_sweep(&resumed, &["--hw", hw.to_str().unwrap()], None)));
     assert_eq!(hits, 0, "a hardware change recomputes");
 
-    // Corrupt files: one truncated, one garbage, one holding another result's key.
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().path()).collect();
-    files.sort();
+    // Corrupt files of this sweep: one truncated, one garbage, one holding another result's key.
+    // (Files of the other sweeps would not be read, whichever way their hashed names sort.)
     let first = std::fs::read(&files[0]).unwrap();
     std::fs::write(&files[0], &first[..first.len() / 2]).unwrap();
     std::fs::write(&files[1], b"\x00\x01 not json").unwrap();
