@@ -7,8 +7,8 @@
 //! `-- --overhead` times only the SMS run with a `NullSink` (best of 3) and prints one
 //! `overhead_run_seconds BUILD WALL CPU` line, for `scripts/trace-overhead.sh`, which compares
 //! this build with one whose probe calls are compiled out (`--features untraced`). CPU is the
-//! main thread's time on a CPU (Linux schedstat; the simulation, not the tracing thread), which other processes' load disturbs far less than
-//! wall time; it is NaN where unavailable.
+//! main thread's time on a CPU (Linux schedstat; the simulation, not the tracing thread), which
+//! other processes' load disturbs far less than wall time; it is NaN where unavailable.
 
 use std::time::Duration;
 

@@ -219,13 +219,17 @@ impl TagStore {
         if lru == NIL {
             return None;
         }
-        let w = self.slots[lru as usize].as_ref().expect("listed way holds a line");
-        Some(Victim {
+        Some(self.evicted(self.slots[lru as usize].as_ref().expect("listed way holds a line")))
+    }
+
+    /// What evicting way `w` gives up.
+    fn evicted(&self, w: &Way) -> Victim {
+        Victim {
             addr: w.line * u64::from(self.geom.line_bytes),
             valid: w.valid,
             dirty: w.dirty,
             dirty_kind: w.dirty_kind,
-        })
+        }
     }
 
     /// Makes the line of `addr` most recently used; no effect if absent.
@@ -254,13 +258,7 @@ impl TagStore {
                         self.unlink(set, slot);
                         let old = self.slots[slot].take().expect("LRU way");
                         self.index.remove(&old.line);
-                        let victim = Victim {
-                            addr: old.line * u64::from(self.geom.line_bytes),
-                            valid: old.valid,
-                            dirty: old.dirty,
-                            dirty_kind: old.dirty_kind,
-                        };
-                        (slot, Some(victim))
+                        (slot, Some(self.evicted(&old)))
                     }
                 };
                 self.slots[slot] = Some(Way { line, valid: 0, dirty: 0, dirty_kind: ReqKind::NodeFetch });

@@ -13,7 +13,7 @@
 //! depends on hash order; released waiter lists are kept for reuse, so a miss allocates nothing
 //! once the table has been that full before. The table is RAM-like state of
 //! its owner (an L1D or the L2): [`Mshr::check`] is a pure read, used by the owner's `eval`;
-//! [`Mshr::insert`] and [`Mshr::release`] are the write port, used only by the owner's `commit`.
+//! [`Mshr::insert`] and [`Mshr::release_each`] are the write port, used only by the owner's `commit`.
 
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
@@ -99,14 +99,17 @@ impl Mshr {
         outcome
     }
 
-    /// The fill for `key` arrived: frees its entry and returns its waiters, oldest first.
+    /// The fill for `key` arrived: frees its entry and returns its waiters, oldest first (the
+    /// tests' form of [`Mshr::release_each`]).
+    #[cfg(test)]
     pub fn release(&mut self, key: u64) -> Vec<Waiter> {
         let mut out = Vec::new();
         self.release_each(key, |w| out.push(*w));
         out
     }
 
-    /// [`Mshr::release`] without allocating: `f` sees each waiter of `key`, oldest first.
+    /// The fill for `key` arrived: frees its entry; `f` sees each of its waiters, oldest first.
+    /// Allocates nothing (the emptied list is kept for the next allocation).
     pub fn release_each(&mut self, key: u64, f: impl FnMut(&Waiter)) {
         if let Some(mut list) = self.entries.remove(&key) {
             list.iter().for_each(f);

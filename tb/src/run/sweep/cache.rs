@@ -247,10 +247,13 @@ impl CacheStats {
         };
         let stale = match (self.stale, self.pruned) {
             (0, _) => String::new(),
-            (n, true) => format!("; {n} stale file(s) ({}) deleted first", mib(self.stale_bytes)),
+            (n, true) => format!(
+                "; {n} stale file(s) ({}) deleted first",
+                crate::run::memory::describe(Some(self.stale_bytes))
+            ),
             (n, false) => format!(
                 "; {n} stale file(s) ({}) of other model versions or killed runs: --prune-cache deletes them",
-                mib(self.stale_bytes)
+                crate::run::memory::describe(Some(self.stale_bytes))
             ),
         };
         format!(
@@ -261,10 +264,6 @@ impl CacheStats {
             self.fresh
         )
     }
-}
-
-fn mib(bytes: u64) -> String {
-    format!("{:.1} MiB", bytes as f64 / (1024.0 * 1024.0))
 }
 
 /// A temporary file of another process younger than this may still be in use.

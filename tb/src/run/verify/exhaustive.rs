@@ -833,15 +833,7 @@ pub fn check(
         let mut next: Vec<Node> = Vec::new();
         let mut index: HashMap<u128, usize> = HashMap::new();
         for node in &frontier {
-            let ample = if bounds.por { node.model.private_uop() } else { None };
-            if ample.is_some() {
-                cov.reduced += 1;
-            }
-            let actions = match ample {
-                Some(t) => vec![Action::Uop(t)],
-                None => node.model.actions_capped(bounds.values, bounds.cap),
-            };
-            for a in actions {
+            for a in expand(&node.model, &bounds, &mut cov) {
                 cov.transitions += 1;
                 let mut model = node.model.clone();
                 match model.act(a, &mut cov) {
@@ -915,18 +907,9 @@ fn check_dfs(
         /// The action that led here (none at the root).
         via: Option<Action>,
     }
-    let expand = |m: &Model, cov: &mut Coverage| -> Vec<Action> {
-        match if bounds.por { m.private_uop() } else { None } {
-            Some(t) => {
-                cov.reduced += 1;
-                vec![Action::Uop(t)]
-            }
-            None => m.actions_capped(bounds.values, bounds.cap),
-        }
-    };
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
-    let actions = expand(&model, &mut cov);
+    let actions = expand(&model, &bounds, &mut cov);
     let mut path_bytes = model.bytes();
     let mut path = vec![Frame { model: Some(Box::new(model)), actions, next: 0, via: None }];
     let mut held = 1;
@@ -983,7 +966,7 @@ fn check_dfs(
                 start.elapsed().as_secs_f64()
             );
         }
-        let actions = expand(&model, &mut cov);
+        let actions = expand(&model, &bounds, &mut cov);
         path_bytes += model.bytes();
         held += 1;
         path.push(Frame { model: Some(Box::new(model)), actions, next: 0, via: Some(a) });
@@ -1006,6 +989,18 @@ fn check_dfs(
         seen.capacity() * (std::mem::size_of::<u128>() + 1) + path.capacity() * std::mem::size_of::<Frame>();
     cov.elapsed = start.elapsed();
     Ok(cov)
+}
+
+/// The actions explored out of `m`: with the reduction (`bounds.por`) a private micro-op alone,
+/// when `m` has one (counted in `cov.reduced`); else every action under the cap.
+fn expand(m: &Model, bounds: &Bounds, cov: &mut Coverage) -> Vec<Action> {
+    match bounds.por.then(|| m.private_uop()).flatten() {
+        Some(t) => {
+            cov.reduced += 1;
+            vec![Action::Uop(t)]
+        }
+        None => m.actions_capped(bounds.values, bounds.cap),
+    }
 }
 
 /// Every how many steps of its path the depth-first search ([`Bounds::dfs`]) keeps a model.
