@@ -445,11 +445,25 @@ named_enum!(
     Mutant::LendActiveStack => "lend-active-stack"
 );
 
-#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Debug, Default, PartialEq, Eq, Hash)]
 struct Sequencer {
     uops: VecDeque<Uop>,
     inflight: Option<Uop>,
     latch: Option<Entry>,
+}
+
+/// Field by field, so that `clone_from` keeps the queue's allocation (see [`StackManager`]'s).
+impl Clone for Sequencer {
+    fn clone(&self) -> Self {
+        let Sequencer { uops, inflight, latch } = self;
+        Sequencer { uops: uops.clone(), inflight: *inflight, latch: *latch }
+    }
+    fn clone_from(&mut self, src: &Self) {
+        let Sequencer { uops, inflight, latch } = src;
+        self.uops.clone_from(uops);
+        self.inflight = *inflight;
+        self.latch = *latch;
+    }
 }
 
 /// The members of one thread's chain, in ring order from its dedicated stack.
@@ -574,7 +588,7 @@ impl StackStep {
 }
 
 /// The stack manager of one RT unit: `warps × warp_size` threads.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Debug, PartialEq, Eq, Hash)]
 pub struct StackManager {
     cfg: Config,
     w: Widths,
@@ -599,6 +613,91 @@ pub struct StackManager {
     /// Reused by the one-command entry points ([`StackManager::accept`], `apply`); always empty
     /// between calls.
     scratch: StackStep,
+}
+
+/// Field by field, so that `clone_from` reuses every vector's allocation: the exhaustive search
+/// (`sms check`) clones a model for each transition it tries. Both functions destructure every
+/// field, so a field added to the struct and not cloned here does not compile.
+impl Clone for StackManager {
+    fn clone(&self) -> Self {
+        let StackManager {
+            cfg,
+            w,
+            sm,
+            local,
+            threads,
+            stacks,
+            rb,
+            seq,
+            queued,
+            sh_data,
+            global,
+            acked_stores,
+            stats,
+            #[cfg(feature = "mutants")]
+            mutant,
+            scratch,
+        } = self;
+        StackManager {
+            cfg: *cfg,
+            w: *w,
+            sm: *sm,
+            local: *local,
+            threads: threads.clone(),
+            stacks: stacks.clone(),
+            rb: rb.clone(),
+            seq: seq.clone(),
+            queued: queued.clone(),
+            sh_data: sh_data.clone(),
+            global: global.clone(),
+            acked_stores: *acked_stores,
+            stats: *stats,
+            #[cfg(feature = "mutants")]
+            mutant: *mutant,
+            scratch: scratch.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, src: &Self) {
+        let StackManager {
+            cfg,
+            w,
+            sm,
+            local,
+            threads,
+            stacks,
+            rb,
+            seq,
+            queued,
+            sh_data,
+            global,
+            acked_stores,
+            stats,
+            #[cfg(feature = "mutants")]
+            mutant,
+            scratch,
+        } = src;
+        self.cfg = *cfg;
+        self.w = *w;
+        self.sm = *sm;
+        self.local = *local;
+        self.threads.clone_from(threads);
+        self.stacks.clone_from(stacks);
+        self.rb.clone_from(rb);
+        self.seq.clone_from(seq);
+        self.queued.clone_from(queued);
+        self.sh_data.clone_from(sh_data);
+        self.global.clone_from(global);
+        self.acked_stores = *acked_stores;
+        self.stats = *stats;
+        #[cfg(feature = "mutants")]
+        {
+            self.mutant = *mutant;
+        }
+        // Empty between calls on both sides; keeping ours keeps its capacity.
+        debug_assert_eq!(*scratch, StackStep::default());
+        self.scratch.clear();
+    }
 }
 
 impl StackManager {

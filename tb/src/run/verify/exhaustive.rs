@@ -349,7 +349,7 @@ impl std::fmt::Display for Counterexample {
 }
 
 /// The design under test and its reference, checked after every action.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Model {
     pub sm: StackManager,
     pub sb: Scoreboard,
@@ -375,37 +375,112 @@ pub const MARKED: u64 = 1;
 /// Every other push value of such a run.
 pub const UNMARKED: u64 = 2;
 
-#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Debug, Default, PartialEq, Eq, Hash)]
 struct Shadow {
     latch: Option<u64>,
     global_loads: std::collections::VecDeque<u64>,
 }
 
-/// A fast 64-bit hasher (SplitMix64 finaliser per word); two seeds make a 128-bit state key.
-struct MixHasher(u64);
+impl Clone for Shadow {
+    fn clone(&self) -> Self {
+        Shadow { latch: self.latch, global_loads: self.global_loads.clone() }
+    }
+    fn clone_from(&mut self, src: &Self) {
+        self.latch = src.latch;
+        self.global_loads.clone_from(&src.global_loads);
+    }
+}
 
-impl Hasher for MixHasher {
+/// Field by field, so that `clone_from` reuses every allocation of the model it overwrites: the
+/// searches clone a model for each transition they try, and most of those land on a state seen
+/// before. Both functions name every field, so a new field not cloned here does not compile.
+impl Clone for Model {
+    fn clone(&self) -> Self {
+        let Model { sm, sb, shadow, borrowed, request_sequence, one_mark, marked } = self;
+        Model {
+            sm: sm.clone(),
+            sb: sb.clone(),
+            shadow: shadow.clone(),
+            borrowed: *borrowed,
+            request_sequence: *request_sequence,
+            one_mark: *one_mark,
+            marked: *marked,
+        }
+    }
+    fn clone_from(&mut self, src: &Self) {
+        let Model { sm, sb, shadow, borrowed, request_sequence, one_mark, marked } = src;
+        self.sm.clone_from(sm);
+        self.sb.clone_from(sb);
+        self.shadow.clone_from(shadow);
+        self.borrowed = *borrowed;
+        self.request_sequence = *request_sequence;
+        self.one_mark = *one_mark;
+        self.marked = *marked;
+    }
+}
+
+/// The state key's hasher. The bytes the state's `Hash` impls write form one stream (each
+/// write's bytes in order, as SipHash takes its input; the impls write lengths before contents,
+/// so the stream is unambiguous), packed into 64-bit words; each word goes through the SplitMix64
+/// finaliser ([`super::harness::mix`]) in two lanes with different seeds, the two halves of the
+/// 128-bit key. Packing mixes once per 8 bytes rather than once per field written.
+struct KeyHasher {
+    lanes: [u64; 2],
+    /// Bits written and not yet mixed (fewer than 64 between writes).
+    acc: u128,
+    bits: u32,
+    len: u64,
+}
+
+impl KeyHasher {
+    fn new() -> Self {
+        KeyHasher { lanes: [0x5EED_0001, 0xC0FF_EE02], acc: 0, bits: 0, len: 0 }
+    }
+    /// Appends the low `n` bits of `x` (`n` ≤ 64; the higher bits of `x` are zero).
+    #[inline]
+    fn push(&mut self, x: u64, n: u32) {
+        self.acc |= u128::from(x) << self.bits;
+        self.bits += n;
+        self.len += u64::from(n);
+        if self.bits >= 64 {
+            let w = self.acc as u64;
+            self.lanes = self.lanes.map(|h| super::harness::mix(h ^ w));
+            self.acc >>= 64;
+            self.bits -= 64;
+        }
+    }
+    fn key(mut self) -> u128 {
+        let (rest, len) = (self.acc as u64, self.len);
+        self.lanes = self.lanes.map(|h| super::harness::mix(super::harness::mix(h ^ rest) ^ len));
+        u128::from(self.lanes[0]) << 64 | u128::from(self.lanes[1])
+    }
+}
+
+impl Hasher for KeyHasher {
     fn finish(&self) -> u64 {
-        self.0
+        unreachable!("the state key is taken with KeyHasher::key")
     }
     fn write(&mut self, bytes: &[u8]) {
         for c in bytes.chunks(8) {
             let mut w = [0u8; 8];
             w[..c.len()].copy_from_slice(c);
-            self.write_u64(u64::from_le_bytes(w) ^ (c.len() as u64) << 59);
+            self.push(u64::from_le_bytes(w), 8 * c.len() as u32);
         }
     }
-    fn write_u64(&mut self, x: u64) {
-        self.0 = super::harness::mix(self.0 ^ x);
+    fn write_u8(&mut self, x: u8) {
+        self.push(x.into(), 8);
+    }
+    fn write_u16(&mut self, x: u16) {
+        self.push(x.into(), 16);
     }
     fn write_u32(&mut self, x: u32) {
-        self.write_u64(x as u64 | 1 << 40);
+        self.push(x.into(), 32);
     }
-    fn write_u8(&mut self, x: u8) {
-        self.write_u64(x as u64 | 1 << 41);
+    fn write_u64(&mut self, x: u64) {
+        self.push(x, 64);
     }
     fn write_usize(&mut self, x: usize) {
-        self.write_u64(x as u64 | 1 << 42);
+        self.push(x as u64, 64);
     }
 }
 
@@ -433,12 +508,9 @@ impl Model {
     /// accepted command: a program reads only words that are live when it is accepted (or that
     /// it stored itself), so two states with equal keys behave alike forever.
     pub fn key(&self) -> u128 {
-        let mut h1 = MixHasher(0x5EED_0001);
-        let mut h2 = MixHasher(0xC0FF_EE02);
-        for h in [&mut h1, &mut h2] {
-            self.hash_live(h);
-        }
-        (h1.finish() as u128) << 64 | h2.finish() as u128
+        let mut h = KeyHasher::new();
+        self.hash_live(&mut h);
+        h.key()
     }
 
     fn hash_live<H: Hasher>(&self, h: &mut H) {
@@ -826,6 +898,10 @@ pub fn check(
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
     let mut parents: Vec<(u32, Option<Action>)> = vec![(0, None)];
+    // Each transition is tried on `model`, overwritten in place (`clone_from` keeps its
+    // allocations); a new state takes it into the next level and a spare takes its place.
+    let mut model_ = model.clone();
+    let mut spare: Vec<Model> = Vec::new();
     let mut frontier = vec![Node { model, id: 0, paths: 1 }];
     let mut depth = 0;
     while depth < bounds.depth {
@@ -835,7 +911,8 @@ pub fn check(
         for node in &frontier {
             for a in expand(&node.model, &bounds, &mut cov) {
                 cov.transitions += 1;
-                let mut model = node.model.clone();
+                let model = &mut model_;
+                model.clone_from(&node.model);
                 match model.act(a, &mut cov) {
                     Ok(true) => {}
                     Ok(false) => continue,
@@ -857,6 +934,7 @@ pub fn check(
                 let id = parents.len() as u32;
                 parents.push((node.id, Some(a)));
                 index.insert(k, next.len());
+                let model = std::mem::replace(model, spare.pop().unwrap_or_else(|| node.model.clone()));
                 next.push(Node { model, id, paths: node.paths });
             }
         }
@@ -876,7 +954,7 @@ pub fn check(
             cov.complete = false;
             break;
         }
-        frontier = next;
+        spare.extend(std::mem::replace(&mut frontier, next).into_iter().map(|n| n.model));
     }
     cov.depth_reached = depth;
     cov.states = seen.len();
@@ -911,6 +989,18 @@ fn check_dfs(
     seen.insert(model.key());
     let actions = expand(&model, &bounds, &mut cov);
     let mut path_bytes = model.bytes();
+    // Transitions are tried on `scratch`, overwritten in place (`clone_from` keeps its
+    // allocations); a new state moves it onto the path, and models leaving the path are kept
+    // as spares for that.
+    let mut scratch = Box::new(model.clone());
+    let mut spare: Vec<Box<Model>> = Vec::new();
+    let copy = |spare: &mut Vec<Box<Model>>, m: &Model| match spare.pop() {
+        Some(mut b) => {
+            Model::clone_from(&mut b, m);
+            b
+        }
+        None => Box::new(m.clone()),
+    };
     let mut path = vec![Frame { model: Some(Box::new(model)), actions, next: 0, via: None }];
     let mut held = 1;
     cov.fixpoint = true;
@@ -919,6 +1009,7 @@ fn check_dfs(
             if let Some(m) = path.pop().and_then(|f| f.model) {
                 path_bytes -= m.bytes();
                 held -= 1;
+                spare.push(m);
             }
             continue;
         }
@@ -929,7 +1020,8 @@ fn check_dfs(
                 if path[j].model.is_some() {
                     continue;
                 }
-                let mut m = path[j - 1].model.clone().expect("the step below holds its model");
+                let mut m =
+                    copy(&mut spare, path[j - 1].model.as_ref().expect("the step below holds its model"));
                 let via = path[j].via.expect("a step above the root");
                 assert!(matches!(m.act(via, &mut scratch), Ok(true)), "replaying a checked action");
                 path_bytes += m.bytes();
@@ -940,8 +1032,8 @@ fn check_dfs(
         let a = path[i].actions[path[i].next];
         path[i].next += 1;
         cov.transitions += 1;
-        let mut model = Model::clone(path[i].model.as_ref().expect("the top step holds its model"));
-        match model.act(a, &mut cov) {
+        scratch.clone_from(path[i].model.as_ref().expect("the top step holds its model"));
+        match scratch.act(a, &mut cov) {
             Ok(true) => {}
             Ok(false) => continue,
             Err(violation) => {
@@ -950,7 +1042,7 @@ fn check_dfs(
                 return Err(Box::new(Counterexample { violation, trace }));
             }
         }
-        if !seen.insert(model.key()) {
+        if !seen.insert(scratch.key()) {
             continue;
         }
         if seen.len() >= bounds.max_states {
@@ -958,6 +1050,9 @@ fn check_dfs(
             cov.fixpoint = false;
             break;
         }
+        // The new state keeps the scratch model; a spare (any content) becomes the scratch.
+        let fresh = spare.pop().unwrap_or_else(|| scratch.clone());
+        let model = std::mem::replace(&mut scratch, fresh);
         if bounds.progress && seen.len().is_multiple_of(1 << 22) {
             eprintln!(
                 "  ... {} states, path {}, {held} models held, {:.0} s",
@@ -969,13 +1064,14 @@ fn check_dfs(
         let actions = expand(&model, &bounds, &mut cov);
         path_bytes += model.bytes();
         held += 1;
-        path.push(Frame { model: Some(Box::new(model)), actions, next: 0, via: Some(a) });
+        path.push(Frame { model: Some(model), actions, next: 0, via: Some(a) });
         // The step leaving the window drops its model unless it is a checkpoint.
         let d = path.len() - 1;
         if let Some(old) = d.checked_sub(CHECKPOINT).filter(|&j| j % CHECKPOINT != 0) {
             if let Some(m) = path[old].model.take() {
                 path_bytes -= m.bytes();
                 held -= 1;
+                spare.push(m);
             }
         }
         if path_bytes > cov.peak_frontier_bytes {

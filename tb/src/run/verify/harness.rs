@@ -26,11 +26,25 @@ pub enum Op {
 /// Its hash covers the reference stacks and the finished flags only, not `pops_checked` (a
 /// counter): two scoreboards that agree on everything that decides future answers hash equal,
 /// so the exhaustive search merges them.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Debug, Default, PartialEq, Eq)]
 pub struct Scoreboard {
     refs: Vec<RefStack>,
     done: Vec<bool>,
     pub pops_checked: u64,
+}
+
+/// Field by field, so that `clone_from` keeps the allocations.
+impl Clone for Scoreboard {
+    fn clone(&self) -> Self {
+        let Scoreboard { refs, done, pops_checked } = self;
+        Scoreboard { refs: refs.clone(), done: done.clone(), pops_checked: *pops_checked }
+    }
+    fn clone_from(&mut self, src: &Self) {
+        let Scoreboard { refs, done, pops_checked } = src;
+        self.refs.clone_from(refs);
+        self.done.clone_from(done);
+        self.pops_checked = *pops_checked;
+    }
 }
 
 impl std::hash::Hash for Scoreboard {

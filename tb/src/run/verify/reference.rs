@@ -1,8 +1,18 @@
 //! The reference: one plain unbounded stack per thread.
 
 /// An unbounded LIFO of node addresses.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Debug, Default, PartialEq, Eq, Hash)]
 pub struct RefStack(Vec<u64>);
+
+/// `clone_from` keeps the allocation (the exhaustive search clones a model per transition).
+impl Clone for RefStack {
+    fn clone(&self) -> Self {
+        RefStack(self.0.clone())
+    }
+    fn clone_from(&mut self, src: &Self) {
+        self.0.clone_from(&src.0);
+    }
+}
 
 impl RefStack {
     pub fn push(&mut self, v: u64) {
