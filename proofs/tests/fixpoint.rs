@@ -295,14 +295,16 @@ fn depth_first_search_proves_what_breadth_first_proves() {
 }
 
 /// The 4-thread warps with M = 2 and reallocation are in `sms check --full`, depth first under
-/// `large_cap` (minutes there). Here the cheap part: RB_1's under cap 4, depth first with the
+/// `default_cap` (tens of minutes there; `--small-cap`: `large_cap`, minutes). Here the cheap
+/// part: RB_1's under cap 4, depth first with the
 /// reduction, reaches its fixpoint with a borrow, a rotated release, a flush and a warp exit
 /// after a borrow reached, and catches a planted bug.
 #[test]
 fn four_thread_m2_reallocation_depth_first_under_a_small_cap() {
     let large: Vec<Case> = full_cases().into_iter().filter(|c| is_large(&c.cfg) && !c.partial()).collect();
     assert_eq!(large.len(), 2, "RB_1 and RB_2");
-    assert!(large.iter().all(|c| c.dfs && c.cap == large_cap(&c.cfg)));
+    assert!(large.iter().all(|c| c.dfs && c.cap == default_cap(&c.cfg)));
+    assert_eq!(large.iter().map(|c| (c.cap, large_cap(&c.cfg))).collect::<Vec<_>>(), [(8, 6), (9, 7)]);
     assert!(full_cases().iter().all(|c| c.dfs == large.iter().any(|l| l.describe() == c.describe())));
     let c = large[0].cfg;
     assert_eq!((c.rb, large_cap(&c)), (RbSize::Entries(1), 6));

@@ -6,7 +6,9 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::run::verify::exhaustive::{check, describe, full_cases, Action, Bounds, Case, Coverage, Model};
+use crate::run::verify::exhaustive::{
+    check, describe, full_cases, is_large, large_cap, Action, Bounds, Case, Coverage, Model,
+};
 use anyhow::{bail, Result};
 use rtl::config::{Config, RbSize, Realloc};
 use rtl::stack_manager::{Mutant, StackManager};
@@ -65,9 +67,10 @@ pub struct Args {
     /// Prove instead of search: explore every case of the full set (the small grid, skewed
     /// configurations with 4 and 8 banks, and 4-thread warps with one active lane whose chains
     /// of three stacks rotate) to its fixpoint, every interleaving unbounded in time, under a
-    /// cap on the entries the warp holds; a cover goal never reached fails the run. The 4-thread
-    /// warps with M = 2 and reallocation are searched depth first under a smaller cap, RB plus
-    /// twice SH plus one, and take minutes; --quick leaves them out.
+    /// cap on the entries the warp holds; a cover goal never reached fails the run. The two
+    /// 4-thread warps with M = 2 and reallocation are searched depth first and take most of the
+    /// time (about 10^8 states, tens of minutes and a few GB each); --small-cap runs them under a
+    /// smaller cap (minutes), --quick leaves them out.
     /// Ignores the grid (--rb, --sh, --warp-sizes, --borrow-limits), the configuration flags
     /// (-c, --warp-size, --borrow-limit, --flush-limit), --depth and --wide-depth.
     #[arg(long)]
@@ -77,7 +80,7 @@ pub struct Args {
     /// With --full: the cap on the entries the warp holds (default per case: RB + SH × (1 +
     /// borrow limit) + 1, enough to fill a whole chain and reach global memory; for the one-lane
     /// cases RB + 2 × SH × (1 + borrow limit) + 1, so every stack is flushed once and the first
-    /// twice; for the 4-thread warps with M = 2 and reallocation RB + 2 × SH + 1).
+    /// twice).
     #[arg(long)]
     pub cap: Option<u32>,
     /// With --full: explore without the partial-order reduction (every interleaving of private
@@ -94,9 +97,16 @@ pub struct Args {
     /// are checked on every reachable state, counterexamples are no longer shortest.
     #[arg(long)]
     pub dfs: bool,
-    /// With --full: leave out the 4-thread warps with M = 2 and reallocation (minutes each).
+    /// With --full: leave out the 4-thread warps with M = 2 and reallocation (tens of minutes
+    /// each).
     #[arg(long)]
     pub quick: bool,
+    /// With --full: run the 4-thread warps with M = 2 and reallocation under RB + 2 × SH + 1 (6
+    /// and 7 entries shared by the four lanes: every cover goal still reached, about 10^7 states
+    /// and a few minutes together) instead of the cap that fills a whole chain and reaches global
+    /// memory (8 and 9).
+    #[arg(long, conflicts_with = "quick")]
+    pub small_cap: bool,
 }
 
 /// The planted bug `--mutant` names, if any.
@@ -286,6 +296,11 @@ fn selected_cases(args: &Args) -> Result<Vec<Case>> {
     if args.quick {
         cases.retain(|c| !c.dfs);
     }
+    if args.small_cap {
+        for c in cases.iter_mut().filter(|c| is_large(&c.cfg) && !c.partial()) {
+            c.cap = large_cap(&c.cfg);
+        }
+    }
     if let Some(only) = &args.only {
         cases.retain(|c| c.describe().contains(only.as_str()));
         if cases.is_empty() {
@@ -431,6 +446,17 @@ mod grid_tests {
             .iter()
             .any(|c| c.starts_with("RB_1+SH_2+SK+RA warp 4 borrow 2 flush 1") && !c.contains("lanes")));
         assert_eq!(cases(&["--only", "lanes 0001"]).unwrap().len(), 2);
+        // --small-cap lowers the two large cases' caps (8, 9 → 6, 7) and nothing else.
+        let caps = |argv: &[&str]| -> Vec<u32> {
+            let cli =
+                Cli::try_parse_from(["check", "--full"].into_iter().chain(argv.iter().copied())).unwrap();
+            selected_cases(&cli.args).unwrap().iter().map(|c| c.cap).collect()
+        };
+        let (default, small) = (caps(&[]), caps(&["--small-cap"]));
+        let lowered: Vec<_> =
+            default.iter().zip(&small).filter(|(d, s)| d != s).map(|(d, s)| (*d, *s)).collect();
+        assert_eq!(lowered, [(8, 6), (9, 7)]);
+        assert!(Cli::try_parse_from(["check", "--full", "--quick", "--small-cap"]).is_err());
         let e = cases(&["--only", "no such case"]).unwrap_err().to_string();
         assert!(e.contains("--only \"no such case\""), "{e}");
     }

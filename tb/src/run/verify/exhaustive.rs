@@ -202,14 +202,13 @@ pub fn is_large(c: &Config) -> bool {
     c.warp_size == 4 && c.sh_entries == 2 && c.realloc.is_some()
 }
 
-/// The depth cap of the [`is_large`] configurations' fixpoint runs: one thread's RB, two full
-/// SH stacks and one entry more (the third stack of a chain), shared by the four lanes — 6
-/// entries for RB_1, 7 for RB_2. Every cover goal of the configuration is reached under it (the
+/// A smaller cap for the [`is_large`] configurations (`sms check --full --small-cap`): one
+/// thread's RB, two full SH stacks and one entry more (the third stack of a chain), shared by the
+/// four lanes — 6 entries for RB_1, 7 for RB_2. Every cover goal is reached under it too (the
 /// lanes' entries together force flushes, saturation, demotion and reloads into the oldest
-/// stack), and the search reaches its fixpoint: RB_1 in 10.6 · 10⁶ states, RB_2 in 4.8 · 10⁶.
-/// Under [`default_cap`] (8 and 9: a whole chain and one entry in global memory) RB_1 passed
-/// 41.9 · 10⁶ states in 618 s (1.4 GB resident, depth first with the reduction) without a
-/// fixpoint, and was stopped.
+/// stack), in 10.6 · 10⁶ states (RB_1) and 4.8 · 10⁶ (RB_2), a few minutes together; their
+/// default is [`default_cap`] (8 and 9: a whole chain and one entry in global memory), which
+/// takes 10² · 10⁶ states and tens of minutes each (README, Verification).
 pub fn large_cap(c: &Config) -> u32 {
     c.rb.capacity().unwrap_or(0) + 2 * c.sh_entries + 1
 }
@@ -1131,9 +1130,9 @@ pub fn small_configs() -> Vec<Config> {
 }
 
 /// Every configuration `sms check --full` proves to its fixpoint: [`small_configs`] (the
-/// 4-thread warps that combine M = 2 with reallocation depth first under [`large_cap`]), plus
-/// skewed configurations with 4 and 8 banks, where base entries differ between lanes (with the paper's 32 banks every small
-/// configuration has k = 32 / (2M) ≥ warp size, so all bases are 0).
+/// 4-thread warps that combine M = 2 with reallocation depth first), plus skewed configurations
+/// with 4 and 8 banks, where base entries differ between lanes (with the paper's 32 banks every
+/// small configuration has k = 32 / (2M) ≥ warp size, so all bases are 0).
 pub fn full_configs() -> Vec<Config> {
     let mut out: Vec<Config> = small_configs().into_iter().collect();
     out.extend(skew_configs().into_iter().filter(|c| c.realloc.is_none()));
@@ -1157,12 +1156,10 @@ impl Case {
     fn all_lanes(c: &Config) -> u32 {
         u32::MAX >> (32 - c.warp_size)
     }
-    /// Every lane active, under [`default_cap`] — or, for the 4-thread warps with M = 2 and
-    /// reallocation, depth first under [`large_cap`].
+    /// Every lane active, under [`default_cap`]; the 4-thread warps with M = 2 and reallocation
+    /// depth first.
     pub fn full(cfg: Config) -> Case {
-        let dfs = is_large(&cfg);
-        let cap = if dfs { large_cap(&cfg) } else { default_cap(&cfg) };
-        Case { cfg, active: Case::all_lanes(&cfg), cap, dfs }
+        Case { cfg, active: Case::all_lanes(&cfg), cap: default_cap(&cfg), dfs: is_large(&cfg) }
     }
     pub fn partial(&self) -> bool {
         self.active != Case::all_lanes(&self.cfg)
