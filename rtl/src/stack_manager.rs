@@ -616,45 +616,28 @@ pub struct StackManager {
 }
 
 /// Field by field, so that `clone_from` reuses every vector's allocation: the exhaustive search
-/// (`sms check`) clones a model for each transition it tries. Both functions destructure every
-/// field, so a field added to the struct and not cloned here does not compile.
+/// (`sms check`) clones a model for each transition it tries. `clone` builds the struct and
+/// `clone_from` destructures it, each naming every field, so a field added to the struct and
+/// not cloned here does not compile.
 impl Clone for StackManager {
     fn clone(&self) -> Self {
-        let StackManager {
-            cfg,
-            w,
-            sm,
-            local,
-            threads,
-            stacks,
-            rb,
-            seq,
-            queued,
-            sh_data,
-            global,
-            acked_stores,
-            stats,
-            #[cfg(feature = "mutants")]
-            mutant,
-            scratch,
-        } = self;
         StackManager {
-            cfg: *cfg,
-            w: *w,
-            sm: *sm,
-            local: *local,
-            threads: threads.clone(),
-            stacks: stacks.clone(),
-            rb: rb.clone(),
-            seq: seq.clone(),
-            queued: queued.clone(),
-            sh_data: sh_data.clone(),
-            global: global.clone(),
-            acked_stores: *acked_stores,
-            stats: *stats,
+            cfg: self.cfg,
+            w: self.w,
+            sm: self.sm,
+            local: self.local,
+            threads: self.threads.clone(),
+            stacks: self.stacks.clone(),
+            rb: self.rb.clone(),
+            seq: self.seq.clone(),
+            queued: self.queued.clone(),
+            sh_data: self.sh_data.clone(),
+            global: self.global.clone(),
+            acked_stores: self.acked_stores,
+            stats: self.stats,
             #[cfg(feature = "mutants")]
-            mutant: *mutant,
-            scratch: scratch.clone(),
+            mutant: self.mutant,
+            scratch: self.scratch.clone(),
         }
     }
 

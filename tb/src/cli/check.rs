@@ -53,9 +53,10 @@ pub struct Args {
     /// for a data-independent design, and far fewer states).
     #[arg(long)]
     pub all_values: bool,
-    /// Stop a configuration after this many distinct states.
-    #[arg(long, default_value_t = 20_000_000)]
-    pub max_states: usize,
+    /// Stop a configuration after this many distinct states [default: 20000000; with --full
+    /// 400000000, where the largest case has about 10^8 (3.7 GB resident)].
+    #[arg(long)]
+    pub max_states: Option<usize>,
     /// If a property fails, dump the shortest counterexample here as a VCD (one action per time
     /// step, every register of the warp) with a GTKWave save file next to it.
     #[arg(long, value_name = "FILE")]
@@ -233,7 +234,12 @@ pub fn run(args: Args) -> Result<()> {
     for c in &configs {
         let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
         eprintln!("checking {} to depth {depth} ...", describe(c));
-        let bounds = Bounds { depth, values: args.values, max_states: args.max_states, ..Bounds::default() };
+        let bounds = Bounds {
+            depth,
+            values: args.values,
+            max_states: args.max_states.unwrap_or(MAX_STATES),
+            ..Bounds::default()
+        };
         match check(*c, bounds, design) {
             Ok(cov) => t.row([
                 describe(c),
@@ -290,6 +296,11 @@ fn print_report(output: &OutputArgs, t: &Table, verdict: Option<&str>) -> Result
     Ok(())
 }
 
+/// Default state limits: of a bounded search, and of a `--full` case (a safety net above the
+/// largest case's 1.0 · 10⁸ states, under about 15 GB of visited set and path).
+const MAX_STATES: usize = 20_000_000;
+const MAX_STATES_FULL: usize = 400_000_000;
+
 /// The cases of the full set `--quick` and `--only` leave.
 fn selected_cases(args: &Args) -> Result<Vec<Case>> {
     let mut cases = full_cases();
@@ -336,7 +347,7 @@ fn run_full(args: &Args) -> Result<()> {
         eprintln!("proving {name} under cap {cap} ...");
         let bounds = Bounds {
             values: args.values,
-            max_states: args.max_states,
+            max_states: args.max_states.unwrap_or(MAX_STATES_FULL),
             cap: Some(cap),
             one_mark: !args.all_values,
             por: !args.no_por,
