@@ -990,7 +990,8 @@ fn check_dfs(
     let mut path_bytes = model.bytes();
     // Transitions are tried on `scratch`, overwritten in place (`clone_from` keeps its
     // allocations); a new state moves it onto the path, and models leaving the path are kept
-    // as spares for that.
+    // as spares for that (never more than the path held at its peak, so at most doubling the
+    // frontier's memory).
     let mut scratch = Box::new(model.clone());
     let mut spare: Vec<Box<Model>> = Vec::new();
     let copy = |spare: &mut Vec<Box<Model>>, m: &Model| match spare.pop() {
@@ -1014,7 +1015,7 @@ fn check_dfs(
         }
         if path[i].model.is_none() {
             // Rebuild from the checkpoint below (which holds its model).
-            let mut scratch = Coverage::default();
+            let mut replayed = Coverage::default();
             for j in i - i % CHECKPOINT + 1..=i {
                 if path[j].model.is_some() {
                     continue;
@@ -1022,7 +1023,7 @@ fn check_dfs(
                 let mut m =
                     copy(&mut spare, path[j - 1].model.as_ref().expect("the step below holds its model"));
                 let via = path[j].via.expect("a step above the root");
-                assert!(matches!(m.act(via, &mut scratch), Ok(true)), "replaying a checked action");
+                assert!(matches!(m.act(via, &mut replayed), Ok(true)), "replaying a checked action");
                 path_bytes += m.bytes();
                 held += 1;
                 path[j].model = Some(m);
