@@ -157,7 +157,6 @@ fn a_model_overwritten_by_clone_from_equals_its_source() {
         realloc: Some(Realloc { borrow_limit: 2, flush_limit: 1 }),
         ..Config::sms()
     };
-    let mut checked = 0;
     for seed in 0..40u64 {
         let (mut a, mut b) = (Model::new(c).unwrap(), Model::new(c).unwrap());
         walk(&mut a, seed, 30 + seed as usize % 17);
@@ -169,7 +168,5 @@ fn a_model_overwritten_by_clone_from_equals_its_source() {
         walk(&mut a, seed * 7, 20);
         walk(&mut b, seed * 7, 20);
         assert_eq!(format!("{a:?}"), format!("{b:?}"), "seed {seed}: after 20 more actions");
-        checked += 1;
     }
-    assert_eq!(checked, 40);
 }

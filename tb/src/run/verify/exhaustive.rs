@@ -206,9 +206,9 @@ pub fn is_large(c: &Config) -> bool {
 /// thread's RB, two full SH stacks and one entry more (the third stack of a chain), shared by the
 /// four lanes — 6 entries for RB_1, 7 for RB_2. Every cover goal is reached under it too (the
 /// lanes' entries together force flushes, saturation, demotion and reloads into the oldest
-/// stack), in 10.6 · 10⁶ states (RB_1) and 4.8 · 10⁶ (RB_2), a few minutes together; their
-/// default is [`default_cap`] (8 and 9: a whole chain and one entry in global memory), which
-/// takes 10² · 10⁶ states and tens of minutes each (README, Verification).
+/// stack), in 10.6 · 10⁶ states (RB_1) and 4.8 · 10⁶ (RB_2); their default is [`default_cap`]
+/// (8 and 9: a whole chain and one entry in global memory): 1.0 · 10⁸ and 3.9 · 10⁷ states,
+/// 842 s and 369 s here (README, Verification).
 pub fn large_cap(c: &Config) -> u32 {
     c.rb.capacity().unwrap_or(0) + 2 * c.sh_entries + 1
 }
@@ -897,9 +897,10 @@ pub fn check(
     let mut seen: HashSet<u128> = HashSet::new();
     seen.insert(model.key());
     let mut parents: Vec<(u32, Option<Action>)> = vec![(0, None)];
-    // Each transition is tried on `model`, overwritten in place (`clone_from` keeps its
-    // allocations); a new state takes it into the next level and a spare takes its place.
-    let mut model_ = model.clone();
+    // Each transition is tried on `scratch`, overwritten in place (`clone_from` keeps its
+    // allocations); a new state takes it into the next level and a spare (a model of an
+    // earlier level, any content) takes its place.
+    let mut scratch = model.clone();
     let mut spare: Vec<Model> = Vec::new();
     let mut frontier = vec![Node { model, id: 0, paths: 1 }];
     let mut depth = 0;
@@ -910,9 +911,8 @@ pub fn check(
         for node in &frontier {
             for a in expand(&node.model, &bounds, &mut cov) {
                 cov.transitions += 1;
-                let model = &mut model_;
-                model.clone_from(&node.model);
-                match model.act(a, &mut cov) {
+                scratch.clone_from(&node.model);
+                match scratch.act(a, &mut cov) {
                     Ok(true) => {}
                     Ok(false) => continue,
                     Err(violation) => {
@@ -922,7 +922,7 @@ pub fn check(
                     }
                 }
                 cov.sequences = cov.sequences.saturating_add(node.paths);
-                let k = model.key();
+                let k = scratch.key();
                 if let Some(&i) = index.get(&k) {
                     next[i].paths = next[i].paths.saturating_add(node.paths);
                     continue;
@@ -933,7 +933,8 @@ pub fn check(
                 let id = parents.len() as u32;
                 parents.push((node.id, Some(a)));
                 index.insert(k, next.len());
-                let model = std::mem::replace(model, spare.pop().unwrap_or_else(|| node.model.clone()));
+                let model =
+                    std::mem::replace(&mut scratch, spare.pop().unwrap_or_else(|| node.model.clone()));
                 next.push(Node { model, id, paths: node.paths });
             }
         }
