@@ -93,6 +93,14 @@ pub struct ArbStep {
     now: u64,
 }
 
+impl ArbStep {
+    /// The cycle this step was evaluated in: the only part of an idle arbiter's step that changes
+    /// from cycle to cycle (see `StackUnit::eval`).
+    pub(crate) fn set_now(&mut self, now: u64) {
+        self.now = now;
+    }
+}
+
 impl BankArbiter {
     /// `sh_latency` = [`MIN_SH_LATENCY`]: done right after the banks.
     pub fn new(banks: u32) -> Self {

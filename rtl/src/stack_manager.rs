@@ -786,6 +786,11 @@ impl StackManager {
             false
         })
     }
+    /// No thread has a micro-op queued (some may still wait for one in flight).
+    #[inline]
+    pub fn nothing_queued(&self) -> bool {
+        self.queued.iter().all(|&w| w == 0)
+    }
     /// No thread has work in flight.
     pub fn quiescent(&self) -> bool {
         (0..self.cfg.threads()).all(|t| self.ready(t))

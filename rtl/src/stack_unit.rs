@@ -49,6 +49,9 @@ pub struct StackUnitStep {
     pub manager: StackStep,
     pub arb: ArbStep,
     pub sched: SchedStep,
+    /// Evaluated on a quiet cycle ([`StackUnit::eval`]): every child's step is its value for no
+    /// input on idle registers, and committing it changes nothing.
+    quiet: bool,
 }
 
 impl StackUnitStep {
@@ -80,17 +83,54 @@ impl StackUnit {
     }
 
     /// Cycle `now`, combinational, in dataflow order; `d` receives every output and decision.
+    ///
+    /// A quiet cycle (no command, completion or port handshake comes in, and no register holds
+    /// work: [`StackUnit::quiet`]) evaluates every child to its value for no input, which is the
+    /// same in every quiet cycle but for the cycle number the arbiter's step carries. So when `d`
+    /// already holds a quiet cycle's step, only that number is updated; the children are not
+    /// evaluated again, and [`StackUnit::commit`] skips the step (committing it changes nothing).
+    /// Test: `quiet_cycles_skip_work_with_identical_steps_and_state` compares every step and
+    /// state with the children evaluated and committed every cycle.
     #[inline]
     pub fn eval(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
+        let quiet = self.quiet(i);
+        if quiet && d.quiet {
+            d.arb.set_now(now);
+            return;
+        }
+        self.eval_children(now, i, d);
+        d.quiet = quiet;
+    }
+
+    fn eval_children(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
         let sm_in = StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() };
         self.manager.eval(&sm_in, &mut d.manager);
         self.arb.eval(now, &d.manager.sh_req, &mut d.arb);
         self.sched.eval(&d.manager.g_req, i.req_ready, i.completions, &mut d.sched);
     }
 
+    /// Nothing comes in (no command, completion or port handshake) and nothing is held: no
+    /// micro-op queued, nothing at the banks, in their pipeline or `done` register, nothing in
+    /// the scheduler's queue, FIFO or `deq` register.
+    #[inline]
+    fn quiet(&self, i: &StackUnitIn) -> bool {
+        i.cmds.is_empty()
+            && i.completions.is_empty()
+            && !i.req_ready
+            && self.manager.nothing_queued()
+            && self.arb.is_idle()
+            && self.sched.is_idle()
+    }
+
     /// The clock edge.
     #[inline]
     pub fn commit(&mut self, d: &StackUnitStep) {
+        if !d.quiet {
+            self.commit_children(d);
+        }
+    }
+
+    fn commit_children(&mut self, d: &StackUnitStep) {
         self.manager.commit(&d.manager);
         self.arb.commit(&d.arb);
         self.sched.commit(&d.sched);
@@ -265,6 +305,63 @@ mod tests {
             u.step(&[]);
         }
         at
+    }
+
+    /// Runs random pushes and pops on two copies of one stack unit: one through
+    /// [`StackUnit::eval`] and [`StackUnit::commit`] (quiet cycles skipped), one with every child
+    /// evaluated and committed every cycle. Every step and every state must agree; returns how
+    /// many quiet cycles the run had.
+    fn quiet_run(config: &str, timing: StackTiming, sh_latency: u32, seed: u64) -> u64 {
+        use crate::mem::testutil::XorShift;
+        let cfg: Config = config.parse().unwrap();
+        let new = || StackUnit::new(cfg, 0, timing, sh_latency).unwrap();
+        let (mut fast, mut full) = (new(), new());
+        let mut mem = FixedLatencyMem::with_acks(30, timing == StackTiming::Blocking);
+        let (mut df, mut dg, mut dm) =
+            (StackUnitStep::default(), StackUnitStep::default(), FixedStep::default());
+        let mut rng = XorShift(seed);
+        let mut depth = vec![0u32; cfg.threads() as usize];
+        let (mut cmds, mut quiet) = (Vec::new(), 0);
+        for now in 0..6000u64 {
+            // Bursts of commands from a few threads, then long pauses.
+            cmds.clear();
+            if now % 400 < 150 {
+                for t in 0..cfg.threads().min(8) {
+                    if fast.manager.ready(t) && rng.below(3) == 0 {
+                        let pop = depth[t as usize] > 0 && rng.below(2) == 0;
+                        cmds.push((t, if pop { Cmd::Pop } else { Cmd::Push(now) }));
+                        depth[t as usize] = if pop { depth[t as usize] - 1 } else { depth[t as usize] + 1 };
+                    }
+                }
+            }
+            let i =
+                StackUnitIn { cmds: &cmds, req_ready: fast.req().is_some(), completions: mem.completions() };
+            quiet += u64::from(fast.quiet(&i));
+            fast.eval(now, &i, &mut df);
+            full.eval_children(now, &i, &mut dg);
+            let steps = (&df.manager, &df.arb, &df.sched) == (&dg.manager, &dg.arb, &dg.sched);
+            assert!(steps, "cycle {now}: steps differ\n{df:?}\n{dg:?}");
+            mem.eval(df.sched.req, &mut dm);
+            fast.commit(&df);
+            full.commit_children(&dg);
+            mem.commit(&dm);
+            assert!(fast == full, "cycle {now}: states differ");
+        }
+        quiet
+    }
+
+    #[test]
+    fn quiet_cycles_skip_work_with_identical_steps_and_state() {
+        let runs = [
+            ("RB_2", StackTiming::Blocking, 20),
+            ("RB_2+SH_2+SK", StackTiming::Blocking, 20),
+            ("RB_1+SH_2", StackTiming::Overlapped, 2),
+            ("RB_2+SH_2+SK+RA", StackTiming::Blocking, 20),
+        ];
+        for (seed, (config, timing, latency)) in runs.into_iter().enumerate() {
+            let quiet = quiet_run(config, timing, latency, seed as u64 + 1);
+            assert!(quiet > 1000, "{config}: the run has quiet cycles to skip ({quiet})");
+        }
     }
 
     #[test]
