@@ -86,6 +86,9 @@ pub struct L1dStep {
     work: Option<(MemReq, Action)>,
     /// The L2's responses, latched at the edge.
     fills: Vec<MemResp>,
+    /// Evaluated on a quiet cycle ([`L1d::eval`]): the step is the same in every quiet cycle but
+    /// for `at`, and its commit only advances the cycle.
+    quiet: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -155,7 +158,33 @@ impl L1d {
 
     /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
     /// `d` (every field overwritten; the fills buffer is reused, so no allocation once warm).
+    ///
+    /// A quiet cycle ([`L1d::quiet`]: no request or fill comes in, nothing is parked, queued for
+    /// L2 or shown, and no hit becomes visible at the edge) evaluates to the same step every time
+    /// but for the cycle it carries; when `d` already holds one, only that is updated, and
+    /// [`L1d::commit`] only advances the cycle. Test:
+    /// `quiet_cycles_skip_work_with_identical_steps_and_state`.
     pub fn eval(&self, i: &L1dIn, d: &mut L1dStep) {
+        let quiet = self.quiet(i);
+        if quiet && d.quiet {
+            d.at = self.now;
+            return;
+        }
+        self.eval_full(i, d);
+        d.quiet = quiet;
+    }
+
+    #[inline]
+    fn quiet(&self, i: &L1dIn) -> bool {
+        i.req.is_none()
+            && i.fills.is_empty()
+            && self.parked.is_none()
+            && self.miss_queue.is_empty()
+            && self.out.is_empty()
+            && self.hit_pipe.front().is_none_or(|&(visible, _)| visible > self.now + 1)
+    }
+
+    fn eval_full(&self, i: &L1dIn, d: &mut L1dStep) {
         let ready = self.ready();
         if let (true, Some(r)) = (ready, &i.req) {
             self.params.check_request(r);
@@ -203,6 +232,14 @@ impl L1d {
     /// them, as a register file's write port does, without deciding anything new.
     pub fn commit(&mut self, d: &L1dStep) {
         assert_eq!(d.at, self.now, "L1D committed a step evaluated in another cycle");
+        if d.quiet {
+            self.now += 1;
+        } else {
+            self.commit_full(d);
+        }
+    }
+
+    fn commit_full(&mut self, d: &L1dStep) {
         let next = self.now + 1;
         if d.out.down_fire {
             self.miss_queue.pop_front();
@@ -373,6 +410,58 @@ mod tests {
 
     fn read(id: u64, addr: u64) -> Option<MemReq> {
         Some(MemReq::read(id, addr, 8, ReqKind::NodeFetch))
+    }
+
+    /// Two copies of one L1D on the same random requests and fills: one through [`L1d::eval`]
+    /// and [`L1d::commit`] (quiet cycles skipped), one evaluated and committed in full every
+    /// cycle. Every step and state must agree. Returns the quiet cycles.
+    fn quiet_run(p: MemParams, seed: u64) -> u64 {
+        use crate::mem::testutil::XorShift;
+        let (mut fast, mut full) = (L1d::new(&p), L1d::new(&p));
+        let (mut df, mut dg) = (L1dStep::default(), L1dStep::default());
+        let mut rng = XorShift(seed);
+        let mut l2: VecDeque<(u64, MemResp)> = VecDeque::new();
+        let (mut fills, mut quiet) = (Vec::new(), 0);
+        for now in 0..8000u64 {
+            // Bursts of requests (reads, some stores) over a few lines, then pauses.
+            let req = (now % 300 < 100 && rng.below(2) == 0).then(|| {
+                let addr = rng.below(64) * 32;
+                match rng.below(5) {
+                    0 => MemReq::write(now, addr, 8, ReqKind::StackSpill),
+                    _ => MemReq::read(now, addr, 8, ReqKind::NodeFetch),
+                }
+            });
+            let down = fast.down_req();
+            let i = L1dIn { req, down_ready: rng.below(3) != 0, fills: &fills };
+            quiet += u64::from(fast.quiet(&i));
+            fast.eval(&i, &mut df);
+            full.eval_full(&i, &mut dg);
+            dg.quiet = df.quiet;
+            assert_eq!(df, dg, "cycle {now}");
+            fast.commit(&df);
+            full.commit_full(&dg);
+            assert_eq!(format!("{fast:?}"), format!("{full:?}"), "cycle {now}");
+            if let Some(d) = down.filter(|_| df.out.down_fire) {
+                l2.push_back((now + 5 + rng.below(40), d.response()));
+            }
+            fills.clear();
+            while let Some(k) = l2.iter().position(|&(c, _)| c <= now + 1) {
+                fills.push(l2.remove(k).unwrap().1);
+            }
+        }
+        quiet
+    }
+
+    #[test]
+    fn quiet_cycles_skip_work_with_identical_steps_and_state() {
+        let d = MemParams::default();
+        // A short miss queue and few MSHR entries park requests, on either.
+        let params =
+            [d, MemParams { l1d_hit_latency: 20, l1d_miss_queue: 2, ..d }, MemParams { l1d_mshrs: 2, ..d }];
+        for (seed, p) in params.into_iter().enumerate() {
+            let quiet = quiet_run(p, seed as u64 + 3);
+            assert!(quiet > 2000, "the run has quiet cycles to skip ({quiet})");
+        }
     }
 
     /// Cycle, after acceptance, in which a hit's response is visible to the requester.

@@ -85,6 +85,8 @@ pub struct L2Step {
     pub out: L2Out,
     /// Per SM: the bank of its request (`u32::MAX`: none); wires of the grant logic.
     bank_of: Vec<u32>,
+    /// The banks some SM requests, ascending (the arbiters of the others grant nothing).
+    requested: Vec<u32>,
     /// (bank, sm, request) entering bank pipelines.
     accepted: Vec<(usize, u32, MemReq)>,
     /// (bank, fate) of each bank head checked this cycle.
@@ -173,8 +175,14 @@ impl L2 {
         d.checks.clear();
         d.bank_of.clear();
         d.bank_of.extend(i.reqs.iter().map(|r| r.map_or(u32::MAX, |r| self.bank_of(r.addr) as u32)));
-        for (b, bank) in self.banks.iter().enumerate() {
-            if bank.len() >= self.params.l2_bank_queue as usize {
+        // Each requested bank's round-robin arbiter, in bank order.
+        d.requested.clear();
+        d.requested.extend(d.bank_of.iter().copied().filter(|&b| b != u32::MAX));
+        d.requested.sort_unstable();
+        d.requested.dedup();
+        for &b in &d.requested {
+            let b = b as usize;
+            if self.banks[b].len() >= self.params.l2_bank_queue as usize {
                 continue;
             }
             let first = self.rr[b] as usize;
