@@ -9,6 +9,9 @@
 //! this build with one whose probe calls are compiled out (`--features untraced`). CPU is the
 //! main thread's time on a CPU (Linux schedstat; the simulation, not the tracing thread), which
 //! other processes' load disturbs far less than wall time; it is NaN where unavailable.
+//!
+//! `-- --once` runs the SMS configuration once and prints `once_run_cycles N` (the GPU cycles):
+//! the run `scripts/instructions.sh` counts instructions of.
 
 use std::time::Duration;
 
@@ -21,6 +24,7 @@ const RES: u32 = 64;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let overhead = std::env::args().any(|a| a == "--overhead");
+    let once = std::env::args().any(|a| a == "--once");
     let scene = tb::load_scene(SCENE)?;
     let opts = WorkloadOpts { width: RES, height: RES, ..WorkloadOpts::for_scene(&scene) };
     let w = Workload::new(&scene, opts)?;
@@ -29,6 +33,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Ok((spec.config, simulate_all(&spec, &w)?))
     };
     let build = if cfg!(feature = "untraced") { "untraced" } else { "traced" };
+    if once {
+        let cycles = run("SMS")?.1.gpu.map_or(0, |g| g.cycles);
+        println!("once_run_cycles {cycles}");
+        return Ok(());
+    }
     if overhead {
         let (mut wall, mut cpu) = (Duration::MAX, f64::INFINITY);
         for _ in 0..3 {

@@ -1,0 +1,42 @@
+#!/bin/sh
+# Instructions the cycle-level model executes for one SMS run of the throughput bench (clutter
+# 64x64, paper hardware), counted by valgrind's callgrind inside `Gpu::run_timed` only: loading
+# the scene, building the BVH and tracing the rays (on their own thread) are not counted. Wall
+# time on a shared virtual machine swings by 15 % and more between runs minutes apart; this count
+# moves by about 0.001 % between runs of one build (only waits for the tracing thread vary), so
+# it compares two builds of the model where timing cannot.
+# Usage: scripts/instructions.sh [OTHER_THROUGHPUT_BINARY]
+#   With an argument (a throughput bench binary of another build, e.g. copied from
+#   target/release/deps/throughput-* before a change), counts both and prints the ratio.
+# Needs valgrind (Debian: apt-get install valgrind); takes about a minute per build.
+set -eu
+cd "$(dirname "$0")/.."
+command -v valgrind >/dev/null 2>&1 || { echo "valgrind not found (Debian: apt-get install valgrind)" >&2; exit 1; }
+this=$(cargo bench -p tb --bench throughput --no-run 2>&1 | sed -n 's/.*Executable .*(\(.*\))$/\1/p' | tail -n 1)
+[ -x "$this" ] || { echo "could not build the throughput bench" >&2; exit 1; }
+if [ $# -gt 0 ] && [ ! -x "$1" ]; then
+    echo "$1: not an executable throughput bench binary" >&2
+    exit 1
+fi
+count() {
+    log=$(mktemp)
+    out=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null \
+        --toggle-collect='rtl::gpu::Gpu::run_timed*' "$1" --once 2>"$log")
+    n=$(sed -n 's/.*Collected : \([0-9]*\).*/\1/p' "$log")
+    rm -f "$log"
+    cycles=$(echo "$out" | sed -n 's/^once_run_cycles //p')
+    [ -n "$n" ] && [ -n "$cycles" ] || { echo "$1: no count (is it a throughput bench binary with --once?)" >&2; exit 1; }
+    echo "$n $cycles"
+}
+set -- "$this" "$@"
+first=""
+for bin in "$@"; do
+    result=$(count "$bin") || exit 1
+    set -- $result
+    printf '%-60s %15s instructions, %s GPU cycles, %.0f per cycle\n' "$bin" "$1" "$2" "$(echo "$1 / $2" | bc -l)"
+    if [ -z "$first" ]; then
+        first=$1
+    else
+        printf 'this build / other build: %.4f\n' "$(echo "$first / $1" | bc -l)"
+    fi
+done
