@@ -244,9 +244,10 @@ impl Gpu {
         loop {
             let now = self.mem.cycle();
             self.eval_check.order(now, n, &mut self.order);
-            // Dispatch (reads the slots' registers).
+            // Dispatch (reads the slots' registers); nothing to look at while every slot is full.
             let start = self.rr;
-            for k in 0..n {
+            let any_free = self.units.iter().any(|u| u.free_slot().is_some());
+            for k in (0..n).take_while(|_| any_free) {
                 #[cfg(feature = "mutants")]
                 let sm = if self.order_bug == Some(OrderBug::DispatchInEvalOrder) {
                     self.order[k]
@@ -254,7 +255,7 @@ impl Gpu {
                     (start + k) % n
                 };
                 #[cfg(not(feature = "mutants"))]
-                let sm = (start + k) % n;
+                let sm = if start + k < n { start + k } else { start + k - n };
                 if self.units[sm].free_slot().is_none() {
                     continue;
                 }
