@@ -64,14 +64,27 @@ impl Lanes {
 }
 
 /// Iterates the set bits of `m`, lowest first.
-pub fn lanes_of(mut m: u32) -> impl Iterator<Item = u32> {
-    std::iter::from_fn(move || {
-        (m != 0).then(|| {
-            let l = m.trailing_zeros();
-            m &= m - 1;
-            l
-        })
-    })
+#[inline]
+pub fn lanes_of(m: u32) -> Bits {
+    Bits(u64::from(m))
+}
+
+/// The set bits of a mask, lowest first ([`lanes_of`], [`WarpBuffer::resident`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Bits(u64);
+
+impl Iterator for Bits {
+    type Item = u32;
+
+    #[inline]
+    fn next(&mut self) -> Option<u32> {
+        if self.0 == 0 {
+            return None;
+        }
+        let b = self.0.trailing_zeros();
+        self.0 &= self.0 - 1;
+        Some(b)
+    }
 }
 
 /// A resident warp.
@@ -141,15 +154,8 @@ impl WarpBuffer {
 
     /// The resident warps' slots, lowest first.
     #[inline]
-    pub fn resident(&self) -> impl Iterator<Item = u32> {
-        let mut m = self.occupied;
-        std::iter::from_fn(move || {
-            (m != 0).then(|| {
-                let w = m.trailing_zeros();
-                m &= m - 1;
-                w
-            })
-        })
+    pub fn resident(&self) -> Bits {
+        Bits(self.occupied)
     }
 
     /// Age rank of the warp in slot `w` (`u32::MAX` for an empty slot).
