@@ -241,13 +241,14 @@ impl Gpu {
         let mut dispatched = 0u64;
         let mut next_report = every;
         let mut evaluated = 0;
+        // Some warp slot is free (the registers after the last edge; all are before the first).
+        let mut slot_free = true;
         loop {
             let now = self.mem.cycle();
             self.eval_check.order(now, n, &mut self.order);
             // Dispatch (reads the slots' registers); nothing to look at while every slot is full.
             let start = self.rr;
-            let any_free = self.units.iter().any(|u| u.free_slot().is_some());
-            for k in (0..n).take_while(|_| any_free) {
+            for k in 0..if slot_free { n } else { 0 } {
                 #[cfg(feature = "mutants")]
                 let sm = if self.order_bug == Some(OrderBug::DispatchInEvalOrder) {
                     self.order[k]
@@ -255,7 +256,7 @@ impl Gpu {
                     (start + k) % n
                 };
                 #[cfg(not(feature = "mutants"))]
-                let sm = if start + k < n { start + k } else { start + k - n };
+                let sm = (start + k) % n;
                 if self.units[sm].free_slot().is_none() {
                     continue;
                 }
@@ -342,7 +343,8 @@ impl Gpu {
                 self.probe(sink);
             }
             self.mem.commit();
-            let dispatch_next = more_jobs && self.units.iter().any(|u| u.free_slot().is_some());
+            slot_free = self.units.iter().any(|u| u.free_slot().is_some());
+            let dispatch_next = more_jobs && slot_free;
             // The next cycle is the earliest possible: the memory system's events need not be
             // looked at (they are never before the cycle it is in now).
             let soon = self.mem.cycle();

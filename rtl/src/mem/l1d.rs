@@ -174,14 +174,11 @@ impl L1d {
         d.quiet = quiet;
     }
 
+    /// No request or fill comes in and the registers have no event this cycle
+    /// ([`L1d::next_event`]: nothing parked, queued for L2 or shown, no hit visible at the edge).
     #[inline]
     fn quiet(&self, i: &L1dIn) -> bool {
-        i.req.is_none()
-            && i.fills.is_empty()
-            && self.parked.is_none()
-            && self.miss_queue.is_empty()
-            && self.out.is_empty()
-            && self.hit_pipe.front().is_none_or(|&(visible, _)| visible > self.now + 1)
+        i.req.is_none() && i.fills.is_empty() && self.next_event().is_none_or(|e| e > self.now)
     }
 
     fn eval_full(&self, i: &L1dIn, d: &mut L1dStep) {
