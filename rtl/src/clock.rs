@@ -39,8 +39,16 @@ impl EvalCheck {
         self != EvalCheck::EveryUnit
     }
 
-    /// Fill `order` with the evaluation order of `n` siblings in cycle `cycle`.
+    /// Fill `order` with the evaluation order of `n` siblings in cycle `cycle`. Only a shuffle
+    /// changes from cycle to cycle: otherwise a vector that already holds `n` entries is left
+    /// as it is, so a runner must fill its vector with one mode only (clear it when the mode
+    /// changes).
     pub fn order(self, cycle: u64, n: usize, order: &mut Vec<usize>) {
+        let shuffled = matches!(self, EvalCheck::Shuffled { .. });
+        if !shuffled && order.len() == n {
+            debug_assert!(order.iter().enumerate().all(|(i, &k)| i == k), "order filled by a shuffle");
+            return;
+        }
         order.clear();
         order.extend(0..n);
         if let EvalCheck::Shuffled { seed } = self {

@@ -183,6 +183,7 @@ impl Gpu {
     /// with the [`EvalCheck::Dataflow`] run's).
     pub fn with_eval_check(mut self, check: EvalCheck) -> Self {
         self.eval_check = check;
+        self.order.clear();
         self.mem.set_eval_check(check);
         self
     }

@@ -61,7 +61,7 @@ use crate::stack_manager::{Cmd, StackError};
 use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
 use crate::thread_fsm::{self, Thread, ThreadIn, ThreadState};
 use crate::trace::{Probe, Sink};
-use crate::warp_buffer::{lanes_of, WarpBuffer};
+use crate::warp_buffer::{lanes_of, Bits, WarpBuffer};
 
 /// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and run options.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -260,8 +260,10 @@ pub struct RtStep {
     /// Per thread: node pieces that arrived (scratch; `arrived_at` lists the nonzero entries).
     arrived: Vec<u32>,
     arrived_at: Vec<u32>,
-    /// Per warp: lanes that got a node response (scratch).
+    /// Per warp: lanes that got a node response (scratch; bit w of `woken_warps` marks the
+    /// nonzero entries).
     woken: Vec<u32>,
+    woken_warps: u64,
     completions: Vec<u32>,
     cmds: Vec<(u32, Cmd)>,
     expected_pops: Vec<(u32, u64)>,
@@ -288,7 +290,10 @@ impl RtStep {
         }
         self.arrived_at.clear();
         self.arrived.resize(threads, 0);
-        self.woken.clear();
+        for w in Bits::of(self.woken_warps) {
+            self.woken[w as usize] = 0;
+        }
+        self.woken_warps = 0;
         self.woken.resize(warps, 0);
         self.leaving.clear();
         self.issue = None;
@@ -447,6 +452,7 @@ impl RtUnit {
                         d.arrived[t] += 1;
                     }
                     d.woken[w as usize] |= lanes;
+                    d.woken_warps |= 1 << w;
                     d.node_resp.push(r.id);
                 }
                 TAG_LOAD => d.completions.push((r.id >> 2) as u32),

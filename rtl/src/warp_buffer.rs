@@ -73,6 +73,14 @@ pub fn lanes_of(m: u32) -> Bits {
 #[derive(Clone, Copy, Debug)]
 pub struct Bits(u64);
 
+impl Bits {
+    /// The set bits of `m`.
+    #[inline]
+    pub fn of(m: u64) -> Bits {
+        Bits(m)
+    }
+}
+
 impl Iterator for Bits {
     type Item = u32;
 

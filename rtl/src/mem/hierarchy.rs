@@ -144,6 +144,9 @@ impl MemSystem {
     /// All three give the same results.
     pub fn set_eval_check(&mut self, check: EvalCheck) {
         self.check = check;
+        if let Some(step) = self.step.as_mut() {
+            step.order.clear();
+        }
     }
 
     pub fn eval_check(&self) -> EvalCheck {
