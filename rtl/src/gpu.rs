@@ -275,19 +275,6 @@ impl Gpu {
             {
                 break;
             }
-            // Dataflow: the RT units' requests come from their registers and the L1Ds' ready
-            // registers; the memory system evaluates on them; the RT units (siblings: none reads
-            // another) evaluate on its outputs; then every unit commits at the clock edge.
-            for (sm, u) in self.units.iter().enumerate() {
-                self.req_ready[sm] = self.mem.ready(sm);
-                self.reqs[sm] = u.req(self.req_ready[sm]);
-            }
-            let out = self.mem.eval(&self.reqs);
-            evaluated += 1;
-            let mut first_error: Option<(usize, RunError)> = None;
-            // A unit with no event due, no response, no job landing and no request offered would
-            // evaluate to a step that changes nothing: it is not evaluated (wake-up instead of a
-            // scan). A cycle the sink shows evaluates every unit, for its combinational signals.
             #[cfg(not(feature = "untraced"))]
             let shown = sink.next_wanted(now) == Some(now);
             #[cfg(feature = "untraced")]
@@ -296,54 +283,98 @@ impl Gpu {
             let deaf = self.order_bug == Some(OrderBug::SleepThroughResponses);
             #[cfg(not(feature = "mutants"))]
             let deaf = false;
-            for (sm, u) in self.units.iter().enumerate() {
-                self.quiet[sm] = !shown
-                    && self.eval_check.skips_quiet_units()
-                    && u.next_event().is_none_or(|e| e > now)
-                    && (out[sm].resp.is_empty() || deaf)
-                    && self.jobs_in[sm].is_none()
-                    && self.reqs[sm].is_none();
-            }
-            for &sm in &self.order {
-                if self.quiet[sm] {
-                    continue;
+            // A unit with no event due, no response, no job landing and no request offered would
+            // evaluate to a step that changes nothing: it is not evaluated (wake-up instead of a
+            // scan). A cycle the sink shows evaluates every unit, for its combinational signals.
+            if self.eval_check == EvalCheck::Dataflow && !shown {
+                // The same cycle, SM by SM: each SM's request, L1D, RT unit and their clock edges
+                // before the next SM's, so one SM's state is read and written while it is in the
+                // cache (the L2 and DRAM evaluate first: their inputs are registers; they commit
+                // last). No SM reads another's registers or step, so the results are those of
+                // the phase-by-phase form below (which the other evaluation orders use; tests
+                // compare their reports).
+                self.mem.eval_shared();
+                evaluated += 1;
+                for sm in 0..n {
+                    let u = &mut self.units[sm];
+                    let req_ready = self.mem.ready(sm);
+                    let req = u.req(req_ready);
+                    let o = self.mem.eval_sm(sm, req);
+                    let quiet = u.next_event().is_none_or(|e| e > now)
+                        && (o.resp.is_empty() || deaf)
+                        && self.jobs_in[sm].is_none()
+                        && req.is_none();
+                    if !quiet {
+                        let i = RtIn { now, req_ready, req_fire: o.ready && req.is_some(), resp: &o.resp };
+                        u.eval(&i, &mut self.steps[sm])?;
+                        u.commit(&self.steps[sm], self.jobs_in[sm].take());
+                    }
+                    self.mem.commit_sm(sm);
                 }
-                let i = RtIn {
-                    now,
-                    req_ready: self.req_ready[sm],
-                    req_fire: out[sm].ready && self.reqs[sm].is_some(),
-                    resp: &out[sm].resp,
-                };
-                for _pass in 0..self.eval_check.passes() {
-                    #[cfg(feature = "mutants")]
-                    let earlier = (self.order_bug == Some(OrderBug::StaleStep) && _pass > 0)
-                        .then(|| self.steps[sm].visits());
-                    if let Err(e) = self.units[sm].eval(&i, &mut self.steps[sm]) {
-                        // The lowest SM's error, whatever the evaluation order.
-                        if first_error.as_ref().is_none_or(|f| sm < f.0) {
-                            first_error = Some((sm, e));
+                self.mem.commit_shared();
+            } else {
+                // Dataflow: the RT units' requests come from their registers and the L1Ds' ready
+                // registers; the memory system evaluates on them; the RT units (siblings: none reads
+                // another) evaluate on its outputs; then every unit commits at the clock edge.
+                for (sm, u) in self.units.iter().enumerate() {
+                    self.req_ready[sm] = self.mem.ready(sm);
+                    self.reqs[sm] = u.req(self.req_ready[sm]);
+                }
+                let out = self.mem.eval(&self.reqs);
+                evaluated += 1;
+                let mut first_error: Option<(usize, RunError)> = None;
+                // A unit with no event due, no response, no job landing and no request offered would
+                // evaluate to a step that changes nothing: it is not evaluated (wake-up instead of a
+                // scan). A cycle the sink shows evaluates every unit, for its combinational signals.
+                for (sm, u) in self.units.iter().enumerate() {
+                    self.quiet[sm] = !shown
+                        && self.eval_check.skips_quiet_units()
+                        && u.next_event().is_none_or(|e| e > now)
+                        && (out[sm].resp.is_empty() || deaf)
+                        && self.jobs_in[sm].is_none()
+                        && self.reqs[sm].is_none();
+                }
+                for &sm in &self.order {
+                    if self.quiet[sm] {
+                        continue;
+                    }
+                    let i = RtIn {
+                        now,
+                        req_ready: self.req_ready[sm],
+                        req_fire: out[sm].ready && self.reqs[sm].is_some(),
+                        resp: &out[sm].resp,
+                    };
+                    for _pass in 0..self.eval_check.passes() {
+                        #[cfg(feature = "mutants")]
+                        let earlier = (self.order_bug == Some(OrderBug::StaleStep) && _pass > 0)
+                            .then(|| self.steps[sm].visits());
+                        if let Err(e) = self.units[sm].eval(&i, &mut self.steps[sm]) {
+                            // The lowest SM's error, whatever the evaluation order.
+                            if first_error.as_ref().is_none_or(|f| sm < f.0) {
+                                first_error = Some((sm, e));
+                            }
+                        }
+                        #[cfg(feature = "mutants")]
+                        if let Some(v) = earlier {
+                            self.steps[sm].count_visits_again(v);
                         }
                     }
-                    #[cfg(feature = "mutants")]
-                    if let Some(v) = earlier {
-                        self.steps[sm].count_visits_again(v);
+                }
+                if let Some((_, e)) = first_error {
+                    return Err(e);
+                }
+                for &sm in &self.order {
+                    if !self.quiet[sm] {
+                        self.units[sm].commit(&self.steps[sm], self.jobs_in[sm].take());
                     }
                 }
-            }
-            if let Some((_, e)) = first_error {
-                return Err(e);
-            }
-            for &sm in &self.order {
-                if !self.quiet[sm] {
-                    self.units[sm].commit(&self.steps[sm], self.jobs_in[sm].take());
+                #[cfg(not(feature = "untraced"))]
+                if shown {
+                    sink.begin_cycle(now);
+                    self.probe(sink);
                 }
+                self.mem.commit();
             }
-            #[cfg(not(feature = "untraced"))]
-            if shown {
-                sink.begin_cycle(now);
-                self.probe(sink);
-            }
-            self.mem.commit();
             slot_free = self.units.iter().any(|u| u.free_slot().is_some());
             let dispatch_next = more_jobs && slot_free;
             // The next cycle is the earliest possible: the memory system's events need not be

@@ -472,8 +472,7 @@ impl RtUnit {
             let due = now >= q.busy_until;
             let scheduled = d.issue.filter(|x| x.0 == w).map_or(0, |x| x.1);
             // A Stack lane whose sequencer is busy stays as it is: not visited.
-            let stack_ready =
-                lanes_of(q.stack).filter(|&l| manager.ready(w * ws + l)).fold(0, |a, l| a | 1 << l);
+            let stack_ready = if q.stack == 0 { 0 } else { q.stack & manager.ready_lanes(w) };
             let todo = stack_ready | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
             for l in lanes_of(todo) {
                 let t = w * ws + l;
@@ -571,7 +570,6 @@ impl RtUnit {
     /// Next event after cycle `now` (registers after the edge): anything that acts next cycle
     /// without a memory response, else the first operation unit to finish.
     fn next_event_after(&self, now: u64) -> Option<u64> {
-        let ws = self.cfg.warp_size;
         let manager = &self.stack_unit.manager;
         let acts_next = !self.fetch.queue_empty()
             || self.stack_unit.arb.busy()
@@ -580,7 +578,7 @@ impl RtUnit {
                 let m = self.warp_buffer.lanes(w);
                 self.fetchable(w) != 0
                     || m.live() == 0
-                    || lanes_of(m.stack).any(|l| manager.ready(w * ws + l))
+                    || m.stack != 0 && m.stack & manager.ready_lanes(w) != 0
             })
             || manager.can_issue();
         if acts_next {
@@ -602,11 +600,8 @@ impl RtUnit {
         let m = self.warp_buffer.lanes(w).fetch;
         match self.rt.stack_timing {
             StackTiming::Overlapped => m,
-            StackTiming::Blocking => {
-                let ws = self.cfg.warp_size;
-                let manager = &self.stack_unit.manager;
-                lanes_of(m).filter(|&l| manager.ready(w * ws + l)).fold(0, |a, l| a | 1 << l)
-            }
+            StackTiming::Blocking if m == 0 => 0,
+            StackTiming::Blocking => m & self.stack_unit.manager.ready_lanes(w),
         }
     }
 

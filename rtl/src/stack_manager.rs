@@ -602,6 +602,9 @@ pub struct StackManager {
     seq: Vec<Sequencer>,
     /// Bit t: thread t has micro-ops queued (derived from `seq`, so a cycle visits only those).
     queued: Vec<u64>,
+    /// Bit t: thread t's sequencer is not `ready` (micro-ops queued or one in flight; derived from
+    /// `seq`, so `ready` reads one bit instead of the sequencer).
+    busy: Vec<u64>,
     sh_data: Vec<Entry>,
     global: Vec<Vec<Entry>>,
     /// A global store stays in flight until its acknowledgement arrives on the global
@@ -631,6 +634,7 @@ impl Clone for StackManager {
             rb: self.rb.clone(),
             seq: self.seq.clone(),
             queued: self.queued.clone(),
+            busy: self.busy.clone(),
             sh_data: self.sh_data.clone(),
             global: self.global.clone(),
             acked_stores: self.acked_stores,
@@ -652,6 +656,7 @@ impl Clone for StackManager {
             rb,
             seq,
             queued,
+            busy,
             sh_data,
             global,
             acked_stores,
@@ -669,6 +674,7 @@ impl Clone for StackManager {
         self.rb.clone_from(rb);
         self.seq.clone_from(seq);
         self.queued.clone_from(queued);
+        self.busy.clone_from(busy);
         self.sh_data.clone_from(sh_data);
         self.global.clone_from(global);
         self.acked_stores = *acked_stores;
@@ -705,6 +711,7 @@ impl StackManager {
             rb: vec![VecDeque::new(); n],
             seq: vec![Sequencer::default(); n],
             queued: vec![0; n.div_ceil(64)],
+            busy: vec![0; n.div_ceil(64)],
             sh_data: vec![0; n * cfg.sh_entries as usize],
             global: vec![Vec::new(); n],
             acked_stores: false,
@@ -767,8 +774,17 @@ impl StackManager {
     /// Ready for a command: the thread's sequencer is idle.
     #[inline]
     pub fn ready(&self, t: u32) -> bool {
-        let q = &self.seq[t as usize];
-        q.uops.is_empty() && q.inflight.is_none()
+        self.busy[(t / 64) as usize] & 1 << (t % 64) == 0
+    }
+    /// The lanes of warp `w` that are [`StackManager::ready`] (bit l: thread `w · warp_size + l`).
+    /// A warp's threads never straddle two words of `busy`: the warp size is a power of two of
+    /// at most 32 ([`Config::validate`]).
+    #[inline]
+    pub fn ready_lanes(&self, w: u32) -> u32 {
+        let ws = self.cfg.warp_size;
+        let first = w * ws;
+        let bits = self.busy[(first / 64) as usize] >> (first % 64);
+        !(bits as u32) & (u32::MAX >> (32 - ws))
     }
     /// Some thread will issue a micro-op in the next `step` without waiting for a completion
     /// (it has micro-ops queued and none in flight). When false, every busy thread waits on the
@@ -1140,13 +1156,14 @@ impl StackManager {
         self
     }
 
+    /// Brings thread `t`'s bits of `queued` and `busy` in line with its sequencer (after any
+    /// change to it).
     fn sync_queued(&mut self, t: u32) {
         let (word, bit) = ((t / 64) as usize, 1u64 << (t % 64));
-        if self.seq[t as usize].uops.is_empty() {
-            self.queued[word] &= !bit;
-        } else {
-            self.queued[word] |= bit;
-        }
+        let q = &self.seq[t as usize];
+        let (queued, busy) = (!q.uops.is_empty(), !q.uops.is_empty() || q.inflight.is_some());
+        self.queued[word] = self.queued[word] & !bit | if queued { bit } else { 0 };
+        self.busy[word] = self.busy[word] & !bit | if busy { bit } else { 0 };
     }
 }
 

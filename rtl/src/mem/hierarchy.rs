@@ -172,6 +172,52 @@ impl MemSystem {
         &self.step.insert(d).out
     }
 
+    /// [`MemSystem::eval`] taken apart for a runner that finishes one SM before it starts the
+    /// next (better locality; same results): first the shared part, the L2 (whose inputs are
+    /// register outputs only) and DRAM (whose input is the L2's `dram_req` register); then each
+    /// SM's L1D ([`MemSystem::eval_sm`]) and its clock edge ([`MemSystem::commit_sm`]), and last
+    /// [`MemSystem::commit_shared`]. Siblings in index order only ([`EvalCheck::Dataflow`]).
+    pub fn eval_shared(&mut self) {
+        let sms = self.l1d.len();
+        let d = self.step.get_or_insert_with(Box::default);
+        d.at = self.now;
+        d.out.resize_with(sms, SmOut::default);
+        d.l1d.resize_with(sms, L1dStep::default);
+        d.down.clear();
+        d.down.extend(self.l1d.iter().map(L1d::down_req));
+        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
+        self.l2.eval(&l2_in, &mut d.l2);
+        self.dram.eval(&DramIn { req: self.l2.dram_req() }, &mut d.dram);
+    }
+
+    /// SM `sm`'s L1D in the cycle [`MemSystem::eval_shared`] began, on the SM's request `req`:
+    /// what the SM sees.
+    pub fn eval_sm(&mut self, sm: usize, req: Option<MemReq>) -> &SmOut {
+        let d = self.step.as_mut().expect("eval_shared first");
+        let l1 = &self.l1d[sm];
+        l1.eval(&L1dIn { req, down_ready: d.l2.out.granted[sm], fills: self.l2.resp(sm) }, &mut d.l1d[sm]);
+        let o = &mut d.out[sm];
+        o.ready = l1.ready() && (req.is_none() || d.l1d[sm].out.req_fire);
+        o.resp.clear();
+        o.resp.extend_from_slice(l1.resp());
+        o
+    }
+
+    /// Clock edge of SM `sm`'s L1D (after [`MemSystem::eval_sm`]).
+    pub fn commit_sm(&mut self, sm: usize) {
+        let d = self.step.as_ref().expect("eval_shared first");
+        self.l1d[sm].commit(&d.l1d[sm]);
+    }
+
+    /// Clock edge of the L2 and DRAM, after every SM's [`MemSystem::commit_sm`]: the cycle ends.
+    pub fn commit_shared(&mut self) {
+        let d = self.step.as_ref().expect("eval_shared first");
+        assert_eq!(d.at, self.now, "memory system committed a step evaluated in another cycle");
+        self.dram.commit(&d.dram);
+        self.l2.commit(&d.l2);
+        self.now += 1;
+    }
+
     /// Clock edge for the step of the last [`MemSystem::eval`].
     pub fn commit(&mut self) {
         let d = self.step.take().unwrap_or_default();
