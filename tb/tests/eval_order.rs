@@ -88,3 +88,29 @@ fn a_wake_up_that_misses_a_response_is_caught() {
         Err(e) => eprintln!("caught as a failed run: {e}"),
     }
 }
+
+/// The normal run evaluates SM by SM, the checks above phase by phase, so comparing their
+/// reports compares the two forms: an SM-by-SM loop that hands each SM its neighbour's memory
+/// outputs is caught (its run stops on a response it cannot place, or stalls, or reports
+/// otherwise), while the phase-by-phase run is unaffected.
+#[test]
+fn an_sm_by_sm_loop_with_crossed_ports_is_caught() {
+    let jobs = jobs("clutter", 16);
+    let cfg = Config::sms();
+    let hw = Hardware::default();
+    let crossed = |check| {
+        let jobs = jobs.clone();
+        std::panic::catch_unwind(move || {
+            let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check);
+            gpu.with_order_bug(OrderBug::SmPortsCrossed).run(jobs, &mut NullSink)
+        })
+    };
+    let phased =
+        crossed(EvalCheck::Shuffled { seed: 13 }).expect("no panic").expect("the phased run is unaffected");
+    assert_eq!(bits(&phased), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
+    match crossed(EvalCheck::Dataflow) {
+        Ok(Ok(r)) => assert_ne!(bits(&r), bits(&phased), "the crossed ports must show"),
+        Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
+        Err(_) => eprintln!("caught as a panic"),
+    }
+}

@@ -190,9 +190,9 @@ impl MemSystem {
         self.dram.eval(&DramIn { req: self.l2.dram_req() }, &mut d.dram);
     }
 
-    /// SM `sm`'s L1D in the cycle [`MemSystem::eval_shared`] began, on the SM's request `req`:
-    /// what the SM sees.
-    pub fn eval_sm(&mut self, sm: usize, req: Option<MemReq>) -> &SmOut {
+    /// SM `sm`'s L1D in the cycle [`MemSystem::eval_shared`] began, on the SM's request `req`
+    /// (what the SM sees: [`MemSystem::sm_out`]).
+    pub fn eval_sm(&mut self, sm: usize, req: Option<MemReq>) {
         let d = self.step.as_mut().expect("eval_shared first");
         let l1 = &self.l1d[sm];
         l1.eval(&L1dIn { req, down_ready: d.l2.out.granted[sm], fills: self.l2.resp(sm) }, &mut d.l1d[sm]);
@@ -200,7 +200,11 @@ impl MemSystem {
         o.ready = l1.ready() && (req.is_none() || d.l1d[sm].out.req_fire);
         o.resp.clear();
         o.resp.extend_from_slice(l1.resp());
-        o
+    }
+
+    /// What SM `sm` sees this cycle, after [`MemSystem::eval_sm`].
+    pub fn sm_out(&self, sm: usize) -> &SmOut {
+        &self.step.as_ref().expect("eval_shared first").out[sm]
     }
 
     /// Clock edge of SM `sm`'s L1D (after [`MemSystem::eval_sm`]).
