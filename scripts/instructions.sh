@@ -5,13 +5,22 @@
 # time on a shared virtual machine swings by 15 % and more between runs minutes apart; this count
 # moves by about 0.001 % between runs of one build (only waits for the tracing thread vary), so
 # it compares two builds of the model where timing cannot.
-# Usage: scripts/instructions.sh [OTHER_THROUGHPUT_BINARY]
+# Usage: scripts/instructions.sh [--cache] [OTHER_THROUGHPUT_BINARY]
 #   With an argument (a throughput bench binary of another build, e.g. copied from
 #   target/release/deps/throughput-* before a change), counts both and prints the ratio.
-# Needs valgrind (Debian: apt-get install valgrind); takes about a minute per build.
+#   --cache also simulates the first-level caches and prints their misses and callgrind's
+#   estimated cycles (instructions + 10 x first-level misses + 100 x last-level misses): a change
+#   that moves few instructions can still move the cache misses a lot (the SM-by-SM loop halved
+#   the instruction-cache misses), and the ratio is then of estimated cycles.
+# Needs valgrind (Debian: apt-get install valgrind); about a minute per build, three with --cache.
 set -eu
 cd "$(dirname "$0")/.."
 command -v valgrind >/dev/null 2>&1 || { echo "valgrind not found (Debian: apt-get install valgrind)" >&2; exit 1; }
+cache=no
+if [ "${1:-}" = "--cache" ]; then
+    cache=yes
+    shift
+fi
 this=$(cargo bench -p tb --bench throughput --no-run 2>&1 | sed -n 's/.*Executable .*(\(.*\))$/\1/p' | tail -n 1)
 [ -x "$this" ] || { echo "could not build the throughput bench" >&2; exit 1; }
 if [ $# -gt 0 ] && [ ! -x "$1" ]; then
@@ -20,13 +29,19 @@ if [ $# -gt 0 ] && [ ! -x "$1" ]; then
 fi
 count() {
     log=$(mktemp)
-    out=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null \
+    out=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null --cache-sim=$cache \
         --toggle-collect='rtl::gpu::Gpu::run_timed*' "$1" --once 2>"$log")
-    n=$(sed -n 's/.*Collected : \([0-9]*\).*/\1/p' "$log")
+    # "Collected : Ir [Dr Dw I1mr D1mr D1mw ILmr DLmr DLmw]" (the rest with --cache-sim=yes)
+    set -- $(sed -n 's/.*Collected : \(.*\)$/\1/p' "$log")
     rm -f "$log"
     cycles=$(echo "$out" | sed -n 's/^once_run_cycles //p')
-    [ -n "$n" ] && [ -n "$cycles" ] || { echo "$1: no count (is it a throughput bench binary with --once?)" >&2; exit 1; }
-    echo "$n $cycles"
+    [ $# -ge 1 ] && [ -n "$cycles" ] || { echo "no count (is it a throughput bench binary with --once?)" >&2; exit 1; }
+    if [ "$cache" = yes ]; then
+        est=$(( $1 + 10 * ($4 + $5 + $6) + 100 * ($7 + $8 + $9) ))
+        echo "$1 $cycles $4 $(( $5 + $6 )) $est"
+    else
+        echo "$1 $cycles"
+    fi
 }
 set -- "$this" "$@"
 first=""
@@ -34,9 +49,14 @@ for bin in "$@"; do
     result=$(count "$bin") || exit 1
     set -- $result
     printf '%-60s %15s instructions, %s GPU cycles, %.0f per cycle\n' "$bin" "$1" "$2" "$(echo "$1 / $2" | bc -l)"
+    metric=$1
+    if [ "$cache" = yes ]; then
+        printf '%-60s %15s I1 misses, %s D1 misses, %s estimated cycles\n' "" "$3" "$4" "$5"
+        metric=$5
+    fi
     if [ -z "$first" ]; then
-        first=$1
+        first=$metric
     else
-        printf 'this build / other build: %.4f\n' "$(echo "$first / $1" | bc -l)"
+        printf 'this build / other build: %.4f\n' "$(echo "$first / $metric" | bc -l)"
     fi
 done

@@ -18,8 +18,8 @@
 //! SM instead: the L2 and DRAM first (their inputs are registers), then for each SM its request,
 //! its L1D ([`MemSystem::eval_sm`]), its RT unit, and the clock edges of both, and last the L2's
 //! and DRAM's edges. No SM reads another SM's registers or step, so only the order of work
-//! changes, and one SM's state and code stay in the CPU's caches while it is worked on: 5 % fewer
-//! instructions and half the instruction-cache misses (callgrind). The other evaluation checks
+//! changes, and one SM's state and code stay in the CPU's caches while it is worked on: 4 % fewer
+//! instructions and 40 % fewer instruction-cache misses (callgrind). The other evaluation checks
 //! run phase by phase, so the tests that compare their reports with the normal run's compare the
 //! two forms.
 //!

@@ -7,6 +7,7 @@ use rtl::clock::EvalCheck;
 use rtl::config::Config;
 use rtl::gpu::{Gpu, GpuReport, OrderBug};
 use rtl::ray_op::WarpJob;
+use rtl::rt_unit::RunError;
 use rtl::trace::NullSink;
 use tb::run::sim::{rtl_job, Hardware};
 use tb::workload::traverse::ChildOrder;
@@ -28,6 +29,13 @@ fn run(cfg: Config, jobs: &[WarpJob], check: EvalCheck, bug: Option<OrderBug>) -
         gpu = gpu.with_order_bug(b);
     }
     gpu.run(jobs.iter().cloned(), &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
+}
+
+/// A run with a planted bug, its error returned.
+fn try_run(cfg: Config, jobs: Vec<WarpJob>, check: EvalCheck, bug: OrderBug) -> Result<GpuReport, RunError> {
+    let hw = Hardware::default();
+    let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check);
+    gpu.with_order_bug(bug).run(jobs, &mut NullSink)
 }
 
 /// Bit for bit, floats included.
@@ -76,11 +84,7 @@ fn planted_order_dependences_are_caught() {
 fn a_wake_up_that_misses_a_response_is_caught() {
     let jobs = jobs("clutter", 16);
     let cfg = Config::sms();
-    let hw = Hardware::default();
-    let deaf = |check| {
-        let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check);
-        gpu.with_order_bug(OrderBug::SleepThroughResponses).run(jobs.iter().cloned(), &mut NullSink)
-    };
+    let deaf = |check| try_run(cfg, jobs.clone(), check, OrderBug::SleepThroughResponses);
     let every = deaf(EvalCheck::EveryUnit).expect("evaluating every unit never sleeps");
     assert_eq!(bits(&every), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
     match deaf(EvalCheck::Dataflow) {
@@ -97,13 +101,9 @@ fn a_wake_up_that_misses_a_response_is_caught() {
 fn an_sm_by_sm_loop_with_crossed_ports_is_caught() {
     let jobs = jobs("clutter", 16);
     let cfg = Config::sms();
-    let hw = Hardware::default();
     let crossed = |check| {
         let jobs = jobs.clone();
-        std::panic::catch_unwind(move || {
-            let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check);
-            gpu.with_order_bug(OrderBug::SmPortsCrossed).run(jobs, &mut NullSink)
-        })
+        std::panic::catch_unwind(move || try_run(cfg, jobs, check, OrderBug::SmPortsCrossed))
     };
     let phased =
         crossed(EvalCheck::Shuffled { seed: 13 }).expect("no panic").expect("the phased run is unaffected");

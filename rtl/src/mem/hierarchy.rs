@@ -178,16 +178,23 @@ impl MemSystem {
     /// SM's L1D ([`MemSystem::eval_sm`]) and its clock edge ([`MemSystem::commit_sm`]), and last
     /// [`MemSystem::commit_shared`]. Siblings in index order only ([`EvalCheck::Dataflow`]).
     pub fn eval_shared(&mut self) {
+        let mut d = self.step.take().unwrap_or_default();
+        self.begin_step(&mut d);
+        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
+        self.l2.eval(&l2_in, &mut d.l2);
+        self.dram.eval(&DramIn { req: self.l2.dram_req() }, &mut d.dram);
+        self.step = Some(d);
+    }
+
+    /// Starts the cycle's step `d`: its cycle, a slot per SM, and the L1Ds' down requests (with
+    /// DRAM's register outputs, the L2's inputs).
+    fn begin_step(&self, d: &mut MemStep) {
         let sms = self.l1d.len();
-        let d = self.step.get_or_insert_with(Box::default);
         d.at = self.now;
         d.out.resize_with(sms, SmOut::default);
         d.l1d.resize_with(sms, L1dStep::default);
         d.down.clear();
         d.down.extend(self.l1d.iter().map(L1d::down_req));
-        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
-        self.l2.eval(&l2_in, &mut d.l2);
-        self.dram.eval(&DramIn { req: self.l2.dram_req() }, &mut d.dram);
     }
 
     /// SM `sm`'s L1D in the cycle [`MemSystem::eval_shared`] began, on the SM's request `req`
@@ -235,13 +242,9 @@ impl MemSystem {
         let sms = self.l1d.len();
         assert_eq!(reqs.len(), sms, "one request slot per SM");
         let passes = self.check.passes();
-        d.at = self.now;
-        d.out.resize_with(sms, SmOut::default);
-        d.l1d.resize_with(sms, L1dStep::default);
-        d.down.clear();
-        d.down.extend(self.l1d.iter().map(L1d::down_req));
 
         // 1. The L2, from register outputs only.
+        self.begin_step(d);
         let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
         let l2 = eval_kernel(passes, "L2", &mut d.l2, &mut d.first_l2, |s| self.l2.eval(&l2_in, s));
         let granted = &l2.out.granted;
