@@ -809,7 +809,7 @@ impl StackManager {
     }
     /// No thread has work in flight.
     pub fn quiescent(&self) -> bool {
-        (0..self.cfg.threads()).all(|t| self.ready(t))
+        self.busy.iter().all(|&w| w == 0)
     }
     pub fn warp_of(&self, t: u32) -> u32 {
         t / self.cfg.warp_size
@@ -1146,7 +1146,7 @@ impl StackManager {
 
     /// Threads with work in flight or queued.
     pub fn busy_threads(&self) -> usize {
-        (0..self.cfg.threads()).filter(|&t| !self.ready(t)).count()
+        self.busy.iter().map(|w| w.count_ones() as usize).sum()
     }
 
     /// Sets a mutant (test builds).

@@ -203,6 +203,8 @@ impl MemSystem {
         let d = self.step.as_mut().expect("eval_shared first");
         let l1 = &self.l1d[sm];
         l1.eval(&L1dIn { req, down_ready: d.l2.out.granted[sm], fills: self.l2.resp(sm) }, &mut d.l1d[sm]);
+        // As the last loop of `eval_step`, for one SM. (A helper shared by both cost 0.6 % more
+        // instructions in callgrind at stop 17, so the three lines are written twice.)
         let o = &mut d.out[sm];
         o.ready = l1.ready() && (req.is_none() || d.l1d[sm].out.req_fire);
         o.resp.clear();
