@@ -22,7 +22,7 @@
 //! access enters only after `shared_cycle` (~2261) has stalled it for its bank conflicts, so the
 //! latency comes after the serialization, as here.
 
-use crate::config::Widths;
+use crate::config::{rem32, Widths};
 use crate::trace::{Kind, Sink};
 
 /// Most words one entry can span (8-byte entries over 1-byte banks).
@@ -169,7 +169,7 @@ impl BankArbiter {
                     if served & (1 << i) != 0 {
                         continue;
                     }
-                    let bank = (w % self.banks) as usize;
+                    let bank = rem32(w, self.banks) as usize;
                     if grant_mask & (1 << bank) == 0 {
                         grant_mask |= 1 << bank;
                         bank_word[bank] = w;

@@ -118,6 +118,27 @@ fn reject(parameter: &'static str, value: impl fmt::Display, reason: impl Into<S
 /// RB count width the model uses for RB = FULL.
 pub const RB_FULL_COUNT_BITS: u32 = 16;
 
+/// `x mod m`, without a division when `m` is a power of two (warp sizes and bank counts are:
+/// a division costs the host tens of cycles, and these run for every thread the model visits).
+#[inline]
+pub(crate) fn rem32(x: u32, m: u32) -> u32 {
+    if m.is_power_of_two() {
+        x & (m - 1)
+    } else {
+        x % m
+    }
+}
+
+/// `x / m`, as [`rem32`].
+#[inline]
+pub(crate) fn quot32(x: u32, m: u32) -> u32 {
+    if m.is_power_of_two() {
+        x >> m.trailing_zeros()
+    } else {
+        x / m
+    }
+}
+
 /// Bits needed to hold values 0..=max.
 pub const fn bits_for(max: u64) -> u32 {
     if max == 0 {

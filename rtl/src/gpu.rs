@@ -311,6 +311,16 @@ impl Gpu {
                     let u = &mut self.units[sm];
                     let req_ready = self.mem.ready(sm);
                     let req = u.req(req_ready);
+                    // An SM with nothing to do (no request, no job, no event due in its RT unit,
+                    // and an L1D with no fill and no event) only lets its L1D's clock move: its
+                    // evaluation would show no response and change nothing.
+                    if req.is_none()
+                        && self.jobs_in[sm].is_none()
+                        && u.next_event().is_none_or(|e| e > now)
+                        && self.mem.skip_quiet_sm(sm)
+                    {
+                        continue;
+                    }
                     self.mem.eval_sm(sm, req);
                     #[cfg(feature = "mutants")]
                     let port =

@@ -55,9 +55,13 @@ pub struct NodeFetch {
 }
 
 /// Number of sector pieces of a node of `bytes` bytes at `addr`.
+/// `sector_bytes` is a power of two (the memory system's sector: validated), so the sector
+/// numbers are shifts.
 pub fn pieces(addr: u64, bytes: u32, sector_bytes: u64) -> u32 {
-    let first = addr / sector_bytes;
-    let last = (addr + u64::from(bytes.max(1)) - 1) / sector_bytes;
+    debug_assert!(sector_bytes.is_power_of_two());
+    let k = sector_bytes.trailing_zeros();
+    let first = addr >> k;
+    let last = (addr + u64::from(bytes.max(1)) - 1) >> k;
     (last - first + 1) as u32
 }
 
@@ -65,6 +69,7 @@ impl NodeFetch {
     /// The fetch unit of an RT unit with `threads` threads, for memory of `sector_bytes`-byte
     /// sectors.
     pub fn new(sector_bytes: u32, threads: u32) -> Self {
+        debug_assert!(sector_bytes.is_power_of_two(), "sectors are a power of two (MemParams::validate)");
         NodeFetch {
             sector_bytes: u64::from(sector_bytes),
             count_bits: NodeFetch::count_bits(sector_bytes, threads),
@@ -125,7 +130,8 @@ impl NodeFetch {
             let end = addr + u64::from(bytes.max(1));
             let mut a = addr;
             while a < end {
-                let piece_end = end.min((a / s + 1) * s);
+                // The next sector boundary (sectors are a power of two: no division).
+                let piece_end = end.min((a | (s - 1)) + 1);
                 let n = (piece_end - a) as u32;
                 match self.merge.iter_mut().find(|m| m.0 == a && m.1 == n) {
                     Some(m) => {

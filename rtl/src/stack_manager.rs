@@ -33,7 +33,7 @@
 use std::collections::VecDeque;
 
 use crate::bank_arbiter::{ShReq, MAX_WORDS};
-use crate::config::{Config, ConfigError, Widths};
+use crate::config::{quot32, rem32, Config, ConfigError, Widths};
 use crate::mem::addr::{LocalLayout, LocalMap};
 use crate::mem_sched::GReq;
 use crate::trace::{Kind, Probe, Sink};
@@ -140,7 +140,15 @@ impl StackRegs {
         if self.empty {
             0
         } else {
-            (self.top + m - self.bottom) % m + 1
+            // top and bottom are below m: one conditional subtraction, not a division.
+            let d = self.top + m - self.bottom;
+            if d < m {
+                d + 1
+            } else if d < 2 * m {
+                d - m + 1
+            } else {
+                d % m + 1
+            }
         }
     }
 }
@@ -477,7 +485,7 @@ impl Chain {
     /// The chain of thread `t`, following `next_tid` of each stack around the ring.
     fn of(t: u32, warp_size: u32, next_tid: impl Fn(u32) -> u32) -> Chain {
         let mut c = Chain { ids: [0; 32], len: 0 };
-        let base = t - t % warp_size;
+        let base = t - rem32(t, warp_size);
         let mut s = t;
         loop {
             c.ids[c.len] = s;
@@ -812,7 +820,7 @@ impl StackManager {
         self.busy.iter().all(|&w| w == 0)
     }
     pub fn warp_of(&self, t: u32) -> u32 {
-        t / self.cfg.warp_size
+        quot32(t, self.cfg.warp_size)
     }
     /// Every thread of warp `w` finished and quiet: the warp may leave.
     pub fn warp_done(&self, w: u32) -> bool {
@@ -1280,12 +1288,21 @@ impl<'a> Planner<'a> {
         if self.mutant(Mutant::QueueWrapOffByOne) && i + 1 >= m {
             return 1 % m;
         }
-        (i + 1) % m
+        // i < m: a compare, not a division.
+        if i + 1 < m {
+            i + 1
+        } else {
+            (i + 1) % m
+        }
     }
 
     fn dec(&self, i: u32) -> u32 {
         let m = self.cfg().sh_entries;
-        (i + m - 1) % m
+        if (1..=m).contains(&i) {
+            i - 1
+        } else {
+            (i + m - 1) % m
+        }
     }
 
     fn full(&self, s: u32) -> bool {
@@ -1330,7 +1347,7 @@ impl<'a> Planner<'a> {
     // ---- chains (reallocation) ----------------------------------------------------------------
 
     fn warp_base(&self, s: u32) -> u32 {
-        s - s % self.cfg().warp_size
+        s - rem32(s, self.cfg().warp_size)
     }
 
     fn members(&self, t: u32) -> Chain {

@@ -13,7 +13,7 @@
 //! scheduled, or holding a stack command) instead of all of them. The age is a rank among the
 //! resident warps (what the GTO scheduler compares), so it is a warp index wide.
 
-use crate::config::{Config, Widths};
+use crate::config::{quot32, rem32, Config, Widths};
 use crate::ray_op::RayOp;
 use crate::thread_fsm::{Thread, ThreadState};
 use crate::trace::{Kind, Sink};
@@ -226,7 +226,7 @@ impl WarpBuffer {
     /// Clock edge: thread `t` takes state `d`.
     #[inline]
     pub fn set_thread(&mut self, t: u32, d: Thread) {
-        let (w, l) = (t / self.warp_size, t % self.warp_size);
+        let (w, l) = (quot32(t, self.warp_size), rem32(t, self.warp_size));
         self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
         self.threads[t as usize] = d;
     }

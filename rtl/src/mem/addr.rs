@@ -22,6 +22,8 @@
 //!   cache sees a dense address space; the MOBILE L2 (`-gpgpu_cache:dl2 S:64:128:16,L:B:m:L:P`)
 //!   hashes it with IPOLY (`gpu-cache.cc:121-125`, `hashing.cc:9-104`).
 
+use super::cache::{quot, rem};
+
 /// How the spill slots of the GPU's threads are laid out in the device address space.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum LocalLayout {
@@ -131,21 +133,21 @@ pub struct L2Map {
 
 impl L2Map {
     pub fn bank_of(&self, addr: u64) -> u32 {
-        (addr / u64::from(self.interleave_bytes) % u64::from(self.banks)) as u32
+        rem(quot(addr, self.interleave_bytes), self.banks) as u32
     }
 
     /// `addr` with its bank digit removed: the address the bank's cache indexes.
     pub fn partition_addr(&self, addr: u64) -> u64 {
-        let i = u64::from(self.interleave_bytes);
-        addr / i / u64::from(self.banks) * i + addr % i
+        let i = self.interleave_bytes;
+        quot(quot(addr, i), self.banks) * u64::from(i) + rem(addr, i)
     }
 
     /// Set within the bank.
     pub fn set_in_bank(&self, addr: u64) -> u32 {
-        let line = self.partition_addr(addr) / u64::from(self.line_bytes);
+        let line = quot(self.partition_addr(addr), self.line_bytes);
         let sets = self.sets_per_bank;
         match self.index {
-            SetIndex::Linear => (line % u64::from(sets)) as u32,
+            SetIndex::Linear => rem(line, sets) as u32,
             SetIndex::Ipoly if sets == 1 => 0,
             SetIndex::Ipoly => {
                 let p = ipoly_part(sets).expect("validated IPOLY set count");

@@ -60,14 +60,17 @@ impl Geometry {
         self.sets * self.ways
     }
 
-    /// Line number (address / line size).
+    /// Line number (address / line size; the line size is a power of two, so a shift: a
+    /// 64-bit division costs tens of cycles on the host, and this runs for every access).
+    #[inline]
     pub fn line_of(&self, addr: u64) -> u64 {
-        addr / u64::from(self.line_bytes)
+        debug_assert!(self.line_bytes.is_power_of_two());
+        addr >> self.line_bytes.trailing_zeros()
     }
 
     pub fn set_of(&self, addr: u64) -> usize {
         match &self.banked {
-            None => (self.line_of(addr) % u64::from(self.sets)) as usize,
+            None => rem(self.line_of(addr), self.sets) as usize,
             Some(map) => map.set_of(addr),
         }
     }
@@ -77,13 +80,36 @@ impl Geometry {
     pub fn bank_of(&self, addr: u64, banks: u32) -> u32 {
         match &self.banked {
             Some(map) => map.bank_of(addr),
-            None => (self.line_of(addr) % u64::from(banks)) as u32,
+            None => rem(self.line_of(addr), banks) as u32,
         }
     }
 
-    /// One-hot sector bit of `addr` within its line.
+    /// One-hot sector bit of `addr` within its line (both sizes are powers of two).
+    #[inline]
     pub fn sector_bit(&self, addr: u64) -> u32 {
-        1 << ((addr % u64::from(self.line_bytes)) / u64::from(self.sector_bytes))
+        debug_assert!(self.sector_bytes.is_power_of_two());
+        1 << ((addr & (u64::from(self.line_bytes) - 1)) >> self.sector_bytes.trailing_zeros())
+    }
+}
+
+/// `x mod m`, without a division when `m` is a power of two (set and bank counts usually are;
+/// a division is tens of host cycles).
+#[inline]
+pub(crate) fn rem(x: u64, m: u32) -> u64 {
+    if m.is_power_of_two() {
+        x & (u64::from(m) - 1)
+    } else {
+        x % u64::from(m)
+    }
+}
+
+/// `x / m`, as [`rem`].
+#[inline]
+pub(crate) fn quot(x: u64, m: u32) -> u64 {
+    if m.is_power_of_two() {
+        x >> m.trailing_zeros()
+    } else {
+        x / u64::from(m)
     }
 }
 

@@ -211,6 +211,16 @@ impl MemSystem {
         o.resp.extend_from_slice(l1.resp());
     }
 
+    /// SM `sm` offers no request and its L1D has nothing to do this cycle (no fill from the L2,
+    /// no event in its registers): its clock edge, without [`MemSystem::eval_sm`] and
+    /// [`MemSystem::commit_sm`] (whose quiet step would change nothing but the clock). Returns
+    /// false, doing nothing, otherwise. [`MemSystem::sm_out`] then does not show this cycle: the
+    /// L1D's outputs are its registers (no response; `ready` as [`MemSystem::ready`]).
+    #[inline]
+    pub fn skip_quiet_sm(&mut self, sm: usize) -> bool {
+        self.l1d[sm].tick_if_quiet(self.l2.resp(sm))
+    }
+
     /// What SM `sm` sees this cycle, after [`MemSystem::eval_sm`].
     pub fn sm_out(&self, sm: usize) -> &SmOut {
         &self.step.as_ref().expect("eval_shared first").out[sm]

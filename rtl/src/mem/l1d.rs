@@ -30,8 +30,7 @@ use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, MemWidths, ReqKind, ADDR_BITS, FLAG_BITS};
 use crate::trace::{Kind, Sink};
-use std::collections::{HashMap, VecDeque};
-use std::hash::BuildHasherDefault;
+use std::collections::VecDeque;
 
 /// What the tag-check stage does with its request this cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,6 +49,36 @@ enum Pending {
     Fill(u64),
     /// A store; forward this acknowledgement.
     Write(MemResp),
+}
+
+/// Down requests awaiting L2's response, by down id. Ids are handed out in order, so the table
+/// is a window from the oldest id still in flight (`base`) to the newest, with a hole for each
+/// id already answered: a lookup is an index, where a hash map (the form before stop 18) cost
+/// a hash probe per insert and per removal.
+#[derive(Clone, Debug, Default)]
+struct InFlight {
+    base: u64,
+    slots: VecDeque<Option<Pending>>,
+}
+
+impl InFlight {
+    /// Records down id `id`, the next in order.
+    fn insert(&mut self, id: u64, p: Pending) {
+        debug_assert_eq!(id, self.base + self.slots.len() as u64, "down ids are handed out in order");
+        self.slots.push_back(Some(p));
+    }
+
+    /// Takes what id `id` completes (`None` if it is not in flight); drops answered ids from the
+    /// front of the window.
+    fn remove(&mut self, id: u64) -> Option<Pending> {
+        let i = usize::try_from(id.checked_sub(self.base)?).ok()?;
+        let p = self.slots.get_mut(i)?.take();
+        while let Some(None) = self.slots.front() {
+            self.slots.pop_front();
+            self.base += 1;
+        }
+        p
+    }
 }
 
 /// This cycle's inputs.
@@ -102,7 +131,7 @@ pub struct L1d {
     /// Requests for L2; the head is offered on the down port.
     miss_queue: VecDeque<MemReq>,
     /// Down requests awaiting L2's response, by down id.
-    pending: HashMap<u64, Pending, BuildHasherDefault<super::cache::LineHasher>>,
+    pending: InFlight,
     next_down_id: u64,
     parked: Option<MemReq>,
     /// Responses visible this cycle (the response register).
@@ -120,7 +149,7 @@ impl L1d {
             mshr: Mshr::new(p.l1d_mshrs, p.l1d_mshr_merge),
             hit_pipe: VecDeque::new(),
             miss_queue: VecDeque::new(),
-            pending: HashMap::default(),
+            pending: InFlight::default(),
             next_down_id: 0,
             parked: None,
             out: Vec::new(),
@@ -172,6 +201,19 @@ impl L1d {
         }
         self.eval_full(i, d);
         d.quiet = quiet;
+    }
+
+    /// The clock edge of a cycle with no request and no fill in which the registers have no event
+    /// (what [`L1d::eval`] would find quiet): only the clock moves, as when a quiet step is
+    /// committed. Returns false, doing nothing, if there is a fill or an event. The caller
+    /// guarantees there is no request, and does not evaluate this cycle.
+    #[inline]
+    pub fn tick_if_quiet(&mut self, fills: &[MemResp]) -> bool {
+        if !self.quiet(&L1dIn { req: None, down_ready: false, fills }) {
+            return false;
+        }
+        self.now += 1;
+        true
     }
 
     /// No request or fill comes in and the registers have no event this cycle
@@ -289,7 +331,7 @@ impl L1d {
             self.hit_pipe.pop_front();
         }
         for f in &d.fills {
-            match self.pending.remove(&f.id) {
+            match self.pending.remove(f.id) {
                 Some(Pending::Fill(key)) => {
                     // Write-through: L1D lines are never dirty, so a victim needs no write-back.
                     self.tags.fill(key, None);

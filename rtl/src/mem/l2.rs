@@ -186,7 +186,8 @@ impl L2 {
                 continue;
             }
             let first = self.rr[b] as usize;
-            let pick = (0..sms).map(|k| (first + k) % sms).find(|&sm| d.bank_of[sm] == b as u32);
+            // Round robin from `first` (below `sms`), without a division per candidate.
+            let pick = (first..sms).chain(0..first).find(|&sm| d.bank_of[sm] == b as u32);
             if let Some(sm) = pick {
                 d.out.granted[sm] = true;
                 d.accepted.push((b, sm as u32, i.reqs[sm].expect("picked")));
@@ -248,7 +249,7 @@ impl L2 {
         }
         for &(b, sm, req) in &d.accepted {
             self.banks[b].push_back(Lane { due: self.now + delay, sm, req });
-            self.rr[b] = (sm + 1) % self.params.sms;
+            self.rr[b] = if sm + 1 < self.params.sms { sm + 1 } else { 0 };
         }
         for &(b, check) in &d.checks {
             if check == Check::Stall {

@@ -515,15 +515,18 @@ impl MemParams {
     }
 
     /// Address of the sector holding `addr`.
+    #[inline]
     pub fn sector_of(&self, addr: u64) -> u64 {
-        addr - addr % u64::from(self.sector_bytes)
+        // A power of two (validated): a mask, not a division.
+        debug_assert!(self.sector_bytes.is_power_of_two());
+        addr & !(u64::from(self.sector_bytes) - 1)
     }
 
     /// Panics unless `req` lies within one sector: a requester bug, not a memory condition.
     pub(crate) fn check_request(&self, req: &MemReq) {
         let s = u64::from(self.sector_bytes);
         assert!(
-            req.bytes >= 1 && req.addr % s + u64::from(req.bytes) <= s,
+            req.bytes >= 1 && (req.addr & (s - 1)) + u64::from(req.bytes) <= s,
             "memory request {req:?} must lie within one {s}-byte sector"
         );
     }
