@@ -145,6 +145,9 @@ pub enum OrderBug {
     /// The SM-by-SM loop of the normal run hands SM s the memory outputs of SM s + 1 (a wiring
     /// slip; the phase-by-phase loop is wired right).
     SmPortsCrossed,
+    /// The SM-by-SM loop's whole-SM skip takes an RT unit's event as due one cycle after it is,
+    /// so a unit otherwise quiet acts a cycle late.
+    SkipLate,
 }
 
 impl Gpu {
@@ -314,9 +317,13 @@ impl Gpu {
                     // An SM with nothing to do (no request, no job, no event due in its RT unit,
                     // and an L1D with no fill and no event) only lets its L1D's clock move: its
                     // evaluation would show no response and change nothing.
+                    #[cfg(feature = "mutants")]
+                    let late = u64::from(self.order_bug == Some(OrderBug::SkipLate));
+                    #[cfg(not(feature = "mutants"))]
+                    let late = 0;
                     if req.is_none()
                         && self.jobs_in[sm].is_none()
-                        && u.next_event().is_none_or(|e| e > now)
+                        && u.next_event().is_none_or(|e| e + late > now)
                         && self.mem.skip_quiet_sm(sm)
                     {
                         continue;

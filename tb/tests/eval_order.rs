@@ -114,3 +114,24 @@ fn an_sm_by_sm_loop_with_crossed_ports_is_caught() {
         Err(_) => eprintln!("caught as a panic"),
     }
 }
+
+/// The normal run skips a whole SM that has nothing to do (its RT unit quiet, its L1D with no
+/// fill or event); the phase-by-phase checks never do. A skip that takes an RT unit's event as
+/// due a cycle late delays that unit, and the comparison shows it.
+#[test]
+fn a_whole_sm_skip_that_wakes_late_is_caught() {
+    let jobs = jobs("clutter", 16);
+    let cfg = Config::sms();
+    let late = |check| {
+        let jobs = jobs.clone();
+        std::panic::catch_unwind(move || try_run(cfg, jobs, check, OrderBug::SkipLate))
+    };
+    let phased =
+        late(EvalCheck::Shuffled { seed: 13 }).expect("no panic").expect("the phased run is unaffected");
+    assert_eq!(bits(&phased), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
+    match late(EvalCheck::Dataflow) {
+        Ok(Ok(r)) => assert_ne!(bits(&r), bits(&phased), "the late wake-up must show"),
+        Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
+        Err(_) => eprintln!("caught as a panic"),
+    }
+}
