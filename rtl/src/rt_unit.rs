@@ -408,8 +408,8 @@ impl RtUnit {
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
         // must leave nothing behind.
-        for w in self.warp_buffer.resident() {
-            if self.warp_buffer.lanes(w).live() == 0 && manager.warp_done(w) {
+        for w in Bits::of(self.warp_buffer.drained()) {
+            if manager.warp_done(w) {
                 if let Some(thread) = manager.warp_threads(w).find(|&t| !self.stack_clear(t)) {
                     return Err(RunError::ExitNotEmpty { cycle: now, sm: self.id, thread });
                 }
@@ -422,9 +422,7 @@ impl RtUnit {
         if self.fetch.queue_len() == usize::from(d.node_taken) {
             let leaving = &d.leaving;
             // Each resident warp's fetchable lanes are computed once; a free slot has none.
-            let ready = self
-                .warp_buffer
-                .resident()
+            let ready = Bits::of(self.warp_buffer.fetch_warps())
                 .filter(|&w| !leaving.contains(&w) && self.fetchable(w) != 0)
                 .fold(0u64, |m, w| m | 1 << w);
             if let Some(w) = self.scheduler.pick(
@@ -465,9 +463,14 @@ impl RtUnit {
             }
         }
 
-        // Threads: only the lanes that can act this cycle.
+        // Threads: only the lanes that can act this cycle, in warps that have such lanes: one
+        // woken by a response, scheduled, holding a stack command, or Busy (a warp with no Busy
+        // lane is never due).
         let sector_bytes = self.fetch.sector_bytes();
-        for w in self.warp_buffer.resident() {
+        let b = &self.warp_buffer;
+        let issued = d.issue.map_or(0, |x| 1u64 << x.0);
+        let candidates = d.woken_warps | issued | b.stack_warps() | b.busy_warps();
+        for w in Bits::of(candidates & b.occupied_mask()) {
             let q = self.warp_buffer.lanes(w);
             let due = now >= q.busy_until;
             let scheduled = d.issue.filter(|x| x.0 == w).map_or(0, |x| x.1);
@@ -574,19 +577,18 @@ impl RtUnit {
         let acts_next = !self.fetch.queue_empty()
             || self.stack_unit.arb.busy()
             || !self.stack_unit.sched.is_idle()
-            || self.warp_buffer.resident().any(|w| {
-                let m = self.warp_buffer.lanes(w);
-                self.fetchable(w) != 0
-                    || m.live() == 0
-                    || m.stack != 0 && m.stack & manager.ready_lanes(w) != 0
-            })
+            || self.warp_buffer.drained() != 0
+            || Bits::of(self.warp_buffer.fetch_warps()).any(|w| self.fetchable(w) != 0)
+            || Bits::of(self.warp_buffer.stack_warps())
+                .any(|w| self.warp_buffer.lanes(w).stack & manager.ready_lanes(w) != 0)
             || manager.can_issue();
         if acts_next {
             return Some(now + 1);
         }
         // A lane waiting to fetch on its sequencer (Blocking) moves when the sequencer completes,
         // which one of the events here or a memory response causes.
-        let event = (0..self.cfg.warps)
+        // Warps with no Busy lane have no deadline (`WarpBuffer::busy_warps`).
+        let event = Bits::of(self.warp_buffer.busy_warps())
             .map(|w| self.warp_buffer.lanes(w).busy_until)
             .chain(self.stack_unit.arb.pipe_due())
             .min()

@@ -122,6 +122,13 @@ pub struct WarpBuffer {
     lanes: Vec<Lanes>,
     /// Bit w: slot w holds a warp (derived from `slots`, so scans visit only resident warps).
     occupied: u64,
+    /// Derived from `lanes` at every edge, bit w per warp: lanes waiting to fetch, lanes holding
+    /// a stack command, Busy lanes, and (resident warps only) no live lane. The RT unit's scans
+    /// visit only the warps whose bit is set (stop 18: most warps have nothing to do in a cycle).
+    fetch_warps: u64,
+    stack_warps: u64,
+    busy_warps: u64,
+    drained: u64,
     /// Warps loaded so far.
     loaded: u64,
 }
@@ -134,6 +141,10 @@ impl WarpBuffer {
             threads: vec![Thread::default(); cfg.threads() as usize],
             lanes: vec![Lanes::EMPTY; cfg.warps as usize],
             occupied: 0,
+            fetch_warps: 0,
+            stack_warps: 0,
+            busy_warps: 0,
+            drained: 0,
             loaded: 0,
         }
     }
@@ -166,6 +177,49 @@ impl WarpBuffer {
         Bits(self.occupied)
     }
 
+    /// The resident warps, bit w for slot w.
+    #[inline]
+    pub fn occupied_mask(&self) -> u64 {
+        self.occupied
+    }
+
+    /// Warps with a lane waiting to fetch (bit w for slot w).
+    #[inline]
+    pub fn fetch_warps(&self) -> u64 {
+        self.fetch_warps
+    }
+
+    /// Warps with a lane holding a stack command.
+    #[inline]
+    pub fn stack_warps(&self) -> u64 {
+        self.stack_warps
+    }
+
+    /// Warps with a Busy lane. A warp without one has `busy_until == u64::MAX`: a lane leaves
+    /// Busy only when due, and the edge that moves it recomputes its warp's deadline.
+    #[inline]
+    pub fn busy_warps(&self) -> u64 {
+        self.busy_warps
+    }
+
+    /// Resident warps with no live lane (ready to leave once their stacks are quiet).
+    #[inline]
+    pub fn drained(&self) -> u64 {
+        self.drained
+    }
+
+    /// Brings warp `w`'s bits of the summaries in line with its lanes (after any change).
+    #[inline]
+    fn sync_warp(&mut self, w: u32) {
+        let m = self.lanes[w as usize];
+        let bit = 1u64 << w;
+        let set = |mask: &mut u64, on: bool| *mask = if on { *mask | bit } else { *mask & !bit };
+        set(&mut self.fetch_warps, m.fetch != 0);
+        set(&mut self.stack_warps, m.stack != 0);
+        set(&mut self.busy_warps, m.busy != 0);
+        set(&mut self.drained, self.occupied & bit != 0 && m.live() == 0);
+    }
+
     /// Age rank of the warp in slot `w` (`u32::MAX` for an empty slot).
     #[inline]
     pub fn age(&self, w: u32) -> u32 {
@@ -192,6 +246,7 @@ impl WarpBuffer {
     pub fn leave(&mut self, w: u32) -> Option<Left> {
         let slot = self.slots[w as usize].take()?;
         self.occupied &= !(1 << w);
+        self.sync_warp(w);
         for s in self.slots.iter_mut().flatten() {
             if s.age > slot.age {
                 s.age -= 1;
@@ -219,6 +274,7 @@ impl WarpBuffer {
         let job = self.loaded;
         self.slots[w as usize] = Some(Slot { lanes, age, job, landed: now });
         self.occupied |= 1 << w;
+        self.sync_warp(w);
         self.loaded += 1;
         job
     }
@@ -229,6 +285,7 @@ impl WarpBuffer {
         let (w, l) = (quot32(t, self.warp_size), rem32(t, self.warp_size));
         self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
         self.threads[t as usize] = d;
+        self.sync_warp(w);
     }
 
     /// Recomputes warp `w`'s earliest Busy deadline (after its due lanes moved on).
@@ -277,6 +334,57 @@ impl WarpBuffer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The per-warp summaries equal what the lane masks say after every edge: random thread
+    /// moves, loads and leaves (a summary that missed an update would make the RT unit skip a
+    /// warp with work).
+    #[test]
+    fn warp_summaries_follow_the_lanes() {
+        let cfg: Config = "RB_8".parse().unwrap();
+        let cfg = Config { warps: 4, ..cfg };
+        let mut b = WarpBuffer::new(&cfg);
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = |n: u64| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x % n
+        };
+        let check = |b: &WarpBuffer| {
+            let want = |f: &dyn Fn(Lanes) -> bool| {
+                (0..4).filter(|&w| b.occupied(w) && f(b.lanes(w))).fold(0u64, |m, w| m | 1 << w)
+            };
+            assert_eq!(b.fetch_warps(), want(&|m| m.fetch != 0));
+            assert_eq!(b.stack_warps(), want(&|m| m.stack != 0));
+            assert_eq!(b.busy_warps(), want(&|m| m.busy != 0));
+            assert_eq!(b.drained(), want(&|m| m.live() == 0));
+        };
+        for step in 0..20_000u64 {
+            let w = next(4) as u32;
+            match next(8) {
+                0 if !b.occupied(w) => {
+                    b.load(w, vec![None; 32], next(16) as u32, step, step);
+                }
+                1 if b.occupied(w) && b.lanes(w).live() == 0 => {
+                    b.leave(w);
+                }
+                _ if b.occupied(w) => {
+                    let t = w * 32 + next(4) as u32;
+                    let state = match next(6) {
+                        0 | 5 => ThreadState::Done,
+                        1 => ThreadState::Fetch,
+                        2 => ThreadState::WaitMem { left: 1, lat: 1 },
+                        3 => ThreadState::Busy { until: step + next(9) },
+                        _ => ThreadState::Stack,
+                    };
+                    b.set_thread(t, Thread { state, pos: 0 });
+                }
+                _ => {}
+            }
+            check(&b);
+        }
+        assert!(b.loaded > 4, "warps came and went");
+    }
 
     #[test]
     fn ages_are_ranks_that_close_up_when_a_warp_leaves() {
