@@ -555,12 +555,7 @@ impl RtUnit {
         for &id in &d.node_resp {
             self.fetch.complete(id);
         }
-        for &(t, th) in &d.threads {
-            self.warp_buffer.set_thread(t, th);
-        }
-        for &w in &d.due {
-            self.warp_buffer.refresh_busy_until(w);
-        }
+        self.warp_buffer.apply(&d.threads, &d.due);
         self.stats.visits += d.visits;
         self.stats.pops_checked += d.expected_pops.len() as u64;
         self.stack_unit.commit(&d.stack);

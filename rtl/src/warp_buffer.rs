@@ -279,17 +279,27 @@ impl WarpBuffer {
         job
     }
 
-    /// Clock edge: thread `t` takes state `d`.
-    #[inline]
-    pub fn set_thread(&mut self, t: u32, d: Thread) {
-        let (w, l) = (quot32(t, self.warp_size), rem32(t, self.warp_size));
-        self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
-        self.threads[t as usize] = d;
-        self.sync_warp(w);
+    /// Clock edge: each thread of `threads` takes its state; then each warp of `due` (whose due
+    /// Busy lanes moved on) recomputes its earliest Busy deadline; then the summaries of the
+    /// warps touched follow their lanes (once per warp, not per thread).
+    pub fn apply(&mut self, threads: &[(u32, Thread)], due: &[u32]) {
+        let mut touched = 0u64;
+        for &(t, d) in threads {
+            let (w, l) = (quot32(t, self.warp_size), rem32(t, self.warp_size));
+            self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
+            self.threads[t as usize] = d;
+            touched |= 1 << w;
+        }
+        for &w in due {
+            self.refresh_busy_until(w);
+        }
+        for w in Bits(touched) {
+            self.sync_warp(w);
+        }
     }
 
     /// Recomputes warp `w`'s earliest Busy deadline (after its due lanes moved on).
-    pub fn refresh_busy_until(&mut self, w: u32) {
+    fn refresh_busy_until(&mut self, w: u32) {
         let ws = self.warp_size;
         let threads = &self.threads[(w * ws) as usize..((w + 1) * ws) as usize];
         let lanes = &mut self.lanes[w as usize];
@@ -377,7 +387,7 @@ mod tests {
                         3 => ThreadState::Busy { until: step + next(9) },
                         _ => ThreadState::Stack,
                     };
-                    b.set_thread(t, Thread { state, pos: 0 });
+                    b.apply(&[(t, Thread { state, pos: 0 })], &[]);
                 }
                 _ => {}
             }
