@@ -333,6 +333,14 @@ impl RtUnit {
     /// system's fetch granularity.
     pub fn new(id: u32, cfg: Config, rt: RtParams, sector_bytes: u32) -> Result<Self, ConfigError> {
         rt.validate()?;
+        // The node fetch splits nodes into sectors with shifts and masks.
+        if !sector_bytes.is_power_of_two() {
+            return Err(ConfigError {
+                parameter: "sector_bytes",
+                value: sector_bytes.to_string(),
+                reason: "must be a power of two".into(),
+            });
+        }
         Ok(RtUnit {
             id,
             cfg,
@@ -421,7 +429,7 @@ impl RtUnit {
         // piece is the queue's ready signal).
         if self.fetch.queue_len() == usize::from(d.node_taken) {
             let leaving = &d.leaving;
-            // Each resident warp's fetchable lanes are computed once; a free slot has none.
+            // The fetchable lanes of each warp with lanes waiting to fetch, computed once.
             let ready = Bits::of(self.warp_buffer.fetch_warps())
                 .filter(|&w| !leaving.contains(&w) && self.fetchable(w) != 0)
                 .fold(0u64, |m, w| m | 1 << w);
