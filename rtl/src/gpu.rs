@@ -334,13 +334,13 @@ impl Gpu {
                         if self.order_bug == Some(OrderBug::SmPortsCrossed) { (sm + 1) % n } else { sm };
                     #[cfg(not(feature = "mutants"))]
                     let port = sm;
-                    let o = self.mem.sm_out(port);
+                    let (ready, resp) = self.mem.sm_in(port, req.is_some());
                     let quiet = u.next_event().is_none_or(|e| e > now)
-                        && (o.resp.is_empty() || deaf)
+                        && (resp.is_empty() || deaf)
                         && self.jobs_in[sm].is_none()
                         && req.is_none();
                     if !quiet {
-                        let i = RtIn { now, req_ready, req_fire: o.ready && req.is_some(), resp: &o.resp };
+                        let i = RtIn { now, req_ready, req_fire: ready && req.is_some(), resp };
                         u.eval(&i, &mut self.steps[sm])?;
                         u.commit(&self.steps[sm], self.jobs_in[sm].take());
                     }

@@ -122,6 +122,8 @@ pub struct WarpBuffer {
     lanes: Vec<Lanes>,
     /// Bit w: slot w holds a warp (derived from `slots`, so scans visit only resident warps).
     occupied: u64,
+    /// Bit w for every slot (a constant).
+    slot_mask: u64,
     /// Derived from `lanes` at every edge, bit w per warp: lanes waiting to fetch, lanes holding
     /// a stack command, Busy lanes, and (resident warps only) no live lane. The RT unit's scans
     /// visit only the warps whose bit is set (stop 18: most warps have nothing to do in a cycle).
@@ -141,6 +143,7 @@ impl WarpBuffer {
             threads: vec![Thread::default(); cfg.threads() as usize],
             lanes: vec![Lanes::EMPTY; cfg.warps as usize],
             occupied: 0,
+            slot_mask: u64::MAX >> (64 - cfg.warps),
             fetch_warps: 0,
             stack_warps: 0,
             busy_warps: 0,
@@ -156,7 +159,7 @@ impl WarpBuffer {
     /// A slot that can take a job this cycle.
     #[inline]
     pub fn free_slot(&self) -> Option<u32> {
-        let free = !self.occupied & (u64::MAX >> (64 - self.slots.len()));
+        let free = !self.occupied & self.slot_mask;
         (free != 0).then(|| free.trailing_zeros())
     }
 
@@ -213,11 +216,13 @@ impl WarpBuffer {
     fn sync_warp(&mut self, w: u32) {
         let m = self.lanes[w as usize];
         let bit = 1u64 << w;
-        let set = |mask: &mut u64, on: bool| *mask = if on { *mask | bit } else { *mask & !bit };
-        set(&mut self.fetch_warps, m.fetch != 0);
-        set(&mut self.stack_warps, m.stack != 0);
-        set(&mut self.busy_warps, m.busy != 0);
-        set(&mut self.drained, self.occupied & bit != 0 && m.live() == 0);
+        // Branch-free: each bit is cleared, then set from its condition.
+        let on = |c: bool| u64::from(c) << w;
+        let live = m.fetch | m.wait | m.busy | m.stack;
+        self.fetch_warps = self.fetch_warps & !bit | on(m.fetch != 0);
+        self.stack_warps = self.stack_warps & !bit | on(m.stack != 0);
+        self.busy_warps = self.busy_warps & !bit | on(m.busy != 0);
+        self.drained = self.drained & !bit | (self.occupied & bit) & on(live == 0);
     }
 
     /// Age rank of the warp in slot `w` (`u32::MAX` for an empty slot).

@@ -198,32 +198,32 @@ impl MemSystem {
     }
 
     /// SM `sm`'s L1D in the cycle [`MemSystem::eval_shared`] began, on the SM's request `req`
-    /// (what the SM sees: [`MemSystem::sm_out`]).
+    /// (what the SM sees: [`MemSystem::sm_in`]).
     pub fn eval_sm(&mut self, sm: usize, req: Option<MemReq>) {
         let d = self.step.as_mut().expect("eval_shared first");
         let l1 = &self.l1d[sm];
         l1.eval(&L1dIn { req, down_ready: d.l2.out.granted[sm], fills: self.l2.resp(sm) }, &mut d.l1d[sm]);
-        // As the last loop of `eval_step`, for one SM. (A helper shared by both cost 0.6 % more
-        // instructions in callgrind at stop 17, so the three lines are written twice.)
-        let o = &mut d.out[sm];
-        o.ready = l1.ready() && (req.is_none() || d.l1d[sm].out.req_fire);
-        o.resp.clear();
-        o.resp.extend_from_slice(l1.resp());
+    }
+
+    /// What SM `sm` sees this cycle, after [`MemSystem::eval_sm`] (`offered`: the SM offered a
+    /// request): whether its L1D takes a request (with one offered, whether it took it) and the
+    /// responses it shows. Both are the L1D's outputs, read where they are (the phase-by-phase
+    /// [`MemSystem::eval`] copies them into its [`SmOut`]s; the SM-by-SM loop need not).
+    #[inline]
+    pub fn sm_in(&self, sm: usize, offered: bool) -> (bool, &[MemResp]) {
+        let d = self.step.as_ref().expect("eval_shared first");
+        let l1 = &self.l1d[sm];
+        (l1.ready() && (!offered || d.l1d[sm].out.req_fire), l1.resp())
     }
 
     /// SM `sm` offers no request and its L1D has nothing to do this cycle (no fill from the L2,
     /// no event in its registers): its clock edge, without [`MemSystem::eval_sm`] and
     /// [`MemSystem::commit_sm`] (whose quiet step would change nothing but the clock). Returns
-    /// false, doing nothing, otherwise. [`MemSystem::sm_out`] then does not show this cycle: the
-    /// L1D's outputs are its registers (no response; `ready` as [`MemSystem::ready`]).
+    /// false, doing nothing, otherwise (the L1D's outputs are its registers: no response, and
+    /// `ready` as [`MemSystem::ready`]).
     #[inline]
     pub fn skip_quiet_sm(&mut self, sm: usize) -> bool {
         self.l1d[sm].tick_if_quiet(self.l2.resp(sm))
-    }
-
-    /// What SM `sm` sees this cycle, after [`MemSystem::eval_sm`].
-    pub fn sm_out(&self, sm: usize) -> &SmOut {
-        &self.step.as_ref().expect("eval_shared first").out[sm]
     }
 
     /// Clock edge of SM `sm`'s L1D (after [`MemSystem::eval_sm`]).
