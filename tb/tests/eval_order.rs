@@ -93,26 +93,33 @@ fn a_wake_up_that_misses_a_response_is_caught() {
     }
 }
 
+/// Runs `bug`, a slip in the normal run's SM-by-SM loop only: the phase-by-phase run (a shuffled
+/// check) must be unaffected and equal the clean run, and the SM-by-SM run must differ from it,
+/// fail, or panic (`what` names what must show).
+fn caught_in_the_sm_by_sm_loop(bug: OrderBug, what: &str) {
+    let jobs = jobs("clutter", 16);
+    let cfg = Config::sms();
+    let planted = |check| {
+        let jobs = jobs.clone();
+        std::panic::catch_unwind(move || try_run(cfg, jobs, check, bug))
+    };
+    let phased =
+        planted(EvalCheck::Shuffled { seed: 13 }).expect("no panic").expect("the phased run is unaffected");
+    assert_eq!(bits(&phased), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
+    match planted(EvalCheck::Dataflow) {
+        Ok(Ok(r)) => assert_ne!(bits(&r), bits(&phased), "{what} must show"),
+        Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
+        Err(_) => eprintln!("caught as a panic"),
+    }
+}
+
 /// The normal run evaluates SM by SM, the checks above phase by phase, so comparing their
 /// reports compares the two forms: an SM-by-SM loop that hands each SM its neighbour's memory
 /// outputs is caught (its run stops on a response it cannot place, or stalls, or reports
 /// otherwise), while the phase-by-phase run is unaffected.
 #[test]
 fn an_sm_by_sm_loop_with_crossed_ports_is_caught() {
-    let jobs = jobs("clutter", 16);
-    let cfg = Config::sms();
-    let crossed = |check| {
-        let jobs = jobs.clone();
-        std::panic::catch_unwind(move || try_run(cfg, jobs, check, OrderBug::SmPortsCrossed))
-    };
-    let phased =
-        crossed(EvalCheck::Shuffled { seed: 13 }).expect("no panic").expect("the phased run is unaffected");
-    assert_eq!(bits(&phased), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
-    match crossed(EvalCheck::Dataflow) {
-        Ok(Ok(r)) => assert_ne!(bits(&r), bits(&phased), "the crossed ports must show"),
-        Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
-        Err(_) => eprintln!("caught as a panic"),
-    }
+    caught_in_the_sm_by_sm_loop(OrderBug::SmPortsCrossed, "the crossed ports");
 }
 
 /// The normal run skips a whole SM that has nothing to do (its RT unit quiet, its L1D with no
@@ -120,18 +127,5 @@ fn an_sm_by_sm_loop_with_crossed_ports_is_caught() {
 /// due a cycle late delays that unit, and the comparison shows it.
 #[test]
 fn a_whole_sm_skip_that_wakes_late_is_caught() {
-    let jobs = jobs("clutter", 16);
-    let cfg = Config::sms();
-    let late = |check| {
-        let jobs = jobs.clone();
-        std::panic::catch_unwind(move || try_run(cfg, jobs, check, OrderBug::SkipLate))
-    };
-    let phased =
-        late(EvalCheck::Shuffled { seed: 13 }).expect("no panic").expect("the phased run is unaffected");
-    assert_eq!(bits(&phased), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
-    match late(EvalCheck::Dataflow) {
-        Ok(Ok(r)) => assert_ne!(bits(&r), bits(&phased), "the late wake-up must show"),
-        Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
-        Err(_) => eprintln!("caught as a panic"),
-    }
+    caught_in_the_sm_by_sm_loop(OrderBug::SkipLate, "the late wake-up");
 }
