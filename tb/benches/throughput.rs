@@ -4,7 +4,7 @@
 //! thread ahead of the simulation (`run::sim`), so each run's process CPU time (both threads) is
 //! printed beside its wall time; the ratio to obvhs is of wall time. Each configuration runs
 //! [`PASSES`] times (the reports must agree) and the fastest counts, as obvhs's time is the
-//! fastest of its passes; the spread of the passes is printed too (this virtual machine's speed
+//! fastest of its passes; the slowest pass is printed too (this virtual machine's speed
 //! swings by 15 % and more between runs).
 //!
 //! `-- --overhead` times only the SMS run with a `NullSink` (best of 3) and prints one
