@@ -118,8 +118,29 @@ fn reject(parameter: &'static str, value: impl fmt::Display, reason: impl Into<S
 /// RB count width the model uses for RB = FULL.
 pub const RB_FULL_COUNT_BITS: u32 = 16;
 
-/// `x mod m`, without a division when `m` is a power of two (warp sizes and bank counts are:
-/// a division costs the host tens of cycles, and these run for every thread the model visits).
+/// `x mod m`, without a division when `m` is a power of two (warp sizes, bank and set counts
+/// usually are: a division costs the host tens of cycles, and these run for every thread and
+/// every access the model visits).
+#[inline]
+pub(crate) fn rem(x: u64, m: u32) -> u64 {
+    if m.is_power_of_two() {
+        x & (u64::from(m) - 1)
+    } else {
+        x % u64::from(m)
+    }
+}
+
+/// `x / m`, as [`rem`].
+#[inline]
+pub(crate) fn quot(x: u64, m: u32) -> u64 {
+    if m.is_power_of_two() {
+        x >> m.trailing_zeros()
+    } else {
+        x / u64::from(m)
+    }
+}
+
+/// [`rem`] on 32 bits.
 #[inline]
 pub(crate) fn rem32(x: u32, m: u32) -> u32 {
     if m.is_power_of_two() {
@@ -129,7 +150,7 @@ pub(crate) fn rem32(x: u32, m: u32) -> u32 {
     }
 }
 
-/// `x / m`, as [`rem32`].
+/// [`quot`] on 32 bits.
 #[inline]
 pub(crate) fn quot32(x: u32, m: u32) -> u32 {
     if m.is_power_of_two() {

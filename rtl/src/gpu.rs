@@ -314,18 +314,24 @@ impl Gpu {
                     let u = &mut self.units[sm];
                     let req_ready = self.mem.ready(sm);
                     let req = u.req(req_ready);
-                    // An SM with nothing to do (no request, no job, no event due in its RT unit,
-                    // and an L1D with no fill and no event) only lets its L1D's clock move: its
-                    // evaluation would show no response and change nothing.
+                    // The RT unit offers no request, gets no job and has no event due: it acts
+                    // only on a memory response.
+                    let rt_idle =
+                        req.is_none() && self.jobs_in[sm].is_none() && u.next_event().is_none_or(|e| e > now);
+                    // An SM with nothing to do (that, and an L1D with no fill and no event) only
+                    // lets its L1D's clock move: its evaluation would show no response and change
+                    // nothing.
                     #[cfg(feature = "mutants")]
-                    let late = u64::from(self.order_bug == Some(OrderBug::SkipLate));
+                    let skippable = if self.order_bug == Some(OrderBug::SkipLate) {
+                        req.is_none()
+                            && self.jobs_in[sm].is_none()
+                            && u.next_event().is_none_or(|e| e + 1 > now)
+                    } else {
+                        rt_idle
+                    };
                     #[cfg(not(feature = "mutants"))]
-                    let late = 0;
-                    if req.is_none()
-                        && self.jobs_in[sm].is_none()
-                        && u.next_event().is_none_or(|e| e + late > now)
-                        && self.mem.skip_quiet_sm(sm)
-                    {
+                    let skippable = rt_idle;
+                    if skippable && self.mem.skip_quiet_sm(sm) {
                         continue;
                     }
                     self.mem.eval_sm(sm, req);
@@ -335,11 +341,7 @@ impl Gpu {
                     #[cfg(not(feature = "mutants"))]
                     let port = sm;
                     let (ready, resp) = self.mem.sm_in(port, req.is_some());
-                    let quiet = u.next_event().is_none_or(|e| e > now)
-                        && (resp.is_empty() || deaf)
-                        && self.jobs_in[sm].is_none()
-                        && req.is_none();
-                    if !quiet {
+                    if !(rt_idle && (resp.is_empty() || deaf)) {
                         let i = RtIn { now, req_ready, req_fire: ready && req.is_some(), resp };
                         u.eval(&i, &mut self.steps[sm])?;
                         u.commit(&self.steps[sm], self.jobs_in[sm].take());

@@ -475,11 +475,12 @@ impl RtUnit {
         // woken by a response, scheduled, holding a stack command, or Busy (a warp with no Busy
         // lane is never due).
         let sector_bytes = self.fetch.sector_bytes();
+        // (All of them resident: responses and the scheduler serve resident warps only, and the
+        // summaries hold resident warps only.)
         let b = &self.warp_buffer;
         let issued = d.issue.map_or(0, |x| 1u64 << x.0);
-        let candidates = d.woken_warps | issued | b.stack_warps() | b.busy_warps();
-        for w in Bits::of(candidates & b.occupied_mask()) {
-            let q = self.warp_buffer.lanes(w);
+        for w in Bits::of(d.woken_warps | issued | b.stack_warps() | b.busy_warps()) {
+            let q = b.lanes(w);
             let due = now >= q.busy_until;
             let scheduled = d.issue.filter(|x| x.0 == w).map_or(0, |x| x.1);
             // A Stack lane whose sequencer is busy stays as it is: not visited.
@@ -487,7 +488,7 @@ impl RtUnit {
             let todo = stack_ready | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
             for l in lanes_of(todo) {
                 let t = w * ws + l;
-                let q = self.warp_buffer.thread(t);
+                let q = b.thread(t);
                 let ti = ThreadIn {
                     now,
                     scheduled: scheduled & (1 << l) != 0,
@@ -496,7 +497,7 @@ impl RtUnit {
                     stack_ready: q.state == ThreadState::Stack && manager.ready(t),
                     sector_bytes,
                 };
-                let (th, out) = thread_fsm::next(&self.rt, q, self.warp_buffer.ops(w, l), &ti);
+                let (th, out) = thread_fsm::next(&self.rt, q, b.ops(w, l), &ti);
                 if th != q {
                     d.threads.push((t, th));
                 }

@@ -125,7 +125,8 @@ pub struct WarpBuffer {
     /// Bit w for every slot (a constant).
     slot_mask: u64,
     /// Derived from `lanes` at every edge, bit w per warp: lanes waiting to fetch, lanes holding
-    /// a stack command, Busy lanes, and (resident warps only) no live lane. The RT unit's scans
+    /// a stack command, Busy lanes, and (resident warps only) no live lane. Each is a subset of
+    /// `occupied`: a warp leaves only with no live lane, so its other bits are clear then. The RT unit's scans
     /// visit only the warps whose bit is set (stop 18: most warps have nothing to do in a cycle).
     fetch_warps: u64,
     stack_warps: u64,
@@ -180,12 +181,6 @@ impl WarpBuffer {
         Bits(self.occupied)
     }
 
-    /// The resident warps, bit w for slot w.
-    #[inline]
-    pub fn occupied_mask(&self) -> u64 {
-        self.occupied
-    }
-
     /// Warps with a lane waiting to fetch (bit w for slot w).
     #[inline]
     pub fn fetch_warps(&self) -> u64 {
@@ -218,11 +213,10 @@ impl WarpBuffer {
         let bit = 1u64 << w;
         // Branch-free: each bit is cleared, then set from its condition.
         let on = |c: bool| u64::from(c) << w;
-        let live = m.fetch | m.wait | m.busy | m.stack;
         self.fetch_warps = self.fetch_warps & !bit | on(m.fetch != 0);
         self.stack_warps = self.stack_warps & !bit | on(m.stack != 0);
         self.busy_warps = self.busy_warps & !bit | on(m.busy != 0);
-        self.drained = self.drained & !bit | (self.occupied & bit) & on(live == 0);
+        self.drained = self.drained & !bit | (self.occupied & bit) & on(m.live() == 0);
     }
 
     /// Age rank of the warp in slot `w` (`u32::MAX` for an empty slot).

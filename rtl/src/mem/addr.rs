@@ -22,7 +22,7 @@
 //!   cache sees a dense address space; the MOBILE L2 (`-gpgpu_cache:dl2 S:64:128:16,L:B:m:L:P`)
 //!   hashes it with IPOLY (`gpu-cache.cc:121-125`, `hashing.cc:9-104`).
 
-use super::cache::{quot, rem};
+use crate::config::{quot, rem};
 
 /// How the spill slots of the GPU's threads are laid out in the device address space.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -18,6 +18,7 @@
 
 use super::addr::L2Map;
 use super::{Assoc, MemParams, ReqKind};
+use crate::config::rem;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
@@ -89,27 +90,6 @@ impl Geometry {
     pub fn sector_bit(&self, addr: u64) -> u32 {
         debug_assert!(self.sector_bytes.is_power_of_two());
         1 << ((addr & (u64::from(self.line_bytes) - 1)) >> self.sector_bytes.trailing_zeros())
-    }
-}
-
-/// `x mod m`, without a division when `m` is a power of two (set and bank counts usually are;
-/// a division is tens of host cycles).
-#[inline]
-pub(crate) fn rem(x: u64, m: u32) -> u64 {
-    if m.is_power_of_two() {
-        x & (u64::from(m) - 1)
-    } else {
-        x % u64::from(m)
-    }
-}
-
-/// `x / m`, as [`rem`].
-#[inline]
-pub(crate) fn quot(x: u64, m: u32) -> u64 {
-    if m.is_power_of_two() {
-        x >> m.trailing_zeros()
-    } else {
-        x / u64::from(m)
     }
 }
 

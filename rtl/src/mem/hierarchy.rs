@@ -83,6 +83,13 @@ impl MemStep {
     }
 }
 
+/// Whether an L1D shows its SM `ready` this cycle: its `ready` register, and with a request
+/// offered (`offered`) whether its step took it.
+#[inline]
+fn port_ready(l1: &L1d, step: &L1dStep, offered: bool) -> bool {
+    l1.ready() && (!offered || step.out.req_fire)
+}
+
 /// Evaluates one kernel into `d`, or with two passes first into `first` and then into `d`,
 /// panicking if they differ (a kernel that reads its own output or hidden state); returns `d`.
 fn eval_kernel<'a, T: PartialEq + Debug>(
@@ -213,7 +220,7 @@ impl MemSystem {
     pub fn sm_in(&self, sm: usize, offered: bool) -> (bool, &[MemResp]) {
         let d = self.step.as_ref().expect("eval_shared first");
         let l1 = &self.l1d[sm];
-        (l1.ready() && (!offered || d.l1d[sm].out.req_fire), l1.resp())
+        (port_ready(l1, &d.l1d[sm], offered), l1.resp())
     }
 
     /// SM `sm` offers no request and its L1D has nothing to do this cycle (no fill from the L2,
@@ -277,7 +284,7 @@ impl MemSystem {
         // What the SMs see: the L1Ds' register outputs (`ready` is `req_fire` when a request was
         // offered: the same unless a test withholds a request from an L1D).
         for (sm, (o, l1)) in d.out.iter_mut().zip(&self.l1d).enumerate() {
-            o.ready = l1.ready() && (reqs[sm].is_none() || d.l1d[sm].out.req_fire);
+            o.ready = port_ready(l1, &d.l1d[sm], reqs[sm].is_some());
             o.resp.clear();
             o.resp.extend_from_slice(l1.resp());
         }
