@@ -30,7 +30,7 @@ fi
 count() {
     log=$(mktemp)
     out=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null --cache-sim=$cache \
-        --toggle-collect='rtl::gpu::Gpu::run_timed*' "$1" --once 2>"$log")
+        --toggle-collect='rtl::gpu::Gpu::run_timed*' "$1" --once --serial 2>"$log")
     # "Collected : Ir [Dr Dw I1mr D1mr D1mw ILmr DLmr DLmw]" (the rest with --cache-sim=yes)
     set -- $(sed -n 's/.*Collected : \(.*\)$/\1/p' "$log")
     rm -f "$log"

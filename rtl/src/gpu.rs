@@ -23,6 +23,16 @@
 //! run phase by phase, so the tests that compare their reports with the normal run's compare the
 //! two forms.
 //!
+//! Two threads ([`Gpu::with_parallel_sms`]): the SM-by-SM loop's SMs split into two halves,
+//! stepped at once by the calling thread and a helper thread ([`crate::lockstep`]) between the
+//! shared part's evaluation and its clock edge. The halves share nothing they write (the borrows
+//! are split: units, steps, incoming jobs and L1D ports), so the results are those of one thread;
+//! of a cycle's errors the lower half's comes first, as its SMs come first on one thread. Each SM
+//! leaves what the loop reads between cycles (its RT unit's next event, free slot and emptiness,
+//! its L1D's next event) in one small array, and its L1D's down request in the memory system's
+//! step for the next cycle's L2 ([`SmPorts::commit`]), so the shared part does not read the SMs'
+//! state from the other core's cache.
+//!
 //! Dispatch is a kernel launch's: job i goes to the next SM after the one that took job i-1 that
 //! has a free warp slot, so at launch SM k gets jobs k, k + n, k + 2n, … and later jobs go wherever
 //! a warp left. Every decision reads registers: a slot freed in cycle c takes a job in c + 1.
@@ -35,7 +45,9 @@
 
 use crate::clock::EvalCheck;
 use crate::config::{Config, ConfigError};
-use crate::mem::hierarchy::MemSystem;
+use crate::lockstep::{self, Helper};
+use crate::mem::hierarchy::{MemSystem, SmPorts};
+use crate::mem::l1d::L1d;
 use crate::mem::{Counters, MemParams, MemReq, ReqKind};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtParams, RtStep, RtUnit, RunError};
@@ -126,6 +138,10 @@ pub struct Gpu {
     quiet: Vec<bool>,
     /// Evaluation order of the RT units this cycle.
     order: Vec<usize>,
+    /// Per SM: its registers the run loop reads between cycles.
+    status: Vec<SmStatus>,
+    /// The SM-by-SM loop steps two halves of the SMs on two threads ([`Gpu::with_parallel_sms`]).
+    parallel_sms: bool,
 }
 
 /// Deliberately order-dependent runners, to show the [`EvalCheck`] runs catch such bugs. Test
@@ -148,6 +164,114 @@ pub enum OrderBug {
     /// The SM-by-SM loop's whole-SM skip takes an RT unit's event as due one cycle after it is,
     /// so a unit otherwise quiet acts a cycle late.
     SkipLate,
+    /// The SM-by-SM loop passes on an L1D's down request from before its clock edge instead of
+    /// after it ([`SmPorts::commit`]), so the next cycle's L2 sees the old one.
+    StaleDown,
+    /// With the SMs on two threads, the run loop drops the helper thread's half's error.
+    HelperErrorLost,
+}
+
+/// An SM's registers the run loop reads between cycles, gathered by the SM's own step (so that
+/// the loop reads one small array, not every SM's state, which the SM-by-SM loop's helper
+/// thread has in its core's cache).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct SmStatus {
+    /// [`RtUnit::next_event`].
+    next_event: Option<u64>,
+    /// [`RtUnit::free_slot`] is some.
+    free_slot: bool,
+    /// [`RtUnit::empty`].
+    empty: bool,
+    /// [`L1d::next_event`] of the SM's L1D.
+    l1d_next: Option<u64>,
+}
+
+impl SmStatus {
+    fn of(u: &RtUnit, l1: &L1d) -> SmStatus {
+        SmStatus {
+            next_event: u.next_event(),
+            free_slot: u.free_slot().is_some(),
+            empty: u.empty(),
+            l1d_next: l1.next_event(),
+        }
+    }
+}
+
+/// What every SM group's cycle reads alike.
+struct GroupCtx {
+    now: u64,
+    /// [`OrderBug::SleepThroughResponses`].
+    deaf: bool,
+    #[cfg(feature = "mutants")]
+    order_bug: Option<OrderBug>,
+}
+
+/// Consecutive SMs, lent out for one cycle of the SM-by-SM loop: their RT units with their
+/// steps and incoming jobs, and their L1Ds. No group reads another's, so groups may step on
+/// different threads.
+struct SmGroup<'a> {
+    units: &'a mut [RtUnit],
+    status: &'a mut [SmStatus],
+    steps: &'a mut [RtStep],
+    jobs_in: &'a mut [Option<WarpJob>],
+    ports: SmPorts<'a>,
+}
+
+impl SmGroup<'_> {
+    /// One cycle of each SM in turn: its request, its L1D, its RT unit, and the clock edges of
+    /// both. Stops at the first SM whose checks fail.
+    fn step(mut self, ctx: &GroupCtx) -> Result<(), RunError> {
+        let now = ctx.now;
+        let range = self.ports.range();
+        for (k, sm) in range.clone().enumerate() {
+            let u = &mut self.units[k];
+            let req_ready = self.ports.ready(sm);
+            let req = u.req(req_ready);
+            // The RT unit offers no request, gets no job and has no event due: it acts only on
+            // a memory response.
+            let rt_idle =
+                req.is_none() && self.jobs_in[k].is_none() && u.next_event().is_none_or(|e| e > now);
+            // An SM with nothing to do (that, and an L1D with no fill and no event) only lets
+            // its L1D's clock move: its evaluation would show no response and change nothing.
+            #[cfg(feature = "mutants")]
+            let skippable = if ctx.order_bug == Some(OrderBug::SkipLate) {
+                req.is_none() && self.jobs_in[k].is_none() && u.next_event().is_none_or(|e| e + 1 > now)
+            } else {
+                rt_idle
+            };
+            #[cfg(not(feature = "mutants"))]
+            let skippable = rt_idle;
+            if skippable && self.ports.skip_quiet(sm) {
+                self.status[k] = SmStatus::of(u, self.ports.l1d(sm));
+                continue;
+            }
+            self.ports.eval(sm, req);
+            #[cfg(feature = "mutants")]
+            let port = if ctx.order_bug == Some(OrderBug::SmPortsCrossed) {
+                range.start + (k + 1) % range.len()
+            } else {
+                sm
+            };
+            #[cfg(not(feature = "mutants"))]
+            let port = sm;
+            let (ready, resp) = self.ports.sm_in(port, req.is_some());
+            if !(rt_idle && (resp.is_empty() || ctx.deaf)) {
+                let i = RtIn { now, req_ready, req_fire: ready && req.is_some(), resp };
+                u.eval(&i, &mut self.steps[k])?;
+                u.commit(&self.steps[k], self.jobs_in[k].take());
+            }
+            #[cfg(feature = "mutants")]
+            if ctx.order_bug == Some(OrderBug::StaleDown) {
+                self.ports.commit_stale_down(sm);
+            } else {
+                self.ports.commit(sm);
+            }
+            #[cfg(not(feature = "mutants"))]
+            self.ports.commit(sm);
+            self.status[k] = SmStatus::of(u, self.ports.l1d(sm));
+        }
+        Ok(())
+    }
 }
 
 impl Gpu {
@@ -176,6 +300,8 @@ impl Gpu {
             steps: vec![RtStep::default(); n],
             quiet: vec![false; n],
             order: Vec::with_capacity(n),
+            parallel_sms: false,
+            status: Vec::new(),
         })
     }
 
@@ -200,6 +326,13 @@ impl Gpu {
         self.eval_check = check;
         self.order.clear();
         self.mem.set_eval_check(check);
+        self
+    }
+
+    /// Steps the two halves of the SMs on two threads in the normal run (rayon's pool): same
+    /// results, as no SM reads another's registers or step within a cycle.
+    pub fn with_parallel_sms(mut self, on: bool) -> Self {
+        self.parallel_sms = on && self.units.len() >= 2;
         self
     }
 
@@ -241,14 +374,34 @@ impl Gpu {
 
     /// As [`Gpu::run_with_progress`], also filling `residence` with the cycles each job spent
     /// in its RT unit's warp buffer, indexed by job (launch order).
+    // Kept out of line: `scripts/instructions.sh` counts the instructions inside it.
+    #[inline(never)]
     pub fn run_timed<S: Sink>(
+        self,
+        jobs: impl IntoIterator<Item = WarpJob>,
+        sink: &mut S,
+        every: u64,
+        progress: impl FnMut(Progress),
+        residence: &mut Vec<u64>,
+    ) -> Result<GpuReport, RunError> {
+        if self.parallel_sms {
+            lockstep::with_helper(|h| self.run_loop(Some(h), jobs, sink, every, progress, residence))
+        } else {
+            self.run_loop(None, jobs, sink, every, progress, residence)
+        }
+    }
+
+    /// [`Gpu::run_timed`], with the helper thread that steps half the SMs, if any.
+    fn run_loop<S: Sink>(
         mut self,
+        helper: Option<&Helper>,
         jobs: impl IntoIterator<Item = WarpJob>,
         sink: &mut S,
         every: u64,
         mut progress: impl FnMut(Progress),
         residence: &mut Vec<u64>,
     ) -> Result<GpuReport, RunError> {
+        self.refresh_status();
         // Job index of each SM's loads, in load order.
         let mut loaded: Vec<Vec<u64>> = vec![Vec::new(); self.units.len()];
         let mut last_dispatch = 0;
@@ -273,7 +426,7 @@ impl Gpu {
                 };
                 #[cfg(not(feature = "mutants"))]
                 let sm = (start + k) % n;
-                if self.units[sm].free_slot().is_none() {
+                if !self.status[sm].free_slot {
                     continue;
                 }
                 let Some(job) = jobs.next() else { break };
@@ -286,8 +439,7 @@ impl Gpu {
                 self.rr = (sm + 1) % n;
             }
             let more_jobs = jobs.peek().is_some();
-            if !more_jobs && self.jobs_in.iter().all(Option::is_none) && self.units.iter().all(RtUnit::empty)
-            {
+            if !more_jobs && self.jobs_in.iter().all(Option::is_none) && self.status.iter().all(|s| s.empty) {
                 break;
             }
             #[cfg(not(feature = "untraced"))]
@@ -310,44 +462,32 @@ impl Gpu {
                 // compare their reports).
                 self.mem.eval_shared();
                 evaluated += 1;
-                for sm in 0..n {
-                    let u = &mut self.units[sm];
-                    let req_ready = self.mem.ready(sm);
-                    let req = u.req(req_ready);
-                    // The RT unit offers no request, gets no job and has no event due: it acts
-                    // only on a memory response.
-                    let rt_idle =
-                        req.is_none() && self.jobs_in[sm].is_none() && u.next_event().is_none_or(|e| e > now);
-                    // An SM with nothing to do (that, and an L1D with no fill and no event) only
-                    // lets its L1D's clock move: its evaluation would show no response and change
-                    // nothing.
+                let ctx = GroupCtx {
+                    now,
+                    deaf,
                     #[cfg(feature = "mutants")]
-                    let skippable = if self.order_bug == Some(OrderBug::SkipLate) {
-                        req.is_none()
-                            && self.jobs_in[sm].is_none()
-                            && u.next_event().is_none_or(|e| e + 1 > now)
-                    } else {
-                        rt_idle
-                    };
-                    #[cfg(not(feature = "mutants"))]
-                    let skippable = rt_idle;
-                    if skippable && self.mem.skip_quiet_sm(sm) {
-                        continue;
-                    }
-                    self.mem.eval_sm(sm, req);
-                    #[cfg(feature = "mutants")]
-                    let port =
-                        if self.order_bug == Some(OrderBug::SmPortsCrossed) { (sm + 1) % n } else { sm };
-                    #[cfg(not(feature = "mutants"))]
-                    let port = sm;
-                    let (ready, resp) = self.mem.sm_in(port, req.is_some());
-                    if !(rt_idle && (resp.is_empty() || deaf)) {
-                        let i = RtIn { now, req_ready, req_fire: ready && req.is_some(), resp };
-                        u.eval(&i, &mut self.steps[sm])?;
-                        u.commit(&self.steps[sm], self.jobs_in[sm].take());
-                    }
-                    self.mem.commit_sm(sm);
-                }
+                    order_bug: self.order_bug,
+                };
+                let ports = self.mem.sm_ports();
+                let split = if helper.is_some() { n / 2 } else { n };
+                let (units, steps, jobs_in) =
+                    (&mut self.units[..], &mut self.steps[..], &mut self.jobs_in[..]);
+                let (ta, tb) = self.status.split_at_mut(split);
+                let (pa, pb) = ports.split_at(split);
+                let (ua, ub) = units.split_at_mut(split);
+                let (sa, sb) = steps.split_at_mut(split);
+                let (ja, jb) = jobs_in.split_at_mut(split);
+                let a = SmGroup { units: ua, status: ta, steps: sa, jobs_in: ja, ports: pa };
+                let b = SmGroup { units: ub, status: tb, steps: sb, jobs_in: jb, ports: pb };
+                let (ra, rb) = if let Some(h) = helper {
+                    h.join(|| a.step(&ctx), || b.step(&ctx))
+                } else {
+                    (a.step(&ctx), Ok(()))
+                };
+                ra?;
+                #[cfg(feature = "mutants")]
+                let rb = if self.order_bug == Some(OrderBug::HelperErrorLost) { Ok(()) } else { rb };
+                rb?;
                 self.mem.commit_shared();
             } else {
                 // Phase by phase: the RT units' requests come from their registers and the L1Ds'
@@ -409,20 +549,22 @@ impl Gpu {
                     self.probe(sink);
                 }
                 self.mem.commit();
+                self.refresh_status();
             }
-            slot_free = self.units.iter().any(|u| u.free_slot().is_some());
+            slot_free = self.status.iter().any(|s| s.free_slot);
             let dispatch_next = more_jobs && slot_free;
             // The next cycle is the earliest possible: the memory system's events need not be
             // looked at (they are never before the cycle it is in now).
             let soon = self.mem.cycle();
-            let units_next = self.units.iter().filter_map(RtUnit::next_event).min();
+            let units_next = self.status.iter().filter_map(|s| s.next_event).min();
             let next = if dispatch_next || units_next == Some(soon) {
                 Some(soon)
             } else {
-                units_next.into_iter().chain(self.mem.next_event_cycle()).min()
+                let l1d_next = self.status.iter().filter_map(|s| s.l1d_next);
+                units_next.into_iter().chain(l1d_next).chain(self.mem.shared_next_event()).min()
             };
             match next {
-                None if more_jobs || !self.units.iter().all(RtUnit::empty) => {
+                None if more_jobs || !self.status.iter().all(|s| s.empty) => {
                     return Err(RunError::Stalled { cycle: now });
                 }
                 Some(at) if self.rt.idle_skip && at > self.mem.cycle() => {
@@ -449,6 +591,12 @@ impl Gpu {
             }
         }
         Ok(GpuReport { evaluated_cycles: evaluated, last_dispatch, ..self.report() })
+    }
+
+    /// Every SM's [`SmStatus`] from its registers.
+    fn refresh_status(&mut self) {
+        self.status.clear();
+        self.status.extend(self.units.iter().enumerate().map(|(sm, u)| SmStatus::of(u, self.mem.l1d(sm))));
     }
 
     fn report(&self) -> GpuReport {

@@ -42,6 +42,7 @@ pub mod bank_arbiter;
 pub mod clock;
 pub mod config;
 pub mod gpu;
+pub mod lockstep;
 pub mod mem;
 pub mod mem_sched;
 pub mod node_fetch;

@@ -175,6 +175,19 @@ pub enum RunError {
     Stalled { cycle: u64 },
 }
 
+impl RunError {
+    /// The SM whose RT unit stopped the run, if one did.
+    pub fn sm(&self) -> Option<u32> {
+        match self {
+            RunError::Stack { sm, .. }
+            | RunError::PopMismatch { sm, .. }
+            | RunError::PopMissing { sm, .. }
+            | RunError::ExitNotEmpty { sm, .. } => Some(*sm),
+            RunError::BadJob { .. } | RunError::Stalled { .. } => None,
+        }
+    }
+}
+
 impl std::fmt::Display for RunError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {

@@ -1,8 +1,9 @@
 //! `cargo bench -p tb --bench throughput`: throughput of the full cycle-level model on the
 //! built-in `clutter` scene (simulated GPU cycles per second, stack operations per second) and
 //! its run time against obvhs's own traversal of the same rays. A run traces its rays on a second
-//! thread ahead of the simulation (`run::sim`), so each run's process CPU time (both threads) is
-//! printed beside its wall time; the ratio to obvhs is of wall time. Each configuration runs
+//! thread ahead of the simulation and steps half the SMs on a helper thread (`run::sim`, as any
+//! run with a core to spare), so each run's process CPU time (all its threads) is printed beside
+//! its wall time; the ratio to obvhs is of wall time. `-- --serial` keeps the SMs on one thread. Each configuration runs
 //! [`PASSES`] times (the reports must agree) and the fastest counts, as obvhs's time is the
 //! fastest of its passes; the slowest pass is printed too (this virtual machine's speed
 //! swings by 15 % and more between runs).
@@ -14,7 +15,8 @@
 //! other processes' load disturbs far less than wall time; it is NaN where unavailable.
 //!
 //! `-- --once` runs the SMS configuration once and prints `once_run_cycles N` (the GPU cycles):
-//! the run `scripts/instructions.sh` counts instructions of.
+//! the run `scripts/instructions.sh` counts instructions of (with `--serial`: valgrind runs one
+//! thread at a time, and a helper thread would spin).
 
 use std::time::Duration;
 
@@ -30,6 +32,9 @@ const PASSES: usize = 3;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let overhead = std::env::args().any(|a| a == "--overhead");
     let once = std::env::args().any(|a| a == "--once");
+    if std::env::args().any(|a| a == "--serial") {
+        tb::run::sim::allow_helper_thread(false);
+    }
     let scene = tb::load_scene(SCENE)?;
     let opts = WorkloadOpts { width: RES, height: RES, ..WorkloadOpts::for_scene(&scene) };
     let w = Workload::new(&scene, opts)?;
@@ -54,10 +59,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     }
     println!(
-        "{SCENE} {RES}x{RES}, {} spp, {} bounces, {} rays ({build} build)",
+        "{SCENE} {RES}x{RES}, {} spp, {} bounces, {} rays ({build} build, SMs on {} thread{})",
         opts.spp,
         opts.max_bounces,
-        w.num_rays()
+        w.num_rays(),
+        if tb::run::sim::helper_thread() { 2 } else { 1 },
+        if tb::run::sim::helper_thread() { "s" } else { "" },
     );
     // Process CPU of each run (its tracing thread included), beside its wall time.
     let mut cpu = Vec::new();

@@ -23,20 +23,39 @@ fn jobs(scene: &str, res: u32) -> Vec<WarpJob> {
 }
 
 fn run(cfg: Config, jobs: &[WarpJob], check: EvalCheck, bug: Option<OrderBug>) -> GpuReport {
+    run_on(cfg, jobs, check, bug, false)
+}
+
+/// [`run`], with the SMs stepped on two threads if `parallel`.
+fn run_on(
+    cfg: Config,
+    jobs: &[WarpJob],
+    check: EvalCheck,
+    bug: Option<OrderBug>,
+    parallel: bool,
+) -> GpuReport {
     let hw = Hardware::default();
-    let mut gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check);
+    let mut gpu =
+        Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check).with_parallel_sms(parallel);
     if let Some(b) = bug {
         gpu = gpu.with_order_bug(b);
     }
     gpu.run(jobs.iter().cloned(), &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
 }
 
-/// A run with a planted bug, its error returned.
+/// A run with a planted bug, its error returned. A planted bug may also keep a run going for ever
+/// (a request taken again and again): past [`RUNAWAY`] cycles it panics.
 fn try_run(cfg: Config, jobs: Vec<WarpJob>, check: EvalCheck, bug: OrderBug) -> Result<GpuReport, RunError> {
     let hw = Hardware::default();
     let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check);
-    gpu.with_order_bug(bug).run(jobs, &mut NullSink)
+    gpu.with_order_bug(bug).run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
+        assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
+    })
 }
+
+/// Cycles no run of these small workloads comes near (a clean clutter 16×16 run takes tens of
+/// thousands).
+const RUNAWAY: u64 = 10_000_000;
 
 /// Bit for bit, floats included.
 fn bits(r: &GpuReport) -> String {
@@ -128,4 +147,69 @@ fn an_sm_by_sm_loop_with_crossed_ports_is_caught() {
 #[test]
 fn a_whole_sm_skip_that_wakes_late_is_caught() {
     caught_in_the_sm_by_sm_loop(OrderBug::SkipLate, "the late wake-up");
+}
+
+/// The normal run keeps each L1D's down request as its clock edge leaves it, for the next
+/// cycle's L2, instead of reading every L1D again; the phase-by-phase run reads them. An edge that
+/// forgets to pass the new request on leaves the L2 a stale one, and the comparison shows it.
+#[test]
+fn a_down_request_left_stale_at_the_edge_is_caught() {
+    caught_in_the_sm_by_sm_loop(OrderBug::StaleDown, "the stale down request");
+}
+
+/// Issue 16: the SM-by-SM loop with half the SMs stepped on a helper thread gives the one-thread
+/// run's report bit for bit, on two real scenes under every paper configuration.
+#[test]
+fn sms_stepped_on_two_threads_equal_one_thread() {
+    for (scene, res) in [("clutter", 16), ("wknd", 16)] {
+        let jobs = jobs(scene, res);
+        for cfg in Config::paper_set() {
+            let one = run(cfg, &jobs, EvalCheck::Dataflow, None);
+            let two = run_on(cfg, &jobs, EvalCheck::Dataflow, None, true);
+            assert!(one.pops_checked > 0);
+            assert_eq!(bits(&two), bits(&one), "{scene} {}", cfg.name());
+        }
+    }
+}
+
+/// The first error of a cycle is the lowest SM's, whichever thread stepped it: broken stack
+/// managers fail the same way on two threads as on one, including where the error is in the
+/// helper thread's half. Dropping that half's error (a planted bug) is caught: the run goes on
+/// past the failure and ends otherwise.
+#[test]
+fn an_error_in_the_helper_threads_half_stops_the_run_as_on_one_thread() {
+    use rtl::stack_manager::Mutant;
+    let jobs = jobs("clutter", 16);
+    let cfg = Config::sms();
+    let hw = Hardware::default();
+    let sms = hw.mem_for(&cfg).sms as usize;
+    let attempt = |m: Mutant, parallel: bool, bug: Option<OrderBug>| {
+        let mut gpu =
+            Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_mutant(m).with_parallel_sms(parallel);
+        if let Some(b) = bug {
+            gpu = gpu.with_order_bug(b);
+        }
+        let jobs = jobs.clone();
+        std::panic::catch_unwind(move || gpu.run(jobs, &mut NullSink)).map_err(|_| "panic".to_string())
+    };
+    let mut in_helper_half = 0;
+    for m in Mutant::ALL {
+        let one = attempt(m, false, None).expect("no panic");
+        let Err(e) = &one else { continue };
+        assert_eq!(
+            format!("{:?}", attempt(m, true, None)),
+            format!("{:?}", Ok::<_, String>(one.clone())),
+            "{m:?}"
+        );
+        if e.sm().is_some_and(|sm| sm as usize >= sms / 2) {
+            in_helper_half += 1;
+            let lost = attempt(m, true, Some(OrderBug::HelperErrorLost));
+            assert_ne!(
+                format!("{lost:?}"),
+                format!("{:?}", Ok::<_, String>(one.clone())),
+                "{m:?}: the lost error must show"
+            );
+        }
+    }
+    assert!(in_helper_half > 0, "some broken manager must fail first in the helper thread's half");
 }

@@ -67,6 +67,10 @@ pub struct MemStep {
     dram: DramStep,
     /// Wires: each L1D's down request (its register output), the L2's input.
     down: Vec<Option<MemReq>>,
+    /// `down` holds the L1Ds' down requests after the last clock edge: the SM-by-SM loop's
+    /// [`SmPorts::commit`] wrote each there, so [`MemSystem::eval_shared`] need not read every
+    /// L1D again (which another thread may have in its cache).
+    down_kept: bool,
     /// This cycle's evaluation order of the siblings: L1D `sm` is `sm`, DRAM is `sms`.
     order: Vec<usize>,
     /// [`EvalCheck::Twice`]: where the first evaluation of a kernel goes, to be compared with the
@@ -88,6 +92,103 @@ impl MemStep {
 #[inline]
 fn port_ready(l1: &L1d, step: &L1dStep, offered: bool) -> bool {
     l1.ready() && (!offered || step.out.req_fire)
+}
+
+/// A group of SMs' L1Ds in one cycle of the SM-by-SM loop ([`MemSystem::sm_ports`]). SM
+/// indices are the system's (`first..first + len`). Per SM, in this order: [`SmPorts::eval`] on
+/// the SM's request, [`SmPorts::sm_in`] for what the SM sees, [`SmPorts::commit`] for the L1D's
+/// clock edge; or, for an SM with nothing to do, [`SmPorts::skip_quiet`] instead of all three.
+pub struct SmPorts<'a> {
+    first: usize,
+    l1d: &'a mut [L1d],
+    steps: &'a mut [L1dStep],
+    /// Each L1D's down request after its clock edge (for the next cycle's L2).
+    down: &'a mut [Option<MemReq>],
+    granted: &'a [bool],
+    l2: &'a L2,
+}
+
+impl<'a> SmPorts<'a> {
+    /// The SMs below `first + k` and the rest.
+    pub fn split_at(self, k: usize) -> (SmPorts<'a>, SmPorts<'a>) {
+        let (l1a, l1b) = self.l1d.split_at_mut(k);
+        let (sa, sb) = self.steps.split_at_mut(k);
+        let (da, db) = self.down.split_at_mut(k);
+        let a =
+            SmPorts { first: self.first, l1d: l1a, steps: sa, down: da, granted: self.granted, l2: self.l2 };
+        let b = SmPorts {
+            first: self.first + k,
+            l1d: l1b,
+            steps: sb,
+            down: db,
+            granted: self.granted,
+            l2: self.l2,
+        };
+        (a, b)
+    }
+
+    /// The SMs lent: `first..first + len`.
+    pub fn range(&self) -> std::ops::Range<usize> {
+        self.first..self.first + self.l1d.len()
+    }
+
+    /// Whether SM `sm`'s L1D takes a request this cycle (a register output).
+    #[inline]
+    pub fn ready(&self, sm: usize) -> bool {
+        self.l1d[sm - self.first].ready()
+    }
+
+    /// SM `sm`'s L1D on the SM's request `req`.
+    #[inline]
+    pub fn eval(&mut self, sm: usize, req: Option<MemReq>) {
+        let k = sm - self.first;
+        let i = L1dIn { req, down_ready: self.granted[sm], fills: self.l2.resp(sm) };
+        self.l1d[k].eval(&i, &mut self.steps[k]);
+    }
+
+    /// What SM `sm` sees this cycle, after [`SmPorts::eval`] (`offered`: the SM offered a
+    /// request): whether its L1D takes a request (with one offered, whether it took it) and the
+    /// responses it shows. Both are the L1D's outputs, read where they are (the phase-by-phase
+    /// [`MemSystem::eval`] copies them into its [`SmOut`]s; the SM-by-SM loop need not).
+    #[inline]
+    pub fn sm_in(&self, sm: usize, offered: bool) -> (bool, &[MemResp]) {
+        let k = sm - self.first;
+        let l1 = &self.l1d[k];
+        (port_ready(l1, &self.steps[k], offered), l1.resp())
+    }
+
+    /// SM `sm` offers no request and its L1D has nothing to do this cycle (no fill from the L2,
+    /// no event in its registers): its clock edge, without [`SmPorts::eval`] and
+    /// [`SmPorts::commit`] (whose quiet step would change nothing but the clock). Returns false,
+    /// doing nothing, otherwise (the L1D's outputs are its registers: no response, and `ready`
+    /// as [`SmPorts::ready`]).
+    #[inline]
+    pub fn skip_quiet(&mut self, sm: usize) -> bool {
+        self.l1d[sm - self.first].tick_if_quiet(self.l2.resp(sm))
+    }
+
+    /// SM `sm`'s L1D.
+    #[inline]
+    pub fn l1d(&self, sm: usize) -> &L1d {
+        &self.l1d[sm - self.first]
+    }
+
+    /// Clock edge of SM `sm`'s L1D (after [`SmPorts::eval`]).
+    #[inline]
+    pub fn commit(&mut self, sm: usize) {
+        let k = sm - self.first;
+        self.l1d[k].commit(&self.steps[k]);
+        self.down[k] = self.l1d[k].down_req();
+    }
+
+    /// [`SmPorts::commit`] passing on the down request from before the edge instead of after it
+    /// (a planted bug, for [`crate::gpu::OrderBug::StaleDown`]).
+    #[cfg(feature = "mutants")]
+    pub fn commit_stale_down(&mut self, sm: usize) {
+        let k = sm - self.first;
+        self.down[k] = self.l1d[k].down_req();
+        self.l1d[k].commit(&self.steps[k]);
+    }
 }
 
 /// Evaluates one kernel into `d`, or with two passes first into `first` and then into `d`,
@@ -200,46 +301,32 @@ impl MemSystem {
         d.at = self.now;
         d.out.resize_with(sms, SmOut::default);
         d.l1d.resize_with(sms, L1dStep::default);
-        d.down.clear();
-        d.down.extend(self.l1d.iter().map(L1d::down_req));
+        if !d.down_kept {
+            d.down.clear();
+            d.down.extend(self.l1d.iter().map(L1d::down_req));
+        }
     }
 
-    /// SM `sm`'s L1D in the cycle [`MemSystem::eval_shared`] began, on the SM's request `req`
-    /// (what the SM sees: [`MemSystem::sm_in`]).
-    pub fn eval_sm(&mut self, sm: usize, req: Option<MemReq>) {
+    /// The SMs' side of the cycle [`MemSystem::eval_shared`] began: each L1D with its step, its
+    /// grant and its fills from the L2, lent out so that disjoint groups of SMs can be worked on
+    /// apart ([`SmPorts::split_at`]), on different threads if the caller likes: no SM's part
+    /// reads another's.
+    pub fn sm_ports(&mut self) -> SmPorts<'_> {
         let d = self.step.as_mut().expect("eval_shared first");
-        let l1 = &self.l1d[sm];
-        l1.eval(&L1dIn { req, down_ready: d.l2.out.granted[sm], fills: self.l2.resp(sm) }, &mut d.l1d[sm]);
+        // Every L1D's clock edge goes through the ports (SmPorts::commit, or SmPorts::skip_quiet,
+        // which leaves the down request as it is), so `d.down` is kept for the next cycle.
+        d.down_kept = true;
+        SmPorts {
+            first: 0,
+            l1d: &mut self.l1d,
+            steps: &mut d.l1d,
+            down: &mut d.down,
+            granted: &d.l2.out.granted,
+            l2: &self.l2,
+        }
     }
 
-    /// What SM `sm` sees this cycle, after [`MemSystem::eval_sm`] (`offered`: the SM offered a
-    /// request): whether its L1D takes a request (with one offered, whether it took it) and the
-    /// responses it shows. Both are the L1D's outputs, read where they are (the phase-by-phase
-    /// [`MemSystem::eval`] copies them into its [`SmOut`]s; the SM-by-SM loop need not).
-    #[inline]
-    pub fn sm_in(&self, sm: usize, offered: bool) -> (bool, &[MemResp]) {
-        let d = self.step.as_ref().expect("eval_shared first");
-        let l1 = &self.l1d[sm];
-        (port_ready(l1, &d.l1d[sm], offered), l1.resp())
-    }
-
-    /// SM `sm` offers no request and its L1D has nothing to do this cycle (no fill from the L2,
-    /// no event in its registers): its clock edge, without [`MemSystem::eval_sm`] and
-    /// [`MemSystem::commit_sm`] (whose quiet step would change nothing but the clock). Returns
-    /// false, doing nothing, otherwise (the L1D's outputs are its registers: no response, and
-    /// `ready` as [`MemSystem::ready`]).
-    #[inline]
-    pub fn skip_quiet_sm(&mut self, sm: usize) -> bool {
-        self.l1d[sm].tick_if_quiet(self.l2.resp(sm))
-    }
-
-    /// Clock edge of SM `sm`'s L1D (after [`MemSystem::eval_sm`]).
-    pub fn commit_sm(&mut self, sm: usize) {
-        let d = self.step.as_ref().expect("eval_shared first");
-        self.l1d[sm].commit(&d.l1d[sm]);
-    }
-
-    /// Clock edge of the L2 and DRAM, after every SM's [`MemSystem::commit_sm`]: the cycle ends.
+    /// Clock edge of the L2 and DRAM, after every SM's [`SmPorts::commit`]: the cycle ends.
     pub fn commit_shared(&mut self) {
         let d = self.step.as_ref().expect("eval_shared first");
         assert_eq!(d.at, self.now, "memory system committed a step evaluated in another cycle");
@@ -263,6 +350,7 @@ impl MemSystem {
         let passes = self.check.passes();
 
         // 1. The L2, from register outputs only.
+        d.down_kept = false;
         self.begin_step(d);
         let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
         let l2 = eval_kernel(passes, "L2", &mut d.l2, &mut d.first_l2, |s| self.l2.eval(&l2_in, s));
@@ -349,6 +437,12 @@ impl MemSystem {
             .chain(self.l2.next_event())
             .chain(self.dram.next_event())
             .min()
+    }
+
+    /// [`MemSystem::next_event_cycle`] of the L2 and DRAM alone (the L1Ds' part is theirs to
+    /// tell).
+    pub fn shared_next_event(&self) -> Option<u64> {
+        self.l2.next_event().into_iter().chain(self.dram.next_event()).min()
     }
 
     /// Jumps to `cycle`, skipping cycles in which nothing would happen. Panics if that would skip

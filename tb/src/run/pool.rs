@@ -3,8 +3,13 @@
 
 use rayon::prelude::*;
 
-/// `f(0)`, …, `f(n - 1)` on `jobs` threads (at least one), in index order.
+/// `f(0)`, …, `f(n - 1)` on `jobs` threads (at least one), in index order. With one job they
+/// run on the calling thread, one after the other: not as a pool's worker, so that each run may
+/// use the cores a pool would leave idle ([`crate::run::sim::spare_core`]).
 pub fn map_indexed<T: Send>(jobs: usize, n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+    if jobs <= 1 {
+        return (0..n).map(f).collect();
+    }
     match rayon::ThreadPoolBuilder::new().num_threads(jobs.max(1)).build() {
         Ok(pool) => pool.install(|| (0..n).into_par_iter().map(&f).collect()),
         // No threads to be had: the same results, one after the other.

@@ -20,6 +20,7 @@
 //! several SMs at once.
 
 use std::cell::Cell;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use rtl::config::Config;
@@ -366,7 +367,7 @@ fn traced<'a, 'scope>(
 where
     'a: 'scope,
 {
-    if !traces_ahead() || warps.len() < 2 {
+    if !spare_core() || warps.len() < 2 {
         return Box::new(warps.iter().map(|&i| w.warp(i)));
     }
     let (tx, rx) = std::sync::mpsc::sync_channel(TRACE_AHEAD);
@@ -381,9 +382,28 @@ where
     Box::new(rx.into_iter())
 }
 
-/// Whether a run started here traces on a second thread: a second core exists and this is not
-/// one of a parallel sweep's runs (a rayon worker).
-pub fn traces_ahead() -> bool {
+/// Whether cycle-level runs with a core to spare step half their SMs on a helper thread (the
+/// default; [`allow_helper_thread`]).
+static HELPER_THREAD: AtomicBool = AtomicBool::new(true);
+
+/// Lets cycle-level runs with a core to spare step half their SMs on a helper thread (`true`, the
+/// default) or not. The results are the same either way; this only trades a second core's time
+/// for wall time (e.g. `scripts/instructions.sh` counts the one-thread loop, which valgrind
+/// would otherwise run with a spinning helper).
+pub fn allow_helper_thread(on: bool) {
+    HELPER_THREAD.store(on, Ordering::Relaxed);
+}
+
+/// Whether a cycle-level run started here steps half its SMs on a helper thread: it has a core to
+/// spare and [`allow_helper_thread`] allows it.
+pub fn helper_thread() -> bool {
+    spare_core() && HELPER_THREAD.load(Ordering::Relaxed)
+}
+
+/// Whether a run started here has a core to spare, so that it traces on a second thread and
+/// steps half its SMs on another ([`Gpu::with_parallel_sms`]): a second core exists and this is
+/// not one of a parallel sweep's runs (a rayon worker).
+pub fn spare_core() -> bool {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     cores >= 2 && rayon::current_thread_index().is_none()
 }
@@ -425,7 +445,8 @@ fn simulate_traced<S: Sink>(
         }
         Fidelity::Cycle => {
             let gpu = Gpu::new(spec.config, spec.hw.rt, spec.hw.mem_for(&spec.config))
-                .map_err(|e| Error::Invalid(e.to_string()))?;
+                .map_err(|e| Error::Invalid(e.to_string()))?
+                .with_parallel_sms(helper_thread());
             let jobs = pixel_warps.flat_map(|jobs| jobs.into_iter().map(|j| rtl_job(&j, bvh)));
             let mut per_job = Vec::new();
             let report = gpu
@@ -656,15 +677,20 @@ mod tests {
         }
     }
 
+    /// This test's thread has cores to spare (on a machine with two or more): its runs trace on a
+    /// second thread and step half the SMs on a helper thread. A rayon worker does neither. The
+    /// outcomes are equal.
     #[test]
-    fn tracing_on_a_second_thread_changes_no_result() {
+    fn tracing_and_stepping_on_spare_cores_change_no_result() {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        assert_eq!(spare_core(), cores >= 2);
         let scene = crate::load_scene("clutter").unwrap();
         let w = workload(&scene, 32);
         let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         for fidelity in [Fidelity::Cycle, Fidelity::Functional] {
             let s = spec("SMS", fidelity);
             let here = simulate_all(&s, &w).unwrap();
-            let (inline, ahead_there) = one.install(|| (simulate_all(&s, &w).unwrap(), traces_ahead()));
+            let (inline, ahead_there) = one.install(|| (simulate_all(&s, &w).unwrap(), spare_core()));
             assert!(!ahead_there, "a rayon worker traces inline");
             let strip = |o: Outcome| Outcome { wall: Duration::ZERO, ..o };
             assert_eq!(strip(here), strip(inline), "{fidelity:?}");
