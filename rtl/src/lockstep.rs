@@ -1,15 +1,17 @@
-//! Two threads working on one cycle: the caller and one helper thread, for the SM-by-SM loop's
-//! two halves ([`crate::gpu::Gpu::with_parallel_sms`]).
+//! Two threads working on one cycle: the caller and one helper thread, for the split form of the
+//! run loop ([`crate::gpu::Gpu::with_parallel_sms`]: the memory system here, the RT units there).
 //!
 //! [`Helper::join`] is `rayon::join` with one dedicated worker that spins instead of sleeping: a
 //! cycle of the model is a couple of microseconds of work, less than a thread pool takes to wake
 //! a sleeping worker or a blocked caller, while handing a job to a spinning thread on another
-//! core and back costs about 40 ns here. The caller offers the second job, runs the first, and
-//! then takes the second back and runs it itself if the helper has not started it (the helper's
-//! core is busy with another thread, say the tracer), so a run is never slower than the helper
-//! is absent by more than the offer; otherwise it waits for the helper to finish. Either way the
-//! two jobs run exactly once and `join` returns only when both are done, which is what makes
-//! lending the helper a borrowed job sound.
+//! core and back costs about 40 ns here (a two-thread ping-pong of one atomic, stop 19).
+//!
+//! The caller offers the second job, runs the first, and then takes the second back and runs it
+//! itself if the helper has not started it (its core may be busy with another thread, say the
+//! tracer): a helper that is late costs the offer, not a wait. Otherwise the caller waits for the
+//! helper to finish. Either way each job runs exactly once and `join` returns only when both are
+//! done, which is what makes lending the helper a borrowed job sound. A waiting thread spins,
+//! yielding its core now and then.
 //!
 //! Results cannot depend on which thread ran a job: the jobs are given disjoint state (the
 //! caller's borrows say so) and the outcome is read in a fixed order.

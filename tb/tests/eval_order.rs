@@ -26,7 +26,7 @@ fn run(cfg: Config, jobs: &[WarpJob], check: EvalCheck, bug: Option<OrderBug>) -
     run_on(cfg, jobs, check, bug, false)
 }
 
-/// [`run`], with the SMs stepped on two threads if `parallel`.
+/// [`run`], in the split form (RT units and memory system on two threads) if `parallel`.
 fn run_on(
     cfg: Config,
     jobs: &[WarpJob],
@@ -157,10 +157,11 @@ fn a_down_request_left_stale_at_the_edge_is_caught() {
     caught_in_the_sm_by_sm_loop(OrderBug::StaleDown, "the stale down request");
 }
 
-/// Issue 16: the SM-by-SM loop with half the SMs stepped on a helper thread gives the one-thread
-/// run's report bit for bit, on two real scenes under every paper configuration.
+/// Issue 16: the split form, the RT units on a helper thread and the memory system on the calling
+/// one, gives the one-thread run's report bit for bit, on two real scenes under every paper
+/// configuration.
 #[test]
-fn sms_stepped_on_two_threads_equal_one_thread() {
+fn the_split_form_on_two_threads_equals_one_thread() {
     for (scene, res) in [("clutter", 16), ("wknd", 16)] {
         let jobs = jobs(scene, res);
         for cfg in Config::paper_set() {
@@ -173,11 +174,11 @@ fn sms_stepped_on_two_threads_equal_one_thread() {
 }
 
 /// The first error of a cycle is the lowest SM's, whichever thread stepped it: broken stack
-/// managers fail the same way on two threads as on one, including where the error is in the
-/// helper thread's half. Dropping that half's error (a planted bug) is caught: the run goes on
-/// past the failure and ends otherwise.
+/// managers fail the same way in the split form as on one thread, including where the error is
+/// in a unit the helper thread steps. Dropping the helper's error (a planted bug) is caught: the
+/// run goes on past the failure and ends otherwise.
 #[test]
-fn an_error_in_the_helper_threads_half_stops_the_run_as_on_one_thread() {
+fn an_error_on_the_helper_thread_stops_the_run_as_on_one_thread() {
     use rtl::stack_manager::Mutant;
     let jobs = jobs("clutter", 16);
     let cfg = Config::sms();
@@ -190,9 +191,14 @@ fn an_error_in_the_helper_threads_half_stops_the_run_as_on_one_thread() {
             gpu = gpu.with_order_bug(b);
         }
         let jobs = jobs.clone();
-        std::panic::catch_unwind(move || gpu.run(jobs, &mut NullSink)).map_err(|_| "panic".to_string())
+        std::panic::catch_unwind(move || {
+            gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
+                assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
+            })
+        })
+        .map_err(|_| "panic".to_string())
     };
-    let mut in_helper_half = 0;
+    let mut on_helper = 0;
     for m in Mutant::ALL {
         let one = attempt(m, false, None).expect("no panic");
         let Err(e) = &one else { continue };
@@ -201,8 +207,9 @@ fn an_error_in_the_helper_threads_half_stops_the_run_as_on_one_thread() {
             format!("{:?}", Ok::<_, String>(one.clone())),
             "{m:?}"
         );
-        if e.sm().is_some_and(|sm| sm as usize >= sms / 2) {
-            in_helper_half += 1;
+        // The calling thread steps the first eighth of the units, the helper the rest.
+        if e.sm().is_some_and(|sm| sm as usize >= sms / 8) {
+            on_helper += 1;
             let lost = attempt(m, true, Some(OrderBug::HelperErrorLost));
             assert_ne!(
                 format!("{lost:?}"),
@@ -211,5 +218,30 @@ fn an_error_in_the_helper_threads_half_stops_the_run_as_on_one_thread() {
             );
         }
     }
-    assert!(in_helper_half > 0, "some broken manager must fail first in the helper thread's half");
+    assert!(on_helper > 0, "some broken manager must fail first in a unit the helper steps");
+}
+
+/// In the split form each side reads the other's registers as latched when the cycle began. If
+/// the L1Ds' latched outputs were never renewed, the RT units would see the same responses again
+/// and again: the run fails, panics, runs away or reports otherwise than the one-thread run.
+#[test]
+fn a_latch_that_is_not_renewed_is_caught() {
+    let jobs = jobs("clutter", 16);
+    let cfg = Config::sms();
+    let clean = run(cfg, &jobs, EvalCheck::Dataflow, None);
+    let hw = Hardware::default();
+    let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
+        .unwrap()
+        .with_parallel_sms(true)
+        .with_order_bug(OrderBug::StaleLatch);
+    let planted = std::panic::catch_unwind(move || {
+        gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
+            assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
+        })
+    });
+    match planted {
+        Ok(Ok(r)) => assert_ne!(bits(&r), bits(&clean), "the stale latch must show"),
+        Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
+        Err(_) => eprintln!("caught as a panic"),
+    }
 }

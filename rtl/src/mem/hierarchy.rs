@@ -94,12 +94,11 @@ fn port_ready(l1: &L1d, step: &L1dStep, offered: bool) -> bool {
     l1.ready() && (!offered || step.out.req_fire)
 }
 
-/// A group of SMs' L1Ds in one cycle of the SM-by-SM loop ([`MemSystem::sm_ports`]). SM
-/// indices are the system's (`first..first + len`). Per SM, in this order: [`SmPorts::eval`] on
+/// The SMs' L1Ds in one cycle of the SM-by-SM loop ([`MemSystem::sm_ports`]). Per SM, in this
+/// order: [`SmPorts::eval`] on
 /// the SM's request, [`SmPorts::sm_in`] for what the SM sees, [`SmPorts::commit`] for the L1D's
 /// clock edge; or, for an SM with nothing to do, [`SmPorts::skip_quiet`] instead of all three.
 pub struct SmPorts<'a> {
-    first: usize,
     l1d: &'a mut [L1d],
     steps: &'a mut [L1dStep],
     /// Each L1D's down request after its clock edge (for the next cycle's L2).
@@ -109,39 +108,21 @@ pub struct SmPorts<'a> {
 }
 
 impl<'a> SmPorts<'a> {
-    /// The SMs below `first + k` and the rest.
-    pub fn split_at(self, k: usize) -> (SmPorts<'a>, SmPorts<'a>) {
-        let (l1a, l1b) = self.l1d.split_at_mut(k);
-        let (sa, sb) = self.steps.split_at_mut(k);
-        let (da, db) = self.down.split_at_mut(k);
-        let a =
-            SmPorts { first: self.first, l1d: l1a, steps: sa, down: da, granted: self.granted, l2: self.l2 };
-        let b = SmPorts {
-            first: self.first + k,
-            l1d: l1b,
-            steps: sb,
-            down: db,
-            granted: self.granted,
-            l2: self.l2,
-        };
-        (a, b)
-    }
-
-    /// The SMs lent: `first..first + len`.
+    /// The SMs: `0..sms`.
     pub fn range(&self) -> std::ops::Range<usize> {
-        self.first..self.first + self.l1d.len()
+        0..self.l1d.len()
     }
 
     /// Whether SM `sm`'s L1D takes a request this cycle (a register output).
     #[inline]
     pub fn ready(&self, sm: usize) -> bool {
-        self.l1d[sm - self.first].ready()
+        self.l1d[sm].ready()
     }
 
     /// SM `sm`'s L1D on the SM's request `req`.
     #[inline]
     pub fn eval(&mut self, sm: usize, req: Option<MemReq>) {
-        let k = sm - self.first;
+        let k = sm;
         let i = L1dIn { req, down_ready: self.granted[sm], fills: self.l2.resp(sm) };
         self.l1d[k].eval(&i, &mut self.steps[k]);
     }
@@ -152,7 +133,7 @@ impl<'a> SmPorts<'a> {
     /// [`MemSystem::eval`] copies them into its [`SmOut`]s; the SM-by-SM loop need not).
     #[inline]
     pub fn sm_in(&self, sm: usize, offered: bool) -> (bool, &[MemResp]) {
-        let k = sm - self.first;
+        let k = sm;
         let l1 = &self.l1d[k];
         (port_ready(l1, &self.steps[k], offered), l1.resp())
     }
@@ -164,19 +145,19 @@ impl<'a> SmPorts<'a> {
     /// as [`SmPorts::ready`]).
     #[inline]
     pub fn skip_quiet(&mut self, sm: usize) -> bool {
-        self.l1d[sm - self.first].tick_if_quiet(self.l2.resp(sm))
+        self.l1d[sm].tick_if_quiet(self.l2.resp(sm))
     }
 
     /// SM `sm`'s L1D.
     #[inline]
     pub fn l1d(&self, sm: usize) -> &L1d {
-        &self.l1d[sm - self.first]
+        &self.l1d[sm]
     }
 
     /// Clock edge of SM `sm`'s L1D (after [`SmPorts::eval`]).
     #[inline]
     pub fn commit(&mut self, sm: usize) {
-        let k = sm - self.first;
+        let k = sm;
         self.l1d[k].commit(&self.steps[k]);
         self.down[k] = self.l1d[k].down_req();
     }
@@ -185,7 +166,7 @@ impl<'a> SmPorts<'a> {
     /// (a planted bug, for [`crate::gpu::OrderBug::StaleDown`]).
     #[cfg(feature = "mutants")]
     pub fn commit_stale_down(&mut self, sm: usize) {
-        let k = sm - self.first;
+        let k = sm;
         self.down[k] = self.l1d[k].down_req();
         self.l1d[k].commit(&self.steps[k]);
     }
@@ -308,16 +289,13 @@ impl MemSystem {
     }
 
     /// The SMs' side of the cycle [`MemSystem::eval_shared`] began: each L1D with its step, its
-    /// grant and its fills from the L2, lent out so that disjoint groups of SMs can be worked on
-    /// apart ([`SmPorts::split_at`]), on different threads if the caller likes: no SM's part
-    /// reads another's.
+    /// grant and its fills from the L2.
     pub fn sm_ports(&mut self) -> SmPorts<'_> {
         let d = self.step.as_mut().expect("eval_shared first");
         // Every L1D's clock edge goes through the ports (SmPorts::commit, or SmPorts::skip_quiet,
         // which leaves the down request as it is), so `d.down` is kept for the next cycle.
         d.down_kept = true;
         SmPorts {
-            first: 0,
             l1d: &mut self.l1d,
             steps: &mut d.l1d,
             down: &mut d.down,

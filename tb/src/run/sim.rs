@@ -382,11 +382,11 @@ where
     Box::new(rx.into_iter())
 }
 
-/// Whether cycle-level runs with a core to spare step half their SMs on a helper thread (the
+/// Whether cycle-level runs with a core to spare step their RT units on a helper thread (the
 /// default; [`allow_helper_thread`]).
 static HELPER_THREAD: AtomicBool = AtomicBool::new(true);
 
-/// Lets cycle-level runs with a core to spare step half their SMs on a helper thread (`true`, the
+/// Lets cycle-level runs with a core to spare step their RT units on a helper thread (`true`, the
 /// default) or not. The results are the same either way; this only trades a second core's time
 /// for wall time (e.g. `scripts/instructions.sh` counts the one-thread loop, which valgrind
 /// would otherwise run with a spinning helper).
@@ -394,14 +394,14 @@ pub fn allow_helper_thread(on: bool) {
     HELPER_THREAD.store(on, Ordering::Relaxed);
 }
 
-/// Whether a cycle-level run started here steps half its SMs on a helper thread: it has a core to
+/// Whether a cycle-level run started here steps its RT units on a helper thread: it has a core to
 /// spare and [`allow_helper_thread`] allows it.
 pub fn helper_thread() -> bool {
     spare_core() && HELPER_THREAD.load(Ordering::Relaxed)
 }
 
 /// Whether a run started here has a core to spare, so that it traces on a second thread and
-/// steps half its SMs on another ([`Gpu::with_parallel_sms`]): a second core exists and this is
+/// steps its RT units on another ([`Gpu::with_parallel_sms`]): a second core exists and this is
 /// not one of a parallel sweep's runs (a rayon worker).
 pub fn spare_core() -> bool {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -678,7 +678,7 @@ mod tests {
     }
 
     /// This test's thread has cores to spare (on a machine with two or more): its runs trace on a
-    /// second thread and step half the SMs on a helper thread. A rayon worker does neither. The
+    /// second thread and step their RT units on a helper thread. A rayon worker does neither. The
     /// outcomes are equal.
     #[test]
     fn tracing_and_stepping_on_spare_cores_change_no_result() {
