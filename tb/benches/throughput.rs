@@ -59,14 +59,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     }
     println!(
-        "{SCENE} {RES}x{RES}, {} spp, {} bounces, {} rays ({build} build, SMs on {} thread{})",
+        "{SCENE} {RES}x{RES}, {} spp, {} bounces, {} rays ({build} build, model on {} thread{})",
         opts.spp,
         opts.max_bounces,
         w.num_rays(),
         if tb::run::sim::helper_thread() { 2 } else { 1 },
         if tb::run::sim::helper_thread() { "s" } else { "" },
     );
-    // Process CPU of each run (its tracing thread included), beside its wall time.
+    // Process CPU of each run (its tracing and helper threads included), beside its wall time.
     let mut cpu = Vec::new();
     let mut runs = Vec::new();
     let mut slowest = Vec::new();
@@ -95,7 +95,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     for ((t, cpu), slow) in throughput(&scene, &w, &runs)?.into_iter().zip(cpu).zip(slowest) {
         println!(
-            "{:<16} {:>8} GPU cycles in {:.3} s (best of {PASSES}, slowest {slow:.3} s; CPU {cpu:.2} s, both \
+            "{:<16} {:>8} GPU cycles in {:.3} s (best of {PASSES}, slowest {slow:.3} s; CPU {cpu:.2} s, all \
              threads): {:>9.0} cycles/s, {:>9.0} stack ops/s; obvhs CWBVH {:.4} s, our BVH6 {:.4} s: \
              full model = {:.0}x obvhs",
             t.config,

@@ -1,7 +1,8 @@
 //! Issue 13's "done when": evaluation order does not matter. Two real scenes run through the
 //! whole GPU under every paper configuration with the RT units evaluated in a seeded random order
 //! each cycle, and with every kernel evaluated twice per cycle; each report equals the normal
-//! (dataflow) run's bit for bit. A planted order dependence of each kind is caught.
+//! (dataflow) run's bit for bit, and so does the split form on two threads (issue 16). A planted
+//! order dependence of each kind is caught.
 
 use rtl::clock::EvalCheck;
 use rtl::config::Config;
@@ -62,13 +63,17 @@ fn bits(r: &GpuReport) -> String {
     format!("{r:?} {} {}", r.l1d_hit_rate.to_bits(), r.l2_hit_rate.to_bits())
 }
 
+/// Also issue 16: the split form (the RT units on a helper thread, the memory system on the
+/// calling one) gives the one-thread run's report bit for bit.
 #[test]
-fn shuffled_and_twice_evaluated_runs_equal_the_dataflow_run() {
+fn shuffled_twice_evaluated_and_two_thread_runs_equal_the_dataflow_run() {
     for (scene, res) in [("clutter", 16), ("wknd", 16)] {
         let jobs = jobs(scene, res);
         for cfg in Config::paper_set() {
             let normal = run(cfg, &jobs, EvalCheck::Dataflow, None);
             assert!(normal.pops_checked > 0 && normal.cycles > 0, "{scene} {}", cfg.name());
+            let split = run_on(cfg, &jobs, EvalCheck::Dataflow, None, true);
+            assert_eq!(bits(&split), bits(&normal), "{scene} {} on two threads", cfg.name());
             for check in [EvalCheck::Shuffled { seed: 13 }, EvalCheck::Twice, EvalCheck::EveryUnit] {
                 let other = run(cfg, &jobs, check, None);
                 assert_eq!(bits(&other), bits(&normal), "{scene} {} under {check:?}", cfg.name());
@@ -151,26 +156,10 @@ fn a_whole_sm_skip_that_wakes_late_is_caught() {
 
 /// The normal run keeps each L1D's down request as its clock edge leaves it, for the next
 /// cycle's L2, instead of reading every L1D again; the phase-by-phase run reads them. An edge that
-/// forgets to pass the new request on leaves the L2 a stale one, and the comparison shows it.
+/// passes on the request from before it leaves the L2 a stale one, and the comparison shows it.
 #[test]
 fn a_down_request_left_stale_at_the_edge_is_caught() {
     caught_in_the_sm_by_sm_loop(OrderBug::StaleDown, "the stale down request");
-}
-
-/// Issue 16: the split form, the RT units on a helper thread and the memory system on the calling
-/// one, gives the one-thread run's report bit for bit, on two real scenes under every paper
-/// configuration.
-#[test]
-fn the_split_form_on_two_threads_equals_one_thread() {
-    for (scene, res) in [("clutter", 16), ("wknd", 16)] {
-        let jobs = jobs(scene, res);
-        for cfg in Config::paper_set() {
-            let one = run(cfg, &jobs, EvalCheck::Dataflow, None);
-            let two = run_on(cfg, &jobs, EvalCheck::Dataflow, None, true);
-            assert!(one.pops_checked > 0);
-            assert_eq!(bits(&two), bits(&one), "{scene} {}", cfg.name());
-        }
-    }
 }
 
 /// The first error of a cycle is the lowest SM's, whichever thread stepped it: broken stack

@@ -42,7 +42,9 @@ pub struct Args {
     /// No progress output.
     #[arg(long, short)]
     pub quiet: bool,
-    /// Configurations simulated at once (default: the available cores).
+    /// Configurations simulated at once (default: the available cores). A run simulated alone
+    /// (one configuration, or --jobs 1) uses a second core for itself: it traces its rays and
+    /// steps its RT units on two more threads. The results are the same either way.
     #[arg(long)]
     pub jobs: Option<usize>,
     #[command(flatten)]
