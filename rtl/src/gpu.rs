@@ -23,7 +23,7 @@
 //! run phase by phase, so the tests that compare their reports with the normal run's compare the
 //! two forms.
 //!
-//! Two threads, the split form ([`Gpu::with_parallel_sms`]): the RT units and the memory system
+//! Two threads, the split form ([`Gpu::with_helper_thread`]): the RT units and the memory system
 //! meet only in registers (an RT unit reads its L1D's `ready` and `resp` registers; an L1D reads
 //! its RT unit's request register; an L1D's `req_fire` is its `ready` with a request offered), so
 //! within a cycle the two sides are independent. The memory system (L2 and DRAM, then every L1D,
@@ -36,7 +36,7 @@
 //! event in another and its down request in the memory system's step for the next cycle's L2
 //! ([`SmPorts::commit`]), so no thread reads state that another core has in its cache. The same
 //! results as one thread, bit for bit (tested). Measured (stop 19, the throughput bench's SMS
-//! run): 14 % less wall time at about twice the CPU time; splitting the SMs in two halves
+//! run): 14 % less wall time at about 1.5 times the CPU time; splitting the SMs in two halves
 //! instead gave 10 %. Either way each cycle ends with both threads meeting, and the work of a
 //! cycle swings between the sides (responses come in bursts), so each side waits for the other
 //! in many cycles.
@@ -159,8 +159,8 @@ pub struct Gpu {
     l1d_out_next: Vec<L1dOut>,
     latched: bool,
     /// The normal run steps the RT units and the memory system on two threads
-    /// ([`Gpu::with_parallel_sms`]).
-    parallel_sms: bool,
+    /// ([`Gpu::with_helper_thread`]).
+    helper_thread: bool,
 }
 
 /// Deliberately order-dependent runners, to show the [`EvalCheck`] runs catch such bugs. Test
@@ -186,7 +186,7 @@ pub enum OrderBug {
     /// The SM-by-SM loop passes on an L1D's down request from before its clock edge instead of
     /// after it ([`SmPorts::commit`]), so the next cycle's L2 sees the old one.
     StaleDown,
-    /// In the split form ([`Gpu::with_parallel_sms`]) the run loop drops the helper thread's
+    /// In the split form ([`Gpu::with_helper_thread`]) the run loop drops the helper thread's
     /// error.
     HelperErrorLost,
     /// In the split form the L1Ds' latched outputs are not renewed: the RT units see their
@@ -233,7 +233,7 @@ impl L1dOut {
     }
 }
 
-/// The RT units' side of a cycle in the split form ([`Gpu::with_parallel_sms`]): every RT unit,
+/// The RT units' side of a cycle in the split form ([`Gpu::with_helper_thread`]): every RT unit,
 /// on the helper thread, while the calling thread runs the memory system ([`MemSide`]). The two
 /// meet only in registers: an RT unit reads its L1D's `ready` and `resp`, the L1D reads the RT
 /// unit's request. Each side reads the other's as latched when the cycle began and latches its
@@ -446,7 +446,7 @@ impl Gpu {
             steps: vec![RtStep::default(); n],
             quiet: vec![false; n],
             order: Vec::with_capacity(n),
-            parallel_sms: false,
+            helper_thread: false,
             status: Vec::new(),
             l1d_next: vec![None; n],
             offers: vec![None; n],
@@ -484,8 +484,8 @@ impl Gpu {
     /// Steps the RT units and the memory system on two threads in the normal run (the split form
     /// of the module documentation): the same results as one thread, in less wall time when a
     /// second core is free.
-    pub fn with_parallel_sms(mut self, on: bool) -> Self {
-        self.parallel_sms = on && self.units.len() >= 2;
+    pub fn with_helper_thread(mut self, on: bool) -> Self {
+        self.helper_thread = on && self.units.len() >= 2;
         self
     }
 
@@ -537,7 +537,7 @@ impl Gpu {
         progress: impl FnMut(Progress),
         residence: &mut Vec<u64>,
     ) -> Result<GpuReport, RunError> {
-        if self.parallel_sms {
+        if self.helper_thread {
             lockstep::with_helper(|h| self.run_loop(Some(h), jobs, sink, every, progress, residence))
         } else {
             self.run_loop(None, jobs, sink, every, progress, residence)

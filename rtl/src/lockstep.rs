@@ -1,5 +1,5 @@
 //! Two threads working on one cycle: the caller and one helper thread, for the split form of the
-//! run loop ([`crate::gpu::Gpu::with_parallel_sms`]: the memory system here, the RT units there).
+//! run loop ([`crate::gpu::Gpu::with_helper_thread`]: the memory system here, the RT units there).
 //!
 //! [`Helper::join`] is `rayon::join` with one dedicated worker that spins instead of sleeping: a
 //! cycle of the model is a couple of microseconds of work, less than a thread pool takes to wake

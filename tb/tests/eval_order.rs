@@ -37,7 +37,7 @@ fn run_on(
 ) -> GpuReport {
     let hw = Hardware::default();
     let mut gpu =
-        Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check).with_parallel_sms(parallel);
+        Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check).with_helper_thread(parallel);
     if let Some(b) = bug {
         gpu = gpu.with_order_bug(b);
     }
@@ -175,7 +175,7 @@ fn an_error_on_the_helper_thread_stops_the_run_as_on_one_thread() {
     let sms = hw.mem_for(&cfg).sms as usize;
     let attempt = |m: Mutant, parallel: bool, bug: Option<OrderBug>| {
         let mut gpu =
-            Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_mutant(m).with_parallel_sms(parallel);
+            Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_mutant(m).with_helper_thread(parallel);
         if let Some(b) = bug {
             gpu = gpu.with_order_bug(b);
         }
@@ -221,7 +221,7 @@ fn a_latch_that_is_not_renewed_is_caught() {
     let hw = Hardware::default();
     let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
         .unwrap()
-        .with_parallel_sms(true)
+        .with_helper_thread(true)
         .with_order_bug(OrderBug::StaleLatch);
     let planted = std::panic::catch_unwind(move || {
         gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {

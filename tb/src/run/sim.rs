@@ -401,7 +401,7 @@ pub fn helper_thread() -> bool {
 }
 
 /// Whether a run started here has a core to spare, so that it traces on a second thread and
-/// steps its RT units on another ([`Gpu::with_parallel_sms`]): a second core exists and this is
+/// steps its RT units on another ([`Gpu::with_helper_thread`]): a second core exists and this is
 /// not one of a parallel sweep's runs (a rayon worker).
 pub fn spare_core() -> bool {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -446,7 +446,7 @@ fn simulate_traced<S: Sink>(
         Fidelity::Cycle => {
             let gpu = Gpu::new(spec.config, spec.hw.rt, spec.hw.mem_for(&spec.config))
                 .map_err(|e| Error::Invalid(e.to_string()))?
-                .with_parallel_sms(helper_thread());
+                .with_helper_thread(helper_thread());
             let jobs = pixel_warps.flat_map(|jobs| jobs.into_iter().map(|j| rtl_job(&j, bvh)));
             let mut per_job = Vec::new();
             let report = gpu
