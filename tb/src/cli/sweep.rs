@@ -31,7 +31,8 @@ pub struct SweepArgs {
     /// Smoke run: the built-in scenes at 16x16 pixels (--scenes and --res still apply).
     #[arg(long)]
     pub quick: bool,
-    /// Worker threads [default: the available cores]. Results do not depend on it.
+    /// Simulations at once [default: the available cores]. With 1, each run uses a second core
+    /// for itself (tracing, and its RT units on a helper thread). Results do not depend on it.
     #[arg(long)]
     pub jobs: Option<usize>,
     /// No progress bar on stderr.
