@@ -3,10 +3,10 @@
 //! its run time against obvhs's own traversal of the same rays. A run traces its rays on a second
 //! thread ahead of the simulation and steps the RT units on a helper thread (`run::sim`, as any
 //! run with a core to spare), so each run's process CPU time (all its threads) is printed beside
-//! its wall time; the ratio to obvhs is of wall time. `-- --serial` keeps the model on one thread. Each configuration runs
-//! [`PASSES`] times (the reports must agree) and the fastest counts, as obvhs's time is the
-//! fastest of its passes; the slowest pass is printed too (this virtual machine's speed
-//! swings by 15 % and more between runs).
+//! its wall time; the ratio to obvhs is of wall time. `-- --serial` keeps the model on one
+//! thread. Each configuration runs [`PASSES`] times (the reports must agree) and the fastest
+//! counts, as obvhs's time is the fastest of its passes; the slowest pass is printed too (this
+//! virtual machine's speed swings by 15 % and more between runs).
 //!
 //! `-- --overhead` times only the SMS run with a `NullSink` (best of 3) and prints one
 //! `overhead_run_seconds BUILD WALL CPU` line, for `scripts/trace-overhead.sh`, which compares
@@ -58,13 +58,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("overhead_run_seconds {build} {:.4} {cpu:.4}", wall.as_secs_f64());
         return Ok(());
     }
+    let two_threads = tb::run::sim::helper_thread();
     println!(
         "{SCENE} {RES}x{RES}, {} spp, {} bounces, {} rays ({build} build, model on {} thread{})",
         opts.spp,
         opts.max_bounces,
         w.num_rays(),
-        if tb::run::sim::helper_thread() { 2 } else { 1 },
-        if tb::run::sim::helper_thread() { "s" } else { "" },
+        if two_threads { 2 } else { 1 },
+        if two_threads { "s" } else { "" },
     );
     // Process CPU of each run (its tracing and helper threads included), beside its wall time.
     let mut cpu = Vec::new();

@@ -95,9 +95,9 @@ fn port_ready(l1: &L1d, step: &L1dStep, offered: bool) -> bool {
 }
 
 /// The SMs' L1Ds in one cycle of the SM-by-SM loop ([`MemSystem::sm_ports`]). Per SM, in this
-/// order: [`SmPorts::eval`] on
-/// the SM's request, [`SmPorts::sm_in`] for what the SM sees, [`SmPorts::commit`] for the L1D's
-/// clock edge; or, for an SM with nothing to do, [`SmPorts::skip_quiet`] instead of all three.
+/// order: [`SmPorts::eval`] on the SM's request, [`SmPorts::sm_in`] for what the SM sees,
+/// [`SmPorts::commit`] for the L1D's clock edge; or, for an SM with nothing to do,
+/// [`SmPorts::skip_quiet`] instead of all three.
 pub struct SmPorts<'a> {
     l1d: &'a mut [L1d],
     steps: &'a mut [L1dStep],
@@ -122,9 +122,8 @@ impl<'a> SmPorts<'a> {
     /// SM `sm`'s L1D on the SM's request `req`.
     #[inline]
     pub fn eval(&mut self, sm: usize, req: Option<MemReq>) {
-        let k = sm;
         let i = L1dIn { req, down_ready: self.granted[sm], fills: self.l2.resp(sm) };
-        self.l1d[k].eval(&i, &mut self.steps[k]);
+        self.l1d[sm].eval(&i, &mut self.steps[sm]);
     }
 
     /// What SM `sm` sees this cycle, after [`SmPorts::eval`] (`offered`: the SM offered a
@@ -133,9 +132,8 @@ impl<'a> SmPorts<'a> {
     /// [`MemSystem::eval`] copies them into its [`SmOut`]s; the SM-by-SM loop need not).
     #[inline]
     pub fn sm_in(&self, sm: usize, offered: bool) -> (bool, &[MemResp]) {
-        let k = sm;
-        let l1 = &self.l1d[k];
-        (port_ready(l1, &self.steps[k], offered), l1.resp())
+        let l1 = &self.l1d[sm];
+        (port_ready(l1, &self.steps[sm], offered), l1.resp())
     }
 
     /// SM `sm` offers no request and its L1D has nothing to do this cycle (no fill from the L2,
@@ -157,18 +155,16 @@ impl<'a> SmPorts<'a> {
     /// Clock edge of SM `sm`'s L1D (after [`SmPorts::eval`]).
     #[inline]
     pub fn commit(&mut self, sm: usize) {
-        let k = sm;
-        self.l1d[k].commit(&self.steps[k]);
-        self.down[k] = self.l1d[k].down_req();
+        self.l1d[sm].commit(&self.steps[sm]);
+        self.down[sm] = self.l1d[sm].down_req();
     }
 
     /// [`SmPorts::commit`] passing on the down request from before the edge instead of after it
     /// (a planted bug, for [`crate::gpu::OrderBug::StaleDown`]).
     #[cfg(feature = "mutants")]
     pub fn commit_stale_down(&mut self, sm: usize) {
-        let k = sm;
-        self.down[k] = self.l1d[k].down_req();
-        self.l1d[k].commit(&self.steps[k]);
+        self.down[sm] = self.l1d[sm].down_req();
+        self.l1d[sm].commit(&self.steps[sm]);
     }
 }
 
@@ -264,7 +260,7 @@ impl MemSystem {
     /// [`MemSystem::eval`] taken apart for a runner that finishes one SM before it starts the
     /// next (better locality; same results): first the shared part, the L2 (whose inputs are
     /// register outputs only) and DRAM (whose input is the L2's `dram_req` register); then each
-    /// SM's L1D ([`MemSystem::eval_sm`]) and its clock edge ([`MemSystem::commit_sm`]), and last
+    /// SM's L1D ([`SmPorts::eval`]) and its clock edge ([`SmPorts::commit`]), and last
     /// [`MemSystem::commit_shared`]. Siblings in index order only ([`EvalCheck::Dataflow`]).
     pub fn eval_shared(&mut self) {
         let mut d = self.step.take().unwrap_or_default();
