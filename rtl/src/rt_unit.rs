@@ -302,12 +302,16 @@ impl RtStep {
             self.arrived[t as usize] = 0;
         }
         self.arrived_at.clear();
-        self.arrived.resize(threads, 0);
+        if self.arrived.len() != threads {
+            self.arrived.resize(threads, 0);
+        }
         for w in Bits::of(self.woken_warps) {
             self.woken[w as usize] = 0;
         }
         self.woken_warps = 0;
-        self.woken.resize(warps, 0);
+        if self.woken.len() != warps {
+            self.woken.resize(warps, 0);
+        }
         self.leaving.clear();
         self.issue = None;
         self.node_resp.clear();

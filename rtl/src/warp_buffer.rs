@@ -98,7 +98,6 @@ impl Iterator for Bits {
 /// A resident warp.
 #[derive(Clone, Debug)]
 struct Slot {
-    lanes: Vec<Option<Vec<RayOp>>>,
     /// Rank among the resident warps by load order: 0 is the oldest.
     age: u32,
     /// Load order within the RT unit (testbench bookkeeping: indexes the residence record).
@@ -119,6 +118,9 @@ pub struct WarpBuffer {
     warp_size: u32,
     slots: Vec<Option<Slot>>,
     threads: Vec<Thread>,
+    /// Each thread's trace (empty for an inactive lane or an empty slot), by thread: the RT unit
+    /// reads a lane's next operation in one step.
+    ops: Vec<Vec<RayOp>>,
     lanes: Vec<Lanes>,
     /// Bit w: slot w holds a warp (derived from `slots`, so scans visit only resident warps).
     occupied: u64,
@@ -142,6 +144,7 @@ impl WarpBuffer {
             warp_size: cfg.warp_size,
             slots: vec![None; cfg.warps as usize],
             threads: vec![Thread::default(); cfg.threads() as usize],
+            ops: vec![Vec::new(); cfg.threads() as usize],
             lanes: vec![Lanes::EMPTY; cfg.warps as usize],
             occupied: 0,
             slot_mask: u64::MAX >> (64 - cfg.warps),
@@ -238,12 +241,16 @@ impl WarpBuffer {
     /// The trace of lane `l` of the warp in slot `w` (empty for an inactive lane or slot).
     #[inline]
     pub fn ops(&self, w: u32, l: u32) -> &[RayOp] {
-        self.slots[w as usize].as_ref().and_then(|s| s.lanes[l as usize].as_deref()).unwrap_or(&[])
+        &self.ops[(w * self.warp_size + l) as usize]
     }
 
     /// Clock edge: the warp in slot `w` leaves; younger warps move up one rank.
     pub fn leave(&mut self, w: u32) -> Option<Left> {
         let slot = self.slots[w as usize].take()?;
+        let ws = self.warp_size as usize;
+        for ops in &mut self.ops[w as usize * ws..(w as usize + 1) * ws] {
+            *ops = Vec::new();
+        }
         self.occupied &= !(1 << w);
         self.sync_warp(w);
         for s in self.slots.iter_mut().flatten() {
@@ -268,10 +275,14 @@ impl WarpBuffer {
                 pos: 0,
             };
         }
+        debug_assert_eq!(lanes.len(), ws as usize, "a job has one lane per thread of the warp");
+        for (l, ops) in lanes.into_iter().enumerate() {
+            self.ops[(w * ws) as usize + l] = ops.unwrap_or_default();
+        }
         self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
         let age = self.occupied.count_ones();
         let job = self.loaded;
-        self.slots[w as usize] = Some(Slot { lanes, age, job, landed: now });
+        self.slots[w as usize] = Some(Slot { age, job, landed: now });
         self.occupied |= 1 << w;
         self.sync_warp(w);
         self.loaded += 1;

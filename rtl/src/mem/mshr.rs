@@ -15,6 +15,7 @@
 //! its owner (an L1D or the L2): [`Mshr::check`] is a pure read, used by the owner's `eval`;
 //! [`Mshr::insert`] and [`Mshr::release_each`] are the write port, used only by the owner's `commit`.
 
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
 
@@ -86,17 +87,21 @@ impl Mshr {
 
     /// Records a miss; on `Full` nothing changes.
     pub fn insert(&mut self, key: u64, waiter: Waiter) -> Outcome {
-        let outcome = self.check(key);
-        match outcome {
-            Outcome::Merge => self.entries.get_mut(&key).expect("merge").push(waiter),
-            Outcome::Allocate => {
+        // One index lookup for both the check and the update ([`Mshr::check`]'s outcomes).
+        let room = self.entries.len() < self.capacity;
+        match self.entries.entry(key) {
+            Entry::Occupied(mut e) if e.get().len() < self.max_merge => {
+                e.get_mut().push(waiter);
+                Outcome::Merge
+            }
+            Entry::Vacant(e) if room => {
                 let mut list = self.spare.pop().unwrap_or_default();
                 list.push(waiter);
-                self.entries.insert(key, list);
+                e.insert(list);
+                Outcome::Allocate
             }
-            Outcome::Full => {}
+            _ => Outcome::Full,
         }
-        outcome
     }
 
     /// The fill for `key` arrived: frees its entry and returns its waiters, oldest first (the

@@ -347,34 +347,53 @@ fn simulate_inner<S: Sink>(
             &all
         }
     };
-    std::thread::scope(|scope| {
-        simulate_traced(spec, w, warps, traced(scope, w, warps), sink, progress, residence)
+    let start = Instant::now();
+    let bvh = w.opts().bvh;
+    let (stack, gpu, pops_checked) = std::thread::scope(|scope| match spec.fidelity {
+        Fidelity::Functional => run_functional(spec, warps.len(), traced(scope, w, warps, |t| t), progress),
+        // The RT units' jobs are made where the traces are: on the tracing thread when there is
+        // one, so that the conversion is not on the simulation's thread (whose helper waits
+        // for it when a job is dispatched).
+        Fidelity::Cycle => {
+            let jobs = traced(scope, w, warps, move |t| t.iter().map(|j| rtl_job(j, bvh)).collect());
+            run_cycle(spec, warps.len(), jobs, sink, progress, residence)
+        }
+    })?;
+    Ok(Outcome {
+        fidelity: spec.fidelity,
+        pixel_warps: warps.len() as u32,
+        stack,
+        gpu,
+        pops_checked,
+        wall: start.elapsed(),
     })
 }
 
 /// How many pixel warps the tracing thread may run ahead of the simulation.
 const TRACE_AHEAD: usize = 16;
 
-/// The traces of `warps`, in order. Tracing is independent of the simulation, so when a core is
-/// free for it (not inside a parallel sweep, whose runs already fill the cores) a second thread
-/// traces up to [`TRACE_AHEAD`] pixel warps ahead; otherwise each is traced when the simulation
-/// asks for it. The order, so every result, is the same either way; only the wall time differs.
-fn traced<'a, 'scope>(
+/// What `prepare` makes of the traces of `warps` (each pixel warp's), in order. Tracing is
+/// independent of the simulation, so when a core is free for it (not inside a parallel sweep,
+/// whose runs already fill the cores) a second thread traces and prepares up to [`TRACE_AHEAD`]
+/// pixel warps ahead; otherwise each is traced when the simulation asks for it. The order, so
+/// every result, is the same either way; only the wall time differs.
+fn traced<'a, 'scope, T: Send + 'a>(
     scope: &'scope std::thread::Scope<'scope, '_>,
     w: &'a Workload<'a>,
     warps: &'a [u32],
-) -> Box<dyn Iterator<Item = Vec<WarpTraces>> + 'a>
+    prepare: impl Fn(Vec<WarpTraces>) -> T + Send + 'a,
+) -> Box<dyn Iterator<Item = T> + 'a>
 where
     'a: 'scope,
 {
     if !spare_core() || warps.len() < 2 {
-        return Box::new(warps.iter().map(|&i| w.warp(i)));
+        return Box::new(warps.iter().map(move |&i| prepare(w.warp(i))));
     }
     let (tx, rx) = std::sync::mpsc::sync_channel(TRACE_AHEAD);
     scope.spawn(move || {
         for &i in warps {
             // The simulation stopped early (an error): nothing more to trace.
-            if tx.send(w.warp(i)).is_err() {
+            if tx.send(prepare(w.warp(i))).is_err() {
                 break;
             }
         }
@@ -408,72 +427,68 @@ pub fn spare_core() -> bool {
     cores >= 2 && rayon::current_thread_index().is_none()
 }
 
-/// [`simulate_inner`] on the traces `traces` of `warps`.
-fn simulate_traced<S: Sink>(
+/// What a run measured: stack counters, the GPU's counts (cycle level), pops checked.
+type Measured = (StackStats, Option<GpuCounts>, u64);
+
+/// The functional level on the traces of `total` pixel warps, in order.
+fn run_functional(
     spec: &RunSpec,
-    w: &Workload,
-    warps: &[u32],
-    traces: impl Iterator<Item = Vec<WarpTraces>>,
+    total: usize,
+    pixel_warps: impl Iterator<Item = Vec<WarpTraces>>,
+    mut progress: impl FnMut(Tick),
+) -> Result<Measured> {
+    let (total, mut done) = (total as u32, 0u32);
+    let mut last = Instant::now();
+    let run = crate::run::functional::run(
+        spec.config,
+        pixel_warps.inspect(|_| {
+            done += 1;
+            if last.elapsed() > Duration::from_millis(500) {
+                last = Instant::now();
+                progress(Tick { pixel_warps_done: done, pixel_warps: total, cycle: 0 });
+            }
+        }),
+    )
+    .map_err(|e| Error::Invalid(format!("{}: {e}", spec.config.name())))?;
+    Ok((run.total, None, run.pops_checked))
+}
+
+/// The cycle level on the RT units' jobs of `total` pixel warps, in order; fills `residence`
+/// with each pixel warp's cycles in warp buffers (summed over its jobs).
+fn run_cycle<S: Sink>(
+    spec: &RunSpec,
+    total: usize,
+    pixel_warps: impl Iterator<Item = Vec<ray_op::WarpJob>>,
     sink: &mut S,
     mut progress: impl FnMut(Tick),
     residence: &mut Vec<u64>,
-) -> Result<Outcome> {
-    let start = Instant::now();
-    let total = warps.len() as u32;
+) -> Result<Measured> {
     let done = Cell::new(0u32);
     // Jobs of each pixel warp, in order: maps the GPU's per-job residence back to pixel warps.
-    let jobs_per_warp = std::cell::RefCell::new(Vec::with_capacity(warps.len()));
-    let pixel_warps = traces.inspect(|jobs| {
+    let jobs_per_warp = std::cell::RefCell::new(Vec::with_capacity(total));
+    let jobs = pixel_warps.flat_map(|jobs| {
         done.set(done.get() + 1);
         jobs_per_warp.borrow_mut().push(jobs.len());
+        jobs
     });
-    let bvh = w.opts().bvh;
-    let (stack, gpu, pops_checked) = match spec.fidelity {
-        Fidelity::Functional => {
-            let mut last = Instant::now();
-            let run = crate::run::functional::run(
-                spec.config,
-                pixel_warps.inspect(|_| {
-                    if last.elapsed() > Duration::from_millis(500) {
-                        last = Instant::now();
-                        progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: 0 });
-                    }
-                }),
-            )
-            .map_err(|e| Error::Invalid(format!("{}: {e}", spec.config.name())))?;
-            (run.total, None, run.pops_checked)
-        }
-        Fidelity::Cycle => {
-            let gpu = Gpu::new(spec.config, spec.hw.rt, spec.hw.mem_for(&spec.config))
-                .map_err(|e| Error::Invalid(e.to_string()))?
-                .with_helper_thread(helper_thread());
-            let jobs = pixel_warps.flat_map(|jobs| jobs.into_iter().map(|j| rtl_job(&j, bvh)));
-            let mut per_job = Vec::new();
-            let report = gpu
-                .run_timed(
-                    jobs,
-                    sink,
-                    100_000,
-                    |p: Progress| {
-                        progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle })
-                    },
-                    &mut per_job,
-                )
-                .map_err(|e| Error::Invalid(format!("{} failed its checks: {e}", spec.config.name())))?;
-            let mut next = per_job.iter();
-            residence.clear();
-            residence.extend(jobs_per_warp.borrow().iter().map(|&n| next.by_ref().take(n).sum::<u64>()));
-            (report.stack, Some(GpuCounts::from(&report)), report.pops_checked)
-        }
-    };
-    Ok(Outcome {
-        fidelity: spec.fidelity,
-        pixel_warps: total,
-        stack,
-        gpu,
-        pops_checked,
-        wall: start.elapsed(),
-    })
+    let gpu = Gpu::new(spec.config, spec.hw.rt, spec.hw.mem_for(&spec.config))
+        .map_err(|e| Error::Invalid(e.to_string()))?
+        .with_helper_thread(helper_thread());
+    let mut per_job = Vec::new();
+    let total = total as u32;
+    let report = gpu
+        .run_timed(
+            jobs,
+            sink,
+            100_000,
+            |p: Progress| progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle }),
+            &mut per_job,
+        )
+        .map_err(|e| Error::Invalid(format!("{} failed its checks: {e}", spec.config.name())))?;
+    let mut next = per_job.iter();
+    residence.clear();
+    residence.extend(jobs_per_warp.borrow().iter().map(|&n| next.by_ref().take(n).sum::<u64>()));
+    Ok((report.stack, Some(GpuCounts::from(&report)), report.pops_checked))
 }
 
 /// Simulates every pixel warp, without waveforms.
