@@ -276,8 +276,9 @@ impl WarpBuffer {
             };
         }
         debug_assert_eq!(lanes.len(), ws as usize, "a job has one lane per thread of the warp");
-        for (l, ops) in lanes.into_iter().enumerate() {
-            self.ops[(w * ws) as usize + l] = ops.unwrap_or_default();
+        let first = (w * ws) as usize;
+        for (slot, ops) in self.ops[first..first + ws as usize].iter_mut().zip(lanes) {
+            *slot = ops.unwrap_or_default();
         }
         self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
         let age = self.occupied.count_ones();
