@@ -150,14 +150,12 @@ pub(crate) fn rem32(x: u32, m: u32) -> u32 {
     }
 }
 
-/// [`quot`] on 32 bits.
+/// Warp and lane of thread `t`: a shift and a mask, as the warp size is a power of two
+/// ([`Config::validate`]), so no run-time test is needed as in [`rem32`].
 #[inline]
-pub(crate) fn quot32(x: u32, m: u32) -> u32 {
-    if m.is_power_of_two() {
-        x >> m.trailing_zeros()
-    } else {
-        x / m
-    }
+pub(crate) fn warp_lane(t: u32, warp_size: u32) -> (u32, u32) {
+    debug_assert!(warp_size.is_power_of_two(), "warp size {warp_size}");
+    (t >> warp_size.trailing_zeros(), t & (warp_size - 1))
 }
 
 /// Bits needed to hold values 0..=max.

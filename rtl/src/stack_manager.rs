@@ -33,7 +33,7 @@
 use std::collections::VecDeque;
 
 use crate::bank_arbiter::{ShReq, MAX_WORDS};
-use crate::config::{quot32, rem32, Config, ConfigError, Widths};
+use crate::config::{warp_lane, Config, ConfigError, Widths};
 use crate::mem::addr::{LocalLayout, LocalMap};
 use crate::mem_sched::GReq;
 use crate::trace::{Kind, Probe, Sink};
@@ -485,7 +485,7 @@ impl Chain {
     /// The chain of thread `t`, following `next_tid` of each stack around the ring.
     fn of(t: u32, warp_size: u32, next_tid: impl Fn(u32) -> u32) -> Chain {
         let mut c = Chain { ids: [0; 32], len: 0 };
-        let base = t - rem32(t, warp_size);
+        let base = t - warp_lane(t, warp_size).1;
         let mut s = t;
         loop {
             c.ids[c.len] = s;
@@ -820,7 +820,7 @@ impl StackManager {
         self.busy.iter().all(|&w| w == 0)
     }
     pub fn warp_of(&self, t: u32) -> u32 {
-        quot32(t, self.cfg.warp_size)
+        warp_lane(t, self.cfg.warp_size).0
     }
     /// Every thread of warp `w` finished and quiet: the warp may leave.
     pub fn warp_done(&self, w: u32) -> bool {
@@ -1347,7 +1347,7 @@ impl<'a> Planner<'a> {
     // ---- chains (reallocation) ----------------------------------------------------------------
 
     fn warp_base(&self, s: u32) -> u32 {
-        s - rem32(s, self.cfg().warp_size)
+        s - warp_lane(s, self.cfg().warp_size).1
     }
 
     fn members(&self, t: u32) -> Chain {

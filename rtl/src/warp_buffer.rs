@@ -13,7 +13,7 @@
 //! scheduled, or holding a stack command) instead of all of them. The age is a rank among the
 //! resident warps (what the GTO scheduler compares), so it is a warp index wide.
 
-use crate::config::{Config, Widths};
+use crate::config::{warp_lane, Config, Widths};
 use crate::ray_op::RayOp;
 use crate::thread_fsm::{Thread, ThreadState};
 use crate::trace::{Kind, Sink};
@@ -296,8 +296,7 @@ impl WarpBuffer {
     pub fn apply(&mut self, threads: &[(u32, Thread)], due: &[u32]) {
         let mut touched = 0u64;
         for &(t, d) in threads {
-            // The warp size is a power of two (`Config::validate`): a shift and a mask.
-            let (w, l) = (t >> self.warp_size.trailing_zeros(), t & (self.warp_size - 1));
+            let (w, l) = warp_lane(t, self.warp_size);
             self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
             self.threads[t as usize] = d;
             touched |= 1 << w;

@@ -10,7 +10,7 @@ pub fn map_indexed<T: Send>(jobs: usize, n: usize, f: impl Fn(usize) -> T + Sync
     if jobs <= 1 {
         return (0..n).map(f).collect();
     }
-    match rayon::ThreadPoolBuilder::new().num_threads(jobs.max(1)).build() {
+    match rayon::ThreadPoolBuilder::new().num_threads(jobs).build() {
         Ok(pool) => pool.install(|| (0..n).into_par_iter().map(&f).collect()),
         // No threads to be had: the same results, one after the other.
         Err(_) => (0..n).map(f).collect(),
