@@ -38,25 +38,15 @@ impl Lanes {
         (self.fetch | self.wait | self.busy | self.stack).count_ones()
     }
 
-    fn mask(&mut self, state: ThreadState) -> Option<&mut u32> {
-        match state {
-            ThreadState::Done => None,
-            ThreadState::Busy { .. } => Some(&mut self.busy),
-            ThreadState::Fetch => Some(&mut self.fetch),
-            ThreadState::WaitMem { .. } => Some(&mut self.wait),
-            ThreadState::Stack => Some(&mut self.stack),
-        }
-    }
-
-    /// Lane `l` moves from `old` to `new`.
+    /// Lane `l` moves from `old` to `new`: one mask cleared and one set, indexed by the states'
+    /// codes (no branch on either state; Done's entry is a dummy).
     #[inline]
     fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
-        if let Some(m) = self.mask(old) {
-            *m &= !(1 << l);
-        }
-        if let Some(m) = self.mask(new) {
-            *m |= 1 << l;
-        }
+        let bit = 1u32 << l;
+        let mut m = [0, self.busy, self.fetch, self.wait, self.stack];
+        m[old.code() as usize] &= !bit;
+        m[new.code() as usize] |= bit;
+        [_, self.busy, self.fetch, self.wait, self.stack] = m;
         if let ThreadState::Busy { until } = new {
             self.busy_until = self.busy_until.min(until);
         }
@@ -379,6 +369,17 @@ mod tests {
             assert_eq!(b.stack_warps(), want(&|m| m.stack != 0));
             assert_eq!(b.busy_warps(), want(&|m| m.busy != 0));
             assert_eq!(b.drained(), want(&|m| m.live() == 0));
+            // Each lane mask is exactly the lanes in its state.
+            for w in (0..4).filter(|&w| b.occupied(w)) {
+                let of = |f: &dyn Fn(ThreadState) -> bool| {
+                    (0..32).filter(|&l| f(b.thread(w * 32 + l).state)).fold(0u32, |a, l| a | 1 << l)
+                };
+                let m = b.lanes(w);
+                assert_eq!(m.fetch, of(&|s| s == ThreadState::Fetch));
+                assert_eq!(m.wait, of(&|s| matches!(s, ThreadState::WaitMem { .. })));
+                assert_eq!(m.busy, of(&|s| matches!(s, ThreadState::Busy { .. })));
+                assert_eq!(m.stack, of(&|s| s == ThreadState::Stack));
+            }
         };
         for step in 0..20_000u64 {
             let w = next(4) as u32;
