@@ -39,7 +39,8 @@ impl Lanes {
     }
 
     /// Lane `l` moves from `old` to `new`: one mask cleared and one set, indexed by the states'
-    /// codes (no branch on either state; Done's entry is a dummy).
+    /// [`ThreadState::code`]s, in the order of [`ThreadState::NAMES`] (no branch on either state;
+    /// Done's entry is a dummy).
     #[inline]
     fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
         let bit = 1u32 << l;
