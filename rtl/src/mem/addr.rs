@@ -138,22 +138,18 @@ const fn ipoly_reduce(line: u64, p: usize) -> u32 {
     v as u32
 }
 
-/// [`ipoly`] from the byte tables: four lookups instead of a branch per hashed bit.
+/// [`ipoly`] with polynomial `p` of [`IPOLY`] (as [`ipoly_part`] names it), from the byte
+/// tables: four lookups instead of a branch per hashed bit.
 #[inline]
-fn ipoly_fast(line: u64, sets: u32) -> u32 {
-    let t = &IPOLY_BYTES[match sets {
-        16 => 0,
-        32 => 1,
-        64 => 2,
-        _ => panic!("IPOLY set count 16, 32 or 64"),
-    }];
+fn ipoly_fast(line: u64, p: usize) -> u32 {
+    let t = &IPOLY_BYTES[p];
     let b = |k: usize| usize::from((line >> (8 * k)) as u8);
     u32::from(t[0][b(0)] ^ t[1][b(1)] ^ t[2][b(2)] ^ t[3][b(3)])
 }
 
-/// The largest IPOLY set count dividing `sets`, if any.
-fn ipoly_part(sets: u32) -> Option<u32> {
-    IPOLY.iter().rev().map(|x| x.0).find(|&p| sets.is_multiple_of(p))
+/// The polynomial of [`IPOLY`] (its index) with the largest set count dividing `sets`, if any.
+fn ipoly_part(sets: u32) -> Option<usize> {
+    (0..IPOLY.len()).rev().find(|&p| sets.is_multiple_of(IPOLY[p].0))
 }
 
 /// Bank and set of an L2 address.
@@ -193,9 +189,10 @@ impl L2Map {
             SetIndex::Linear => rem(line, sets) as u32,
             SetIndex::Ipoly if sets == 1 => 0,
             SetIndex::Ipoly => {
-                let p = ipoly_part(sets).expect("validated IPOLY set count");
+                let poly = ipoly_part(sets).expect("validated IPOLY set count");
+                let p = IPOLY[poly].0;
                 let m = u64::from(sets / p);
-                (line % m) as u32 * p + ipoly_fast(line / m, p)
+                (line % m) as u32 * p + ipoly_fast(line / m, poly)
             }
         }
     }
@@ -285,8 +282,8 @@ mod tests {
             x ^= x << 17;
             // Each single bit first, then random lines of widths from 40 to 64 bits.
             let line = if k < 64 { 1u64 << k } else { x >> (k % 24) };
-            for sets in [16, 32, 64] {
-                assert_eq!(ipoly_fast(line, sets), ipoly(line, sets), "line {line:#x}, {sets} sets");
+            for (p, &(sets, ..)) in IPOLY.iter().enumerate() {
+                assert_eq!(ipoly_fast(line, p), ipoly(line, sets), "line {line:#x}, {sets} sets");
             }
         }
     }
