@@ -46,8 +46,8 @@
 use glam::UVec2;
 use obvhs::{cwbvh::CwBvh, faststack::FastStack, traverse};
 
-use crate::workload::bvh::{Blas, Bvh, NodeRef, TwoLevel, CWBVH_NODE_SIZE, INTERNAL_BASE};
-use crate::workload::geometry::{hit_triangle, Primitives, Ray};
+use crate::workload::bvh::{Blas, Bvh, Bvh6Child, NodeRef, TwoLevel, CWBVH_NODE_SIZE, INTERNAL_BASE};
+use crate::workload::geometry::{hit_triangle, Primitives, Ray, BOX_LANES};
 use crate::workload::scene::{MeshGeometry, Scene};
 use serde::Serialize;
 
@@ -154,21 +154,6 @@ struct Query<'a> {
     order: ChildOrder,
 }
 
-/// The children of an internal BVH2/BVH6 node, with their boxes, in index order.
-fn for_each_child(bvh: &Bvh, node: u32, mut f: impl FnMut(&obvhs::aabb::Aabb, NodeRef)) {
-    match bvh {
-        Bvh::Bvh2(b) => {
-            let first = b.nodes[node as usize].first_index;
-            for c in [first, first + 1] {
-                let child = &b.nodes[c as usize];
-                f(child.aabb(), if child.is_leaf() { NodeRef::Leaf(c) } else { NodeRef::Internal(c) });
-            }
-        }
-        Bvh::Bvh6(b) => b.node_children(node).iter().for_each(|c| f(&c.aabb, c.node)),
-        Bvh::Cwbvh(_) | Bvh::TwoLevel(_) => unreachable!("traversed by their own walks"),
-    }
-}
-
 /// Primitive slots of a leaf and the scene primitive in each.
 fn leaf_prims(bvh: &Bvh, leaf: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
     let (range, indices) = match bvh {
@@ -197,11 +182,20 @@ fn trace_tree<R: Recorder>(bvh: &Bvh, q: Query, rec: &mut R) -> Option<Hit> {
             NodeRef::Internal(i) => {
                 rec.visit(bvh.node_addr(node), FetchKind::Internal);
                 hits.clear();
-                for_each_child(bvh, i, |aabb, child| {
-                    if let Some(t) = child_hit(ray, aabb, tmax, order) {
-                        hits.push((t, child));
+                match bvh {
+                    Bvh::Bvh2(b) => {
+                        let first = b.nodes[i as usize].first_index;
+                        for c in [first, first + 1] {
+                            let child = &b.nodes[c as usize];
+                            let node = if child.is_leaf() { NodeRef::Leaf(c) } else { NodeRef::Internal(c) };
+                            if let Some(t) = child_hit(ray, child.aabb(), tmax, order) {
+                                hits.push((t, node));
+                            }
+                        }
                     }
-                });
+                    Bvh::Bvh6(b) => hit_children(ray, b.node_children(i), tmax, order, &mut hits),
+                    Bvh::Cwbvh(_) | Bvh::TwoLevel(_) => unreachable!("traversed by their own walks"),
+                }
                 current = choose(&mut hits, order, |child| {
                     rec.push(bvh.node_addr(child));
                     stack.push(child);
@@ -236,6 +230,25 @@ fn trace_tree<R: Recorder>(bvh: &Bvh, q: Query, rec: &mut R) -> Option<Hit> {
 fn child_hit(ray: &Ray, aabb: &obvhs::aabb::Aabb, tmax: f32, order: ChildOrder) -> Option<f32> {
     let t = ray.hit_box(aabb, tmax)?;
     (order == ChildOrder::Nearest || t < tmax).then_some(t)
+}
+
+/// [`child_hit`] of every child of a BVH6 node, the hit ones appended to `hits` in index order
+/// (the boxes tested together: [`Ray::hit_boxes`]).
+fn hit_children(
+    ray: &Ray,
+    children: &[Bvh6Child],
+    tmax: f32,
+    order: ChildOrder,
+    hits: &mut Vec<(f32, NodeRef)>,
+) {
+    let mut near = [0.0; BOX_LANES];
+    let mask = ray.hit_boxes(children.iter().map(|c| &c.aabb), tmax, &mut near);
+    for (k, c) in children.iter().enumerate() {
+        let t = near[k];
+        if mask & 1 << k != 0 && (order == ChildOrder::Nearest || t < tmax) {
+            hits.push((t, c.node));
+        }
+    }
 }
 
 /// From the hit children of an internal node (in index order), returns the child to descend into
@@ -315,11 +328,7 @@ fn trace_two_level<R: Recorder>(tl: &TwoLevel, q: Query, rec: &mut R) -> Option<
             Entry::Top(node @ NodeRef::Internal(i)) => {
                 rec.visit(tl.tlas_addr(node), FetchKind::Internal);
                 hits.clear();
-                for c in tl.tlas.node_children(i) {
-                    if let Some(t) = child_hit(ray, &c.aabb, tmax, order) {
-                        hits.push((t, c.node));
-                    }
-                }
+                hit_children(ray, tl.tlas.node_children(i), tmax, order, &mut hits);
                 next = choose(&mut hits, order, |child| {
                     rec.push(tl.tlas_addr(child));
                     stack.push(Entry::Top(child));
@@ -348,11 +357,7 @@ fn trace_two_level<R: Recorder>(tl: &TwoLevel, q: Query, rec: &mut R) -> Option<
                 let c = cur.as_ref().expect("a BLAS entry has its instance");
                 rec.visit(c.blas.node_addr(node), FetchKind::Internal);
                 hits.clear();
-                for ch in c.blas.bvh.node_children(i) {
-                    if let Some(t) = child_hit(&c.ray, &ch.aabb, tmax, order) {
-                        hits.push((t, ch.node));
-                    }
-                }
+                hit_children(&c.ray, c.blas.bvh.node_children(i), tmax, order, &mut hits);
                 next = choose(&mut hits, order, |child| {
                     rec.push(c.blas.node_addr(child));
                     stack.push(Entry::Bottom(child));
