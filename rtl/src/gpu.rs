@@ -517,6 +517,16 @@ impl Gpu {
         self
     }
 
+    /// In the split form with `units` RT units, how many the calling thread steps beside the
+    /// memory system (SMs `0..n`); the helper steps the rest. The memory side costs less than the RT units (stop 19,
+    /// bench: 460 M against 615 M cycles of the host's clock over a run), so with one of eight
+    /// units here the two sides about balanced; with the build optimised across crates (stop
+    /// 21), two of eight ran 2–3 % faster (paired medians, 14 of 20 alternations faster; three:
+    /// no gain; stop 22, with lighter tracing: one, two and three alike).
+    pub fn units_on_calling_thread(units: usize) -> usize {
+        units / 4
+    }
+
     /// A deliberately order-dependent runner (test builds).
     #[cfg(feature = "mutants")]
     pub fn with_order_bug(mut self, bug: OrderBug) -> Self {
@@ -672,12 +682,8 @@ impl Gpu {
                         l1d_next: &mut self.l1d_next,
                         l1d_out_next: &mut self.l1d_out_next,
                     };
-                    // This thread also steps the first RT units: the memory side costs less than
-                    // the RT units (stop 19, bench: 460 M against 615 M cycles of the host's clock
-                    // over a run), so with one of eight units here the two sides about balanced;
-                    // with the build optimised across crates (stop 21), two of eight ran 2–3 %
-                    // faster (paired medians, 14 of 20 alternations faster; three: no gain).
-                    let (rt_here, rt_there) = rt.split_at(n / 4);
+                    // This thread also steps the first RT units.
+                    let (rt_here, rt_there) = rt.split_at(Gpu::units_on_calling_thread(n));
                     // The helper gets its own copy of the context: one line fewer to fetch from
                     // this core before it can start.
                     let ctx_there = ctx;

@@ -196,8 +196,8 @@ fn an_error_on_the_helper_thread_stops_the_run_as_on_one_thread() {
             format!("{:?}", Ok::<_, String>(one.clone())),
             "{m:?}"
         );
-        // The calling thread steps the first quarter of the units, the helper the rest.
-        if e.sm().is_some_and(|sm| sm as usize >= sms / 4) {
+        // The calling thread steps the first units, the helper the rest.
+        if e.sm().is_some_and(|sm| sm as usize >= Gpu::units_on_calling_thread(sms)) {
             on_helper += 1;
             let lost = attempt(m, true, Some(OrderBug::HelperErrorLost));
             assert_ne!(

@@ -46,17 +46,12 @@ impl Ray {
             let (lo, hi) = (aabb.min[axis], aabb.max[axis]);
             if !inv.is_finite() {
                 // Parallel to this slab (direction component is +0, -0 or subnormal).
-                if o < lo || o > hi {
+                if outside_slab(o, lo, hi) {
                     return None;
                 }
                 continue;
             }
-            let (mut t0, mut t1) = ((lo - o) * inv, (hi - o) * inv);
-            if t0 > t1 {
-                std::mem::swap(&mut t0, &mut t1);
-            }
-            near = near.max(t0);
-            far = far.min(t1 * FAR_SCALE);
+            (near, far) = clip_to_slab(near, far, (lo - o) * inv, (hi - o) * inv);
             if near > far {
                 return None;
             }
@@ -91,17 +86,11 @@ impl Ray {
             let mut miss = false;
             let (mut lo, mut hi) = (self.tmin, tmax);
             for axis in 0..3 {
-                if !finite[axis] {
-                    let o = self.origin[axis];
-                    miss |= o < b.min[axis] || o > b.max[axis];
-                    continue;
+                if finite[axis] {
+                    (lo, hi) = clip_to_slab(lo, hi, t0s[axis], t1s[axis]);
+                } else {
+                    miss |= outside_slab(self.origin[axis], b.min[axis], b.max[axis]);
                 }
-                let (mut t0, mut t1) = (t0s[axis], t1s[axis]);
-                if t0 > t1 {
-                    std::mem::swap(&mut t0, &mut t1);
-                }
-                lo = lo.max(t0);
-                hi = hi.min(t1 * FAR_SCALE);
             }
             // `hit_box`'s test (`near > far` is a miss), so that it agrees with it even on a NaN.
             miss |= compared && lo > hi;
@@ -114,6 +103,24 @@ impl Ray {
 
 /// How many boxes [`Ray::hit_boxes`] tests at once: a BVH6 node's children, rounded up.
 pub const BOX_LANES: usize = 8;
+
+/// The entry and exit distances `(near, far)` narrowed by one slab the ray crosses at `t0` and
+/// `t1` (in either order), the exit widened by its rounding bound: the step [`Ray::hit_box`] and
+/// [`Ray::hit_boxes`] share, so that they agree to the bit.
+#[inline]
+fn clip_to_slab(near: f32, far: f32, mut t0: f32, mut t1: f32) -> (f32, f32) {
+    if t0 > t1 {
+        std::mem::swap(&mut t0, &mut t1);
+    }
+    (near.max(t0), far.min(t1 * FAR_SCALE))
+}
+
+/// A ray parallel to a slab, at `o` on its axis, misses every box whose slab `[lo, hi]` does
+/// not hold `o` (written so that a NaN misses nothing, as both box tests need).
+#[inline]
+fn outside_slab(o: f32, lo: f32, hi: f32) -> bool {
+    o < lo || o > hi
+}
 
 /// 1 + 2 * gamma(3): the relative error bound of a box's far distance (Ize 2013).
 const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
