@@ -38,16 +38,22 @@ impl Lanes {
         (self.fetch | self.wait | self.busy | self.stack).count_ones()
     }
 
-    /// Lane `l` moves from `old` to `new`: one mask cleared and one set, indexed by the states'
-    /// [`ThreadState::code`]s, in the order of [`ThreadState::NAMES`] (no branch on either state;
-    /// Done's entry is a dummy).
+    /// Lane `l` moves from `old` to `new`: the mask of `old`'s state loses the lane and the mask
+    /// of `new`'s gains it (Done has no mask). Each mask is computed from the states'
+    /// [`ThreadState::code`]s in registers, with no branch: the form before stop 23 wrote the
+    /// masks to a small array, changed one element by index and read the array back, and that
+    /// read waited for the narrow store to reach the cache (a failed store-to-load forward),
+    /// which `perf annotate` showed as half of [`WarpBuffer::apply`]'s time.
     #[inline]
     fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
         let bit = 1u32 << l;
-        let mut m = [0, self.busy, self.fetch, self.wait, self.stack];
-        m[old.code() as usize] &= !bit;
-        m[new.code() as usize] |= bit;
-        [_, self.busy, self.fetch, self.wait, self.stack] = m;
+        let (o, n) = (old.code(), new.code());
+        let moved = |m: u32, c: u64| m & !(if o == c { bit } else { 0 }) | if n == c { bit } else { 0 };
+        debug_assert_eq!(ThreadState::NAMES[1..], ["busy", "fetch", "wait_mem", "stack"]);
+        self.busy = moved(self.busy, 1);
+        self.fetch = moved(self.fetch, 2);
+        self.wait = moved(self.wait, 3);
+        self.stack = moved(self.stack, 4);
         if let ThreadState::Busy { until } = new {
             self.busy_until = self.busy_until.min(until);
         }
