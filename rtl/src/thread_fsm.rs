@@ -45,14 +45,22 @@ impl ThreadState {
     pub const KIND: crate::trace::Kind =
         crate::trace::Kind::Enum { name: "thread_state", names: ThreadState::NAMES };
 
+    /// [`ThreadState::code`] of each state.
+    pub const DONE: u64 = 0;
+    pub const BUSY: u64 = 1;
+    pub const FETCH: u64 = 2;
+    pub const WAIT_MEM: u64 = 3;
+    pub const STACK: u64 = 4;
+
     /// Waveform encoding: an index into [`ThreadState::NAMES`].
+    #[inline]
     pub fn code(self) -> u64 {
         match self {
-            ThreadState::Done => 0,
-            ThreadState::Busy { .. } => 1,
-            ThreadState::Fetch => 2,
-            ThreadState::WaitMem { .. } => 3,
-            ThreadState::Stack => 4,
+            ThreadState::Done => ThreadState::DONE,
+            ThreadState::Busy { .. } => ThreadState::BUSY,
+            ThreadState::Fetch => ThreadState::FETCH,
+            ThreadState::WaitMem { .. } => ThreadState::WAIT_MEM,
+            ThreadState::Stack => ThreadState::STACK,
         }
     }
 }

@@ -43,17 +43,16 @@ impl Lanes {
     /// [`ThreadState::code`]s in registers, with no branch: the form before stop 23 wrote the
     /// masks to a small array, changed one element by index and read the array back, and that
     /// read waited for the narrow store to reach the cache (a failed store-to-load forward),
-    /// which `perf annotate` showed as half of [`WarpBuffer::apply`]'s time.
+    /// which `perf annotate` showed as 35–50 % of [`WarpBuffer::apply`]'s time.
     #[inline]
     fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
         let bit = 1u32 << l;
         let (o, n) = (old.code(), new.code());
         let moved = |m: u32, c: u64| m & !(if o == c { bit } else { 0 }) | if n == c { bit } else { 0 };
-        debug_assert_eq!(ThreadState::NAMES[1..], ["busy", "fetch", "wait_mem", "stack"]);
-        self.busy = moved(self.busy, 1);
-        self.fetch = moved(self.fetch, 2);
-        self.wait = moved(self.wait, 3);
-        self.stack = moved(self.stack, 4);
+        self.busy = moved(self.busy, ThreadState::BUSY);
+        self.fetch = moved(self.fetch, ThreadState::FETCH);
+        self.wait = moved(self.wait, ThreadState::WAIT_MEM);
+        self.stack = moved(self.stack, ThreadState::STACK);
         if let ThreadState::Busy { until } = new {
             self.busy_until = self.busy_until.min(until);
         }

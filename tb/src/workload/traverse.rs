@@ -224,12 +224,19 @@ fn trace_tree<R: Recorder>(bvh: &Bvh, q: Query, rec: &mut R) -> Option<Hit> {
     best
 }
 
-/// Entry distance of a child box the ray must visit, if any: hit within `[tmin, tmax]`, and for
-/// Vulkan-Sim's order also entered before the closest hit (`thit >= min_thit` culls,
-/// `vulkan_ray_tracing.cc:630`).
+/// Entry distance of a child box the ray must visit, if any: hit within `[tmin, tmax]` and not
+/// culled ([`entered_in_time`]).
 fn child_hit(ray: &Ray, aabb: &obvhs::aabb::Aabb, tmax: f32, order: ChildOrder) -> Option<f32> {
     let t = ray.hit_box(aabb, tmax)?;
-    (order == ChildOrder::Nearest || t < tmax).then_some(t)
+    entered_in_time(t, tmax, order).then_some(t)
+}
+
+/// A hit child box entered at `t` is visited: always in the nearest-child order, and in
+/// Vulkan-Sim's only if entered before the closest hit (`thit >= min_thit` culls,
+/// `vulkan_ray_tracing.cc:630`).
+#[inline]
+fn entered_in_time(t: f32, tmax: f32, order: ChildOrder) -> bool {
+    order == ChildOrder::Nearest || t < tmax
 }
 
 /// [`child_hit`] of every child of a BVH6 node, the hit ones appended to `hits` in index order
@@ -245,7 +252,7 @@ fn hit_children(
     let mask = ray.hit_boxes(children.iter().map(|c| &c.aabb), tmax, &mut near);
     for (k, c) in children.iter().enumerate() {
         let t = near[k];
-        if mask & 1 << k != 0 && (order == ChildOrder::Nearest || t < tmax) {
+        if mask & 1 << k != 0 && entered_in_time(t, tmax, order) {
             hits.push((t, c.node));
         }
     }
