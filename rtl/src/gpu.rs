@@ -62,6 +62,9 @@ use crate::rt_unit::{RtIn, RtParams, RtStep, RtUnit, RunError};
 use crate::stack_manager::StackStats;
 use crate::trace::{Probe, Sink};
 
+#[path = "window.rs"]
+mod window;
+
 /// Shared memory the SH stacks of one RT unit need: threads × M × entry bytes.
 pub fn shared_bytes(cfg: &Config) -> u32 {
     cfg.threads() * cfg.sh_entries * cfg.entry_bytes
@@ -161,6 +164,8 @@ pub struct Gpu {
     /// The normal run steps the RT units and the memory system on two threads
     /// ([`Gpu::with_helper_thread`]).
     helper_thread: bool,
+    /// The normal run goes by windows ([`Gpu::with_windows`]).
+    windows: bool,
 }
 
 /// Deliberately order-dependent runners, to show the [`EvalCheck`] runs catch such bugs. Test
@@ -482,6 +487,7 @@ impl Gpu {
             l1d_out: vec![L1dOut::default(); n],
             l1d_out_next: vec![L1dOut::default(); n],
             latched: false,
+            windows: true,
         })
     }
 
@@ -525,6 +531,14 @@ impl Gpu {
     /// no gain; stop 22, with lighter tracing: one, two and three alike).
     pub fn units_on_calling_thread(units: usize) -> usize {
         units / 4
+    }
+
+    /// Runs the normal run (no waveform, [`EvalCheck::Dataflow`], idle cycles skipped) by
+    /// windows of cycles, each SM on its own between meetings at the L2 (the module `window`:
+    /// the same report as cycle by cycle); on by default, off for the cycle-by-cycle loop.
+    pub fn with_windows(mut self, on: bool) -> Self {
+        self.windows = on;
+        self
     }
 
     /// A deliberately order-dependent runner (test builds).
@@ -592,6 +606,22 @@ impl Gpu {
         mut progress: impl FnMut(Progress),
         residence: &mut Vec<u64>,
     ) -> Result<GpuReport, RunError> {
+        #[cfg(feature = "mutants")]
+        let plain = self.order_bug.is_none();
+        #[cfg(not(feature = "mutants"))]
+        let plain = true;
+        let delay = u64::from(self.mem.params().l2_latency - 3);
+        if let Some(w) = window::window_for(delay).filter(|_| {
+            self.windows
+                && plain
+                && self.eval_check == EvalCheck::Dataflow
+                && self.rt.idle_skip
+                && sink.next_wanted(0).is_none()
+        }) {
+            let report = window::run(&mut self, helper, jobs, w, every, progress, residence)?;
+            sink.end_run(report.cycles);
+            return Ok(report);
+        }
         self.refresh_status();
         // Job index of each SM's loads, in load order.
         let mut loaded: Vec<Vec<u64>> = vec![Vec::new(); self.units.len()];

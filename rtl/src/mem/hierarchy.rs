@@ -90,7 +90,7 @@ impl MemStep {
 /// Whether an L1D shows its SM `ready` this cycle: its `ready` register, and with a request
 /// offered (`offered`) whether its step took it.
 #[inline]
-fn port_ready(l1: &L1d, step: &L1dStep, offered: bool) -> bool {
+pub(crate) fn port_ready(l1: &L1d, step: &L1dStep, offered: bool) -> bool {
     l1.ready() && (!offered || step.out.req_fire)
 }
 
@@ -429,7 +429,13 @@ impl MemSystem {
         self.set_now(cycle);
     }
 
-    fn set_now(&mut self, cycle: u64) {
+    /// The units, for a runner that clocks them apart (the windowed run, [`crate::gpu`]).
+    pub(crate) fn parts_mut(&mut self) -> (&mut [L1d], &mut L2, &mut Dram) {
+        (&mut self.l1d, &mut self.l2, &mut self.dram)
+    }
+
+    /// Every unit's clock set to `cycle` (a runner that clocked them apart ends its run).
+    pub(crate) fn set_now(&mut self, cycle: u64) {
         for l1 in &mut self.l1d {
             l1.skip_to(cycle);
         }

@@ -138,6 +138,12 @@ pub struct L1d {
     out: Vec<MemResp>,
     now: u64,
     counters: Counters,
+    /// The miss queue is detached ([`L1d::detach_miss_queue`]): its real copy is the windowed
+    /// runner's, which grants and pops it; `miss_queue` here keeps the requests sent down that are
+    /// not yet known to have left (an upper bound on the real queue) and `sent` each one's push.
+    detached: bool,
+    /// Detached only: (cycle of the clock edge that queued it, request), for the real queue.
+    sent: Vec<(u64, MemReq)>,
 }
 
 impl L1d {
@@ -155,7 +161,35 @@ impl L1d {
             out: Vec::new(),
             now: 0,
             counters: Counters::default(),
+            detached: false,
+            sent: Vec::new(),
         }
+    }
+
+    /// Hands the miss queue to a runner that simulates it beside the L2 (the windowed run,
+    /// [`crate::window`]): from now on every request sent down is also listed with the cycle of
+    /// the edge that queued it ([`L1d::take_sent`]), nothing pops the queue but
+    /// [`L1d::left_queue`], and [`L1d::next_event`] leaves the queue out (the runner counts it).
+    /// `eval` must then get `down_ready` false. The queue's length here is an upper bound on the
+    /// real one: the requests the runner has not yet reported leaving are still counted.
+    pub(crate) fn detach_miss_queue(&mut self) {
+        self.detached = true;
+    }
+
+    /// Detached: the requests sent down since the last call, with the cycle of the edge that
+    /// queued each (they are the real queue's from the next cycle on).
+    pub(crate) fn take_sent(&mut self, into: &mut Vec<(u64, MemReq)>) {
+        into.append(&mut self.sent);
+    }
+
+    /// Detached: the head of the queue went to the L2 (the runner saw it granted).
+    pub(crate) fn left_queue(&mut self) {
+        self.miss_queue.pop_front();
+    }
+
+    /// Detached: the queue's length bound ([`L1d::detach_miss_queue`]).
+    pub(crate) fn queue_len(&self) -> usize {
+        self.miss_queue.len()
     }
 
     /// Register output: the L1D takes a request this cycle.
@@ -263,6 +297,9 @@ impl L1d {
         let id = self.next_down_id;
         self.next_down_id += 1;
         self.miss_queue.push_back(MemReq { id, ..req });
+        if self.detached {
+            self.sent.push((self.now, MemReq { id, ..req }));
+        }
         self.pending.insert(id, pending);
     }
 
@@ -347,7 +384,7 @@ impl L1d {
 
     /// Next cycle whose commit changes something, ignoring L2 responses; `None` when idle.
     pub fn next_event(&self) -> Option<u64> {
-        if self.parked.is_some() || !self.out.is_empty() || !self.miss_queue.is_empty() {
+        if self.parked.is_some() || !self.out.is_empty() || (!self.detached && !self.miss_queue.is_empty()) {
             return Some(self.now);
         }
         self.hit_pipe.front().map(|&(visible, _)| visible - 1)

@@ -113,6 +113,19 @@ pub struct L2 {
     out: Vec<Vec<MemResp>>,
     now: u64,
     counters: Counters,
+    /// The windowed run's front end, once split ([`L2::split_front_end`]).
+    front: Option<FrontEnd>,
+}
+
+/// What the front end of a split L2 keeps per bank to know the bank's length in its own cycle.
+#[derive(Clone, Debug)]
+struct FrontEnd {
+    /// Requests the arbiter let in.
+    let_in: Vec<u64>,
+    /// Cycles in which the back end checked out a request, not yet seen by the front end.
+    out_log: Vec<VecDeque<u64>>,
+    /// Check-outs the front end has seen (in cycles before its own).
+    out_seen: Vec<u64>,
 }
 
 impl L2 {
@@ -131,6 +144,7 @@ impl L2 {
             out: vec![Vec::new(); sms],
             now: 0,
             counters: Counters::default(),
+            front: None,
         }
     }
 
@@ -150,6 +164,12 @@ impl L2 {
 
     pub fn counters(&self) -> &Counters {
         &self.counters
+    }
+
+    /// The counters, for a runner that ran this unit past its run's end and puts back the
+    /// counts of the end ([`crate::gpu`]'s windowed run).
+    pub(crate) fn counters_mut(&mut self) -> &mut Counters {
+        &mut self.counters
     }
 
     pub fn mshr_occupancy(&self) -> usize {
@@ -173,26 +193,7 @@ impl L2 {
         d.fills.extend_from_slice(i.fills);
         d.accepted.clear();
         d.checks.clear();
-        d.bank_of.clear();
-        d.bank_of.extend(i.reqs.iter().map(|r| r.map_or(u32::MAX, |r| self.bank_of(r.addr) as u32)));
-        // Each requested bank's round-robin arbiter, in bank order.
-        d.requested.clear();
-        d.requested.extend(d.bank_of.iter().copied().filter(|&b| b != u32::MAX));
-        d.requested.sort_unstable();
-        d.requested.dedup();
-        for &b in &d.requested {
-            let b = b as usize;
-            if self.banks[b].len() >= self.params.l2_bank_queue as usize {
-                continue;
-            }
-            let first = self.rr[b] as usize;
-            // Round robin from `first` (below `sms`), without a division per candidate.
-            let pick = (first..sms).chain(0..first).find(|&sm| d.bank_of[sm] == b as u32);
-            if let Some(sm) = pick {
-                d.out.granted[sm] = true;
-                d.accepted.push((b, sm as u32, i.reqs[sm].expect("picked")));
-            }
-        }
+        self.arbitrate(i.reqs, |b| self.banks[b].len(), d);
         // Allocations this cycle share the MSHR and the DRAM queue, in bank order.
         let mut mshr_free = self.mshr.capacity() - self.mshr.len();
         let mut dram_room = (self.params.l2_dram_queue as usize).saturating_sub(self.dram_queue.len());
@@ -227,6 +228,73 @@ impl L2 {
         }
     }
 
+    /// The banks' round-robin arbiters: each requested bank with room (`len(bank)` below
+    /// `l2_bank_queue`) grants one of the SMs requesting it, starting after the SM it granted
+    /// last, in bank order. Writes `d`'s grants and accepted requests (cleared by the caller).
+    fn arbitrate(&self, reqs: &[Option<MemReq>], len: impl Fn(usize) -> usize, d: &mut L2Step) {
+        let sms = self.out.len();
+        d.bank_of.clear();
+        d.bank_of.extend(reqs.iter().map(|r| r.map_or(u32::MAX, |r| self.bank_of(r.addr) as u32)));
+        // Each requested bank's round-robin arbiter, in bank order.
+        d.requested.clear();
+        d.requested.extend(d.bank_of.iter().copied().filter(|&b| b != u32::MAX));
+        d.requested.sort_unstable();
+        d.requested.dedup();
+        for &b in &d.requested {
+            let b = b as usize;
+            if len(b) >= self.params.l2_bank_queue as usize {
+                continue;
+            }
+            let first = self.rr[b] as usize;
+            // Round robin from `first` (below `sms`), without a division per candidate.
+            let pick = (first..sms).chain(0..first).find(|&sm| d.bank_of[sm] == b as u32);
+            if let Some(sm) = pick {
+                d.out.granted[sm] = true;
+                d.accepted.push((b, sm as u32, reqs[sm].expect("picked")));
+            }
+        }
+    }
+
+    /// The windowed run's split of the L2 ([`crate::window`]): from now on the front end
+    /// ([`L2::front_cycle`]: the grants and the bank pipelines' entrances) and the back end (the
+    /// tag checks onward: [`L2::eval`] and [`L2::commit`] with no request, which is all they then
+    /// do) keep clocks of their own, the back end ahead. A bank's length as the front end's
+    /// arbiter must see it in its cycle is then the requests it let in before that cycle less
+    /// those the back end checked out before it, so the back end logs each check-out's cycle.
+    pub(crate) fn split_front_end(&mut self) {
+        let banks = self.banks.len();
+        self.front = Some(FrontEnd { let_in: vec![0; banks], out_log: vec![VecDeque::new(); banks], out_seen: vec![0; banks] });
+    }
+
+    /// Split only ([`L2::split_front_end`]): the front end's cycle `x` on the SMs' down requests
+    /// of that cycle (`reqs`): grants (into `granted`, one per SM, overwritten) and the granted
+    /// requests entering their bank pipelines, due at their tag check `l2_latency - 3` cycles
+    /// later. The back end must have run every cycle before `x`, and must not yet have reached
+    /// the cycle a request let in now is due. `d` is scratch.
+    pub(crate) fn front_cycle(&mut self, x: u64, reqs: &[Option<MemReq>], d: &mut L2Step) {
+        let f = self.front.as_mut().expect("split_front_end first");
+        for (b, log) in f.out_log.iter_mut().enumerate() {
+            while log.front().is_some_and(|&c| c < x) {
+                log.pop_front();
+                f.out_seen[b] += 1;
+            }
+        }
+        let sms = self.out.len();
+        d.out.granted.clear();
+        d.out.granted.resize(sms, false);
+        d.accepted.clear();
+        let f = self.front.as_ref().expect("split");
+        self.arbitrate(reqs, |b| (f.let_in[b] - f.out_seen[b]) as usize, d);
+        let delay = u64::from(self.params.l2_latency - 3);
+        debug_assert!(x + delay >= self.now || d.accepted.is_empty(), "the back end ran past a request's tag check");
+        let f = self.front.as_mut().expect("split");
+        for &(b, sm, req) in &d.accepted {
+            self.banks[b].push_back(Lane { due: x + delay, sm, req });
+            f.let_in[b] += 1;
+            self.rr[b] = if sm + 1 < self.params.sms { sm + 1 } else { 0 };
+        }
+    }
+
     fn write_back(&mut self, victim: Option<Victim>) {
         if let Some(v) = victim.filter(|v| v.dirty != 0) {
             let bytes = v.dirty.count_ones() * self.params.sector_bytes;
@@ -257,6 +325,9 @@ impl L2 {
                 continue;
             }
             let Lane { sm, req: r, .. } = self.banks[b].pop_front().expect("checked head");
+            if let Some(f) = self.front.as_mut() {
+                f.out_log[b].push_back(self.now);
+            }
             let key = self.params.sector_of(r.addr);
             match check {
                 Check::Hit => {
@@ -306,6 +377,11 @@ impl L2 {
             return Some(self.now);
         }
         self.banks.iter().filter_map(|b| b.front().map(|l| l.due.max(self.now))).min()
+    }
+
+    /// The cycle the L2 (the back end, when split) evaluates next.
+    pub(crate) fn cycle(&self) -> u64 {
+        self.now
     }
 
     pub(crate) fn skip_to(&mut self, cycle: u64) {

@@ -1,0 +1,509 @@
+//! The windowed run: each SM (its RT unit and its L1D) runs a window of cycles on its own,
+//! ahead of the others, and the SMs meet the L2 only between windows. The same cycles, the same
+//! registers and the same report as the cycle-by-cycle loop (`tests/eval_order.rs` and the tests
+//! below compare them), with one meeting of the two threads per window instead of one per cycle.
+//!
+//! Why an SM may run ahead. The SMs meet only in the memory system, and there only through:
+//! - **responses**: a request the L2 lets into a bank pipeline in cycle `x` reaches its tag
+//!   check at `x + l2_latency - 3` (157 cycles with the paper's 160), and whatever the check
+//!   decides (hit, miss, DRAM, fill) is visible to an L1D only after that. So the L2's *back
+//!   end* (tag checks, MSHRs, DRAM queue, DRAM, the response registers) can run up to that many
+//!   cycles ahead of its *front end* (the banks' arbiters and the pipelines' entrances), and the
+//!   responses an SM sees in a window are known before the window starts;
+//! - **grants**: a bank's arbiter picks one of the SMs requesting it in a cycle, so when an L1D's
+//!   request leaves its miss queue depends on the other SMs. The SM itself sees that only as the
+//!   miss queue's length, when it is full (a request that needs a slot parks). So the miss queue
+//!   is simulated beside the front end ([`L1d::detach_miss_queue`]); the L1D keeps an upper bound
+//!   of its length (the requests not yet known to have left), exact once the front end has run
+//!   the cycles before. An SM whose bound reaches the queue's depth before that stops and waits;
+//! - **jobs**: the dispatcher hands the next job to the first SM with a free warp slot, round
+//!   robin, so which job an SM gets depends on the others' slots in that cycle. An SM with a
+//!   free slot (while jobs remain) stops at that cycle, and the dispatch is made when every SM
+//!   has reached it, from the same registers as the cycle-by-cycle loop's.
+//!
+//! One round: the coordinator (the calling thread, alone) moves each SM's requests sent down
+//! into the front end's miss queues and the back end's responses into each SM's inputs, runs
+//! the front end up to the slowest SM, dispatches, and sets the window's end; then the SMs run
+//! to it, and the back end runs on towards the next window's needs, in parallel when a helper
+//! thread is there (the back end and the first SMs on the calling thread, the rest on the
+//! helper: [`split_point`]).
+//!
+//! What the cycle-by-cycle loop also reports is rebuilt exactly: a cycle it would evaluate is one
+//! in which some unit has an event due (an RT unit's or L1D's next event, a non-empty miss queue,
+//! the L2's or DRAM's next event, a dispatch); each part marks those cycles as it runs them and
+//! the run counts their union. The run ends where that loop ends: at the first such cycle after
+//! the last unit emptied with no job left, with the L2's and DRAM's counters as they were then
+//! (the back end may have run further: [`Back::snapshots`]).
+
+use super::{idle, rt_cycle, Gpu, GpuReport, Progress};
+use crate::lockstep::Helper;
+use crate::mem::dram::{Dram, DramIn, DramStep};
+use crate::mem::hierarchy::port_ready;
+use crate::mem::l1d::{L1d, L1dIn, L1dStep};
+use crate::mem::l2::{L2In, L2Step, L2};
+use crate::mem::{Counters, MemReq, MemResp};
+use crate::ray_op::WarpJob;
+use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
+use std::collections::VecDeque;
+
+/// Most cycles in a window. A window's SMs need the responses of all its cycles, which the
+/// back end computes a window ahead, so two windows must fit in the L2's pipeline delay
+/// ([`window_for`]); 64 keeps rounds (about 4 000 in the throughput bench) long against their
+/// cost and the SMs' stops for jobs short.
+const WINDOW: u64 = 64;
+
+/// The window for an L2 whose bank pipelines hold a request `delay` cycles (`l2_latency - 3`):
+/// `None` when that is too short for windows to pay (the cycle-by-cycle loop runs instead).
+pub(super) fn window_for(delay: u64) -> Option<u64> {
+    let w = WINDOW.min(delay / 2);
+    (w >= 4).then_some(w)
+}
+
+/// How many SMs the calling thread runs beside the back end; the helper runs the rest. The back
+/// end costs about what one SM costs, so the calling thread takes a little under half the SMs.
+fn split_point(sms: usize) -> usize {
+    sms * 3 / 8
+}
+
+/// Cycles in which some unit had an event due (those the cycle-by-cycle loop evaluates), one bit
+/// each.
+#[derive(Clone, Debug, Default)]
+struct Bits {
+    words: Vec<u64>,
+}
+
+impl Bits {
+    fn set(&mut self, c: u64) {
+        let w = (c >> 6) as usize;
+        if w >= self.words.len() {
+            self.words.resize(w + 1 + w / 4, 0);
+        }
+        self.words[w] |= 1 << (c & 63);
+    }
+
+    fn get(&self, c: u64) -> bool {
+        self.words.get((c >> 6) as usize).is_some_and(|w| w >> (c & 63) & 1 != 0)
+    }
+
+    /// The first marked cycle in `from..to`.
+    fn first_in(&self, from: u64, to: u64) -> Option<u64> {
+        (from..to).find(|&c| self.get(c))
+    }
+
+    /// The last marked cycle, if any.
+    fn last(&self) -> Option<u64> {
+        let (w, word) = self.words.iter().enumerate().rev().find(|(_, &w)| w != 0)?;
+        Some(w as u64 * 64 + 63 - u64::from(word.leading_zeros()))
+    }
+}
+
+/// Marked cycles below `end` in the union of `all`.
+fn count_union<'a>(all: impl Iterator<Item = &'a Bits> + Clone, end: u64) -> u64 {
+    let words = end.div_ceil(64) as usize;
+    (0..words)
+        .map(|w| {
+            let union = all.clone().fold(0u64, |u, b| u | b.words.get(w).copied().unwrap_or(0));
+            let keep = if (w as u64 + 1) * 64 <= end { u64::MAX } else { (1u64 << (end % 64)) - 1 };
+            u64::from((union & keep).count_ones())
+        })
+        .sum()
+}
+
+/// One SM's side of the run: what it has done, and its inputs and outputs between rounds.
+#[derive(Default)]
+struct Lane {
+    /// The first cycle it has not run.
+    frontier: u64,
+    /// Responses of the L2 for its L1D, by the cycle they are visible in (the back end's).
+    fills: VecDeque<(u64, MemResp)>,
+    /// Cycles in which the front end granted its L1D's head request (it leaves the queue at that
+    /// cycle's edge).
+    pops: VecDeque<u64>,
+    /// The job dispatched to it, landing in its next cycle.
+    job: Option<WarpJob>,
+    /// Requests its L1D sent down this round, with the cycle of the edge that queued each.
+    sent: Vec<(u64, MemReq)>,
+    /// This cycle's fills (scratch).
+    now_fills: Vec<MemResp>,
+    rt_step: RtStep,
+    l1_step: L1dStep,
+    /// The check that failed, in the cycle `frontier`.
+    error: Option<RunError>,
+    /// The cycle from which its RT unit has been empty (after the edge that emptied it).
+    empty_since: u64,
+    /// Cycles in which its RT unit or L1D had an event due.
+    due: Bits,
+}
+
+/// What every SM's window reads alike.
+#[derive(Clone, Copy)]
+struct Limits {
+    /// The window's end (exclusive): the back end has made every response visible before it.
+    end: u64,
+    /// The first cycle the front end has not run: a miss queue's length is exact in the cycles
+    /// up to it.
+    front: u64,
+    /// A job remains: an SM with a free slot stops for the dispatch.
+    jobs_left: bool,
+    queue_depth: usize,
+}
+
+/// Runs SM `u`/`l1` from its frontier to the window's end, or to the first cycle in which it
+/// needs what another SM decides (a job, or its miss queue's exact length), or to a failed
+/// check. Each cycle is the cycle-by-cycle loop's SM step (`SmLoop::step`), on the same inputs.
+fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
+    if lane.error.is_some() {
+        return;
+    }
+    let mut c = lane.frontier;
+    while c < lim.end {
+        while lane.pops.front().is_some_and(|&p| p < c) {
+            lane.pops.pop_front();
+            l1.left_queue();
+        }
+        if lane.job.is_none() && lim.jobs_left && u.free_slot().is_some() {
+            break;
+        }
+        if l1.queue_len() >= lim.queue_depth && lim.front < c {
+            break;
+        }
+        let rt_due = u.next_event().is_some_and(|e| e <= c);
+        let l1_due = l1.next_event().is_some_and(|e| e <= c);
+        lane.now_fills.clear();
+        while let Some(&(at, r)) = lane.fills.front() {
+            if at > c {
+                break;
+            }
+            debug_assert_eq!(at, c, "a response passed by");
+            lane.now_fills.push(r);
+            lane.fills.pop_front();
+        }
+        let req_ready = l1.ready();
+        let req = u.req(req_ready);
+        let rt_idle = idle(u, req, &lane.job, c);
+        if rt_idle && lane.now_fills.is_empty() && !l1_due {
+            // Nothing happens in this SM before its next event or response: only the L1D's clock
+            // moves (as the loop's quiet SM), to there or to the window's end.
+            let next = [u.next_event(), l1.next_event(), lane.fills.front().map(|f| f.0)]
+                .into_iter()
+                .flatten()
+                .min()
+                .map_or(lim.end, |e| e.min(lim.end));
+            debug_assert!(next > c);
+            l1.skip_to(next);
+            c = next;
+            continue;
+        }
+        if rt_due || l1_due {
+            lane.due.set(c);
+        }
+        l1.eval(&L1dIn { req, down_ready: false, fills: &lane.now_fills }, &mut lane.l1_step);
+        let i = RtIn {
+            now: c,
+            req_ready,
+            req_fire: port_ready(l1, &lane.l1_step, req.is_some()) && req.is_some(),
+            resp: l1.resp(),
+        };
+        match rt_cycle(u, &mut lane.rt_step, &mut lane.job, rt_idle, &i, false) {
+            Ok(stepped) => {
+                if stepped && u.empty() {
+                    lane.empty_since = c + 1;
+                }
+            }
+            Err(e) => {
+                lane.error = Some(e);
+                break;
+            }
+        }
+        l1.commit(&lane.l1_step);
+        l1.take_sent(&mut lane.sent);
+        c += 1;
+    }
+    lane.frontier = c;
+}
+
+/// A group of SMs' windows, in index order.
+fn run_group(units: &mut [RtUnit], l1ds: &mut [L1d], lanes: &mut [Lane], lim: Limits) {
+    for ((u, l1), lane) in units.iter_mut().zip(l1ds.iter_mut()).zip(lanes.iter_mut()) {
+        run_sm(u, l1, lane, lim);
+    }
+}
+
+/// The L2's front end beside the SMs' real miss queues.
+struct Front {
+    /// Per SM: (cycle of the edge that queued it, request), oldest first; the head is offered
+    /// from the cycle after that edge.
+    queues: Vec<VecDeque<(u64, MemReq)>>,
+    /// The first cycle not run.
+    next: u64,
+    heads: Vec<Option<MemReq>>,
+    step: L2Step,
+    /// Cycles with a request in some miss queue, and cycles with a dispatch.
+    due: Bits,
+}
+
+impl Front {
+    /// Runs the front end's cycles up to `to` (inclusive); every SM must have run the cycles
+    /// before it. Grants are passed to the SMs as cycles in which their head left.
+    fn run_to(&mut self, to: u64, l2: &mut L2, lanes: &mut [Lane]) {
+        let mut x = self.next;
+        while x <= to {
+            // The first cycle from `x` in which some queue has a head.
+            let Some(first) = self.queues.iter().filter_map(|q| q.front().map(|e| e.0 + 1)).min() else {
+                x = to + 1;
+                break;
+            };
+            if first > x {
+                x = first.min(to + 1);
+                continue;
+            }
+            self.due.set(x);
+            for (h, q) in self.heads.iter_mut().zip(&self.queues) {
+                *h = q.front().filter(|e| e.0 < x).map(|e| e.1);
+            }
+            l2.front_cycle(x, &self.heads, &mut self.step);
+            for (k, &g) in self.step.out.granted.iter().enumerate() {
+                if g {
+                    self.queues[k].pop_front();
+                    lanes[k].pops.push_back(x);
+                }
+            }
+            x += 1;
+        }
+        self.next = self.next.max(x);
+    }
+
+    /// The first cycle from `from` (at or after the first cycle not run) in which some queue
+    /// has a head, with no more requests coming.
+    fn next_head(&self, from: u64) -> Option<u64> {
+        self.queues.iter().filter_map(|q| q.front().map(|e| (e.0 + 1).max(from))).min()
+    }
+}
+
+/// The L2's back end and DRAM.
+struct Back {
+    /// The L2's input of no new requests (the front end lets them in).
+    none: Vec<Option<MemReq>>,
+    step: L2Step,
+    dram_step: DramStep,
+    /// Cycles in which the L2 or DRAM had an event due.
+    due: Bits,
+    /// Per SM: responses made visible since the coordinator last took them, by cycle.
+    staged: Vec<Vec<(u64, MemResp)>>,
+    /// (cycle, L2's counters, DRAM's counters) before each cycle with an event, from the slowest
+    /// SM's frontier of the round before on: the run may end before cycles the back end ran,
+    /// and the report counts what the loop would have counted by then.
+    snapshots: VecDeque<(u64, Counters, Counters)>,
+}
+
+impl Back {
+    /// Runs the cycles before `to`: each cycle in which the L2 or DRAM has an event due is their
+    /// `eval_shared` and `commit_shared` with no request coming in; the others only move their
+    /// clocks (they would change nothing else).
+    fn run_to(&mut self, to: u64, l2: &mut L2, dram: &mut Dram) {
+        while l2.cycle() < to {
+            let y = l2.cycle();
+            let next = l2.next_event().into_iter().chain(dram.next_event()).min();
+            if next.is_none_or(|e| e > y) {
+                let t = next.map_or(to, |e| e.min(to));
+                l2.skip_to(t);
+                dram.skip_to(t);
+                continue;
+            }
+            self.due.set(y);
+            self.snapshots.push_back((y, l2.counters().clone(), dram.counters().clone()));
+            l2.eval(&L2In { reqs: &self.none, dram_ready: dram.ready(), fills: dram.resp() }, &mut self.step);
+            dram.eval(&DramIn { req: l2.dram_req() }, &mut self.dram_step);
+            dram.commit(&self.dram_step);
+            l2.commit(&self.step);
+            for (k, staged) in self.staged.iter_mut().enumerate() {
+                staged.extend(l2.resp(k).iter().map(|&r| (y + 1, r)));
+            }
+        }
+    }
+}
+
+/// [`Gpu::run_timed`] as windows (see the module documentation); `w` from [`window_for`].
+pub(super) fn run(
+    gpu: &mut Gpu,
+    helper: Option<&Helper>,
+    jobs: impl IntoIterator<Item = WarpJob>,
+    w: u64,
+    every: u64,
+    mut progress: impl FnMut(Progress),
+    residence: &mut Vec<u64>,
+) -> Result<GpuReport, RunError> {
+    let n = gpu.units.len();
+    let params = *gpu.mem.params();
+    let delay = u64::from(params.l2_latency - 3);
+    {
+        let (l1ds, l2, _) = gpu.mem.parts_mut();
+        for l1 in l1ds.iter_mut() {
+            l1.detach_miss_queue();
+        }
+        l2.split_front_end();
+    }
+    let mut lanes: Vec<Lane> = (0..n).map(|_| Lane::default()).collect();
+    let mut front = Front {
+        queues: vec![VecDeque::new(); n],
+        next: 0,
+        heads: vec![None; n],
+        step: L2Step::default(),
+        due: Bits::default(),
+    };
+    let mut back = Back {
+        none: vec![None; n],
+        step: L2Step::default(),
+        dram_step: DramStep::default(),
+        due: Bits::default(),
+        staged: vec![Vec::new(); n],
+        snapshots: VecDeque::new(),
+    };
+    let mut jobs = jobs.into_iter().peekable();
+    let mut loaded: Vec<Vec<u64>> = vec![Vec::new(); n];
+    let (mut dispatched, mut last_dispatch) = (0u64, 0u64);
+    let mut next_report = every;
+    let mut last_min = 0;
+    loop {
+        for (k, lane) in lanes.iter_mut().enumerate() {
+            front.queues[k].extend(lane.sent.drain(..));
+            lane.fills.extend(back.staged[k].drain(..));
+        }
+        let m = lanes.iter().map(|l| l.frontier).min().unwrap_or(0);
+        let (l1ds, l2, dram) = gpu.mem.parts_mut();
+        front.run_to(m, l2, &mut lanes);
+        // The dispatch in cycle `m`: every SM has run the cycles before it, and those ahead of it
+        // had no free slot in it (they would have stopped there). It comes before any failed
+        // check of cycle `m` or later, as in the loop.
+        if jobs.peek().is_some() {
+            let start = gpu.rr;
+            for k in 0..n {
+                let sm = (start + k) % n;
+                if lanes[sm].frontier != m || lanes[sm].job.is_some() || gpu.units[sm].free_slot().is_none() {
+                    continue;
+                }
+                let Some(job) = jobs.next() else { break };
+                job.validate(gpu.cfg.warp_size).map_err(|reason| RunError::BadJob { job: dispatched, reason })?;
+                lanes[sm].job = Some(job);
+                loaded[sm].push(dispatched);
+                dispatched += 1;
+                last_dispatch = m;
+                gpu.rr = (sm + 1) % n;
+                front.due.set(m);
+            }
+        }
+        // A failed check: the earliest, and in its cycle the lowest SM's, once every other SM is
+        // past that cycle (as the loop, which stops at the first SM that fails).
+        if let Some((c, k)) =
+            lanes.iter().enumerate().filter(|(_, l)| l.error.is_some()).map(|(k, l)| (l.frontier, k)).min()
+        {
+            if lanes.iter().all(|l| l.error.is_some() || l.frontier > c) {
+                return Err(lanes[k].error.take().expect("failed"));
+            }
+        }
+        let jobs_left = jobs.peek().is_some();
+        let drained = !jobs_left && lanes.iter().all(|l| l.job.is_none()) && gpu.units.iter().all(RtUnit::empty);
+        if drained {
+            // After the edge that emptied the last unit, the loop's next cycle is the first in
+            // which some unit has an event due: every part must have run up to there first.
+            let after = lanes.iter().map(|l| l.empty_since).max().unwrap_or(0);
+            if m >= after && front.next >= after && l2.cycle() >= after {
+                let end = lanes
+                    .iter()
+                    .zip(gpu.units.iter())
+                    .zip(l1ds.iter())
+                    .map(|((lane, u), l1)| {
+                        lane.due.first_in(after, lane.frontier).or_else(|| {
+                            [u.next_event(), l1.next_event()].into_iter().flatten().min()
+                        })
+                    })
+                    .chain([front.due.first_in(after, front.next).or_else(|| front.next_head(front.next))])
+                    .chain([back
+                        .due
+                        .first_in(after, l2.cycle())
+                        .or_else(|| l2.next_event().into_iter().chain(dram.next_event()).min())])
+                    .flatten()
+                    .min()
+                    .map_or(after, |e| e.max(after));
+                // The L2's and DRAM's counts as they were after the cycle before `end`.
+                if let Some((_, l2c, dramc)) = back.snapshots.iter().find(|s| s.0 >= end) {
+                    *l2.counters_mut() = l2c.clone();
+                    *dram.counters_mut() = dramc.clone();
+                }
+                let evaluated = count_union(
+                    lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]),
+                    end,
+                );
+                gpu.mem.set_now(end);
+                residence.clear();
+                residence.resize(dispatched as usize, 0);
+                for (u, jobs) in gpu.units.iter().zip(&loaded) {
+                    for (&job, &cycles) in jobs.iter().zip(&u.residence) {
+                        residence[job as usize] = cycles;
+                    }
+                }
+                return Ok(GpuReport { evaluated_cycles: evaluated, last_dispatch, ..gpu.report() });
+            }
+        }
+        // Nothing will ever happen again, yet work remains: the loop's `Stalled`, in the last
+        // cycle it evaluated.
+        let quiet = lanes.iter().zip(gpu.units.iter()).zip(l1ds.iter()).all(|((lane, u), l1)| {
+            lane.job.is_none()
+                && lane.fills.is_empty()
+                && lane.error.is_none()
+                && u.next_event().is_none()
+                && l1.next_event().is_none()
+                && !(jobs_left && u.free_slot().is_some())
+        }) && front.queues.iter().all(VecDeque::is_empty)
+            && back.staged.iter().all(Vec::is_empty)
+            && l2.next_event().is_none()
+            && dram.next_event().is_none();
+        if quiet && !drained {
+            let last = lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]).filter_map(Bits::last).max();
+            return Err(RunError::Stalled { cycle: last.unwrap_or(0) });
+        }
+        // The window: every response in it is visible (the back end ran the cycles before its
+        // last); the back end then runs on to the next window's needs, as far as the requests
+        // the front end let in allow (a request let in at the front end's last cycle is due at
+        // its tag check `delay` cycles later).
+        let lim = Limits {
+            end: (m + w).min(l2.cycle() + 1),
+            front: front.next,
+            jobs_left,
+            queue_depth: params.l1d_miss_queue as usize,
+        };
+        let back_to = (front.next + delay).min(lim.end + w + 1);
+        // Once every unit is empty with no job left the run ends in a cycle not yet known, perhaps
+        // before the slowest SM's frontier: the counts of every cycle since then are kept.
+        if !drained {
+            while back.snapshots.front().is_some_and(|s| s.0 < last_min) {
+                back.snapshots.pop_front();
+            }
+            last_min = m;
+        }
+        let back = &mut back;
+        match helper {
+            Some(h) if n >= 2 => {
+                let a = split_point(n);
+                let (ua, ub) = gpu.units.split_at_mut(a);
+                let (la, lb) = l1ds.split_at_mut(a);
+                let (na, nb) = lanes.split_at_mut(a);
+                h.join(
+                    || {
+                        back.run_to(back_to, l2, dram);
+                        run_group(ua, la, na, lim);
+                    },
+                    move || run_group(ub, lb, nb, lim),
+                );
+            }
+            _ => {
+                run_group(&mut gpu.units, l1ds, &mut lanes, lim);
+                back.run_to(back_to, l2, dram);
+            }
+        }
+        if m >= next_report {
+            progress(Progress { cycle: m, warps_dispatched: dispatched });
+            next_report = m.saturating_add(every);
+        }
+    }
+}
