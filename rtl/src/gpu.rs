@@ -197,6 +197,24 @@ pub enum OrderBug {
     /// In the split form the L1Ds' latched outputs are not renewed: the RT units see their
     /// L1Ds' outputs of the first cycle of the split form again and again.
     StaleLatch,
+    /// The windowed run lets an SM whose miss queue may be full run on, its queue's length
+    /// taken from a bound that still counts requests already granted.
+    WindowIgnoresFullQueue,
+    /// The windowed run lets an SM with a free warp slot run on instead of stopping for the
+    /// dispatch, so its job lands when the dispatcher reaches its cycle, late.
+    WindowSkipsJobStop,
+    /// The windowed run's L2 back end runs further ahead of the front end than the bank pipelines'
+    /// delay: it checks a bank's head before the request that the front end lets in later would
+    /// have been there.
+    WindowBackEndTooFar,
+}
+
+impl OrderBug {
+    /// A slip of the windowed run (the others are of the cycle-by-cycle loops, which then run).
+    #[allow(dead_code)]
+    fn in_windows(self) -> bool {
+        matches!(self, OrderBug::WindowIgnoresFullQueue | OrderBug::WindowSkipsJobStop | OrderBug::WindowBackEndTooFar)
+    }
 }
 
 /// An RT unit's registers the run loop reads between cycles, gathered after its clock edge by
@@ -607,7 +625,7 @@ impl Gpu {
         residence: &mut Vec<u64>,
     ) -> Result<GpuReport, RunError> {
         #[cfg(feature = "mutants")]
-        let plain = self.order_bug.is_none();
+        let plain = self.order_bug.is_none_or(OrderBug::in_windows);
         #[cfg(not(feature = "mutants"))]
         let plain = true;
         let delay = u64::from(self.mem.params().l2_latency - 3);

@@ -146,6 +146,8 @@ struct Limits {
     /// A job remains: an SM with a free slot stops for the dispatch.
     jobs_left: bool,
     queue_depth: usize,
+    #[cfg(feature = "mutants")]
+    bug: Option<super::OrderBug>,
 }
 
 /// Runs SM `u`/`l1` from its frontier to the window's end, or to the first cycle in which it
@@ -161,10 +163,17 @@ fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
             lane.pops.pop_front();
             l1.left_queue();
         }
-        if lane.job.is_none() && lim.jobs_left && u.free_slot().is_some() {
+        #[cfg(feature = "mutants")]
+        let (stop_for_job, stop_for_queue) = (
+            lim.bug != Some(super::OrderBug::WindowSkipsJobStop),
+            lim.bug != Some(super::OrderBug::WindowIgnoresFullQueue),
+        );
+        #[cfg(not(feature = "mutants"))]
+        let (stop_for_job, stop_for_queue) = (true, true);
+        if stop_for_job && lane.job.is_none() && lim.jobs_left && u.free_slot().is_some() {
             break;
         }
-        if l1.queue_len() >= lim.queue_depth && lim.front < c {
+        if stop_for_queue && l1.queue_len() >= lim.queue_depth && lim.front < c {
             break;
         }
         let rt_due = u.next_event().is_some_and(|e| e <= c);
@@ -471,8 +480,16 @@ pub(super) fn run(
             front: front.next,
             jobs_left,
             queue_depth: params.l1d_miss_queue as usize,
+            #[cfg(feature = "mutants")]
+            bug: gpu.order_bug,
         };
         let back_to = (front.next + delay).min(lim.end + w + 1);
+        #[cfg(feature = "mutants")]
+        let back_to = if gpu.order_bug == Some(super::OrderBug::WindowBackEndTooFar) {
+            front.next + delay + w
+        } else {
+            back_to
+        };
         // Once every unit is empty with no job left the run ends in a cycle not yet known, perhaps
         // before the slowest SM's frontier: the counts of every cycle since then are kept.
         if !drained {

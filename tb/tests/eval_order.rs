@@ -234,3 +234,144 @@ fn a_latch_that_is_not_renewed_is_caught() {
         Err(_) => eprintln!("caught as a panic"),
     }
 }
+
+/// A run on hardware `hw`, by windows or cycle by cycle, on one thread or two, with a planted
+/// bug: its report or error, or "panic".
+fn windowed(
+    cfg: Config,
+    hw: &Hardware,
+    jobs: &[WarpJob],
+    windows: bool,
+    parallel: bool,
+    bug: Option<OrderBug>,
+) -> Result<Result<GpuReport, RunError>, String> {
+    let mut gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
+        .unwrap()
+        .with_windows(windows)
+        .with_helper_thread(parallel);
+    if let Some(b) = bug {
+        gpu = gpu.with_order_bug(b);
+    }
+    let jobs = jobs.to_vec();
+    std::panic::catch_unwind(move || {
+        gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
+            assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
+        })
+    })
+    .map_err(|_| "panic".to_string())
+}
+
+/// The hardware the windowed run is compared on: the default; the legacy preset (a miss queue
+/// of 8 and 32 MSHRs, so SMs stop for their queue's length); a one-entry miss queue (they stop
+/// all the time); Vulkan-Sim's RTX 2060 (30 SMs); an L2 whose pipeline leaves windows of five
+/// cycles; one too short for windows (the cycle-by-cycle loop runs); overlapped stack timing
+/// (posted stores, still queued when warps leave).
+fn window_hardware() -> Vec<(&'static str, Hardware)> {
+    let d = Hardware::default();
+    let with = |f: &dyn Fn(&mut Hardware)| {
+        let mut h = d;
+        f(&mut h);
+        h
+    };
+    vec![
+        ("paper", d),
+        ("legacy", tb::hw::preset("legacy").unwrap()),
+        ("miss queue 1", with(&|h| h.mem.l1d_miss_queue = 1)),
+        ("rtx2060", tb::hw::preset("rtx2060").unwrap()),
+        ("l2 latency 13", with(&|h| h.mem.l2_latency = 13)),
+        ("l2 latency 8", with(&|h| h.mem.l2_latency = 8)),
+        ("overlapped", with(&|h| h.rt = h.rt.overlapped())),
+    ]
+}
+
+/// Issue 16: the windowed run (each SM runs a window of cycles on its own and meets the L2
+/// between windows) gives the cycle-by-cycle loop's report bit for bit — cycles, evaluated
+/// cycles, every count — on one thread and on two, on two scenes, under every paper
+/// configuration on the default hardware and under three configurations on each other kind.
+#[test]
+fn windows_equal_the_cycle_by_cycle_loop() {
+    for (scene, res) in [("clutter", 16), ("wknd", 16)] {
+        let jobs = jobs(scene, res);
+        for (name, hw) in window_hardware() {
+            let cfgs: Vec<Config> = if name == "paper" {
+                Config::paper_set()
+            } else {
+                ["RB_8", "RB_8+SH_8", "SMS"].iter().map(|c| c.parse().unwrap()).collect()
+            };
+            for cfg in cfgs {
+                let what = format!("{scene}, {name}, {}", cfg.name());
+                let plain = windowed(cfg, &hw, &jobs, false, false, None).expect("no panic").expect(&what);
+                assert!(plain.pops_checked > 0, "{what}");
+                for parallel in [false, true] {
+                    let w = windowed(cfg, &hw, &jobs, true, parallel, None).expect("no panic").expect(&what);
+                    assert_eq!(bits(&w), bits(&plain), "{what}, by windows, two threads: {parallel}");
+                }
+            }
+        }
+    }
+}
+
+/// A failed check stops the windowed run with the error the cycle-by-cycle loop stops with (the
+/// earliest cycle's, and in it the lowest SM's), on one thread and on two: every broken stack
+/// manager that fails the loop, on the paper's and the legacy hardware.
+#[test]
+fn windows_fail_as_the_cycle_by_cycle_loop() {
+    use rtl::stack_manager::Mutant;
+    let jobs = jobs("clutter", 16);
+    let cfg = Config::sms();
+    let mut failed = 0;
+    for hw in [Hardware::default(), tb::hw::preset("legacy").unwrap()] {
+        for m in Mutant::ALL {
+            let attempt = |windows: bool, parallel: bool| {
+                let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
+                    .unwrap()
+                    .with_mutant(m)
+                    .with_windows(windows)
+                    .with_helper_thread(parallel);
+                let jobs = jobs.clone();
+                let r = std::panic::catch_unwind(move || {
+                    gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
+                        assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
+                    })
+                });
+                format!("{:?}", r.map_err(|_| "panic"))
+            };
+            let plain = attempt(false, false);
+            failed += usize::from(plain.contains("Err"));
+            for parallel in [false, true] {
+                assert_eq!(attempt(true, parallel), plain, "{m:?}, two threads: {parallel}");
+            }
+        }
+    }
+    assert!(failed > 0, "some broken stack manager fails the run");
+}
+
+/// Each of the windowed run's three stops, planted away, is caught by comparing with the
+/// cycle-by-cycle loop (a different report, a failed run or a panic): an SM that runs on while its
+/// miss queue may be full (on a one-entry queue), one that runs on with a free warp slot instead
+/// of stopping for the dispatch, and an L2 back end that runs further ahead than its pipelines'
+/// delay allows.
+#[test]
+fn the_windowed_runs_planted_slips_are_caught() {
+    // More warps than the RT units' slots, so that jobs are dispatched as warps leave.
+    let jobs = jobs("clutter", 32);
+    assert!(jobs.len() > 32, "more jobs than the 8 RT units' 4 slots");
+    let cfg = Config::sms();
+    let hws = window_hardware();
+    let hw_of = |name: &str| hws.iter().find(|h| h.0 == name).unwrap().1;
+    for (bug, hw) in [
+        (OrderBug::WindowIgnoresFullQueue, hw_of("miss queue 1")),
+        (OrderBug::WindowSkipsJobStop, hw_of("paper")),
+        (OrderBug::WindowBackEndTooFar, hw_of("paper")),
+    ] {
+        let plain = windowed(cfg, &hw, &jobs, false, false, None).unwrap().unwrap();
+        match windowed(cfg, &hw, &jobs, true, false, Some(bug)) {
+            Ok(Ok(r)) => assert_ne!(bits(&r), bits(&plain), "{bug:?} must show"),
+            Ok(Err(e)) => eprintln!("{bug:?} caught as a failed run: {e}"),
+            Err(_) => eprintln!("{bug:?} caught as a panic"),
+        }
+        // The cycle-by-cycle loop ignores it.
+        let loop_run = windowed(cfg, &hw, &jobs, false, false, Some(bug)).unwrap().unwrap();
+        assert_eq!(bits(&loop_run), bits(&plain));
+    }
+}
