@@ -209,11 +209,14 @@ pub enum OrderBug {
     WindowBackEndTooFar,
 }
 
+#[cfg(feature = "mutants")]
 impl OrderBug {
     /// A slip of the windowed run (the others are of the cycle-by-cycle loops, which then run).
-    #[allow(dead_code)]
     fn in_windows(self) -> bool {
-        matches!(self, OrderBug::WindowIgnoresFullQueue | OrderBug::WindowSkipsJobStop | OrderBug::WindowBackEndTooFar)
+        matches!(
+            self,
+            OrderBug::WindowIgnoresFullQueue | OrderBug::WindowSkipsJobStop | OrderBug::WindowBackEndTooFar
+        )
     }
 }
 
@@ -634,6 +637,7 @@ impl Gpu {
                 && plain
                 && self.eval_check == EvalCheck::Dataflow
                 && self.rt.idle_skip
+                && self.units.len() <= 64
                 && sink.next_wanted(0).is_none()
         }) {
             let report = window::run(&mut self, helper, jobs, w, every, progress, residence)?;

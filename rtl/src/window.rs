@@ -240,13 +240,15 @@ fn run_group(units: &mut [RtUnit], l1ds: &mut [L1d], lanes: &mut [Lane], lim: Li
 
 /// The L2's front end beside the SMs' real miss queues.
 struct Front {
-    /// Per SM: (cycle of the edge that queued it, request), oldest first; the head is offered
-    /// from the cycle after that edge.
-    queues: Vec<VecDeque<(u64, MemReq)>>,
+    /// Per SM: (cycle of the edge that queued it, its L2 bank, request), oldest first; the head
+    /// is offered from the cycle after that edge.
+    queues: Vec<VecDeque<(u64, usize, MemReq)>>,
     /// The first cycle not run.
     next: u64,
-    heads: Vec<Option<MemReq>>,
-    step: L2Step,
+    /// Per bank: the SMs whose head requests it this cycle (scratch).
+    want: Vec<u64>,
+    /// Per SM: its head this cycle (scratch; stale where it has none).
+    heads: Vec<MemReq>,
     /// Cycles with a request in some miss queue, and cycles with a dispatch.
     due: Bits,
 }
@@ -267,15 +269,19 @@ impl Front {
                 continue;
             }
             self.due.set(x);
-            for (h, q) in self.heads.iter_mut().zip(&self.queues) {
-                *h = q.front().filter(|e| e.0 < x).map(|e| e.1);
-            }
-            l2.front_cycle(x, &self.heads, &mut self.step);
-            for (k, &g) in self.step.out.granted.iter().enumerate() {
-                if g {
-                    self.queues[k].pop_front();
-                    lanes[k].pops.push_back(x);
+            self.want.iter_mut().for_each(|w| *w = 0);
+            for (k, q) in self.queues.iter().enumerate() {
+                if let Some(&(_, bank, req)) = q.front().filter(|e| e.0 < x) {
+                    self.want[bank] |= 1 << k;
+                    self.heads[k] = req;
                 }
+            }
+            let mut granted = l2.front_cycle(x, &self.want, &self.heads);
+            while granted != 0 {
+                let k = granted.trailing_zeros() as usize;
+                granted &= granted - 1;
+                self.queues[k].pop_front();
+                lanes[k].pops.push_back(x);
             }
             x += 1;
         }
@@ -320,7 +326,7 @@ impl Back {
                 continue;
             }
             self.due.set(y);
-            self.snapshots.push_back((y, l2.counters().clone(), dram.counters().clone()));
+            self.snapshots.push_back((y, *l2.counters(), *dram.counters()));
             l2.eval(&L2In { reqs: &self.none, dram_ready: dram.ready(), fills: dram.resp() }, &mut self.step);
             dram.eval(&DramIn { req: l2.dram_req() }, &mut self.dram_step);
             dram.commit(&self.dram_step);
@@ -356,8 +362,8 @@ pub(super) fn run(
     let mut front = Front {
         queues: vec![VecDeque::new(); n],
         next: 0,
-        heads: vec![None; n],
-        step: L2Step::default(),
+        want: vec![0; params.l2_banks as usize],
+        heads: vec![MemReq::read(0, 0, 0, crate::mem::ReqKind::NodeFetch); n],
         due: Bits::default(),
     };
     let mut back = Back {
@@ -375,7 +381,8 @@ pub(super) fn run(
     let mut last_min = 0;
     loop {
         for (k, lane) in lanes.iter_mut().enumerate() {
-            front.queues[k].extend(lane.sent.drain(..));
+            let l2 = gpu.mem.l2();
+            front.queues[k].extend(lane.sent.drain(..).map(|(at, r)| (at, l2.bank(r.addr), r)));
             lane.fills.extend(back.staged[k].drain(..));
         }
         let m = lanes.iter().map(|l| l.frontier).min().unwrap_or(0);
@@ -392,7 +399,8 @@ pub(super) fn run(
                     continue;
                 }
                 let Some(job) = jobs.next() else { break };
-                job.validate(gpu.cfg.warp_size).map_err(|reason| RunError::BadJob { job: dispatched, reason })?;
+                job.validate(gpu.cfg.warp_size)
+                    .map_err(|reason| RunError::BadJob { job: dispatched, reason })?;
                 lanes[sm].job = Some(job);
                 loaded[sm].push(dispatched);
                 dispatched += 1;
@@ -411,7 +419,8 @@ pub(super) fn run(
             }
         }
         let jobs_left = jobs.peek().is_some();
-        let drained = !jobs_left && lanes.iter().all(|l| l.job.is_none()) && gpu.units.iter().all(RtUnit::empty);
+        let drained =
+            !jobs_left && lanes.iter().all(|l| l.job.is_none()) && gpu.units.iter().all(RtUnit::empty);
         if drained {
             // After the edge that emptied the last unit, the loop's next cycle is the first in
             // which some unit has an event due: every part must have run up to there first.
@@ -422,9 +431,9 @@ pub(super) fn run(
                     .zip(gpu.units.iter())
                     .zip(l1ds.iter())
                     .map(|((lane, u), l1)| {
-                        lane.due.first_in(after, lane.frontier).or_else(|| {
-                            [u.next_event(), l1.next_event()].into_iter().flatten().min()
-                        })
+                        lane.due
+                            .first_in(after, lane.frontier)
+                            .or_else(|| [u.next_event(), l1.next_event()].into_iter().flatten().min())
                     })
                     .chain([front.due.first_in(after, front.next).or_else(|| front.next_head(front.next))])
                     .chain([back
@@ -436,13 +445,10 @@ pub(super) fn run(
                     .map_or(after, |e| e.max(after));
                 // The L2's and DRAM's counts as they were after the cycle before `end`.
                 if let Some((_, l2c, dramc)) = back.snapshots.iter().find(|s| s.0 >= end) {
-                    *l2.counters_mut() = l2c.clone();
-                    *dram.counters_mut() = dramc.clone();
+                    *l2.counters_mut() = *l2c;
+                    *dram.counters_mut() = *dramc;
                 }
-                let evaluated = count_union(
-                    lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]),
-                    end,
-                );
+                let evaluated = count_union(lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]), end);
                 gpu.mem.set_now(end);
                 residence.clear();
                 residence.resize(dispatched as usize, 0);
@@ -468,7 +474,8 @@ pub(super) fn run(
             && l2.next_event().is_none()
             && dram.next_event().is_none();
         if quiet && !drained {
-            let last = lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]).filter_map(Bits::last).max();
+            let last =
+                lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]).filter_map(Bits::last).max();
             return Err(RunError::Stalled { cycle: last.unwrap_or(0) });
         }
         // The window: every response in it is visible (the back end ran the cycles before its
@@ -483,12 +490,18 @@ pub(super) fn run(
             #[cfg(feature = "mutants")]
             bug: gpu.order_bug,
         };
-        let back_to = (front.next + delay).min(lim.end + w + 1);
+        // The L2's side of the round: the front end up to the slowest SM, then the back end on to
+        // the next window's needs, as far as the requests the front end let in allow (a request
+        // let in at the front end's last cycle is due at its tag check `delay` cycles later).
         #[cfg(feature = "mutants")]
-        let back_to = if gpu.order_bug == Some(super::OrderBug::WindowBackEndTooFar) {
-            front.next + delay + w
-        } else {
-            back_to
+        let too_far = gpu.order_bug == Some(super::OrderBug::WindowBackEndTooFar);
+        #[cfg(not(feature = "mutants"))]
+        let too_far = false;
+        let front_next = front.next;
+        let l2_side = move |back: &mut Back, l2: &mut L2, dram: &mut Dram| {
+            let back_to =
+                if too_far { front_next + delay + w } else { (front_next + delay).min(lim.end + w + 1) };
+            back.run_to(back_to, l2, dram);
         };
         // Once every unit is empty with no job left the run ends in a cycle not yet known, perhaps
         // before the slowest SM's frontier: the counts of every cycle since then are kept.
@@ -507,15 +520,15 @@ pub(super) fn run(
                 let (na, nb) = lanes.split_at_mut(a);
                 h.join(
                     || {
-                        back.run_to(back_to, l2, dram);
+                        l2_side(back, l2, dram);
                         run_group(ua, la, na, lim);
                     },
                     move || run_group(ub, lb, nb, lim),
                 );
             }
             _ => {
+                l2_side(back, l2, dram);
                 run_group(&mut gpu.units, l1ds, &mut lanes, lim);
-                back.run_to(back_to, l2, dram);
             }
         }
         if m >= next_report {

@@ -245,10 +245,8 @@ fn windowed(
     parallel: bool,
     bug: Option<OrderBug>,
 ) -> Result<Result<GpuReport, RunError>, String> {
-    let mut gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
-        .unwrap()
-        .with_windows(windows)
-        .with_helper_thread(parallel);
+    let mut gpu =
+        Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_windows(windows).with_helper_thread(parallel);
     if let Some(b) = bug {
         gpu = gpu.with_order_bug(b);
     }

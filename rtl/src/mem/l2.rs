@@ -193,7 +193,26 @@ impl L2 {
         d.fills.extend_from_slice(i.fills);
         d.accepted.clear();
         d.checks.clear();
-        self.arbitrate(i.reqs, |b| self.banks[b].len(), d);
+        d.bank_of.clear();
+        d.bank_of.extend(i.reqs.iter().map(|r| r.map_or(u32::MAX, |r| self.bank_of(r.addr) as u32)));
+        // Each requested bank's round-robin arbiter, in bank order.
+        d.requested.clear();
+        d.requested.extend(d.bank_of.iter().copied().filter(|&b| b != u32::MAX));
+        d.requested.sort_unstable();
+        d.requested.dedup();
+        for &b in &d.requested {
+            let b = b as usize;
+            if self.banks[b].len() >= self.params.l2_bank_queue as usize {
+                continue;
+            }
+            let first = self.rr[b] as usize;
+            // Round robin from `first` (below `sms`), without a division per candidate.
+            let pick = (first..sms).chain(0..first).find(|&sm| d.bank_of[sm] == b as u32);
+            if let Some(sm) = pick {
+                d.out.granted[sm] = true;
+                d.accepted.push((b, sm as u32, i.reqs[sm].expect("picked")));
+            }
+        }
         // Allocations this cycle share the MSHR and the DRAM queue, in bank order.
         let mut mshr_free = self.mshr.capacity() - self.mshr.len();
         let mut dram_room = (self.params.l2_dram_queue as usize).saturating_sub(self.dram_queue.len());
@@ -228,33 +247,6 @@ impl L2 {
         }
     }
 
-    /// The banks' round-robin arbiters: each requested bank with room (`len(bank)` below
-    /// `l2_bank_queue`) grants one of the SMs requesting it, starting after the SM it granted
-    /// last, in bank order. Writes `d`'s grants and accepted requests (cleared by the caller).
-    fn arbitrate(&self, reqs: &[Option<MemReq>], len: impl Fn(usize) -> usize, d: &mut L2Step) {
-        let sms = self.out.len();
-        d.bank_of.clear();
-        d.bank_of.extend(reqs.iter().map(|r| r.map_or(u32::MAX, |r| self.bank_of(r.addr) as u32)));
-        // Each requested bank's round-robin arbiter, in bank order.
-        d.requested.clear();
-        d.requested.extend(d.bank_of.iter().copied().filter(|&b| b != u32::MAX));
-        d.requested.sort_unstable();
-        d.requested.dedup();
-        for &b in &d.requested {
-            let b = b as usize;
-            if len(b) >= self.params.l2_bank_queue as usize {
-                continue;
-            }
-            let first = self.rr[b] as usize;
-            // Round robin from `first` (below `sms`), without a division per candidate.
-            let pick = (first..sms).chain(0..first).find(|&sm| d.bank_of[sm] == b as u32);
-            if let Some(sm) = pick {
-                d.out.granted[sm] = true;
-                d.accepted.push((b, sm as u32, reqs[sm].expect("picked")));
-            }
-        }
-    }
-
     /// The windowed run's split of the L2 ([`crate::window`]): from now on the front end
     /// ([`L2::front_cycle`]: the grants and the bank pipelines' entrances) and the back end (the
     /// tag checks onward: [`L2::eval`] and [`L2::commit`] with no request, which is all they then
@@ -263,36 +255,52 @@ impl L2 {
     /// those the back end checked out before it, so the back end logs each check-out's cycle.
     pub(crate) fn split_front_end(&mut self) {
         let banks = self.banks.len();
-        self.front = Some(FrontEnd { let_in: vec![0; banks], out_log: vec![VecDeque::new(); banks], out_seen: vec![0; banks] });
+        self.front = Some(FrontEnd {
+            let_in: vec![0; banks],
+            out_log: vec![VecDeque::new(); banks],
+            out_seen: vec![0; banks],
+        });
     }
 
-    /// Split only ([`L2::split_front_end`]): the front end's cycle `x` on the SMs' down requests
-    /// of that cycle (`reqs`): grants (into `granted`, one per SM, overwritten) and the granted
-    /// requests entering their bank pipelines, due at their tag check `l2_latency - 3` cycles
-    /// later. The back end must have run every cycle before `x`, and must not yet have reached
-    /// the cycle a request let in now is due. `d` is scratch.
-    pub(crate) fn front_cycle(&mut self, x: u64, reqs: &[Option<MemReq>], d: &mut L2Step) {
+    /// Split only ([`L2::split_front_end`]): the front end's cycle `x`. `want[b]` has bit `sm`
+    /// set when SM `sm`'s down request (`heads[sm]`) is for bank `b` ([`L2::bank_of`]). Each
+    /// requested bank with room grants one SM as [`L2::eval`]'s arbiter does (the first from the SM
+    /// after the one it granted last), and the granted requests enter their bank pipelines, due
+    /// at their tag check `l2_latency - 3` cycles later; returns the granted SMs, one bit each
+    /// (at most 64 SMs). The back end must have run every cycle before `x`, and must not yet
+    /// have reached the cycle a request let in now is due.
+    pub(crate) fn front_cycle(&mut self, x: u64, want: &[u64], heads: &[MemReq]) -> u64 {
         let f = self.front.as_mut().expect("split_front_end first");
-        for (b, log) in f.out_log.iter_mut().enumerate() {
+        let delay = u64::from(self.params.l2_latency - 3);
+        debug_assert!(x + delay >= self.now, "the back end ran past a request's tag check");
+        let sms = self.out.len() as u32;
+        let mut granted = 0;
+        for (b, &mask) in want.iter().enumerate() {
+            if mask == 0 {
+                continue;
+            }
+            let log = &mut f.out_log[b];
             while log.front().is_some_and(|&c| c < x) {
                 log.pop_front();
                 f.out_seen[b] += 1;
             }
-        }
-        let sms = self.out.len();
-        d.out.granted.clear();
-        d.out.granted.resize(sms, false);
-        d.accepted.clear();
-        let f = self.front.as_ref().expect("split");
-        self.arbitrate(reqs, |b| (f.let_in[b] - f.out_seen[b]) as usize, d);
-        let delay = u64::from(self.params.l2_latency - 3);
-        debug_assert!(x + delay >= self.now || d.accepted.is_empty(), "the back end ran past a request's tag check");
-        let f = self.front.as_mut().expect("split");
-        for &(b, sm, req) in &d.accepted {
-            self.banks[b].push_back(Lane { due: x + delay, sm, req });
+            if f.let_in[b] - f.out_seen[b] >= u64::from(self.params.l2_bank_queue) {
+                continue;
+            }
+            // The first requesting SM from `rr[b]` on, round the ring.
+            let from = mask & (u64::MAX << self.rr[b]);
+            let sm = if from != 0 { from.trailing_zeros() } else { mask.trailing_zeros() };
+            granted |= 1 << sm;
+            self.banks[b].push_back(Lane { due: x + delay, sm, req: heads[sm as usize] });
             f.let_in[b] += 1;
-            self.rr[b] = if sm + 1 < self.params.sms { sm + 1 } else { 0 };
+            self.rr[b] = if sm + 1 < sms { sm + 1 } else { 0 };
         }
+        granted
+    }
+
+    /// The bank (memory sub-partition) of `addr`.
+    pub(crate) fn bank(&self, addr: u64) -> usize {
+        self.bank_of(addr)
     }
 
     fn write_back(&mut self, victim: Option<Victim>) {
