@@ -41,6 +41,16 @@
 //! cycle swings between the sides (responses come in bursts), so each side waits for the other
 //! in many cycles.
 //!
+//! By windows (the default for the normal run, [`Gpu::with_windows`], module `window`): each SM
+//! runs up to 64 cycles on its own between meetings at the L2, whose back end runs ahead of the
+//! SMs (a request's tag check is `l2_latency - 3` cycles after the L2 lets it in, so every
+//! response of a window is known before it starts) and whose front end (the banks' arbiters)
+//! follows the slowest SM; an SM stops early where another SM's decision reaches it (a dispatch,
+//! its miss queue's exact length). With a helper thread the SMs are split between the two
+//! threads, which meet once a window instead of once a cycle. The same report as the loops
+//! above, bit for bit (tested against them); they remain for waveforms, the evaluation checks,
+//! `with_windows(false)` and an L2 too short for windows.
+//!
 //! Dispatch is a kernel launch's: job i goes to the next SM after the one that took job i-1 that
 //! has a free warp slot, so at launch SM k gets jobs k, k + n, k + 2n, … and later jobs go wherever
 //! a warp left. Every decision reads registers: a slot freed in cycle c takes a job in c + 1.
@@ -536,9 +546,9 @@ impl Gpu {
         self
     }
 
-    /// Steps the RT units and the memory system on two threads in the normal run (the split form
-    /// of the module documentation): the same results as one thread, in less wall time when a
-    /// second core is free.
+    /// Runs the normal run on two threads (by windows, each thread running its share of the SMs;
+    /// without windows, the split form of the module documentation): the same results as one
+    /// thread, in less wall time when a second core is free.
     pub fn with_helper_thread(mut self, on: bool) -> Self {
         self.helper_thread = on && self.units.len() >= 2;
         self

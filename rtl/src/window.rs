@@ -173,7 +173,15 @@ fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
         if stop_for_job && lane.job.is_none() && lim.jobs_left && u.free_slot().is_some() {
             break;
         }
-        if stop_for_queue && l1.queue_len() >= lim.queue_depth && lim.front < c {
+        let req_ready = l1.ready();
+        let req = u.req(req_ready);
+        // The L1D asks whether its miss queue has room only for a request it takes or holds
+        // parked; the bound answers unless it has reached the queue's depth.
+        if stop_for_queue
+            && (req.is_some() || !req_ready)
+            && l1.queue_len() >= lim.queue_depth
+            && lim.front < c
+        {
             break;
         }
         let rt_due = u.next_event().is_some_and(|e| e <= c);
@@ -187,8 +195,6 @@ fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
             lane.now_fills.push(r);
             lane.fills.pop_front();
         }
-        let req_ready = l1.ready();
-        let req = u.req(req_ready);
         let rt_idle = idle(u, req, &lane.job, c);
         if rt_idle && lane.now_fills.is_empty() && !l1_due {
             // Nothing happens in this SM before its next event or response: only the L1D's clock

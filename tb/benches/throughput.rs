@@ -1,8 +1,9 @@
 //! `cargo bench -p tb --bench throughput`: throughput of the full cycle-level model on the
 //! built-in `clutter` scene (simulated GPU cycles per second, stack operations per second) and
 //! its run time against obvhs's own traversal of the same rays. A run traces its rays on a second
-//! thread ahead of the simulation and steps the RT units on a helper thread (`run::sim`, as any
-//! run with a core to spare), so each run's process CPU time (all its threads) is printed beside
+//! thread ahead of the simulation and runs its SMs by windows, split between itself and a helper
+//! thread (`run::sim`, as any run with a core to spare), so each run's process CPU time (all its
+//! threads) is printed beside
 //! its wall time; the ratio to obvhs is of wall time. `-- --serial` keeps the model on one
 //! thread. Each configuration runs [`PASSES`] times (the reports must agree) and the fastest
 //! counts, as obvhs's time is the fastest of its passes; the slowest pass is printed too (this

@@ -401,11 +401,11 @@ where
     Box::new(rx.into_iter())
 }
 
-/// Whether cycle-level runs with a core to spare step their RT units on a helper thread (the
+/// Whether cycle-level runs with a core to spare run part of the model on a helper thread (the
 /// default; [`allow_helper_thread`]).
 static HELPER_THREAD: AtomicBool = AtomicBool::new(true);
 
-/// Lets cycle-level runs with a core to spare step their RT units on a helper thread (`true`, the
+/// Lets cycle-level runs with a core to spare run part of the model on a helper thread (`true`, the
 /// default) or not. The results are the same either way; this only trades a second core's time
 /// for wall time (e.g. `scripts/instructions.sh` counts the one-thread loop, which valgrind
 /// would otherwise run with a spinning helper).
@@ -413,14 +413,14 @@ pub fn allow_helper_thread(on: bool) {
     HELPER_THREAD.store(on, Ordering::Relaxed);
 }
 
-/// Whether a cycle-level run started here steps its RT units on a helper thread: it has a core to
+/// Whether a cycle-level run started here runs part of the model on a helper thread: it has a core to
 /// spare and [`allow_helper_thread`] allows it.
 pub fn helper_thread() -> bool {
     spare_core() && HELPER_THREAD.load(Ordering::Relaxed)
 }
 
 /// Whether a run started here has a core to spare, so that it traces on a second thread and
-/// steps its RT units on another ([`Gpu::with_helper_thread`]): a second core exists and this is
+/// runs part of the model on another ([`Gpu::with_helper_thread`]): a second core exists and this is
 /// not one of a parallel sweep's runs (a rayon worker).
 pub fn spare_core() -> bool {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
