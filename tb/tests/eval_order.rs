@@ -58,6 +58,17 @@ fn try_run(cfg: Config, jobs: Vec<WarpJob>, check: EvalCheck, bug: OrderBug) -> 
 /// thousands).
 const RUNAWAY: u64 = 10_000_000;
 
+/// Runs `gpu` on `jobs`: its report or error, or "panic" (a planted bug may panic, or run past
+/// [`RUNAWAY`] cycles, which panics).
+fn guarded(gpu: Gpu, jobs: Vec<WarpJob>) -> Result<Result<GpuReport, RunError>, String> {
+    std::panic::catch_unwind(move || {
+        gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
+            assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
+        })
+    })
+    .map_err(|_| "panic".to_string())
+}
+
 /// Bit for bit, floats included.
 fn bits(r: &GpuReport) -> String {
     format!("{r:?} {} {}", r.l1d_hit_rate.to_bits(), r.l2_hit_rate.to_bits())
@@ -179,13 +190,7 @@ fn an_error_on_the_helper_thread_stops_the_run_as_on_one_thread() {
         if let Some(b) = bug {
             gpu = gpu.with_order_bug(b);
         }
-        let jobs = jobs.clone();
-        std::panic::catch_unwind(move || {
-            gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
-                assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
-            })
-        })
-        .map_err(|_| "panic".to_string())
+        guarded(gpu, jobs.clone())
     };
     let mut on_helper = 0;
     for m in Mutant::ALL {
@@ -223,12 +228,7 @@ fn a_latch_that_is_not_renewed_is_caught() {
         .unwrap()
         .with_helper_thread(true)
         .with_order_bug(OrderBug::StaleLatch);
-    let planted = std::panic::catch_unwind(move || {
-        gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
-            assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
-        })
-    });
-    match planted {
+    match guarded(gpu, jobs) {
         Ok(Ok(r)) => assert_ne!(bits(&r), bits(&clean), "the stale latch must show"),
         Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
         Err(_) => eprintln!("caught as a panic"),
@@ -250,13 +250,7 @@ fn windowed(
     if let Some(b) = bug {
         gpu = gpu.with_order_bug(b);
     }
-    let jobs = jobs.to_vec();
-    std::panic::catch_unwind(move || {
-        gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
-            assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
-        })
-    })
-    .map_err(|_| "panic".to_string())
+    guarded(gpu, jobs.to_vec())
 }
 
 /// The hardware the windowed run is compared on: the default; the legacy preset (a miss queue
@@ -326,13 +320,7 @@ fn windows_fail_as_the_cycle_by_cycle_loop() {
                     .with_mutant(m)
                     .with_windows(windows)
                     .with_helper_thread(parallel);
-                let jobs = jobs.clone();
-                let r = std::panic::catch_unwind(move || {
-                    gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
-                        assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
-                    })
-                });
-                format!("{:?}", r.map_err(|_| "panic"))
+                format!("{:?}", guarded(gpu, jobs.clone()))
             };
             let plain = attempt(false, false);
             failed += usize::from(plain.contains("Err"));
