@@ -44,6 +44,7 @@ use crate::mem::l2::{L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
+use crate::warp_buffer::Bits as SetBits;
 use std::collections::VecDeque;
 
 /// Most cycles in a window. A window's SMs need the responses of all its cycles, which the
@@ -249,6 +250,8 @@ struct Front {
     /// Per SM: (cycle of the edge that queued it, its L2 bank, request), oldest first; the head
     /// is offered from the cycle after that edge.
     queues: Vec<VecDeque<(u64, usize, MemReq)>>,
+    /// SMs whose queue is not empty, one bit each.
+    queued: u64,
     /// The first cycle not run.
     next: u64,
     /// Per bank: the SMs whose head requests it this cycle (scratch).
@@ -260,33 +263,42 @@ struct Front {
 }
 
 impl Front {
+    /// Queues SM `k`'s request `r`, sent down at the edge of cycle `at`, for bank `bank`.
+    fn push(&mut self, k: usize, at: u64, bank: usize, r: MemReq) {
+        self.queues[k].push_back((at, bank, r));
+        self.queued |= 1 << k;
+    }
+
     /// Runs the front end's cycles up to `to` (inclusive); every SM must have run the cycles
     /// before it. Grants are passed to the SMs as cycles in which their head left.
     fn run_to(&mut self, to: u64, l2: &mut L2, lanes: &mut [Lane]) {
         let mut x = self.next;
         while x <= to {
-            // The first cycle from `x` in which some queue has a head.
-            let Some(first) = self.queues.iter().filter_map(|q| q.front().map(|e| e.0 + 1)).min() else {
-                x = to + 1;
-                break;
-            };
-            if first > x {
+            // The SMs whose head is offered in cycle `x`, and the first cycle any head is.
+            let (mut offered, mut first) = (0u64, u64::MAX);
+            for k in SetBits::of(self.queued).map(|k| k as usize) {
+                let &(at, bank, req) = self.queues[k].front().expect("queued");
+                if at < x {
+                    if offered == 0 {
+                        self.want.iter_mut().for_each(|w| *w = 0);
+                    }
+                    offered |= 1 << k;
+                    self.want[bank] |= 1 << k;
+                    self.heads[k] = req;
+                } else {
+                    first = first.min(at + 1);
+                }
+            }
+            if offered == 0 {
                 x = first.min(to + 1);
                 continue;
             }
             self.due.set(x);
-            self.want.iter_mut().for_each(|w| *w = 0);
-            for (k, q) in self.queues.iter().enumerate() {
-                if let Some(&(_, bank, req)) = q.front().filter(|e| e.0 < x) {
-                    self.want[bank] |= 1 << k;
-                    self.heads[k] = req;
-                }
-            }
-            let mut granted = l2.front_cycle(x, &self.want, &self.heads);
-            while granted != 0 {
-                let k = granted.trailing_zeros() as usize;
-                granted &= granted - 1;
+            for k in SetBits::of(l2.front_cycle(x, &self.want, &self.heads)).map(|k| k as usize) {
                 self.queues[k].pop_front();
+                if self.queues[k].is_empty() {
+                    self.queued &= !(1 << k);
+                }
                 lanes[k].pops.push_back(x);
             }
             x += 1;
@@ -367,6 +379,7 @@ pub(super) fn run(
     let mut lanes: Vec<Lane> = (0..n).map(|_| Lane::default()).collect();
     let mut front = Front {
         queues: vec![VecDeque::new(); n],
+        queued: 0,
         next: 0,
         want: vec![0; params.l2_banks as usize],
         heads: vec![MemReq::read(0, 0, 0, crate::mem::ReqKind::NodeFetch); n],
@@ -385,10 +398,13 @@ pub(super) fn run(
     let (mut dispatched, mut last_dispatch) = (0u64, 0u64);
     let mut next_report = every;
     let mut last_min = 0;
+    let mut rounds = 0u64;
     loop {
         for (k, lane) in lanes.iter_mut().enumerate() {
             let l2 = gpu.mem.l2();
-            front.queues[k].extend(lane.sent.drain(..).map(|(at, r)| (at, l2.bank(r.addr), r)));
+            for (at, r) in lane.sent.drain(..) {
+                front.push(k, at, l2.bank(r.addr), r);
+            }
             lane.fills.extend(back.staged[k].drain(..));
         }
         let m = lanes.iter().map(|l| l.frontier).min().unwrap_or(0);
@@ -468,14 +484,19 @@ pub(super) fn run(
         }
         // Nothing will ever happen again, yet work remains: the loop's `Stalled`, in the last
         // cycle it evaluated.
-        let quiet = lanes.iter().zip(gpu.units.iter()).zip(l1ds.iter()).all(|((lane, u), l1)| {
-            lane.job.is_none()
-                && lane.fills.is_empty()
-                && lane.error.is_none()
-                && u.next_event().is_none()
-                && l1.next_event().is_none()
-                && !(jobs_left && u.free_slot().is_some())
-        }) && front.queues.iter().all(VecDeque::is_empty)
+        // (Looked at every 64th round: it reads every unit, some in the other core's cache, and a
+        // run that has stalled stays so.)
+        rounds += 1;
+        let quiet = rounds % 64 == 0
+            && lanes.iter().zip(gpu.units.iter()).zip(l1ds.iter()).all(|((lane, u), l1)| {
+                lane.job.is_none()
+                    && lane.fills.is_empty()
+                    && lane.error.is_none()
+                    && u.next_event().is_none()
+                    && l1.next_event().is_none()
+                    && !(jobs_left && u.free_slot().is_some())
+            })
+            && front.queues.iter().all(VecDeque::is_empty)
             && back.staged.iter().all(Vec::is_empty)
             && l2.next_event().is_none()
             && dram.next_event().is_none();
