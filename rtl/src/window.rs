@@ -40,7 +40,7 @@ use crate::lockstep::Helper;
 use crate::mem::dram::{Dram, DramIn, DramStep};
 use crate::mem::hierarchy::port_ready;
 use crate::mem::l1d::{L1d, L1dIn, L1dStep};
-use crate::mem::l2::{L2In, L2Step, L2};
+use crate::mem::l2::{FrontStep, L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
@@ -258,6 +258,7 @@ struct Front {
     want: Vec<u64>,
     /// Per SM: its head this cycle (scratch; stale where it has none).
     heads: Vec<MemReq>,
+    step: FrontStep,
     /// Cycles with a request in some miss queue, and cycles with a dispatch.
     due: Bits,
 }
@@ -294,7 +295,9 @@ impl Front {
                 continue;
             }
             self.due.set(x);
-            for k in SetBits::of(l2.front_cycle(x, &self.want, &self.heads)).map(|k| k as usize) {
+            l2.front_eval(x, &self.want, &mut self.step);
+            l2.front_commit(&self.heads, &self.step);
+            for k in SetBits::of(self.step.granted).map(|k| k as usize) {
                 self.queues[k].pop_front();
                 if self.queues[k].is_empty() {
                     self.queued &= !(1 << k);
@@ -383,6 +386,7 @@ pub(super) fn run(
         next: 0,
         want: vec![0; params.l2_banks as usize],
         heads: vec![MemReq::read(0, 0, 0, crate::mem::ReqKind::NodeFetch); n],
+        step: FrontStep::default(),
         due: Bits::default(),
     };
     let mut back = Back {
@@ -487,7 +491,7 @@ pub(super) fn run(
         // (Looked at every 64th round: it reads every unit, some in the other core's cache, and a
         // run that has stalled stays so.)
         rounds += 1;
-        let quiet = rounds % 64 == 0
+        let quiet = rounds.is_multiple_of(64)
             && lanes.iter().zip(gpu.units.iter()).zip(l1ds.iter()).all(|((lane, u), l1)| {
                 lane.job.is_none()
                     && lane.fills.is_empty()

@@ -117,6 +117,15 @@ pub struct L2 {
     front: Option<FrontEnd>,
 }
 
+/// One cycle of a split L2's front end ([`L2::front_eval`]): the cycle, the granted SMs (one
+/// bit each) and (bank, SM) of each grant.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FrontStep {
+    at: u64,
+    pub(crate) granted: u64,
+    accepted: Vec<(usize, u32)>,
+}
+
 /// What the front end of a split L2 keeps per bank to know the bank's length in its own cycle.
 #[derive(Clone, Debug)]
 struct FrontEnd {
@@ -262,40 +271,53 @@ impl L2 {
         });
     }
 
-    /// Split only ([`L2::split_front_end`]): the front end's cycle `x`. `want[b]` has bit `sm`
-    /// set when SM `sm`'s down request (`heads[sm]`) is for bank `b` ([`L2::bank_of`]). Each
-    /// requested bank with room grants one SM as [`L2::eval`]'s arbiter does (the first from the SM
-    /// after the one it granted last), and the granted requests enter their bank pipelines, due
-    /// at their tag check `l2_latency - 3` cycles later; returns the granted SMs, one bit each
-    /// (at most 64 SMs). The back end must have run every cycle before `x`, and must not yet
-    /// have reached the cycle a request let in now is due.
-    pub(crate) fn front_cycle(&mut self, x: u64, want: &[u64], heads: &[MemReq]) -> u64 {
-        let f = self.front.as_mut().expect("split_front_end first");
-        let delay = u64::from(self.params.l2_latency - 3);
-        debug_assert!(x + delay >= self.now, "the back end ran past a request's tag check");
-        let sms = self.out.len() as u32;
-        let mut granted = 0;
+    /// Split only ([`L2::split_front_end`]): the front end's cycle `x`, combinational. `want[b]`
+    /// has bit `sm` set when SM `sm`'s down request is for bank `b` ([`L2::bank`]). Each
+    /// requested bank with room grants one SM as [`L2::eval`]'s arbiter does (the first from the
+    /// SM after the one it granted last); writes the grants into `d`, which
+    /// [`L2::front_commit`] applies. The back end must have run every cycle before `x`.
+    pub(crate) fn front_eval(&self, x: u64, want: &[u64], d: &mut FrontStep) {
+        let f = self.front.as_ref().expect("split_front_end first");
+        d.at = x;
+        d.granted = 0;
+        d.accepted.clear();
         for (b, &mask) in want.iter().enumerate() {
             if mask == 0 {
                 continue;
             }
-            let log = &mut f.out_log[b];
-            while log.front().is_some_and(|&c| c < x) {
-                log.pop_front();
-                f.out_seen[b] += 1;
-            }
-            if f.let_in[b] - f.out_seen[b] >= u64::from(self.params.l2_bank_queue) {
+            // The bank's length in cycle `x`: let in less checked out before `x`.
+            let out = f.out_seen[b] + f.out_log[b].iter().take_while(|&&c| c < x).count() as u64;
+            if f.let_in[b] - out >= u64::from(self.params.l2_bank_queue) {
                 continue;
             }
             // The first requesting SM from `rr[b]` on, round the ring.
             let from = mask & (u64::MAX << self.rr[b]);
             let sm = if from != 0 { from.trailing_zeros() } else { mask.trailing_zeros() };
-            granted |= 1 << sm;
-            self.banks[b].push_back(Lane { due: x + delay, sm, req: heads[sm as usize] });
+            d.granted |= 1 << sm;
+            d.accepted.push((b, sm));
+        }
+    }
+
+    /// The front end's clock edge for the step of [`L2::front_eval`]: the granted requests
+    /// (`heads[sm]`, each SM's down request) enter their bank pipelines, due at their tag check
+    /// `l2_latency - 3` cycles later, and each granting bank's arbiter moves on. The back end
+    /// must not yet have reached the cycle a request let in now is due.
+    pub(crate) fn front_commit(&mut self, heads: &[MemReq], d: &FrontStep) {
+        let f = self.front.as_mut().expect("split_front_end first");
+        let delay = u64::from(self.params.l2_latency - 3);
+        debug_assert!(d.at + delay >= self.now, "the back end ran past a request's tag check");
+        for (b, log) in f.out_log.iter_mut().enumerate() {
+            while log.front().is_some_and(|&c| c < d.at) {
+                log.pop_front();
+                f.out_seen[b] += 1;
+            }
+        }
+        let sms = self.out.len() as u32;
+        for &(b, sm) in &d.accepted {
+            self.banks[b].push_back(Lane { due: d.at + delay, sm, req: heads[sm as usize] });
             f.let_in[b] += 1;
             self.rr[b] = if sm + 1 < sms { sm + 1 } else { 0 };
         }
-        granted
     }
 
     /// The bank (memory sub-partition) of `addr`.
@@ -491,6 +513,88 @@ mod tests {
 
     fn read(id: u64, addr: u64) -> Option<MemReq> {
         Some(MemReq::read(id, addr, 32, ReqKind::NodeFetch))
+    }
+
+    /// Random traffic from four SMs through the L2, each SM offering the head of its own queue of
+    /// requests (reads and writes to a few hot lines, so hits, misses, merges and write-backs
+    /// happen; pipelines of six, so banks fill): `ahead` < 0 runs the L2 whole (`eval` and
+    /// `commit` every cycle); otherwise split as the windowed run splits it, the front end cycle
+    /// by cycle and the back end run `ahead` cycles in front of it. Returns every response with
+    /// its cycle, and the counters.
+    fn queued_traffic(p: MemParams, ahead: i64, seed: u64) -> (Vec<(u64, usize, MemResp)>, Counters) {
+        use crate::mem::testutil::XorShift;
+        let sms = p.sms as usize;
+        let mut rng = XorShift(seed);
+        let mut b = Bench::new(p, 30);
+        let mut queues = vec![VecDeque::new(); sms];
+        let mut id = 0;
+        let none = vec![None; sms];
+        let (mut want, mut heads, mut fs) = (
+            vec![0u64; p.l2_banks as usize],
+            vec![MemReq::read(0, 0, 0, ReqKind::NodeFetch); sms],
+            FrontStep::default(),
+        );
+        if ahead >= 0 {
+            b.l2.split_front_end();
+        }
+        for x in 0..3_000u64 {
+            for q in queues.iter_mut() {
+                if rng.below(2) == 0 {
+                    id += 1;
+                    let addr = rng.below(48) * 32;
+                    q.push_back(if rng.below(5) == 0 {
+                        MemReq::write(id, addr, 8, ReqKind::StackSpill)
+                    } else {
+                        MemReq::read(id, addr, 32, ReqKind::NodeFetch)
+                    });
+                }
+            }
+            let reqs: Vec<Option<MemReq>> = queues.iter().map(|q| q.front().copied()).collect();
+            let granted: Vec<bool> = if ahead < 0 {
+                b.step(&reqs)
+            } else {
+                want.iter_mut().for_each(|w| *w = 0);
+                for (k, r) in reqs.iter().enumerate() {
+                    if let Some(r) = r {
+                        want[b.l2.bank(r.addr)] |= 1 << k;
+                        heads[k] = *r;
+                    }
+                }
+                b.l2.front_eval(x, &want, &mut fs);
+                b.l2.front_commit(&heads, &fs);
+                // The back end runs on to `ahead` cycles in front of the front end.
+                while b.cycle < x + 1 + ahead as u64 {
+                    b.step(&none);
+                }
+                (0..sms).map(|k| fs.granted & 1 << k != 0).collect()
+            };
+            for (q, g) in queues.iter_mut().zip(granted) {
+                if g {
+                    q.pop_front();
+                }
+            }
+        }
+        b.settle(sms);
+        (b.resp_log, *b.l2.counters())
+    }
+
+    /// The windowed run's split L2 (issue 16): the front end at its cycle and the back end up to
+    /// the bank pipelines' delay in front of it give the whole L2's responses, at the same
+    /// cycles, and its counters; a back end further ahead than that (the windowed run's planted
+    /// `WindowBackEndTooFar`) checks a bank's head before a request let in later would have been
+    /// in front of it, and the comparison catches it.
+    #[test]
+    fn split_front_and_back_end_equal_the_whole_l2() {
+        let p = MemParams { sms: 4, l2_bank_queue: 6, l2_latency: 30, l2_mshrs: 8, ..MemParams::default() };
+        let delay = i64::from(p.l2_latency - 3);
+        for seed in 1..4 {
+            let whole = queued_traffic(p, -1, seed);
+            assert!(whole.0.len() > 1_000 && whole.1.hits > 0 && whole.1.misses > 0, "traffic of every kind");
+            for ahead in [0, 1, delay / 2, delay] {
+                assert_eq!(queued_traffic(p, ahead, seed), whole, "seed {seed}, back end {ahead} ahead");
+            }
+            assert_ne!(queued_traffic(p, delay + 8, seed), whole, "a back end too far ahead must show");
+        }
     }
 
     #[test]
