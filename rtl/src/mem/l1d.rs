@@ -166,8 +166,8 @@ impl L1d {
         }
     }
 
-    /// Hands the miss queue to a runner that simulates it beside the L2 (the windowed run,
-    /// [`crate::window`]): from now on every request sent down is also listed with the cycle of
+    /// Hands the miss queue to a runner that simulates it beside the L2 (the windowed run in
+    /// `gpu`): from now on every request sent down is also listed with the cycle of
     /// the edge that queued it ([`L1d::take_sent`]), nothing pops the queue but
     /// [`L1d::left_queue`], and [`L1d::next_event`] leaves the queue out (the runner counts it).
     /// `eval` must then get `down_ready` false. The queue's length here is an upper bound on the

@@ -256,8 +256,8 @@ impl L2 {
         }
     }
 
-    /// The windowed run's split of the L2 ([`crate::window`]): from now on the front end
-    /// ([`L2::front_cycle`]: the grants and the bank pipelines' entrances) and the back end (the
+    /// The windowed run's split of the L2 (in `gpu`): from now on the front end
+    /// ([`L2::front_eval`] and [`L2::front_commit`]: the grants and the bank pipelines' entrances) and the back end (the
     /// tag checks onward: [`L2::eval`] and [`L2::commit`] with no request, which is all they then
     /// do) keep clocks of their own, the back end ahead. A bank's length as the front end's
     /// arbiter must see it in its cycle is then the requests it let in before that cycle less
