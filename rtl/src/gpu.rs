@@ -217,6 +217,9 @@ pub enum OrderBug {
     /// delay: it checks a bank's head before the request that the front end lets in later would
     /// have been there.
     WindowBackEndTooFar,
+    /// The windowed run's SMs drop the L2's responses: their rays wait for ever, and the run
+    /// must end as stalled rather than go on.
+    WindowLosesResponses,
 }
 
 #[cfg(feature = "mutants")]
@@ -225,7 +228,10 @@ impl OrderBug {
     fn in_windows(self) -> bool {
         matches!(
             self,
-            OrderBug::WindowIgnoresFullQueue | OrderBug::WindowSkipsJobStop | OrderBug::WindowBackEndTooFar
+            OrderBug::WindowIgnoresFullQueue
+                | OrderBug::WindowSkipsJobStop
+                | OrderBug::WindowBackEndTooFar
+                | OrderBug::WindowLosesResponses
         )
     }
 }

@@ -197,6 +197,10 @@ fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
             lane.now_fills.push(r);
             lane.fills.pop_front();
         }
+        #[cfg(feature = "mutants")]
+        if lim.bug == Some(super::OrderBug::WindowLosesResponses) {
+            lane.now_fills.clear();
+        }
         let rt_idle = idle(u, req, &lane.job, c);
         if rt_idle && lane.now_fills.is_empty() && !l1_due {
             // Nothing happens in this SM before its next event or response: only the L1D's clock

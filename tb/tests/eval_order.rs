@@ -361,3 +361,22 @@ fn the_windowed_runs_planted_slips_are_caught() {
         assert_eq!(bits(&loop_run), bits(&plain));
     }
 }
+
+/// A run in which nothing can happen any more while work remains stops as stalled, in the last
+/// cycle in which anything happened, rather than going on for ever: the windowed run's SMs drop
+/// the L2's responses (a planted bug), so every ray that missed its L1D waits for ever.
+#[test]
+fn a_windowed_run_that_can_never_finish_stops_as_stalled() {
+    let jobs = jobs("clutter", 16);
+    let cfg = Config::sms();
+    let hw = Hardware::default();
+    let clean = windowed(cfg, &hw, &jobs, true, false, None).unwrap().unwrap();
+    for parallel in [false, true] {
+        match windowed(cfg, &hw, &jobs, true, parallel, Some(OrderBug::WindowLosesResponses)) {
+            Ok(Err(RunError::Stalled { cycle })) => {
+                assert!(cycle > 0 && cycle < clean.cycles, "stalled in cycle {cycle} of {}", clean.cycles)
+            }
+            other => panic!("expected a stall, got {other:?}"),
+        }
+    }
+}
