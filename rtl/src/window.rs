@@ -44,7 +44,7 @@ use crate::mem::l2::{FrontStep, L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
-use crate::warp_buffer::Bits as SetBits;
+use crate::warp_buffer::Bits;
 use std::collections::VecDeque;
 
 /// Most cycles in a window. A window's SMs need the responses of all its cycles, which the
@@ -70,11 +70,11 @@ fn split_point(sms: usize) -> usize {
 /// Cycles in which some unit had an event due (those the cycle-by-cycle loop evaluates), one bit
 /// each.
 #[derive(Clone, Debug, Default)]
-struct Bits {
+struct CycleSet {
     words: Vec<u64>,
 }
 
-impl Bits {
+impl CycleSet {
     fn set(&mut self, c: u64) {
         let w = (c >> 6) as usize;
         if w >= self.words.len() {
@@ -100,7 +100,7 @@ impl Bits {
 }
 
 /// Marked cycles below `end` in the union of `all`.
-fn count_union<'a>(all: impl Iterator<Item = &'a Bits> + Clone, end: u64) -> u64 {
+fn count_union<'a>(all: impl Iterator<Item = &'a CycleSet> + Clone, end: u64) -> u64 {
     let words = end.div_ceil(64) as usize;
     (0..words)
         .map(|w| {
@@ -134,7 +134,7 @@ struct Lane {
     /// The cycle from which its RT unit has been empty (after the edge that emptied it).
     empty_since: u64,
     /// Cycles in which its RT unit or L1D had an event due.
-    due: Bits,
+    due: CycleSet,
 }
 
 /// What every SM's window reads alike.
@@ -265,7 +265,7 @@ struct Front {
     heads: Vec<MemReq>,
     step: FrontStep,
     /// Cycles with a request in some miss queue, and cycles with a dispatch.
-    due: Bits,
+    due: CycleSet,
 }
 
 impl Front {
@@ -282,7 +282,7 @@ impl Front {
         while x <= to {
             // The SMs whose head is offered in cycle `x`, and the first cycle any head is.
             let (mut offered, mut first) = (0u64, u64::MAX);
-            for k in SetBits::of(self.queued).map(|k| k as usize) {
+            for k in Bits::of(self.queued).map(|k| k as usize) {
                 let &(at, bank, req) = self.queues[k].front().expect("queued");
                 if at < x {
                     if offered == 0 {
@@ -302,7 +302,7 @@ impl Front {
             self.due.set(x);
             l2.front_eval(x, &self.want, &mut self.step);
             l2.front_commit(&self.heads, &self.step);
-            for k in SetBits::of(self.step.granted).map(|k| k as usize) {
+            for k in Bits::of(self.step.granted).map(|k| k as usize) {
                 self.queues[k].pop_front();
                 if self.queues[k].is_empty() {
                     self.queued &= !(1 << k);
@@ -328,7 +328,7 @@ struct Back {
     step: L2Step,
     dram_step: DramStep,
     /// Cycles in which the L2 or DRAM had an event due.
-    due: Bits,
+    due: CycleSet,
     /// Per SM: responses made visible since the coordinator last took them, by cycle.
     staged: Vec<Vec<(u64, MemResp)>>,
     /// (cycle, L2's counters, DRAM's counters) before each cycle with an event, from the slowest
@@ -392,13 +392,13 @@ pub(super) fn run(
         want: vec![0; params.l2_banks as usize],
         heads: vec![MemReq::read(0, 0, 0, crate::mem::ReqKind::NodeFetch); n],
         step: FrontStep::default(),
-        due: Bits::default(),
+        due: CycleSet::default(),
     };
     let mut back = Back {
         none: vec![None; n],
         step: L2Step::default(),
         dram_step: DramStep::default(),
-        due: Bits::default(),
+        due: CycleSet::default(),
         staged: vec![Vec::new(); n],
         snapshots: VecDeque::new(),
     };
@@ -409,10 +409,10 @@ pub(super) fn run(
     let mut last_min = 0;
     let mut rounds = 0u64;
     loop {
+        let l2 = gpu.mem.l2();
         for (k, lane) in lanes.iter_mut().enumerate() {
-            let l2 = gpu.mem.l2();
             for (at, r) in lane.sent.drain(..) {
-                front.push(k, at, l2.bank(r.addr), r);
+                front.push(k, at, l2.bank_of(r.addr), r);
             }
             lane.fills.extend(back.staged[k].drain(..));
         }
@@ -505,13 +505,13 @@ pub(super) fn run(
                     && l1.next_event().is_none()
                     && !(jobs_left && u.free_slot().is_some())
             })
-            && front.queues.iter().all(VecDeque::is_empty)
+            && front.queued == 0
             && back.staged.iter().all(Vec::is_empty)
             && l2.next_event().is_none()
             && dram.next_event().is_none();
         if quiet && !drained {
             let last =
-                lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]).filter_map(Bits::last).max();
+                lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]).filter_map(CycleSet::last).max();
             return Err(RunError::Stalled { cycle: last.unwrap_or(0) });
         }
         // The window: every response in it is visible (the back end ran the cycles before its

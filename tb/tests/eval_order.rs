@@ -1,8 +1,8 @@
 //! Issue 13's "done when": evaluation order does not matter. Two real scenes run through the
 //! whole GPU under every paper configuration with the RT units evaluated in a seeded random order
 //! each cycle, and with every kernel evaluated twice per cycle; each report equals the normal
-//! (dataflow) run's bit for bit, and so does the split form on two threads (issue 16). A planted
-//! order dependence of each kind is caught.
+//! (dataflow) run's bit for bit, and so do the split form on two threads and the run by windows
+//! on one thread and two (issue 16). A planted order dependence of each kind is caught.
 
 use rtl::clock::EvalCheck;
 use rtl::config::Config;
@@ -27,7 +27,8 @@ fn run(cfg: Config, jobs: &[WarpJob], check: EvalCheck, bug: Option<OrderBug>) -
     run_on(cfg, jobs, check, bug, false)
 }
 
-/// [`run`], in the split form (RT units and memory system on two threads) if `parallel`.
+/// [`run`], in the split form (RT units and memory system on two threads, cycle by cycle, not by
+/// windows) if `parallel`.
 fn run_on(
     cfg: Config,
     jobs: &[WarpJob],
@@ -36,8 +37,11 @@ fn run_on(
     parallel: bool,
 ) -> GpuReport {
     let hw = Hardware::default();
-    let mut gpu =
-        Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check).with_helper_thread(parallel);
+    let mut gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
+        .unwrap()
+        .with_eval_check(check)
+        .with_helper_thread(parallel)
+        .with_windows(!parallel);
     if let Some(b) = bug {
         gpu = gpu.with_order_bug(b);
     }
@@ -184,9 +188,13 @@ fn an_error_on_the_helper_thread_stops_the_run_as_on_one_thread() {
     let cfg = Config::sms();
     let hw = Hardware::default();
     let sms = hw.mem_for(&cfg).sms as usize;
+    // Two threads: the split form (the windowed run's are `windows_fail_as_the_cycle_by_cycle_loop`).
     let attempt = |m: Mutant, parallel: bool, bug: Option<OrderBug>| {
-        let mut gpu =
-            Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_mutant(m).with_helper_thread(parallel);
+        let mut gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
+            .unwrap()
+            .with_mutant(m)
+            .with_helper_thread(parallel)
+            .with_windows(!parallel);
         if let Some(b) = bug {
             gpu = gpu.with_order_bug(b);
         }

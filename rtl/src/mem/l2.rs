@@ -157,7 +157,8 @@ impl L2 {
         }
     }
 
-    fn bank_of(&self, addr: u64) -> usize {
+    /// The bank (memory sub-partition) of `addr`.
+    pub(crate) fn bank_of(&self, addr: u64) -> usize {
         self.tags.geometry().bank_of(addr, self.params.l2_banks) as usize
     }
 
@@ -272,7 +273,7 @@ impl L2 {
     }
 
     /// Split only ([`L2::split_front_end`]): the front end's cycle `x`, combinational. `want[b]`
-    /// has bit `sm` set when SM `sm`'s down request is for bank `b` ([`L2::bank`]). Each
+    /// has bit `sm` set when SM `sm`'s down request is for bank `b` ([`L2::bank_of`]). Each
     /// requested bank with room grants one SM as [`L2::eval`]'s arbiter does (the first from the
     /// SM after the one it granted last); writes the grants into `d`, which
     /// [`L2::front_commit`] applies. The back end must have run every cycle before `x`.
@@ -312,17 +313,21 @@ impl L2 {
                 f.out_seen[b] += 1;
             }
         }
-        let sms = self.out.len() as u32;
         for &(b, sm) in &d.accepted {
-            self.banks[b].push_back(Lane { due: d.at + delay, sm, req: heads[sm as usize] });
-            f.let_in[b] += 1;
-            self.rr[b] = if sm + 1 < sms { sm + 1 } else { 0 };
+            self.enter_pipeline(b, sm, heads[sm as usize], d.at + delay);
         }
     }
 
-    /// The bank (memory sub-partition) of `addr`.
-    pub(crate) fn bank(&self, addr: u64) -> usize {
-        self.bank_of(addr)
+    /// Bank `b`'s arbiter granted SM `sm`'s request `req`: it enters the bank pipeline, due at its
+    /// tag check in cycle `due` (counted for the front end's bank length when split), and the
+    /// arbiter starts after `sm` next time. The clock edge's part of a grant, in [`L2::commit`]
+    /// and [`L2::front_commit`].
+    fn enter_pipeline(&mut self, b: usize, sm: u32, req: MemReq, due: u64) {
+        self.banks[b].push_back(Lane { due, sm, req });
+        if let Some(f) = self.front.as_mut() {
+            f.let_in[b] += 1;
+        }
+        self.rr[b] = if sm + 1 < self.params.sms { sm + 1 } else { 0 };
     }
 
     fn write_back(&mut self, victim: Option<Victim>) {
@@ -346,8 +351,7 @@ impl L2 {
             out.clear();
         }
         for &(b, sm, req) in &d.accepted {
-            self.banks[b].push_back(Lane { due: self.now + delay, sm, req });
-            self.rr[b] = if sm + 1 < self.params.sms { sm + 1 } else { 0 };
+            self.enter_pipeline(b, sm, req, self.now + delay);
         }
         for &(b, check) in &d.checks {
             if check == Check::Stall {
@@ -556,7 +560,7 @@ mod tests {
                 want.iter_mut().for_each(|w| *w = 0);
                 for (k, r) in reqs.iter().enumerate() {
                     if let Some(r) = r {
-                        want[b.l2.bank(r.addr)] |= 1 << k;
+                        want[b.l2.bank_of(r.addr)] |= 1 << k;
                         heads[k] = *r;
                     }
                 }
