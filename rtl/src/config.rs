@@ -8,6 +8,8 @@
 use std::fmt;
 use std::str::FromStr;
 
+use crate::logic::{Int, Logic};
+
 /// Primary (ray-buffer) stack size per thread.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RbSize {
@@ -289,13 +291,21 @@ impl Config {
     /// 8-byte entries). When a thread's queue spans the whole bank row or more (2M ≥ 32), k = 1:
     /// consecutive threads start one entry apart, the best spread there is.
     pub fn skew_base(&self, tid: u32) -> u32 {
+        self.skew_base_of(&mut Int, tid)
+    }
+
+    /// [`Config::skew_base`] over any [`Logic`] (the stack manager's policy borrows a stack at
+    /// its skewed base with this).
+    pub fn skew_base_of<L: Logic>(&self, l: &mut L, tid: L::Word) -> L::Word {
         let m = self.sh_entries;
         if !self.skew || m == 0 {
-            return 0;
+            return l.word(0);
         }
         let words_per_entry = self.entry_bytes / self.bank_bytes;
         let k = (self.banks / (m * words_per_entry)).max(1);
-        (tid / k) % m
+        let (kw, mw) = (l.word(k), l.word(m));
+        let row = l.div(tid, kw);
+        l.rem(row, mw)
     }
 
     /// Short name in the paper's style: `RB_8`, `RB_8+SH_8+SK+RA`, `RB_FULL`.

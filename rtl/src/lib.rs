@@ -43,6 +43,7 @@ pub mod clock;
 pub mod config;
 pub mod gpu;
 pub mod lockstep;
+pub mod logic;
 pub mod mem;
 pub mod mem_sched;
 pub mod node_fetch;

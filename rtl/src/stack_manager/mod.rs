@@ -1,0 +1,924 @@
+//! Stack manager: the ray-buffer stack fields, the SH queues, the global spill regions, and the
+//! per-thread sequencer that moves entries between them.
+//!
+//! ```text
+//!  cmd (push/pop/finish) ──► plan ──► registers (Top, Bottom, Overflow, Idle, Next TID, …)
+//!                              └────► micro-op program ──► sequencer ──► SH requests ──► bank arbiter
+//!                                                             ▲    └───► global requests ─► mem sched
+//!                                                             └── completions (registered, next cycle)
+//! ```
+//!
+//! A command is accepted only from a thread whose sequencer is idle (`ready`, a register), one
+//! per thread per cycle (the callers' contract). Accepting it
+//! updates the thread's bookkeeping registers at once and loads the sequencer with the exact
+//! request sequence of SPEC sections 3 and 5 (e.g. SH load → global store → SH store). The
+//! sequencer issues one micro-op at a time, in order; a micro-op that needs an earlier load's data
+//! waits for it in the thread's data latch. Data moves when a request completes, so the SH array
+//! and the global spill regions hold real values and every pop is checked against a reference.
+//!
+//! Clocking: [`StackManager::eval`] is the cycle's combinational logic. It reads only the
+//! registers and this cycle's inputs and writes a [`StackStep`]: the outputs (SH and global
+//! requests, pops, refusals) and the ordered register writes (the next state as a journal, so a
+//! cycle copies no register array); [`StackManager::commit`] applies them at the clock edge.
+//! Planning a command ([`policy::Plan`], written once over [`crate::logic::Logic`] so that the
+//! same code simulates and is proved) is pure in the same way: it reads the stack registers as
+//! the cycle's earlier writes leave them (two threads of a warp may both touch idle stacks in
+//! one cycle) and returns its decisions and micro-ops; a refused command changes nothing.
+//!
+//! Files: `regs.rs` (register and signal types), `policy.rs` (the decision logic and its
+//! replaceable [`policy::Steps`]), this file (register arrays, sequencers, eval and commit),
+//! `probe.rs` (waveform signals), `mutants.rs` (planted bugs, test builds only).
+//!
+//! The same plan drives two executors: eval/commit (cycle level, through the bank arbiter and
+//! memory scheduler) and [`StackManager::apply`] (functional: micro-ops complete at once).
+//! Decisions that depend only on a thread's own history are identical in both.
+//!
+//! Design choices for SPEC section 9 are argued in `rtl/DESIGN.md`.
+
+use std::collections::VecDeque;
+
+use crate::bank_arbiter::{ShReq, MAX_WORDS};
+use crate::config::{warp_lane, Config, ConfigError, Widths};
+use crate::logic::Int;
+use crate::mem::addr::{LocalLayout, LocalMap};
+use crate::mem_sched::GReq;
+
+pub mod mutants;
+pub mod policy;
+mod probe;
+pub mod regs;
+
+pub use mutants::Mutant;
+use policy::{Design, Plan, RbOp, Regfile, Steps, UopL};
+pub use regs::*;
+
+#[derive(Debug, Default, PartialEq, Eq, Hash)]
+struct Sequencer {
+    uops: VecDeque<Uop>,
+    inflight: Option<Uop>,
+    latch: Option<Entry>,
+}
+
+/// Field by field, so that `clone_from` keeps the queue's allocation (see [`StackManager`]'s).
+impl Clone for Sequencer {
+    fn clone(&self) -> Self {
+        let Sequencer { uops, inflight, latch } = self;
+        Sequencer { uops: uops.clone(), inflight: *inflight, latch: *latch }
+    }
+    fn clone_from(&mut self, src: &Self) {
+        let Sequencer { uops, inflight, latch } = src;
+        self.uops.clone_from(uops);
+        self.inflight = *inflight;
+        self.latch = *latch;
+    }
+}
+
+/// One register or memory write the cycle decided, applied in order at the clock edge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Write {
+    Thread(u32, ThreadRegs),
+    RbPushBack(u32, Entry),
+    RbPopBack(u32),
+    RbPopFront(u32),
+    RbPushFront(u32, Entry),
+    Sh(usize, Entry),
+    Global {
+        thread: u32,
+        slot: u32,
+        value: Entry,
+    },
+    /// A sequencer's next state; `issued`: its queue's head left.
+    Seq {
+        thread: u32,
+        issued: bool,
+        inflight: Option<Uop>,
+        latch: Option<Entry>,
+    },
+    Emit(u32, Uop),
+}
+
+/// This cycle's inputs of the stack manager.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StackIn<'a> {
+    /// Commands, at most one per thread, each from a thread that is [`StackManager::ready`].
+    pub cmds: &'a [(u32, Cmd)],
+    /// Threads whose SH request the bank arbiter completed (its registered `done`).
+    pub done: &'a [u32],
+    /// Thread whose load data (or, with acknowledged stores, store acknowledgement) the response
+    /// FIFO delivered (its registered `deq`).
+    pub deq: Option<u32>,
+}
+
+/// The stack manager's cycle: its outputs and the writes its registers take at the clock edge
+/// ([`StackManager::eval`], [`StackManager::commit`]). A reusable buffer: a cycle allocates
+/// nothing once it has grown.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct StackStep {
+    writes: Vec<Write>,
+    /// Stack registers the cycle changed, as it leaves them (one entry per stack).
+    stacks: Vec<(u32, StackRegs)>,
+    /// Sequencers the cycle's completions changed: (thread, inflight, latch).
+    completed: Vec<(u32, Option<Uop>, Option<Entry>)>,
+    stats: StackStats,
+    /// Scratch of one plan: the stack registers it changed, and where its writes start.
+    plan_stacks: Vec<(u32, StackRegs)>,
+    /// SH requests to the bank arbiter.
+    pub sh_req: Vec<ShReq>,
+    /// Global requests to the memory scheduler.
+    pub g_req: Vec<GReq>,
+    /// Pops answered: (thread, entry).
+    pub pops: Vec<(u32, Entry)>,
+    /// Commands refused (the per-thread error signals).
+    pub errors: Vec<StackError>,
+}
+
+impl StackStep {
+    fn clear(&mut self) {
+        self.writes.clear();
+        self.stacks.clear();
+        self.completed.clear();
+        self.stats = StackStats::default();
+        self.plan_stacks.clear();
+        self.sh_req.clear();
+        self.g_req.clear();
+        self.pops.clear();
+        self.errors.clear();
+    }
+
+    /// What the cycle answered to thread `t`'s command: the popped entry, nothing, or the
+    /// refusal.
+    pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
+        if let Some(e) = self.errors.iter().find(|e| e.thread() == t) {
+            return Err(*e);
+        }
+        Ok(self.pops.iter().find(|p| p.0 == t).map(|p| p.1))
+    }
+
+    fn stack_now(&self, q: &[StackRegs], s: u32) -> StackRegs {
+        self.stacks.iter().find(|x| x.0 == s).map_or(q[s as usize], |x| x.1)
+    }
+
+    fn set_stack(&mut self, s: u32, r: StackRegs) {
+        match self.stacks.iter_mut().find(|x| x.0 == s) {
+            Some(x) => x.1 = r,
+            None => self.stacks.push((s, r)),
+        }
+    }
+}
+
+/// The stack manager of one RT unit: `warps × warp_size` threads.
+#[derive(Debug, PartialEq, Eq, Hash)]
+pub struct StackManager {
+    cfg: Config,
+    w: Widths,
+    /// Which SM this is: places the spill regions in the device address space.
+    sm: u32,
+    /// Where spill slots live ([`StackManager::set_local_layout`]; per-thread regions until set).
+    local: LocalMap,
+    threads: Vec<ThreadRegs>,
+    stacks: Vec<StackRegs>,
+    rb: Vec<VecDeque<Entry>>,
+    seq: Vec<Sequencer>,
+    /// Bit t: thread t has micro-ops queued (derived from `seq`, so a cycle visits only those).
+    queued: Vec<u64>,
+    /// Bit t: thread t's sequencer is not `ready` (micro-ops queued or one in flight; derived from
+    /// `seq`, so `ready` reads one bit instead of the sequencer).
+    busy: Vec<u64>,
+    sh_data: Vec<Entry>,
+    global: Vec<Vec<Entry>>,
+    /// A global store stays in flight until its acknowledgement arrives on the global
+    /// completion input ([`StackTiming::Blocking`]); otherwise it is posted.
+    acked_stores: bool,
+    pub stats: StackStats,
+    #[cfg(feature = "mutants")]
+    pub mutant: Option<Mutant>,
+    /// Reused by the one-command entry points ([`StackManager::accept`], `apply`); always empty
+    /// between calls.
+    scratch: StackStep,
+}
+
+/// Field by field, so that `clone_from` reuses every vector's allocation: the exhaustive search
+/// (`sms check`) clones a model for each transition it tries. `clone` builds the struct and
+/// `clone_from` destructures it, each naming every field, so a field added to the struct and
+/// not cloned here does not compile.
+impl Clone for StackManager {
+    fn clone(&self) -> Self {
+        StackManager {
+            cfg: self.cfg,
+            w: self.w,
+            sm: self.sm,
+            local: self.local,
+            threads: self.threads.clone(),
+            stacks: self.stacks.clone(),
+            rb: self.rb.clone(),
+            seq: self.seq.clone(),
+            queued: self.queued.clone(),
+            busy: self.busy.clone(),
+            sh_data: self.sh_data.clone(),
+            global: self.global.clone(),
+            acked_stores: self.acked_stores,
+            stats: self.stats,
+            #[cfg(feature = "mutants")]
+            mutant: self.mutant,
+            scratch: self.scratch.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, src: &Self) {
+        let StackManager {
+            cfg,
+            w,
+            sm,
+            local,
+            threads,
+            stacks,
+            rb,
+            seq,
+            queued,
+            busy,
+            sh_data,
+            global,
+            acked_stores,
+            stats,
+            #[cfg(feature = "mutants")]
+            mutant,
+            scratch,
+        } = src;
+        self.cfg = *cfg;
+        self.w = *w;
+        self.sm = *sm;
+        self.local = *local;
+        self.threads.clone_from(threads);
+        self.stacks.clone_from(stacks);
+        self.rb.clone_from(rb);
+        self.seq.clone_from(seq);
+        self.queued.clone_from(queued);
+        self.busy.clone_from(busy);
+        self.sh_data.clone_from(sh_data);
+        self.global.clone_from(global);
+        self.acked_stores = *acked_stores;
+        self.stats = *stats;
+        #[cfg(feature = "mutants")]
+        {
+            self.mutant = *mutant;
+        }
+        // Empty between calls on both sides; keeping ours keeps its capacity.
+        debug_assert_eq!(*scratch, StackStep::default());
+        self.scratch.clear();
+    }
+}
+
+impl StackManager {
+    pub fn new(cfg: Config, sm: u32) -> Result<Self, ConfigError> {
+        let w = cfg.widths()?;
+        let n = cfg.threads() as usize;
+        let mut s = StackManager {
+            cfg,
+            w,
+            sm,
+            local: LocalMap {
+                layout: LocalLayout::Linear,
+                base: SPILL_BASE,
+                sms: sm + 1,
+                threads: cfg.threads(),
+                warp_size: cfg.warp_size,
+                entry_bytes: cfg.entry_bytes,
+                slots: 1u64 << cfg.spill_ptr_bits,
+            },
+            threads: vec![ThreadRegs::default(); n],
+            stacks: vec![StackRegs::default(); n],
+            rb: vec![VecDeque::new(); n],
+            seq: vec![Sequencer::default(); n],
+            queued: vec![0; n.div_ceil(64)],
+            busy: vec![0; n.div_ceil(64)],
+            sh_data: vec![0; n * cfg.sh_entries as usize],
+            global: vec![Vec::new(); n],
+            acked_stores: false,
+            stats: StackStats::default(),
+            #[cfg(feature = "mutants")]
+            mutant: None,
+            scratch: StackStep::default(),
+        };
+        for wp in 0..cfg.warps {
+            s.load_warp(wp, u32::MAX >> (32 - cfg.warp_size));
+        }
+        Ok(s)
+    }
+
+    pub fn config(&self) -> &Config {
+        &self.cfg
+    }
+    /// Global stores wait for their acknowledgement (`true`, [`StackTiming::Blocking`]) or are
+    /// posted (`false`, the default of [`StackManager::new`], and [`StackTiming::Overlapped`]).
+    /// The functional level ([`StackManager::apply`], [`StackManager::complete_next`]) completes
+    /// a store at once either way.
+    pub fn with_acked_stores(mut self, acked: bool) -> Self {
+        self.acked_stores = acked;
+        self
+    }
+    pub fn acked_stores(&self) -> bool {
+        self.acked_stores
+    }
+    pub fn widths(&self) -> &Widths {
+        &self.w
+    }
+    pub fn thread(&self, t: u32) -> &ThreadRegs {
+        &self.threads[t as usize]
+    }
+    pub fn stack(&self, s: u32) -> &StackRegs {
+        &self.stacks[s as usize]
+    }
+    /// RB entries of thread `t`, oldest (bottom) first.
+    pub fn rb(&self, t: u32) -> &VecDeque<Entry> {
+        &self.rb[t as usize]
+    }
+    /// SH entry `e` of stack `s`.
+    pub fn sh_entry(&self, s: u32, e: u32) -> Entry {
+        self.sh_data[(s * self.cfg.sh_entries + e) as usize]
+    }
+    /// Global spill region of thread `t`: written slots, oldest first.
+    pub fn global(&self, t: u32) -> &[Entry] {
+        let len = self.threads[t as usize].spill_ptr as usize;
+        let g = &self.global[t as usize];
+        &g[..len.min(g.len())]
+    }
+    /// Micro-ops the thread still has to issue (after `accept`, the whole program).
+    pub fn pending_uops(&self, t: u32) -> impl Iterator<Item = &Uop> + '_ {
+        self.seq[t as usize].uops.iter()
+    }
+    /// Stacks of thread `t`'s chain, in ring order starting at its dedicated stack.
+    pub fn chain(&self, t: u32) -> Vec<u32> {
+        let mut d = StackStep::default();
+        let mut rf = Overlay { m: self, d: &mut d, t };
+        let th = self.threads[t as usize];
+        let base = t - warp_lane(t, self.cfg.warp_size).1;
+        let mut p = Plan {
+            l: &mut Int,
+            steps: &Design,
+            rf: &mut rf,
+            cfg: &self.cfg,
+            t,
+            base,
+            th,
+            stats: StackStats::default(),
+        };
+        let c = p.members();
+        c.ids[..c.len].to_vec()
+    }
+    /// Ready for a command: the thread's sequencer is idle.
+    #[inline]
+    pub fn ready(&self, t: u32) -> bool {
+        self.busy[(t / 64) as usize] & 1 << (t % 64) == 0
+    }
+    /// The lanes of warp `w` that are [`StackManager::ready`] (bit l: thread `w · warp_size + l`).
+    /// A warp's threads never straddle two words of `busy`: the warp size is a power of two of
+    /// at most 32 ([`Config::validate`]).
+    #[inline]
+    pub fn ready_lanes(&self, w: u32) -> u32 {
+        let ws = self.cfg.warp_size;
+        let first = w * ws;
+        let bits = self.busy[(first / 64) as usize] >> (first % 64);
+        !(bits as u32) & (u32::MAX >> (32 - ws))
+    }
+    /// Some thread will issue a micro-op in the next `step` without waiting for a completion
+    /// (it has micro-ops queued and none in flight). When false, every busy thread waits on the
+    /// bank arbiter or on global memory.
+    pub fn can_issue(&self) -> bool {
+        self.queued.iter().enumerate().any(|(word, &bits)| {
+            let mut rest = bits;
+            while rest != 0 {
+                let t = word * 64 + rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if self.seq[t].inflight.is_none() {
+                    return true;
+                }
+            }
+            false
+        })
+    }
+    /// No thread has a micro-op queued (some may still wait for one in flight).
+    #[inline]
+    pub fn nothing_queued(&self) -> bool {
+        self.queued.iter().all(|&w| w == 0)
+    }
+    /// No thread has work in flight.
+    pub fn quiescent(&self) -> bool {
+        self.busy.iter().all(|&w| w == 0)
+    }
+    pub fn warp_of(&self, t: u32) -> u32 {
+        warp_lane(t, self.cfg.warp_size).0
+    }
+    /// Every thread of warp `w` finished and quiet: the warp may leave.
+    pub fn warp_done(&self, w: u32) -> bool {
+        self.warp_threads(w).all(|t| self.threads[t as usize].done && self.ready(t))
+    }
+    pub fn warp_threads(&self, w: u32) -> std::ops::Range<u32> {
+        w * self.cfg.warp_size..(w + 1) * self.cfg.warp_size
+    }
+
+    /// Lays the spill slots out as `layout` among the threads of `sms` SMs (the memory system's
+    /// `local_layout`; see [`LocalMap`]).
+    pub fn set_local_layout(&mut self, layout: LocalLayout, sms: u32) {
+        self.local.layout = layout;
+        self.local.sms = sms.max(self.sm + 1);
+    }
+
+    /// Byte address of a global spill slot.
+    pub fn spill_addr(&self, t: u32, slot: u32) -> u64 {
+        self.local.addr(self.sm, t, slot)
+    }
+
+    /// Loads a new warp into slot `w`; lanes not in `active` start finished.
+    /// The previous occupant must have left (`warp_done`).
+    pub fn load_warp(&mut self, w: u32, active: u32) {
+        let ws = self.cfg.warp_size;
+        for lane in 0..ws {
+            let t = (w * ws + lane) as usize;
+            let base = self.skew_base(lane);
+            let on = active & (1 << lane) != 0;
+            self.threads[t] = ThreadRegs { overflow: false, spill_ptr: 0, done: !on };
+            self.stacks[t] = StackRegs {
+                top: base,
+                bottom: base,
+                empty: true,
+                idle: !on && self.cfg.realloc.is_some(),
+                next_tid: lane,
+                priority: 0,
+                flush: 0,
+            };
+            self.rb[t].clear();
+            self.seq[t] = Sequencer::default();
+            self.sync_queued(t as u32);
+            self.global[t].clear();
+        }
+    }
+
+    /// The base entry of `lane`'s stack (the policy's skew step; [`Config::skew_base`] in the
+    /// design).
+    fn skew_base(&self, lane: u32) -> u32 {
+        #[cfg(feature = "mutants")]
+        if let Some(m) = self.mutant {
+            return self.base_with(&mutants::Mutated(m), lane);
+        }
+        self.base_with(&Design, lane)
+    }
+
+    fn base_with<P: Steps>(&self, steps: &P, lane: u32) -> u32 {
+        let mut d = StackStep::default();
+        let mut rf = Overlay { m: self, d: &mut d, t: 0 };
+        let th = self.threads[0];
+        let mut p = Plan {
+            l: &mut Int,
+            steps,
+            rf: &mut rf,
+            cfg: &self.cfg,
+            t: 0,
+            base: 0,
+            th,
+            stats: StackStats::default(),
+        };
+        P::skew_base(&mut p, lane)
+    }
+
+    // ---- executing micro-ops ---------------------------------------------------------------
+
+    fn sh_index(&self, stack: u32, entry: u32) -> usize {
+        (stack * self.cfg.sh_entries + entry) as usize
+    }
+
+    /// The data effect of completing micro-op `u` of thread `t`, whose data latch is `latch`.
+    fn complete_into(&self, t: u32, u: Uop, latch: &mut Option<Entry>, d: &mut StackStep) {
+        let mut take = |src: Src| match src {
+            Src::Value(v) => v,
+            Src::Latch => latch.take().unwrap_or(POISON),
+        };
+        match u {
+            Uop::ShLoad { stack, entry } => *latch = Some(self.sh_data[self.sh_index(stack, entry)]),
+            Uop::ShStore { stack, entry, src } => {
+                let v = take(src);
+                d.writes.push(Write::Sh(self.sh_index(stack, entry), v));
+            }
+            Uop::GlobalLoad { slot } => {
+                *latch = Some(self.global[t as usize].get(slot as usize).copied().unwrap_or(POISON));
+            }
+            Uop::GlobalStore { slot, src } => {
+                let value = take(src);
+                d.writes.push(Write::Global { thread: t, slot, value });
+            }
+            Uop::RbBottom => {
+                let v = take(Src::Latch);
+                d.writes.push(Write::RbPushFront(t, v));
+            }
+            Uop::Release { stack } => {
+                let r = StackRegs { idle: true, ..d.stack_now(&self.stacks, stack) };
+                d.set_stack(stack, r);
+            }
+        }
+    }
+
+    /// Completes `u` of thread `t` at once (the functional level).
+    fn complete(&mut self, t: u32, u: Uop) {
+        let mut d = std::mem::take(&mut self.scratch);
+        let mut latch = self.seq[t as usize].latch;
+        self.complete_into(t, u, &mut latch, &mut d);
+        self.seq[t as usize].latch = latch;
+        self.commit(&d);
+        d.clear();
+        self.scratch = d;
+    }
+
+    /// Completes thread `t`'s next micro-op at once (for exploring every interleaving of
+    /// micro-ops across threads). Returns false if it had none.
+    pub fn complete_next(&mut self, t: u32) -> bool {
+        match self.seq[t as usize].uops.pop_front() {
+            Some(u) => {
+                self.sync_queued(t);
+                self.complete(t, u);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Hashes the architectural state: every register, queue, sequencer and memory word, but not
+    /// the event counters, so equal states hash equal.
+    pub fn hash_state<H: std::hash::Hasher>(&self, h: &mut H) {
+        use std::hash::Hash;
+        self.threads.hash(h);
+        self.stacks.hash(h);
+        self.rb.hash(h);
+        self.seq.hash(h);
+        self.sh_data.hash(h);
+        self.global.hash(h);
+    }
+
+    /// Accepts a command from a ready thread: updates registers and loads the sequencer (plan,
+    /// then commit). Returns the popped entry for a pop.
+    pub fn accept(&mut self, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
+        let mut d = std::mem::take(&mut self.scratch);
+        d.clear();
+        self.plan(&[(t, cmd)], &mut d);
+        let r = d.answer(t);
+        self.commit(&d);
+        d.clear();
+        self.scratch = d;
+        r
+    }
+
+    /// Functional level: accept the command and complete its whole program at once.
+    pub fn apply(&mut self, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
+        let r = self.accept(t, cmd)?;
+        while let Some(u) = self.seq[t as usize].uops.pop_front() {
+            self.complete(t, u);
+        }
+        self.sync_queued(t);
+        Ok(r)
+    }
+
+    /// The SH request that reads entry `entry` of stack `s`: the words (and so the banks) the
+    /// design addresses for it.
+    pub fn sh_read_request(&self, s: u32, entry: u32) -> ShReq {
+        self.sh_request(s, s, entry, false)
+    }
+
+    fn sh_request(&self, t: u32, stack: u32, entry: u32, write: bool) -> ShReq {
+        let wpe = self.cfg.entry_bytes / self.cfg.bank_bytes;
+        let first = (stack * self.cfg.sh_entries + entry) * wpe;
+        let mut words = [0; MAX_WORDS];
+        for (i, w) in words.iter_mut().take(wpe as usize).enumerate() {
+            *w = first + i as u32;
+        }
+        ShReq { thread: t, write, words, len: wpe as u8 }
+    }
+
+    /// Thread `t`'s sequencer this cycle: it may have completed its micro-op in flight
+    /// (`inflight`, `latch` after the completion), then issues its next one if none is in flight.
+    fn issue(&self, t: u32, mut inflight: Option<Uop>, mut latch: Option<Entry>, d: &mut StackStep) {
+        let head = if inflight.is_none() { self.seq[t as usize].uops.front().copied() } else { None };
+        if let Some(u) = head {
+            let mut take = |src: Src| match src {
+                Src::Value(v) => v,
+                Src::Latch => latch.take().unwrap_or(POISON),
+            };
+            match u {
+                Uop::ShLoad { stack, entry } => {
+                    d.sh_req.push(self.sh_request(t, stack, entry, false));
+                    inflight = Some(u);
+                }
+                Uop::ShStore { stack, entry, src } => {
+                    // Capture the latch now: the store carries its data to the bank.
+                    let v = take(src);
+                    d.sh_req.push(self.sh_request(t, stack, entry, true));
+                    inflight = Some(Uop::ShStore { stack, entry, src: Src::Value(v) });
+                }
+                Uop::GlobalLoad { slot } => {
+                    d.g_req.push(GReq { thread: t, write: false, addr: self.spill_addr(t, slot) });
+                    inflight = Some(u);
+                }
+                Uop::GlobalStore { slot, src } if self.acked_stores => {
+                    // Capture the latch now (the store carries its data); the data lands, and
+                    // the sequencer moves on, when the acknowledgement comes back.
+                    let v = take(src);
+                    d.g_req.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
+                    inflight = Some(Uop::GlobalStore { slot, src: Src::Value(v) });
+                }
+                Uop::GlobalStore { slot, .. } => {
+                    d.g_req.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
+                    self.complete_into(t, u, &mut latch, d);
+                }
+                Uop::RbBottom | Uop::Release { .. } => self.complete_into(t, u, &mut latch, d),
+            }
+        }
+        d.writes.push(Write::Seq { thread: t, issued: head.is_some(), inflight, latch });
+    }
+
+    /// One clock cycle at the cycle level, combinational: completions (`done`, `deq`) land
+    /// in their sequencers, every sequencer with nothing in flight issues its next micro-op, and
+    /// each command is planned (in order: a plan sees the stack registers earlier ones changed).
+    /// `d` receives the outputs and the register writes; nothing in `self` changes.
+    pub fn eval(&self, i: &StackIn, d: &mut StackStep) {
+        d.clear();
+        for &t in i.done.iter().chain(i.deq.iter()) {
+            let (inflight, latch) = match d.completed.iter().find(|c| c.0 == t) {
+                Some(c) => (c.1, c.2),
+                None => (self.seq[t as usize].inflight, self.seq[t as usize].latch),
+            };
+            let (mut inflight, mut latch) = (inflight, latch);
+            if let Some(u) = inflight.take() {
+                self.complete_into(t, u, &mut latch, d);
+            }
+            match d.completed.iter_mut().find(|c| c.0 == t) {
+                Some(c) => (c.1, c.2) = (inflight, latch),
+                None => d.completed.push((t, inflight, latch)),
+            }
+        }
+        for word in 0..self.queued.len() {
+            let mut bits = self.queued[word];
+            while bits != 0 {
+                let t = word as u32 * 64 + bits.trailing_zeros();
+                bits &= bits - 1;
+                let (inflight, latch) = match d.completed.iter().position(|c| c.0 == t) {
+                    Some(k) => {
+                        let c = d.completed.swap_remove(k);
+                        (c.1, c.2)
+                    }
+                    // Still waiting for its completion: nothing changes.
+                    None if self.seq[t as usize].inflight.is_some() => continue,
+                    None => (None, self.seq[t as usize].latch),
+                };
+                self.issue(t, inflight, latch, d);
+            }
+        }
+        // Completions of threads with nothing queued.
+        for k in 0..d.completed.len() {
+            let (thread, inflight, latch) = d.completed[k];
+            d.writes.push(Write::Seq { thread, issued: false, inflight, latch });
+        }
+        self.plan(i.cmds, d);
+    }
+
+    /// Plans `cmds` in order into `d`: a plan sees the stack registers earlier ones changed.
+    fn plan(&self, cmds: &[(u32, Cmd)], d: &mut StackStep) {
+        for (k, &(t, cmd)) in cmds.iter().enumerate() {
+            if cmd == Cmd::None {
+                continue;
+            }
+            // A thread's command port takes one command per cycle (the callers send at most one).
+            debug_assert!(
+                !cmds[..k].iter().any(|c| c.0 == t && c.1 != Cmd::None),
+                "two commands of thread {t}"
+            );
+            let r = self.plan_one(d, t, cmd);
+            match r {
+                Ok(Some(v)) => d.pops.push((t, v)),
+                Ok(None) => {}
+                Err(e) => d.errors.push(e),
+            }
+        }
+    }
+
+    /// Plans thread `t`'s command into `d` with the design's policy (or, in a test build, a
+    /// planted bug's).
+    fn plan_one(&self, d: &mut StackStep, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
+        #[cfg(feature = "mutants")]
+        if let Some(m) = self.mutant {
+            return self.plan_with(&mutants::Mutated(m), d, t, cmd);
+        }
+        self.plan_with(&Design, d, t, cmd)
+    }
+
+    /// Plans with `steps`: its stack-register changes stay in `plan_stacks` until the plan
+    /// succeeds, so a refused command changes nothing.
+    fn plan_with<P: Steps>(
+        &self,
+        steps: &P,
+        d: &mut StackStep,
+        t: u32,
+        cmd: Cmd,
+    ) -> Result<Option<Entry>, StackError> {
+        d.plan_stacks.clear();
+        let first_write = d.writes.len();
+        let th = self.threads[t as usize];
+        let base = t - warp_lane(t, self.cfg.warp_size).1;
+        let busy = !self.ready(t);
+        let mut rf = Overlay { m: self, d, t };
+        let mut p = Plan {
+            l: &mut Int,
+            steps,
+            rf: &mut rf,
+            cfg: &self.cfg,
+            t,
+            base,
+            th,
+            stats: StackStats::default(),
+        };
+        let r = p.run(cmd, busy);
+        let (th, stats) = (p.th, p.stats);
+        let r = r.and_then(|v| self.check_widths(d, t, first_write).map(|_| v));
+        match r {
+            Ok(_) => {
+                d.writes.push(Write::Thread(t, th));
+                for k in 0..d.plan_stacks.len() {
+                    let (s, regs) = d.plan_stacks[k];
+                    d.set_stack(s, regs);
+                }
+                d.stats.add(&stats);
+            }
+            Err(_) => {
+                // A refused push still counts as a push (the counters count commands seen).
+                d.writes.truncate(first_write);
+                d.stats.pushes += stats.pushes;
+            }
+        }
+        r
+    }
+
+    /// The registers a plan fills must hold their values: the RB count (unbounded for RB_FULL
+    /// in the model, [`crate::config::RB_FULL_COUNT_BITS`] wide) and the sequencer step (the
+    /// program's length).
+    fn check_widths(&self, d: &StackStep, t: u32, first_write: usize) -> Result<(), StackError> {
+        let w = &self.w;
+        let (mut rb, mut steps) = (self.rb[t as usize].len() as u64, 0u64);
+        for x in &d.writes[first_write..] {
+            match x {
+                Write::RbPushBack(..) => rb += 1,
+                Write::RbPopBack(_) | Write::RbPopFront(_) => rb -= 1,
+                Write::Emit(..) => steps += 1,
+                _ => {}
+            }
+        }
+        if rb >= 1 << w.rb_count {
+            return Err(StackError::Overflow { thread: t, field: "rb_count", value: rb, bits: w.rb_count });
+        }
+        if steps >= 1 << w.seq_step {
+            return Err(StackError::Overflow {
+                thread: t,
+                field: "seq_step",
+                value: steps,
+                bits: w.seq_step,
+            });
+        }
+        Ok(())
+    }
+
+    /// The clock edge: applies the writes [`StackManager::eval`] decided, in order.
+    pub fn commit(&mut self, d: &StackStep) {
+        for &(s, r) in &d.stacks {
+            self.stacks[s as usize] = r;
+        }
+        for &w in &d.writes {
+            match w {
+                Write::Thread(t, r) => self.threads[t as usize] = r,
+                Write::RbPushBack(t, v) => self.rb[t as usize].push_back(v),
+                Write::RbPopBack(t) => {
+                    self.rb[t as usize].pop_back();
+                }
+                Write::RbPopFront(t) => {
+                    self.rb[t as usize].pop_front();
+                }
+                Write::RbPushFront(t, v) => self.rb[t as usize].push_front(v),
+                Write::Sh(i, v) => self.sh_data[i] = v,
+                Write::Global { thread, slot, value } => {
+                    let g = &mut self.global[thread as usize];
+                    if g.len() <= slot as usize {
+                        g.resize(slot as usize + 1, POISON);
+                    }
+                    g[slot as usize] = value;
+                }
+                Write::Seq { thread, issued, inflight, latch } => {
+                    let q = &mut self.seq[thread as usize];
+                    if issued {
+                        q.uops.pop_front();
+                    }
+                    (q.inflight, q.latch) = (inflight, latch);
+                    self.sync_queued(thread);
+                }
+                Write::Emit(t, u) => {
+                    self.seq[t as usize].uops.push_back(u);
+                    self.sync_queued(t);
+                }
+            }
+        }
+        self.stats.add(&d.stats);
+    }
+
+    /// Threads with work in flight or queued.
+    pub fn busy_threads(&self) -> usize {
+        self.busy.iter().map(|w| w.count_ones() as usize).sum()
+    }
+
+    /// Sets a mutant (test builds).
+    #[cfg(feature = "mutants")]
+    pub fn with_mutant(mut self, m: Option<Mutant>) -> Self {
+        self.mutant = m;
+        self
+    }
+
+    /// Brings thread `t`'s bits of `queued` and `busy` in line with its sequencer (after any
+    /// change to it).
+    fn sync_queued(&mut self, t: u32) {
+        let (word, bit) = ((t / 64) as usize, 1u64 << (t % 64));
+        let q = &self.seq[t as usize];
+        let (queued, busy) = (!q.uops.is_empty(), !q.uops.is_empty() || q.inflight.is_some());
+        self.queued[word] = self.queued[word] & !bit | if queued { bit } else { 0 };
+        self.busy[word] = self.busy[word] & !bit | if busy { bit } else { 0 };
+    }
+}
+
+/// The simulator's register file for one plan: the committed registers under the cycle's
+/// earlier plans (`d.stacks`) and this plan's own changes (`d.plan_stacks`).
+struct Overlay<'a> {
+    m: &'a StackManager,
+    d: &'a mut StackStep,
+    /// The commanding thread.
+    t: u32,
+}
+
+impl Regfile<Int> for Overlay<'_> {
+    #[inline]
+    fn stack(&mut self, _: &mut Int, s: u32) -> StackRegs {
+        match self.d.plan_stacks.iter().find(|x| x.0 == s) {
+            Some(x) => x.1,
+            None => self.d.stack_now(&self.m.stacks, s),
+        }
+    }
+    fn stack_q(&mut self, _: &mut Int, s: u32) -> StackRegs {
+        self.m.stacks[s as usize]
+    }
+    #[inline]
+    fn set_stack(&mut self, _: &mut Int, s: u32, r: StackRegs) {
+        match self.d.plan_stacks.iter_mut().find(|x| x.0 == s) {
+            Some(x) => x.1 = r,
+            None => self.d.plan_stacks.push((s, r)),
+        }
+    }
+    fn done(&mut self, _: &mut Int, s: u32) -> bool {
+        self.m.threads[s as usize].done
+    }
+    fn rb_len(&mut self, _: &mut Int) -> u32 {
+        self.m.rb[self.t as usize].len() as u32
+    }
+    fn rb_front(&mut self, _: &mut Int) -> Entry {
+        self.m.rb[self.t as usize].front().copied().unwrap_or(POISON)
+    }
+    fn rb_back(&mut self, _: &mut Int) -> Entry {
+        self.m.rb[self.t as usize].back().copied().unwrap_or(POISON)
+    }
+    fn rb(&mut self, _: &mut Int, op: RbOp<Entry>) {
+        let t = self.t;
+        self.d.writes.push(match op {
+            RbOp::PopFront => Write::RbPopFront(t),
+            RbOp::PushBack(v) => Write::RbPushBack(t, v),
+            RbOp::PopBack => Write::RbPopBack(t),
+        });
+    }
+    #[inline]
+    fn emit(&mut self, _: &mut Int, valid: bool, u: UopL<Int>) {
+        if valid {
+            self.d.writes.push(Write::Emit(self.t, u));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// RB_FULL has no hardware bound; its count register is [`crate::config::RB_FULL_COUNT_BITS`]
+    /// wide, and a push past what it holds is refused, not silently counted in a wider integer.
+    #[test]
+    fn a_value_that_does_not_fit_its_register_is_an_error() {
+        let mut m = StackManager::new("RB_FULL".parse().unwrap(), 0).unwrap();
+        let bits = m.widths().rb_count;
+        for v in 0..(1u64 << bits) - 1 {
+            m.apply(0, Cmd::Push(v)).unwrap();
+        }
+        let value = 1 << bits;
+        assert_eq!(
+            m.apply(0, Cmd::Push(7)),
+            Err(StackError::Overflow { thread: 0, field: "rb_count", value, bits })
+        );
+        assert_eq!(m.rb(0).len() as u64, value - 1, "the refused push changed nothing");
+        assert_eq!(m.apply(0, Cmd::Pop), Ok(Some(value - 2)));
+    }
+}

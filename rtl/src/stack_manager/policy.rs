@@ -1,0 +1,720 @@
+//! The stack manager's decision logic: what one command of one thread does to the stack
+//! registers, and which micro-op program (SPEC sections 3 and 5) it loads into the sequencer.
+//!
+//! Written once over the [`Logic`] abstraction: the simulator runs it on integers
+//! ([`crate::logic::Int`]); `sms prove` runs it on symbolic bit-vectors and hands the result to
+//! SMT solvers. Nothing here knows which.
+//!
+//! - A [`Plan`] reads and writes the registers through a [`Regfile`]: the simulator's sees the
+//!   cycle's earlier plans over the committed registers; a proof's is an array of symbolic lanes.
+//! - [`Steps`] names the pieces of the policy a different design (or a planted bug) replaces:
+//!   pointer arithmetic, the idle search, borrowing, releasing, the global reload. [`Design`] is
+//!   the design itself: every step as this file writes it.
+//!
+//! Branches on register values are [`Logic::decide`]; loops over a chain run to the warp size
+//! and stop early only where [`Logic::maybe`] allows, so every instance computes one function.
+
+use super::regs::{CmdOf, SrcOf, StackError, StackRegsOf, StackStats, ThreadRegsOf, UopOf};
+use crate::config::Config;
+use crate::logic::Logic;
+
+/// An SH stack's registers under logic `L`.
+pub type Regs<L> = StackRegsOf<<L as Logic>::Word, <L as Logic>::Bit>;
+/// A thread's registers under logic `L`.
+pub type Thread<L> = ThreadRegsOf<<L as Logic>::Word, <L as Logic>::Bit>;
+/// A micro-op under logic `L`.
+pub type UopL<L> = UopOf<<L as Logic>::Word, <L as Logic>::Val>;
+
+/// A change to the commanding thread's RB.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RbOp<V> {
+    /// The oldest entry leaves (it is being spilled).
+    PopFront,
+    PushBack(V),
+    /// The top entry leaves (a pop).
+    PopBack,
+}
+
+/// What a plan reads and writes besides the commanding thread's own registers.
+pub trait Regfile<L: Logic> {
+    /// Stack `s`'s registers as the cycle's plans so far leave them.
+    fn stack(&mut self, l: &mut L, s: L::Word) -> Regs<L>;
+    /// Stack `s`'s registers as the cycle began.
+    fn stack_q(&mut self, l: &mut L, s: L::Word) -> Regs<L>;
+    fn set_stack(&mut self, l: &mut L, s: L::Word, r: Regs<L>);
+    /// Thread `s` has finished (as the cycle began).
+    fn done(&mut self, l: &mut L, s: L::Word) -> L::Bit;
+    /// Entries in the commanding thread's RB.
+    fn rb_len(&mut self, l: &mut L) -> L::Word;
+    /// Its oldest RB entry (read only when the RB holds one).
+    fn rb_front(&mut self, l: &mut L) -> L::Val;
+    /// Its newest RB entry (read only when the RB holds one).
+    fn rb_back(&mut self, l: &mut L) -> L::Val;
+    fn rb(&mut self, l: &mut L, op: RbOp<L::Val>);
+    /// Appends `u` to the thread's micro-op program when `valid`.
+    fn emit(&mut self, l: &mut L, valid: L::Bit, u: UopL<L>);
+}
+
+/// The members of one thread's chain in ring order from its dedicated stack: position `k` holds
+/// stack `ids[k]` when `on[k]` (positions past the ring's end are off).
+pub struct Chain<L: Logic> {
+    pub ids: [L::Word; 32],
+    pub on: [L::Bit; 32],
+    /// Positions walked (the ring's length in simulation; the warp size in a proof).
+    pub len: usize,
+}
+
+/// The replaceable pieces of the policy. Every method has the design's behaviour by default
+/// (the `Plan` method of the same name); an implementation overrides the pieces it changes.
+pub trait Steps: Sized {
+    /// Refuses a command the thread may not take now: busy sequencer, or after its finish.
+    fn refuse<L: Logic, R: Regfile<L>>(
+        p: &mut Plan<L, Self, R>,
+        cmd: &CmdOf<L::Val>,
+        busy: L::Bit,
+    ) -> Option<StackError> {
+        p.refuse(cmd, busy)
+    }
+    /// The entry after `i` in a circular queue.
+    fn inc<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, i: L::Word) -> L::Word {
+        p.inc(i)
+    }
+    /// Entries an SH stack holds.
+    fn entries<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, r: &Regs<L>) -> L::Word {
+        p.entries(r)
+    }
+    /// The entry at which `lane`'s SH queue starts.
+    fn skew_base<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, lane: L::Word) -> L::Word {
+        p.skew_base(lane)
+    }
+    /// The chain's top stack (highest Priority).
+    fn top_of<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, c: &Chain<L>) -> L::Word {
+        p.by_priority(c, true)
+    }
+    /// The stack a pop's global reload fills: the chain's oldest.
+    fn reload_target<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, c: &Chain<L>) -> L::Word {
+        p.by_priority(c, false)
+    }
+    /// The idle stack a full chain borrows: (found, stack).
+    fn first_idle<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) -> (L::Bit, L::Word) {
+        p.first_idle()
+    }
+    /// Links idle stack `s` into the thread's chain at rank `rank`.
+    fn borrow<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, s: L::Word, rank: L::Word) {
+        p.borrow(s, rank)
+    }
+    /// The member whose Next TID points at `s`.
+    fn pred_of<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, c: &Chain<L>, s: L::Word) -> L::Word {
+        p.pred_of(c, s)
+    }
+    /// Stack `s`'s registers once unlinked from its chain (`lane`: its own lane).
+    fn unlinked<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, r: Regs<L>, lane: L::Word) -> Regs<L> {
+        p.unlinked(r, lane)
+    }
+    fn reset_flush<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, s: L::Word) {
+        p.reset_flush(s)
+    }
+    /// Stores spilled entry `v` on top of stack `s`.
+    fn spill_into<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, s: L::Word, v: L::Val) {
+        p.spill_into(s, v)
+    }
+    /// Takes the newest entry of stack `s` off the queue; returns its index.
+    fn take_newest<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, s: L::Word) -> L::Word {
+        p.pop_top(s)
+    }
+    /// Stack `s` is drained after a pop took its entry.
+    fn drained<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, s: L::Word) -> L::Bit {
+        p.stack(s).empty
+    }
+    /// Gives drained borrowed stack `s` back.
+    fn release<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, s: L::Word) {
+        p.release(s)
+    }
+    /// A pop's reload of the newest global entry into the chain.
+    fn global_reload<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) {
+        p.global_reload()
+    }
+    /// Frees the newest global slot: returns its index.
+    fn release_spill_slot<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) -> L::Word {
+        p.release_spill_slot()
+    }
+}
+
+/// The design: every step as [`Plan`] writes it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Design;
+
+impl Steps for Design {}
+
+/// One command of one thread being planned.
+pub struct Plan<'a, L: Logic, P: Steps, R: Regfile<L>> {
+    pub l: &'a mut L,
+    pub steps: &'a P,
+    pub rf: &'a mut R,
+    pub cfg: &'a Config,
+    /// The commanding thread (its index in the RT unit) and its warp's first thread.
+    pub t: u32,
+    pub base: u32,
+    /// The thread's registers, as the plan leaves them.
+    pub th: Thread<L>,
+    /// What the plan counted (meaningful in simulation only).
+    pub stats: StackStats,
+}
+
+impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
+    /// Plans `cmd` (`busy`: the thread's sequencer is not idle). Returns the popped entry for a
+    /// pop, or the refusal; on a refusal the caller drops what the plan wrote.
+    pub fn run(&mut self, cmd: CmdOf<L::Val>, busy: L::Bit) -> Result<Option<L::Val>, StackError> {
+        if let CmdOf::None = cmd {
+            return Ok(None);
+        }
+        if let Some(e) = P::refuse(self, &cmd, busy) {
+            return Err(e);
+        }
+        match cmd {
+            CmdOf::None => Ok(None),
+            CmdOf::Push(v) => {
+                self.stats.pushes += 1;
+                self.push(v).map(|_| None)
+            }
+            CmdOf::Pop => self.pop().map(Some),
+            CmdOf::Finish => self.finish().map(|_| None),
+        }
+    }
+
+    // ---- register access ----------------------------------------------------------------------
+
+    pub fn stack(&mut self, s: L::Word) -> Regs<L> {
+        self.rf.stack(self.l, s)
+    }
+    pub fn set(&mut self, s: L::Word, r: Regs<L>) {
+        self.rf.set_stack(self.l, s, r)
+    }
+    fn emit(&mut self, u: UopL<L>) {
+        let on = self.l.bit(true);
+        self.rf.emit(self.l, on, u)
+    }
+    fn tw(&mut self) -> L::Word {
+        self.l.word(self.t)
+    }
+    fn m(&self) -> u32 {
+        self.cfg.sh_entries
+    }
+
+    // ---- acceptance ----------------------------------------------------------------------------
+
+    pub fn refuse(&mut self, _cmd: &CmdOf<L::Val>, busy: L::Bit) -> Option<StackError> {
+        let t = self.t;
+        if self.l.decide(busy) {
+            return Some(StackError::Busy { thread: t });
+        }
+        if self.l.decide(self.th.done) {
+            return Some(StackError::AfterFinish { thread: t });
+        }
+        None
+    }
+
+    // ---- circular queue pointer logic ----------------------------------------------------------
+
+    pub fn inc(&mut self, i: L::Word) -> L::Word {
+        let m = self.l.word(self.m());
+        let n = self.l.add_k(i, 1);
+        let inside = self.l.lt(n, m);
+        let wrapped = self.l.sub(n, m);
+        self.l.mux(inside, n, wrapped)
+    }
+
+    pub fn dec(&mut self, i: L::Word) -> L::Word {
+        let zero = self.l.eq_k(i, 0);
+        let last = self.l.word(self.m().wrapping_sub(1));
+        let d = self.l.sub_k(i, 1);
+        self.l.mux(zero, last, d)
+    }
+
+    pub fn entries(&mut self, r: &Regs<L>) -> L::Word {
+        r.entries(self.l, self.m())
+    }
+
+    fn full(&mut self, s: L::Word) -> L::Bit {
+        let r = self.stack(s);
+        let n = P::entries(self, &r);
+        self.l.eq_k(n, self.m())
+    }
+
+    fn push_top(&mut self, s: L::Word) -> L::Word {
+        let r = self.stack(s);
+        let up = P::inc(self, r.top);
+        let top = self.l.mux(r.empty, r.top, up);
+        let empty = self.l.bit(false);
+        self.set(s, StackRegsOf { top, empty, ..r });
+        top
+    }
+
+    pub fn pop_top(&mut self, s: L::Word) -> L::Word {
+        let r = self.stack(s);
+        let last = self.l.eq(r.top, r.bottom);
+        let down = self.dec(r.top);
+        let top = self.l.mux(last, r.top, down);
+        let yes = self.l.bit(true);
+        let empty = self.l.mux_bit(last, yes, r.empty);
+        self.set(s, StackRegsOf { top, empty, ..r });
+        r.top
+    }
+
+    fn push_bottom(&mut self, s: L::Word) -> L::Word {
+        let r = self.stack(s);
+        let down = self.dec(r.bottom);
+        let bottom = self.l.mux(r.empty, r.bottom, down);
+        let empty = self.l.bit(false);
+        self.set(s, StackRegsOf { bottom, empty, ..r });
+        bottom
+    }
+
+    pub fn pop_bottom(&mut self, s: L::Word) -> L::Word {
+        let r = self.stack(s);
+        let popped = self.pop_bottom_of(r);
+        self.set(s, popped);
+        r.bottom
+    }
+
+    /// Stack registers `r` with the oldest entry taken off.
+    fn pop_bottom_of(&mut self, r: Regs<L>) -> Regs<L> {
+        let next = P::inc(self, r.bottom);
+        let last = self.l.eq(r.top, r.bottom);
+        let bottom = self.l.mux(last, r.bottom, next);
+        let yes = self.l.bit(true);
+        let empty = self.l.mux_bit(last, yes, r.empty);
+        StackRegsOf { bottom, empty, ..r }
+    }
+
+    pub fn skew_base(&mut self, lane: L::Word) -> L::Word {
+        self.cfg.skew_base_of(self.l, lane)
+    }
+
+    // ---- chains (reallocation) -----------------------------------------------------------------
+
+    /// The thread's chain, following Next TID around the ring from its dedicated stack.
+    pub fn members(&mut self) -> Chain<L> {
+        let t = self.tw();
+        let base = self.l.word(self.base);
+        let mut on = self.l.bit(true);
+        let mut c = Chain { ids: [t; 32], on: [on; 32], len: 0 };
+        let mut s = t;
+        let bound = self.cfg.warp_size as usize;
+        loop {
+            c.ids[c.len] = s;
+            c.on[c.len] = on;
+            c.len += 1;
+            let next = self.stack(s).next_tid;
+            s = self.l.add(base, next);
+            let back = self.l.eq(s, t);
+            let go = self.l.not(back);
+            on = self.l.and(on, go);
+            if !self.l.maybe(on) || c.len == bound {
+                return c;
+            }
+        }
+    }
+
+    /// Stacks in the chain.
+    pub fn chain_len(&mut self, c: &Chain<L>) -> L::Word {
+        let mut n = self.l.word(0);
+        for k in 0..c.len {
+            let one = self.l.count(c.on[k]);
+            n = self.l.add(n, one);
+        }
+        n
+    }
+
+    /// The member of highest (`highest`) or lowest Priority: the last highest, or the first
+    /// lowest, in ring order.
+    pub fn by_priority(&mut self, c: &Chain<L>, highest: bool) -> L::Word {
+        self.by_priority_among(c, c.len, highest)
+    }
+
+    /// [`Self::by_priority`] over the first `n` positions of the ring.
+    pub fn by_priority_among(&mut self, c: &Chain<L>, n: usize, highest: bool) -> L::Word {
+        let mut best = c.ids[0];
+        let mut bp = self.stack(best).priority;
+        for k in 1..n.min(c.len) {
+            let p = self.stack(c.ids[k]).priority;
+            let better = if highest { self.l.le(bp, p) } else { self.l.lt(p, bp) };
+            let take = self.l.and(c.on[k], better);
+            best = self.l.mux(take, c.ids[k], best);
+            bp = self.l.mux(take, p, bp);
+        }
+        best
+    }
+
+    /// The first member, in ring order, whose SH stack is empty: (found, stack).
+    fn first_empty(&mut self, c: &Chain<L>) -> (L::Bit, L::Word) {
+        let mut found = self.l.bit(false);
+        let mut id = c.ids[0];
+        for k in 0..c.len {
+            let e = self.stack(c.ids[k]).empty;
+            let fresh = self.l.not(found);
+            let here = self.l.and(c.on[k], e);
+            let take = self.l.and(here, fresh);
+            id = self.l.mux(take, c.ids[k], id);
+            found = self.l.or(found, take);
+        }
+        (found, id)
+    }
+
+    /// Moves member `s` to rank `to`, shifting the ranks between.
+    pub fn move_to_rank(&mut self, c: &Chain<L>, s: L::Word, to: L::Word) {
+        let from = self.stack(s).priority;
+        let up = self.l.lt(from, to);
+        let down = self.l.lt(to, from);
+        for k in 0..c.len {
+            let id = c.ids[k];
+            let other = self.l.ne(id, s);
+            let member = self.l.and(c.on[k], other);
+            if !self.l.maybe(member) {
+                continue;
+            }
+            let r = self.stack(id);
+            let p = r.priority;
+            // from < to: the ranks in (from, to] move down one; to < from: [to, from) up one.
+            let above_from = self.l.lt(from, p);
+            let to_or_below = self.l.le(p, to);
+            let a = self.l.and(up, above_from);
+            let lower = self.l.and(a, to_or_below);
+            let from_above = self.l.lt(p, from);
+            let to_or_above = self.l.le(to, p);
+            let b = self.l.and(down, from_above);
+            let raise = self.l.and(b, to_or_above);
+            let moved = self.l.or(lower, raise);
+            let change = self.l.and(member, moved);
+            if !self.l.maybe(change) {
+                continue;
+            }
+            let pm = self.l.sub_k(p, 1);
+            let pp = self.l.add_k(p, 1);
+            let np = self.l.mux(lower, pm, pp);
+            let priority = self.l.mux(change, np, p);
+            self.set(id, StackRegsOf { priority, ..r });
+        }
+        let r = self.stack(s);
+        self.set(s, StackRegsOf { priority: to, ..r });
+    }
+
+    pub fn reset_flush(&mut self, s: L::Word) {
+        let r = self.stack(s);
+        let flush = self.l.word(0);
+        self.set(s, StackRegsOf { flush, ..r });
+    }
+
+    pub fn first_idle(&mut self) -> (L::Bit, L::Word) {
+        let mut found = self.l.bit(false);
+        let mut id = self.l.word(self.base);
+        for s in self.base..self.base + self.cfg.warp_size {
+            let sw = self.l.word(s);
+            let idle = self.stack(sw).idle;
+            let fresh = self.l.not(found);
+            let take = self.l.and(idle, fresh);
+            id = self.l.mux(take, sw, id);
+            found = self.l.or(found, take);
+            let searching = self.l.not(found);
+            if !self.l.maybe(searching) {
+                break;
+            }
+        }
+        (found, id)
+    }
+
+    pub fn borrow(&mut self, s: L::Word, rank: L::Word) {
+        let t = self.tw();
+        let base = self.l.word(self.base);
+        let lane = self.l.sub(s, base);
+        let anchor = self.stack(t);
+        let b = P::skew_base(self, lane);
+        let (no, zero) = (self.l.bit(false), self.l.word(0));
+        let yes = self.l.bit(true);
+        self.set(
+            s,
+            StackRegsOf {
+                top: b,
+                bottom: b,
+                empty: yes,
+                idle: no,
+                next_tid: anchor.next_tid,
+                priority: rank,
+                flush: zero,
+            },
+        );
+        self.set(t, StackRegsOf { next_tid: lane, ..anchor });
+        self.stats.borrows += 1;
+    }
+
+    pub fn pred_of(&mut self, c: &Chain<L>, s: L::Word) -> L::Word {
+        let base = self.l.word(self.base);
+        let mut found = self.l.bit(false);
+        let mut pred = self.tw();
+        for k in 0..c.len {
+            let next = self.stack(c.ids[k]).next_tid;
+            let points = self.l.add(base, next);
+            let hit = self.l.eq(points, s);
+            let fresh = self.l.not(found);
+            let here = self.l.and(c.on[k], hit);
+            let take = self.l.and(here, fresh);
+            pred = self.l.mux(take, c.ids[k], pred);
+            found = self.l.or(found, take);
+        }
+        pred
+    }
+
+    pub fn unlinked(&mut self, r: Regs<L>, lane: L::Word) -> Regs<L> {
+        let priority = self.l.word(0);
+        StackRegsOf { next_tid: lane, priority, ..r }
+    }
+
+    /// Takes drained borrowed stack `s` out of the thread's chain.
+    fn unlink(&mut self, s: L::Word) {
+        let c = self.members();
+        let pred = P::pred_of(self, &c, s);
+        let next = self.stack(s).next_tid;
+        let r = self.stack(pred);
+        self.set(pred, StackRegsOf { next_tid: next, ..r });
+        let r = self.stack(s);
+        let base = self.l.word(self.base);
+        let lane = self.l.sub(s, base);
+        let r = P::unlinked(self, r, lane);
+        self.set(s, r);
+        P::reset_flush(self, s);
+    }
+
+    pub fn release(&mut self, s: L::Word) {
+        self.emit(UopOf::Release { stack: s });
+    }
+
+    // ---- the plan: registers now, micro-ops for the sequencer ----------------------------------
+
+    fn claim_spill_slots(&mut self, n: L::Word) -> Result<L::Word, StackError> {
+        let limit = (1u32 << self.cfg.spill_ptr_bits.min(31)) - 1;
+        let sp = self.th.spill_ptr;
+        let sum = self.l.add(sp, n);
+        let lw = self.l.word(limit);
+        let past = self.l.lt(lw, sum);
+        let wrapped = self.l.lt(sum, sp);
+        let over = self.l.or(past, wrapped);
+        if self.l.decide(over) {
+            return Err(StackError::SpillRegionFull { thread: self.t, entries: limit });
+        }
+        self.th.spill_ptr = sum;
+        self.th.overflow = self.l.bit(true);
+        Ok(sp)
+    }
+
+    /// Spills `v` (the oldest RB entry) out of the full RB.
+    fn spill(&mut self, v: L::Val) -> Result<(), StackError> {
+        if self.m() == 0 {
+            let one = self.l.word(1);
+            let slot = self.claim_spill_slots(one)?;
+            self.emit(UopOf::GlobalStore { slot, src: SrcOf::Value(v) });
+            self.stats.rb_to_global += 1;
+            return Ok(());
+        }
+        let chain = self.members();
+        let top = P::top_of(self, &chain);
+        let full = self.full(top);
+        let room = self.l.not(full);
+        if self.l.decide(room) {
+            P::spill_into(self, top, v);
+            return Ok(());
+        }
+        if let Some(ra) = self.cfg.realloc {
+            let len = self.chain_len(&chain);
+            let rank = self.l.sub_k(len, 1);
+            let (some_empty, e) = self.first_empty(&chain);
+            if self.l.decide(some_empty) {
+                self.move_to_rank(&chain, e, rank);
+                P::spill_into(self, e, v);
+                return Ok(());
+            }
+            let limit = self.l.word(ra.borrow_limit);
+            let may_borrow = self.l.le(len, limit);
+            if self.l.decide(may_borrow) {
+                let (some_idle, s) = P::first_idle(self);
+                if self.l.decide(some_idle) {
+                    P::borrow(self, s, len);
+                    P::spill_into(self, s, v);
+                    return Ok(());
+                }
+            }
+            let oldest = self.by_priority(&chain, false);
+            let one = self.l.word(1);
+            let several = self.l.lt(one, len);
+            let f = self.stack(oldest).flush;
+            let below_limit = self.l.lt_k(f, ra.flush_limit);
+            let may_flush = self.l.or(several, below_limit);
+            if self.l.decide(may_flush) {
+                self.flush(oldest, ra.flush_limit)?;
+                self.move_to_rank(&chain, oldest, rank);
+                P::spill_into(self, oldest, v);
+                return Ok(());
+            }
+        }
+        // SPEC 3, push case 3: SH load (Bottom) → global store → SH store (Top + 1).
+        let one = self.l.word(1);
+        let slot = self.claim_spill_slots(one)?;
+        let b = self.pop_bottom(top);
+        self.emit(UopOf::ShLoad { stack: top, entry: b });
+        self.emit(UopOf::GlobalStore { slot, src: SrcOf::Latch });
+        self.stats.sh_to_global += 1;
+        P::spill_into(self, top, v);
+        Ok(())
+    }
+
+    pub fn spill_into(&mut self, s: L::Word, v: L::Val) {
+        let e = self.push_top(s);
+        self.emit(UopOf::ShStore { stack: s, entry: e, src: SrcOf::Value(v) });
+        self.stats.rb_to_sh += 1;
+    }
+
+    /// Writes the whole of stack `s` to global memory, oldest entry first (lowest address).
+    fn flush(&mut self, s: L::Word, limit: u32) -> Result<(), StackError> {
+        let r = self.stack(s);
+        let n = P::entries(self, &r);
+        let first = self.claim_spill_slots(n)?;
+        for i in 0..self.m() {
+            let iw = self.l.word(i);
+            let live = self.l.lt(iw, n);
+            if !self.l.maybe(live) {
+                break;
+            }
+            let r = self.stack(s);
+            let popped = self.pop_bottom_of(r);
+            let next = StackRegsOf::mux(self.l, live, popped, r);
+            self.set(s, next);
+            let slot = self.l.add(first, iw);
+            self.rf.emit(self.l, live, UopOf::ShLoad { stack: s, entry: r.bottom });
+            self.rf.emit(self.l, live, UopOf::GlobalStore { slot, src: SrcOf::Latch });
+            self.stats.sh_to_global += 1;
+        }
+        self.stats.flushes += 1;
+        let r = self.stack(s);
+        let below = self.l.lt_k(r.flush, limit);
+        let saturated = self.l.not(below);
+        if self.l.maybe(saturated) {
+            self.stats.flushes_saturated += 1;
+        }
+        if self.l.maybe(below) {
+            let up = self.l.add_k(r.flush, 1);
+            let flush = self.l.mux(saturated, r.flush, up);
+            self.set(s, StackRegsOf { flush, ..r });
+        }
+        Ok(())
+    }
+
+    fn push(&mut self, v: L::Val) -> Result<(), StackError> {
+        if let Some(n) = self.cfg.rb.capacity() {
+            let len = self.rf.rb_len(self.l);
+            let nw = self.l.word(n);
+            let full = self.l.le(nw, len);
+            if self.l.decide(full) {
+                let oldest = self.rf.rb_front(self.l);
+                self.rf.rb(self.l, RbOp::PopFront);
+                self.spill(oldest)?;
+            }
+        }
+        self.rf.rb(self.l, RbOp::PushBack(v));
+        Ok(())
+    }
+
+    fn pop(&mut self) -> Result<L::Val, StackError> {
+        let len = self.rf.rb_len(self.l);
+        let empty = self.l.eq_k(len, 0);
+        if self.l.decide(empty) {
+            return Err(StackError::PopEmpty { thread: self.t });
+        }
+        let v = self.rf.rb_back(self.l);
+        self.rf.rb(self.l, RbOp::PopBack);
+        self.stats.pops += 1;
+        if self.m() == 0 {
+            if self.l.decide(self.th.overflow) {
+                let slot = P::release_spill_slot(self);
+                self.emit(UopOf::GlobalLoad { slot });
+                self.emit(UopOf::RbBottom);
+                self.stats.global_to_rb += 1;
+            }
+            return Ok(v);
+        }
+        let chain = self.members();
+        let top = P::top_of(self, &chain);
+        let holds = self.stack(top).empty;
+        let holds = self.l.not(holds);
+        if self.l.decide(holds) {
+            let e = P::take_newest(self, top);
+            self.emit(UopOf::ShLoad { stack: top, entry: e });
+            self.emit(UopOf::RbBottom);
+            self.stats.sh_to_rb += 1;
+            let drained = P::drained(self, top);
+            if self.l.decide(drained) {
+                P::reset_flush(self, top);
+                let len = self.chain_len(&chain);
+                let one = self.l.word(1);
+                let several = self.l.lt(one, len);
+                if self.l.decide(several) {
+                    let t = self.tw();
+                    let own = self.l.eq(top, t);
+                    let borrowed = self.l.not(own);
+                    if self.l.decide(borrowed) {
+                        self.unlink(top);
+                        P::release(self, top);
+                        self.stats.releases += 1;
+                    } else {
+                        let zero = self.l.word(0);
+                        self.move_to_rank(&chain, t, zero);
+                        self.stats.demotions += 1;
+                    }
+                }
+            }
+        }
+        P::global_reload(self);
+        Ok(v)
+    }
+
+    pub fn global_reload(&mut self) {
+        if !self.l.decide(self.th.overflow) {
+            return;
+        }
+        let chain = self.members();
+        let oldest = P::reload_target(self, &chain);
+        let full = self.full(oldest);
+        let room = self.l.not(full);
+        if self.l.decide(room) {
+            let slot = P::release_spill_slot(self);
+            let e = self.push_bottom(oldest);
+            self.emit(UopOf::GlobalLoad { slot });
+            self.emit(UopOf::ShStore { stack: oldest, entry: e, src: SrcOf::Latch });
+            self.stats.global_to_sh += 1;
+        }
+    }
+
+    pub fn release_spill_slot(&mut self) -> L::Word {
+        let sp = self.l.sub_k(self.th.spill_ptr, 1);
+        let emptied = self.l.eq_k(sp, 0);
+        let kept = self.l.not(emptied);
+        self.th.spill_ptr = sp;
+        self.th.overflow = self.l.and(self.th.overflow, kept);
+        sp
+    }
+
+    fn finish(&mut self) -> Result<(), StackError> {
+        let len = self.rf.rb_len(self.l);
+        let zero = self.l.word(0);
+        let holds = self.l.ne(len, zero);
+        if self.l.decide(holds) {
+            return Err(StackError::FinishNonEmpty { thread: self.t });
+        }
+        self.th.done = self.l.bit(true);
+        if self.cfg.realloc.is_some() {
+            let t = self.tw();
+            let r = self.stack(t);
+            let idle = self.l.bit(true);
+            self.set(t, StackRegsOf { idle, ..r });
+        }
+        Ok(())
+    }
+}
