@@ -6,6 +6,7 @@ pub mod bench;
 pub mod check;
 pub mod cost;
 pub mod depth;
+pub mod prove;
 pub mod run;
 pub mod scenes;
 pub mod stack_config;
@@ -37,6 +38,9 @@ pub enum Command {
     /// Exhaustive bounded model checking of stack consistency on small configurations (a grid,
     /// or the ones named with -c, one warp of --warp-size threads).
     Check(check::Args),
+    /// SMT proofs (z3, cvc5) that the stack manager's decision logic, the code the simulator
+    /// runs, equals the specification of SPEC sections 3 and 5 at a named configuration.
+    Prove(prove::Args),
     /// Run the paper's experiments over a scene set and write the report.
     Sweep(sweep::Args),
     /// Turn each simulator mechanism off in turn and report how the headline speed-ups move.
@@ -54,6 +58,7 @@ impl Cli {
             Command::Cost(args) => cost::run(args),
             Command::Check(args) => check::run(args),
             Command::Run(args) => run::run(args),
+            Command::Prove(args) => prove::run(args),
             Command::Sweep(args) => sweep::run(args),
             Command::Ablate(args) => ablate::run(args),
             Command::Bench(args) => bench::run(args),

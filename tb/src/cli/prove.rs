@@ -1,0 +1,103 @@
+//! `sms prove`: SMT proofs of the stack manager's decision logic at a named configuration.
+
+use std::time::Duration;
+
+use anyhow::{bail, Result};
+use rtl::stack_manager::policy::Design;
+use rtl::stack_manager::Mutant;
+
+use super::stack_config::StackConfigArgs;
+use crate::prove::solver::{Solver, Verdict};
+use crate::prove::{obligations, prove, Outcome};
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(flatten)]
+    pub stack: StackConfigArgs,
+    /// Solvers to run every proof with, comma-separated (Debian packages `z3`, `cvc5`).
+    #[arg(long, value_delimiter = ',', default_values_t = ["z3".to_string(), "cvc5".to_string()])]
+    pub solver: Vec<String>,
+    /// Time limit per proof and solver, in seconds; past it the verdict is "unknown".
+    #[arg(long, default_value_t = 600)]
+    pub timeout: u64,
+    /// Only the properties whose name contains TEXT.
+    #[arg(long, value_name = "TEXT")]
+    pub only: Option<String>,
+    /// Prove a planted bug instead of the design (builds with `--features mutants`): a
+    /// counterexample is the expected answer.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Mutant::NAMES))]
+    pub mutant: Option<String>,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let cfgs = args.stack.resolve(&["SMS"])?;
+    let mut solvers = Vec::new();
+    for s in &args.solver {
+        let Some(sv) = Solver::from_name(s) else { bail!("--solver {s}: unknown; one of z3, cvc5") };
+        sv.check_installed()?;
+        solvers.push(sv);
+    }
+    let limit = Duration::from_secs(args.timeout);
+    let mut all = Vec::new();
+    for cfg in &cfgs {
+        for ob in obligations(cfg) {
+            if args.only.as_ref().is_some_and(|t| !ob.name.contains(t.as_str())) {
+                continue;
+            }
+            eprintln!("proving {} at {} ...", ob.name, cfg.name());
+            let outs = match args.mutant.as_deref() {
+                None => prove(cfg, &Design, &ob, &solvers, limit)?,
+                Some(name) => prove_mutant(name, cfg, &ob, &solvers, limit)?,
+            };
+            for o in &outs {
+                println!("{}", line(o));
+            }
+            all.extend(outs);
+        }
+    }
+    let failed = all.iter().filter(|o| !matches!(o.verdict, Verdict::Proved)).count();
+    if failed > 0 && args.mutant.is_none() {
+        bail!("{failed} of {} proofs not proved", all.len());
+    }
+    Ok(())
+}
+
+fn line(o: &Outcome) -> String {
+    let what = match &o.verdict {
+        Verdict::Proved => "proved".to_string(),
+        Verdict::Counterexample(_) => format!("COUNTEREXAMPLE ({} differ)", o.differ.join("; ")),
+        Verdict::Unknown(why) => format!("unknown ({why})"),
+    };
+    format!(
+        "{:<44} {:<18} {:<5} {:>8.1} s  {:>7} terms  {}",
+        o.property,
+        o.config,
+        o.solver.name(),
+        o.seconds,
+        o.terms,
+        what
+    )
+}
+
+#[cfg(feature = "mutants")]
+fn prove_mutant(
+    name: &str,
+    cfg: &rtl::config::Config,
+    ob: &crate::prove::Obligation,
+    solvers: &[Solver],
+    limit: Duration,
+) -> Result<Vec<Outcome>> {
+    let m = Mutant::from_name(name).expect("clap checked the name");
+    prove(cfg, &rtl::stack_manager::mutants::Mutated(m), ob, solvers, limit)
+}
+
+#[cfg(not(feature = "mutants"))]
+fn prove_mutant(
+    name: &str,
+    _: &rtl::config::Config,
+    _: &crate::prove::Obligation,
+    _: &[Solver],
+    _: Duration,
+) -> Result<Vec<Outcome>> {
+    bail!("--mutant {name}: this build has no planted bugs; build with `--features mutants`")
+}

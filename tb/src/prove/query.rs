@@ -1,0 +1,615 @@
+//! One-step equivalence queries: for every register state of a warp satisfying the
+//! well-formedness invariant ([`well_formed`]), the design's policy ([`rtl::stack_manager::policy`])
+//! and the specification ([`super::spec`]) give the same answer, micro-op program, thread
+//! registers, RB length and stack registers of every lane, for one cycle's commands.
+//!
+//! Both sides run on the same symbolic state ([`SymWarp`]); each side's paths are merged under
+//! their path conditions into one output, and the solver is asked for a state where the outputs
+//! differ.
+
+use rtl::config::Config;
+use rtl::logic::Logic;
+use rtl::stack_manager::policy::{Plan, RbOp, Regfile, Regs, Steps, Thread, UopL};
+use rtl::stack_manager::{CmdOf, SrcOf, StackError, StackRegsOf, StackStats, ThreadRegsOf, UopOf};
+
+use super::spec::Spec;
+use super::sym::{Sym, B, V, W};
+
+/// The kind of a command in a query (its push value is symbolic).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kind {
+    Push,
+    Pop,
+    Finish,
+}
+
+impl Kind {
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Push => "push",
+            Kind::Pop => "pop",
+            Kind::Finish => "finish",
+        }
+    }
+}
+
+/// One commanding lane of a query: its lane, command, and symbolic thread state.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneIn {
+    pub lane: u32,
+    pub kind: Kind,
+    pub th: Thread<Sym>,
+    pub busy: B,
+    pub rb_len: W,
+    pub rb_front: V,
+    pub rb_back: V,
+    pub value: V,
+}
+
+/// The symbolic state of one warp: every lane's stack registers and done bit, and the
+/// commanding lanes' thread registers.
+pub struct State {
+    pub base: u32,
+    pub regs: Vec<Regs<Sym>>,
+    pub done: Vec<B>,
+    pub lanes: Vec<LaneIn>,
+}
+
+impl State {
+    /// Fresh variables for a warp starting at thread `base` whose lanes `cmds` command.
+    pub fn new(s: &mut Sym, cfg: &Config, base: u32, cmds: &[(u32, Kind)]) -> State {
+        let ws = cfg.warp_size;
+        let regs = (0..ws)
+            .map(|j| StackRegsOf {
+                top: s.var_word(&format!("top_{j}")),
+                bottom: s.var_word(&format!("bottom_{j}")),
+                empty: s.var_bit(&format!("empty_{j}")),
+                idle: s.var_bit(&format!("idle_{j}")),
+                next_tid: s.var_word(&format!("next_tid_{j}")),
+                priority: s.var_word(&format!("priority_{j}")),
+                flush: s.var_word(&format!("flush_{j}")),
+            })
+            .collect();
+        let done = (0..ws).map(|j| s.var_bit(&format!("done_{j}"))).collect::<Vec<_>>();
+        let lanes = cmds
+            .iter()
+            .map(|&(lane, kind)| LaneIn {
+                lane,
+                kind,
+                th: ThreadRegsOf {
+                    overflow: s.var_bit(&format!("overflow_{lane}")),
+                    spill_ptr: s.var_word(&format!("spill_ptr_{lane}")),
+                    done: done[lane as usize],
+                },
+                busy: s.var_bit(&format!("busy_{lane}")),
+                rb_len: s.var_word(&format!("rb_len_{lane}")),
+                rb_front: s.var_val(&format!("rb_front_{lane}")),
+                rb_back: s.var_val(&format!("rb_back_{lane}")),
+                value: s.var_val(&format!("push_value_{lane}")),
+            })
+            .collect();
+        State { base, regs, done, lanes }
+    }
+}
+
+/// The well-formedness invariant the equivalence assumes, over any [`Logic`] (the simulator's
+/// reachable states satisfy it: a test checks that on random runs).
+///
+/// Every lane: Top and Bottom below M, an empty queue has Top = Bottom, Next TID names a lane;
+/// with reallocation Priority ≤ borrow limit and Flush ≤ flush limit, and an Idle stack is a
+/// finished thread's empty stack alone on its ring with rank and count 0; without it, no stack is
+/// Idle or linked. Every commanding lane: RB length ≤ N; Overflow exactly when the spill pointer
+/// is above 0, which is at most the region's size; its ring returns to it within 1 + borrow limit
+/// steps; the ring's ranks are distinct and below its length; its other members are finished and
+/// not Idle; it is not Idle unless finished.
+pub fn well_formed<L: Logic>(
+    l: &mut L,
+    cfg: &Config,
+    regs: &[Regs<L>],
+    done: &[L::Bit],
+    lanes: &[(u32, Thread<L>, L::Word)],
+) -> L::Bit {
+    let m = cfg.sh_entries;
+    let ws = cfg.warp_size;
+    let mut ok = l.bit(true);
+    let all = |l: &mut L, ok: &mut L::Bit, b: L::Bit| *ok = l.and(*ok, b);
+    for (j, r) in regs.iter().enumerate() {
+        let jw = l.word(j as u32);
+        if m > 0 {
+            let a = l.lt_k(r.top, m);
+            all(l, &mut ok, a);
+            let b = l.lt_k(r.bottom, m);
+            all(l, &mut ok, b);
+            let same = l.eq(r.top, r.bottom);
+            let full_or_same = implies(l, r.empty, same);
+            all(l, &mut ok, full_or_same);
+        }
+        let n = l.lt_k(r.next_tid, ws);
+        all(l, &mut ok, n);
+        let alone = l.eq(r.next_tid, jw);
+        let rank0 = l.eq_k(r.priority, 0);
+        let count0 = l.eq_k(r.flush, 0);
+        match cfg.realloc {
+            Some(ra) => {
+                let p = l.lt_k(r.priority, ra.borrow_limit + 1);
+                all(l, &mut ok, p);
+                let f = l.lt_k(r.flush, ra.flush_limit + 1);
+                all(l, &mut ok, f);
+                let a = l.and(done[j], alone);
+                let b = l.and(r.empty, rank0);
+                let c = l.and(a, b);
+                let idle_ok = l.and(c, count0);
+                let not_idle = l_not(l, r.idle);
+                let imp = l.or(not_idle, idle_ok);
+                all(l, &mut ok, imp);
+            }
+            None => {
+                let not_idle = l_not(l, r.idle);
+                all(l, &mut ok, not_idle);
+                all(l, &mut ok, alone);
+                all(l, &mut ok, rank0);
+                all(l, &mut ok, count0);
+            }
+        }
+    }
+    let limit = (1u32 << cfg.spill_ptr_bits.min(31)) - 1;
+    let max_ring = cfg.realloc.map_or(1, |ra| ra.borrow_limit + 1) as usize;
+    for &(lane, th, rb_len) in lanes {
+        if let Some(n) = cfg.rb.capacity() {
+            let a = l.lt_k(rb_len, n + 1);
+            all(l, &mut ok, a);
+        }
+        let zero = l.word(0);
+        let some = l.lt(zero, th.spill_ptr);
+        let same = eq_bit(l, some, th.overflow);
+        all(l, &mut ok, same);
+        let sp = l.lt_k(th.spill_ptr, limit + 1);
+        all(l, &mut ok, sp);
+        let d = eq_bit(l, th.done, done[lane as usize]);
+        all(l, &mut ok, d);
+        let me = l.word(lane);
+        let own = regs[lane as usize];
+        let not_idle = l_not(l, own.idle);
+        let a = l.or(th.done, not_idle);
+        all(l, &mut ok, a);
+        // Walk the ring: `ids[k]` is the lane k steps along; it must come home within max_ring.
+        let mut ids = vec![me];
+        let mut home = l.bit(false);
+        let mut len = l.word(0);
+        let mut cur = me;
+        for k in 1..=max_ring.min(ws as usize) {
+            let next = select(l, regs, cur, |r| r.next_tid);
+            let back = l.eq(next, me);
+            let fresh = l_not(l, home);
+            let now = l.and(back, fresh);
+            let kw = l.word(k as u32);
+            len = l.mux(now, kw, len);
+            home = l.or(home, now);
+            ids.push(next);
+            cur = next;
+        }
+        let r = l.or(home, th.done);
+        all(l, &mut ok, r);
+        // Members (positions below len): ranks distinct and below len; others finished, not Idle.
+        for (k, &x) in ids.iter().enumerate().take(max_ring) {
+            let kw = l.word(k as u32);
+            let member = l.lt(kw, len);
+            let p = select(l, regs, x, |r| r.priority);
+            let below = l.lt(p, len);
+            let imp = implies(l, member, below);
+            let need = l.or(imp, th.done);
+            all(l, &mut ok, need);
+            if k > 0 {
+                let fin = select_bit(l, done, x);
+                let idle = select_idle(l, regs, x);
+                let awake = l.not(idle);
+                let good = l.and(fin, awake);
+                let imp = implies(l, member, good);
+                let need = l.or(imp, th.done);
+                all(l, &mut ok, need);
+            }
+            for &y in ids.iter().take(k) {
+                let q = select(l, regs, y, |r| r.priority);
+                let distinct = l.ne(p, q);
+                let imp = implies(l, member, distinct);
+                let need = l.or(imp, th.done);
+                all(l, &mut ok, need);
+            }
+        }
+    }
+    ok
+}
+
+fn l_not<L: Logic>(l: &mut L, b: L::Bit) -> L::Bit {
+    l.not(b)
+}
+
+fn implies<L: Logic>(l: &mut L, a: L::Bit, b: L::Bit) -> L::Bit {
+    let na = l.not(a);
+    l.or(na, b)
+}
+
+fn eq_bit<L: Logic>(l: &mut L, a: L::Bit, b: L::Bit) -> L::Bit {
+    let nb = l.not(b);
+    l.mux_bit(a, b, nb)
+}
+
+/// Field `f` of the lane `lane` names (a multiplexer over the warp).
+fn select<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word, f: impl Fn(&Regs<L>) -> L::Word) -> L::Word {
+    let mut v = f(&regs[regs.len() - 1]);
+    for j in (0..regs.len() - 1).rev() {
+        let hit = l.eq_k(lane, j as u32);
+        v = l.mux(hit, f(&regs[j]), v);
+    }
+    v
+}
+
+fn select_idle<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word) -> L::Bit {
+    let mut v = regs[regs.len() - 1].idle;
+    for j in (0..regs.len() - 1).rev() {
+        let hit = l.eq_k(lane, j as u32);
+        v = l.mux_bit(hit, regs[j].idle, v);
+    }
+    v
+}
+
+fn select_bit<L: Logic>(l: &mut L, bits: &[L::Bit], lane: L::Word) -> L::Bit {
+    let mut v = bits[bits.len() - 1];
+    for j in (0..bits.len() - 1).rev() {
+        let hit = l.eq_k(lane, j as u32);
+        v = l.mux_bit(hit, bits[j], v);
+    }
+    v
+}
+
+/// The symbolic register file both sides plan against: the cycle's registers so far (`now`),
+/// one plan's working copy (`work`), the registers as the cycle began (`q`), and what the plan
+/// emitted.
+pub struct SymWarp<'a> {
+    pub base: u32,
+    pub q: &'a [Regs<Sym>],
+    pub now: Vec<Regs<Sym>>,
+    pub work: Vec<Regs<Sym>>,
+    pub done: &'a [B],
+    pub lane: LaneIn,
+    pub prog: Vec<(B, UopL<Sym>)>,
+    pub rb_len: W,
+}
+
+impl SymWarp<'_> {
+    fn pick(&self, l: &mut Sym, arr: &[Regs<Sym>], s: W) -> Regs<Sym> {
+        let base = self.base;
+        let mut v = arr[arr.len() - 1];
+        for j in (0..arr.len() - 1).rev() {
+            let hit = l.eq_k(s, base + j as u32);
+            v = StackRegsOf::mux(l, hit, arr[j], v);
+        }
+        v
+    }
+}
+
+impl Regfile<Sym> for SymWarp<'_> {
+    fn stack(&mut self, l: &mut Sym, s: W) -> Regs<Sym> {
+        let arr = std::mem::take(&mut self.work);
+        let v = self.pick(l, &arr, s);
+        self.work = arr;
+        v
+    }
+    fn stack_q(&mut self, l: &mut Sym, s: W) -> Regs<Sym> {
+        self.pick(l, self.q, s)
+    }
+    fn set_stack(&mut self, l: &mut Sym, s: W, r: Regs<Sym>) {
+        for j in 0..self.work.len() {
+            let hit = l.eq_k(s, self.base + j as u32);
+            if l.maybe(hit) {
+                self.work[j] = StackRegsOf::mux(l, hit, r, self.work[j]);
+            }
+        }
+    }
+    fn done(&mut self, l: &mut Sym, s: W) -> B {
+        let mut v = self.done[self.done.len() - 1];
+        for j in (0..self.done.len() - 1).rev() {
+            let hit = l.eq_k(s, self.base + j as u32);
+            v = l.mux_bit(hit, self.done[j], v);
+        }
+        v
+    }
+    fn rb_len(&mut self, _: &mut Sym) -> W {
+        self.lane.rb_len
+    }
+    fn rb_front(&mut self, _: &mut Sym) -> V {
+        self.lane.rb_front
+    }
+    fn rb_back(&mut self, _: &mut Sym) -> V {
+        self.lane.rb_back
+    }
+    fn rb(&mut self, l: &mut Sym, op: RbOp<V>) {
+        self.rb_len = match op {
+            RbOp::PushBack(_) => l.add_k(self.rb_len, 1),
+            RbOp::PopFront | RbOp::PopBack => l.sub_k(self.rb_len, 1),
+        };
+    }
+    fn emit(&mut self, _: &mut Sym, valid: B, u: UopL<Sym>) {
+        self.prog.push((valid, u));
+    }
+}
+
+/// A micro-op as words: kind (its waveform code), first field (stack or slot), entry, whether
+/// its data comes from the latch, and its immediate value.
+#[derive(Clone, Copy, Debug)]
+struct Enc {
+    kind: W,
+    a: W,
+    b: W,
+    latch: B,
+    value: V,
+}
+
+fn encode(l: &mut Sym, u: &UopL<Sym>) -> Enc {
+    let z = l.word(0);
+    let no = l.bit(false);
+    let zv = l.val(0);
+    let src = |l: &mut Sym, s: &SrcOf<V>| match *s {
+        SrcOf::Value(v) => (l.bit(false), v),
+        SrcOf::Latch => (l.bit(true), l.val(0)),
+    };
+    let (kind, a, b, (latch, value)) = match u {
+        UopOf::ShLoad { stack, entry } => (1, *stack, *entry, (no, zv)),
+        UopOf::ShStore { stack, entry, src: s } => (2, *stack, *entry, src(l, s)),
+        UopOf::GlobalLoad { slot } => (3, *slot, z, (no, zv)),
+        UopOf::GlobalStore { slot, src: s } => (4, *slot, z, src(l, s)),
+        UopOf::RbBottom => (5, z, z, (no, zv)),
+        UopOf::Release { stack } => (6, *stack, z, (no, zv)),
+    };
+    let kind = l.word(kind);
+    Enc { kind, a, b, latch, value }
+}
+
+fn mux_enc(l: &mut Sym, c: B, x: Enc, y: Enc) -> Enc {
+    Enc {
+        kind: l.mux(c, x.kind, y.kind),
+        a: l.mux(c, x.a, y.a),
+        b: l.mux(c, x.b, y.b),
+        latch: l.mux_bit(c, x.latch, y.latch),
+        value: l.mux_val(c, x.value, y.value),
+    }
+}
+
+/// The program as `slots` fixed positions: `(valid, micro-op)`, valid ones first.
+fn compact(l: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> {
+    let none = {
+        let z = l.word(0);
+        let no = l.bit(false);
+        let zv = l.val(0);
+        Enc { kind: z, a: z, b: z, latch: no, value: zv }
+    };
+    let mut out = vec![(l.bit(false), none); slots];
+    let mut pos = l.word(0);
+    let enc: Vec<(B, Enc)> = prog.iter().map(|(g, u)| (*g, encode(l, u))).collect();
+    for (g, e) in enc {
+        for (k, slot) in out.iter_mut().enumerate() {
+            let at = l.eq_k(pos, k as u32);
+            let here = l.and(g, at);
+            if !l.maybe(here) {
+                continue;
+            }
+            slot.0 = l.or(slot.0, here);
+            slot.1 = mux_enc(l, here, e, slot.1);
+        }
+        let one = l.count(g);
+        pos = l.add(pos, one);
+    }
+    out
+}
+
+/// One lane's answer in one cycle.
+#[derive(Clone, Debug)]
+struct Answer {
+    /// 0: accepted, nothing returned; 1: accepted, popped `value`; 2 + k: refused with the
+    /// k-th kind of [`StackError`].
+    code: W,
+    value: V,
+    prog: Vec<(B, Enc)>,
+    th: Thread<Sym>,
+    rb_len: W,
+}
+
+/// A side's whole cycle: every lane's answer and every stack's registers after it.
+#[derive(Clone, Debug)]
+struct Cycle {
+    lanes: Vec<Answer>,
+    regs: Vec<Regs<Sym>>,
+}
+
+fn error_code(e: &StackError) -> u32 {
+    2 + match e {
+        StackError::PopEmpty { .. } => 0,
+        StackError::FinishNonEmpty { .. } => 1,
+        StackError::Busy { .. } => 2,
+        StackError::AfterFinish { .. } => 3,
+        StackError::SpillRegionFull { .. } => 4,
+        StackError::Overflow { .. } => 5,
+    }
+}
+
+/// Which description plans the commands.
+pub enum Side<'a, P: Steps> {
+    Design(&'a P),
+    Spec,
+}
+
+/// Runs one side over every path and merges the paths' outputs under their conditions.
+fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots: usize) -> Cycle {
+    let paths = s.explore(|l| {
+        let mut now = st.regs.clone();
+        let mut lanes = Vec::new();
+        for lane in &st.lanes {
+            let t = st.base + lane.lane;
+            let cmd = match lane.kind {
+                Kind::Push => CmdOf::Push(lane.value),
+                Kind::Pop => CmdOf::Pop,
+                Kind::Finish => CmdOf::Finish,
+            };
+            let mut rf = SymWarp {
+                base: st.base,
+                q: &st.regs,
+                now: now.clone(),
+                work: now.clone(),
+                done: &st.done,
+                lane: *lane,
+                prog: Vec::new(),
+                rb_len: lane.rb_len,
+            };
+            let (r, th) = match which {
+                Side::Design(steps) => {
+                    let mut p = Plan {
+                        l: &mut *l,
+                        steps: *steps,
+                        rf: &mut rf,
+                        cfg,
+                        t,
+                        base: st.base,
+                        th: lane.th,
+                        stats: StackStats::default(),
+                    };
+                    let r = p.run(cmd, lane.busy);
+                    (r, p.th)
+                }
+                Side::Spec => {
+                    let mut p = Spec { l: &mut *l, rf: &mut rf, cfg, t, base: st.base, th: lane.th };
+                    let r = p.apply(cmd, lane.busy);
+                    (r, p.th)
+                }
+            };
+            let zv = l.val(0);
+            let (code, value, accepted) = match r {
+                Ok(None) => (0, zv, true),
+                Ok(Some(v)) => (1, v, true),
+                Err(e) => (error_code(&e), zv, false),
+            };
+            let code = l.word(code);
+            let (prog, th, rb_len) = if accepted {
+                now = rf.work.clone();
+                (compact(l, &rf.prog, slots), th, rf.rb_len)
+            } else {
+                (compact(l, &[], slots), lane.th, lane.rb_len)
+            };
+            lanes.push(Answer { code, value, prog, th, rb_len });
+        }
+        Cycle { lanes, regs: now }
+    });
+    let mut it = paths.into_iter().rev();
+    let (_, mut acc) = it.next().expect("at least one path");
+    for (c, p) in it {
+        for (a, x) in acc.lanes.iter_mut().zip(&p.lanes) {
+            a.code = s.mux(c, x.code, a.code);
+            a.value = s.mux_val(c, x.value, a.value);
+            for (sa, sx) in a.prog.iter_mut().zip(&x.prog) {
+                sa.0 = s.mux_bit(c, sx.0, sa.0);
+                sa.1 = mux_enc(s, c, sx.1, sa.1);
+            }
+            a.th = ThreadRegsOf::mux(s, c, x.th, a.th);
+            a.rb_len = s.mux(c, x.rb_len, a.rb_len);
+        }
+        for (ra, rx) in acc.regs.iter_mut().zip(&p.regs) {
+            *ra = StackRegsOf::mux(s, c, *rx, *ra);
+        }
+    }
+    acc
+}
+
+/// What the two sides must agree on, and the names of the parts (for a counterexample's
+/// report): a list of `(what, equal)`.
+fn agreement(s: &mut Sym, d: &Cycle, sp: &Cycle, lanes: &[LaneIn]) -> Vec<(String, B)> {
+    let mut parts = Vec::new();
+    for ((a, b), lane) in d.lanes.iter().zip(&sp.lanes).zip(lanes) {
+        let n = lane.lane;
+        let code = s.eq(a.code, b.code);
+        parts.push((format!("lane {n}: answer"), code));
+        let value = s.eq_val(a.value, b.value);
+        parts.push((format!("lane {n}: popped entry"), value));
+        let mut prog = s.bit(true);
+        for (x, y) in a.prog.iter().zip(&b.prog) {
+            let v = eq_b(s, x.0, y.0);
+            let fields = {
+                let k = s.eq(x.1.kind, y.1.kind);
+                let f1 = s.eq(x.1.a, y.1.a);
+                let f2 = s.eq(x.1.b, y.1.b);
+                let f3 = eq_b(s, x.1.latch, y.1.latch);
+                let f4 = s.eq_val(x.1.value, y.1.value);
+                let all = s.and(k, f1);
+                let all = s.and(all, f2);
+                let all = s.and(all, f3);
+                s.and(all, f4)
+            };
+            let nv = s.not(x.0);
+            let ok = s.or(nv, fields);
+            let ok = s.and(v, ok);
+            prog = s.and(prog, ok);
+        }
+        parts.push((format!("lane {n}: micro-op program"), prog));
+        let th = {
+            let o = eq_b(s, a.th.overflow, b.th.overflow);
+            let p = s.eq(a.th.spill_ptr, b.th.spill_ptr);
+            let dn = eq_b(s, a.th.done, b.th.done);
+            let x = s.and(o, p);
+            s.and(x, dn)
+        };
+        parts.push((format!("lane {n}: Overflow, spill pointer, done"), th));
+        let rb = s.eq(a.rb_len, b.rb_len);
+        parts.push((format!("lane {n}: RB length"), rb));
+    }
+    for (j, (x, y)) in d.regs.iter().zip(&sp.regs).enumerate() {
+        let fields = [
+            s.eq(x.top, y.top),
+            s.eq(x.bottom, y.bottom),
+            eq_b(s, x.empty, y.empty),
+            eq_b(s, x.idle, y.idle),
+            s.eq(x.next_tid, y.next_tid),
+            s.eq(x.priority, y.priority),
+            s.eq(x.flush, y.flush),
+        ];
+        let all = fields.into_iter().fold(s.bit(true), |acc, f| s.and(acc, f));
+        parts.push((format!("stack of lane {j}: registers"), all));
+    }
+    parts
+}
+
+fn eq_b(s: &mut Sym, a: B, b: B) -> B {
+    let nb = s.not(b);
+    s.mux_bit(a, b, nb)
+}
+
+/// A built query: the SMT-LIB text, the variables whose values a counterexample reports, and
+/// the parts compared (for naming what differed).
+pub struct Query {
+    pub text: String,
+    pub vars: Vec<String>,
+    pub parts: Vec<String>,
+    /// Terms in the DAG, paths explored per side.
+    pub terms: usize,
+}
+
+/// Builds the one-step equivalence query of `cmds` (lanes of the warp at `base`, planned in
+/// that order in one cycle) for the design with `steps`.
+pub fn one_step<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind)]) -> Query {
+    let mut s = Sym::default();
+    let st = State::new(&mut s, cfg, base, cmds);
+    let lanes: Vec<(u32, Thread<Sym>, W)> = st.lanes.iter().map(|x| (x.lane, x.th, x.rb_len)).collect();
+    let inv = well_formed(&mut s, cfg, &st.regs, &st.done, &lanes);
+    let slots = 2 * cfg.sh_entries as usize + 4;
+    let d = side(&mut s, cfg, &st, &Side::Design(steps), slots);
+    let sp = side::<P>(&mut s, cfg, &st, &Side::Spec, slots);
+    let parts = agreement(&mut s, &d, &sp, &st.lanes);
+    let all = parts.iter().fold(s.bit(true), |acc, p| s.and(acc, p.1));
+    let differ = s.not(all);
+    let names: Vec<String> = parts.iter().map(|p| p.0.clone()).collect();
+    let keep: Vec<B> = parts.iter().map(|p| p.1).collect();
+    let mut text = s.smtlib(&[inv, differ], &keep);
+    for (k, b) in keep.iter().enumerate() {
+        text += &format!("(declare-fun agree_{k} () Bool)\n(assert (= agree_{k} {}))\n", s.name_of(*b));
+    }
+    let mut vars: Vec<String> = s.vars().map(|v| v.0.to_string()).collect();
+    vars.extend((0..parts.len()).map(|k| format!("agree_{k}")));
+    Query { text, vars, parts: names, terms: s.size() }
+}
