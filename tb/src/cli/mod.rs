@@ -17,7 +17,8 @@ use crate::workload::scene::SceneLibrary;
 
 /// The `sms` command line.
 #[derive(clap::Parser)]
-#[command(version, about = "SMS traversal-stack model tools")]
+// The name is the binary's, not the crate's (`tb`), so `sms --version` says `sms`.
+#[command(name = "sms", version, about = "SMS traversal-stack model tools")]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

@@ -385,7 +385,7 @@ impl SceneLibrary {
 
     /// What `spec` names: a built-in scene, a shipped description, or else a file by path: a
     /// `.toml` description or a mesh (`.obj`, `.ply`, `.glb`, `.gltf`, optionally `.gz`).
-    /// Anything else, or a file that does not exist, is an error naming it.
+    /// Anything else, a folder, or a file that does not exist, is an error naming it.
     pub fn resolve(&self, spec: &str) -> Result<SceneSource> {
         if procedural::NAMES.contains(&spec) {
             return Ok(SceneSource::BuiltIn(spec.to_owned()));
@@ -394,6 +394,9 @@ impl SceneLibrary {
             return Ok(SceneSource::Described(name.to_string(), text));
         }
         let path = PathBuf::from(spec);
+        if path.is_dir() {
+            return Err(Error::SceneIsDirectory { path });
+        }
         let toml = spec.to_ascii_lowercase().ends_with(".toml");
         if !toml && !is_mesh_name(spec) {
             if path.is_file() {
@@ -540,8 +543,8 @@ impl SceneLibrary {
         })
     }
 
-    /// How the data folder was chosen, for [`Error::MissingData`].
-    fn describe_origin(&self) -> String {
+    /// How the data folder was chosen, for [`Error::MissingData`] and `sms scenes`.
+    pub(crate) fn describe_origin(&self) -> String {
         let dir = self.data.display();
         match self.origin {
             DataOrigin::Flag => format!("the scenes folder {dir} given by --scenes-dir"),

@@ -447,6 +447,23 @@ fn ply_header_comments_and_free_text_are_skipped() {
     }
 }
 
+#[test]
+fn a_directory_is_not_a_scene() {
+    let lib = library("dir_scene");
+    let dir = lib.data.join("meshes.obj");
+    std::fs::create_dir_all(&dir).unwrap();
+    for path in [&lib.data, &dir] {
+        let e = lib.load(path.to_str().unwrap()).expect_err("a directory").to_string();
+        assert_eq!(
+            e,
+            format!(
+                "{}: is a directory; a scene is a name, a mesh file (.obj, .ply, .glb, .gltf, optionally .gz) or a .toml description",
+                path.display()
+            )
+        );
+    }
+}
+
 fn library(test: &str) -> SceneLibrary {
     SceneLibrary::with_data_dir(temp_dir(test))
 }
