@@ -148,7 +148,7 @@ impl SceneArgs {
 pub const SCENE_HELP: &str =
     "Scene: a built-in or described name (`sms scenes` lists them), or a path to a mesh \
 (.obj, .ply, .glb, .gltf, each optionally .gz; the camera frames it, see --camera-eye) or to a TOML scene \
-description (its mesh paths relative to it)";
+description (its mesh paths relative to it; the format: `sms scenes --help`)";
 
 /// What to trace: scene, hierarchy, child order, resolution, samples, bounces, path end, seed.
 /// Shared by the subcommands that simulate a workload.

@@ -9,6 +9,7 @@ use crate::error::Error;
 use crate::workload::bvh::{Bvh, BvhKind};
 
 #[derive(Clone, Debug, clap::Args)]
+#[command(after_long_help = crate::workload::scene::description_help())]
 pub struct Args {
     /// Only these scenes (default: all built-in and described scenes).
     pub names: Vec<String>,

@@ -12,23 +12,8 @@
 //!
 //! [`CameraOverride`] replaces any scene's camera (the `--camera-*` and `--vfov` flags).
 //!
-//! A description looks like this (every table but `[[mesh]]` is optional):
-//! ```toml
-//! [[mesh]]
-//! file = "karimSchooner.obj.gz"          # relative to the data folder (shipped descriptions)
-//!                                        # or to the description's folder (given by path)
-//! transform = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]   # row-major, p_world = M * p
-//! [camera]                               # no eye/look_at: frame the bounding box
-//! eye = [378, 278, 500]
-//! look_at = [178, 278, 0]
-//! up = [0, 1, 0]
-//! vfov = 50                              # vertical, degrees
-//! [render]
-//! width = 128
-//! height = 128
-//! spp = 2
-//! max_bounces = 3
-//! ```
+//! A description's format, every key annotated, is [`DESCRIPTION_EXAMPLE`]; `sms scenes --help`
+//! and docs/scenes.md show it.
 
 mod glb;
 mod mesh;
@@ -215,6 +200,36 @@ struct SceneDesc {
     camera: CameraDesc,
     #[serde(default)]
     render: RenderSettings,
+}
+
+/// A scene description with every key, annotated (shown by `sms scenes --help` and
+/// docs/scenes.md; a test loads it). Unknown keys are errors.
+pub const DESCRIPTION_EXAMPLE: &str = r#"# Every table but [[mesh]] is optional.
+[[mesh]]                  # one table per mesh file, in any number
+file = "ship.obj.gz"      # .obj, .ply, .glb or .gltf, optionally .gz; relative to this file
+                          # (a shipped description's: to the shared scene folder)
+transform = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]   # optional, row-major: p_world = M * p
+[camera]                  # without eye and look_at the camera frames the scene's bounds
+eye = [378, 278, 500]
+look_at = [178, 278, 0]
+up = [0, 1, 0]            # default 0,1,0
+vfov = 50                 # vertical field of view in degrees, default 45
+[render]                  # defaults: LumiBench's 128x128 pixels, 2 spp, 15 bounces
+width = 128
+height = 128
+spp = 2
+max_bounces = 3           # diffuse bounces after the primary ray
+"#;
+
+/// `sms scenes --help`'s account of scene descriptions.
+pub fn description_help() -> String {
+    format!(
+        "Scene descriptions: `--scene path/to/scene.toml` loads a TOML file like this one:\n\n{}\n\n\
+         Each OBJ file (or each `o` object in it) and each PLY file is one BLAS; a glTF mesh is one BLAS \
+         placed by each node that references it. --camera-eye, --camera-look-at, --camera-up and \
+         --vfov override [camera]; --res, --spp and --bounces override [render].",
+        DESCRIPTION_EXAMPLE.lines().map(|l| format!("    {l}")).collect::<Vec<_>>().join("\n")
+    )
 }
 
 /// The scene descriptions shipped with sms (`scenes/*.toml`), embedded at build time (see

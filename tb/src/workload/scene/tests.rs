@@ -464,6 +464,21 @@ fn a_directory_is_not_a_scene() {
     }
 }
 
+/// The example `sms scenes --help` and docs/scenes.md show is a working description.
+#[test]
+fn the_description_example_loads_and_is_documented() {
+    let lib = library("example");
+    write(&lib.data, "ship.obj.gz", format!("{QUAD}f 1 2 3 4\n").as_bytes());
+    let path = write(&lib.data, "example.toml", DESCRIPTION_EXAMPLE.as_bytes());
+    let scene = lib.load(path.to_str().unwrap()).expect("the example loads");
+    assert_eq!(scene.primitives.triangle_count(), 2);
+    assert_eq!(scene.camera, Camera::look_at([378.0, 278.0, 500.0], [178.0, 278.0, 0.0], 50.0));
+    assert_eq!(scene.render, RenderSettings { max_bounces: 3, ..RenderSettings::default() });
+    let docs = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/scenes.md"));
+    assert!(docs.contains(DESCRIPTION_EXAMPLE), "docs/scenes.md shows DESCRIPTION_EXAMPLE as it is");
+    assert!(description_help().contains("[[mesh]]"));
+}
+
 fn library(test: &str) -> SceneLibrary {
     SceneLibrary::with_data_dir(temp_dir(test))
 }
