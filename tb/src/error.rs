@@ -22,6 +22,12 @@ pub enum Error {
         known.join(", ")
     )]
     UnknownScene { name: String, known: Vec<String> },
+    /// A scene was given as a folder, not as a name or a file.
+    #[error(
+        "{}: is a directory; a scene is a name, a mesh file (.obj, .ply, .glb, .gltf, optionally .gz) or a .toml description",
+        path.display()
+    )]
+    SceneIsDirectory { path: PathBuf },
     /// A shipped description's mesh is not in the shared scene folder.
     #[error(
         "{}: no such mesh file; the {scene} reads it from {origin}. Point sms at the folder holding it with --scenes-dir DIR or the SMS_SCENES_DIR environment variable",

@@ -120,3 +120,10 @@ fn check_prints_its_table_in_every_format() {
     assert!(check("markdown").contains("| RB_2 warp 2 | 6 |"));
     assert!(check("text").contains("all properties hold on 2 configurations"));
 }
+
+#[test]
+fn version_names_the_binary() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_sms")).arg("--version").output().unwrap();
+    assert!(out.status.success());
+    assert_eq!(String::from_utf8_lossy(&out.stdout), format!("sms {}\n", env!("CARGO_PKG_VERSION")));
+}

@@ -213,4 +213,35 @@ fn bad_meshes_given_by_path_are_clear_errors() {
     let bad_desc = sms.file("bad.toml", b"[[mesh]]\nfile = \"cube.obj\"\ncolour = 3\n");
     let e = sms.fails(&bad_desc);
     assert!(e.contains("line 3"), "{e}");
+
+    for dir in ["meshes", "meshes.obj"] {
+        let path = sms.work().join(dir);
+        std::fs::create_dir_all(&path).unwrap();
+        let e = sms.fails(&path);
+        let want = format!(
+            "error: {}: is a directory; a scene is a name, a mesh file (.obj, .ply, .glb, .gltf, optionally .gz) or a .toml description\n",
+            path.display()
+        );
+        assert_eq!(e, want);
+    }
+}
+
+#[test]
+fn scenes_lists_every_name_marking_missing_meshes() {
+    let sms = Installed::new("scenes");
+    let out = sms.sms(&["scenes"]);
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{stderr}");
+    let library = tb::workload::scene::SceneLibrary::default();
+    let names = library.names().unwrap();
+    let rows: Vec<&str> = stdout.lines().skip(1).collect();
+    assert_eq!(rows.len(), names.len(), "one row per scene: {stdout}");
+    for (row, name) in rows.iter().zip(&names) {
+        assert!(row.starts_with(&format!("{name:<20} ")), "{row}");
+        let builtin = tb::workload::scene::procedural::NAMES.contains(&name.as_str());
+        assert_eq!(row.contains(" mesh missing: "), !builtin, "{row}");
+    }
+    let described = names.len() - tb::workload::scene::procedural::NAMES.len();
+    let note = format!("{described} scenes' meshes are missing (no scenes folder: ");
+    assert!(stderr.lines().last().unwrap().starts_with(&note), "{stderr}");
 }

@@ -18,7 +18,8 @@ use crate::workload::scene::SceneLibrary;
 
 /// The `sms` command line.
 #[derive(clap::Parser)]
-#[command(version, about = "SMS traversal-stack model tools")]
+// The name is the binary's, not the crate's (`tb`), so `sms --version` says `sms`.
+#[command(name = "sms", version, about = "SMS traversal-stack model tools")]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -152,7 +153,7 @@ impl SceneArgs {
 pub const SCENE_HELP: &str =
     "Scene: a built-in or described name (`sms scenes` lists them), or a path to a mesh \
 (.obj, .ply, .glb, .gltf, each optionally .gz; the camera frames it, see --camera-eye) or to a TOML scene \
-description (its mesh paths relative to it)";
+description (its mesh paths relative to it; the format: `sms scenes --help`)";
 
 /// What to trace: scene, hierarchy, child order, resolution, samples, bounces, path end, seed.
 /// Shared by the subcommands that simulate a workload.

@@ -1,6 +1,7 @@
-//! glTF 2.0 (binary .glb or .gltf with external buffers): triangle positions of every mesh
-//! instance reached from the default scene's root nodes, with node transforms flattened, so a
-//! mesh referenced by several nodes counts once per node (as the scene manifest counts them).
+//! glTF 2.0 (binary .glb, or .gltf with external or embedded `data:` base64 buffers): triangle
+//! positions of every mesh instance reached from the default scene's root nodes, with node
+//! transforms flattened, so a mesh referenced by several nodes counts once per node (as the scene
+//! manifest counts them).
 //!
 //! For two-level acceleration structures the loader also keeps each mesh once in its own space
 //! (all its primitives: one BLAS) and each node that references a mesh as an instance of it with
@@ -9,12 +10,76 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use base64::engine::{DecodePaddingMode, GeneralPurpose, GeneralPurposeConfig};
+use base64::Engine;
 use glam::{Affine3A, Mat4, Vec3A};
 use gltf::{buffer::Source, mesh::Mode};
 
 use super::mesh::{checked_vertex, TriangleSink};
 use super::{Instance, MeshGeometry};
 use crate::error::{Error, Result};
+
+/// Parses and validates the document. Required extensions are refused by name before
+/// validation: this reader implements none of them, and the validation errors one causes (a
+/// Draco-compressed accessor has no buffer view) would bury the reason under one per accessor.
+fn parse(bytes: &[u8], path: &Path) -> Result<gltf::Gltf> {
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
+        let what = match version_1(bytes) {
+            Some(version) => format!("version {version}; sms reads glTF 2.0 (convert the file)"),
+            None => e.to_string(),
+        };
+        Error::format(path, "glTF", what)
+    })?;
+    let required: Vec<&str> = document.extensions_required().collect();
+    if !required.is_empty() {
+        let s = if required.len() == 1 { "" } else { "s" };
+        return Err(Error::format(
+            path,
+            "glTF",
+            format!("requires the extension{s} {}, which sms does not read", required.join(", ")),
+        ));
+    }
+    let document = gltf::Document::from_json(document.into_json()).map_err(|e| {
+        let what = match e {
+            gltf::Error::Validation(errors) => match errors.split_first() {
+                Some(((at, error), [])) => format!("invalid: {at}: {error}"),
+                Some(((at, error), more)) => format!("invalid: {at}: {error} (and {} more)", more.len()),
+                None => "invalid".to_owned(),
+            },
+            e => e.to_string(),
+        };
+        Error::format(path, "glTF", what)
+    })?;
+    Ok(gltf::Gltf { document, blob })
+}
+
+/// The version of a glTF 1 file (`None` for any other), from a GLB container's header or the
+/// JSON's `asset.version`: the 2.0 parser rejects such a file at its first 1.0-only construct
+/// without saying why.
+fn version_1(bytes: &[u8]) -> Option<String> {
+    let version = match bytes.strip_prefix(b"glTF") {
+        Some(rest) => u32::from_le_bytes(rest.get(..4)?.try_into().ok()?).to_string(),
+        None => {
+            let json: serde_json::Value = serde_json::from_slice(bytes).ok()?;
+            json["asset"]["version"].as_str()?.to_owned()
+        }
+    };
+    version.starts_with('1').then_some(version)
+}
+
+/// The bytes of a `data:` URI's payload (`data:[<media type>];base64,<payload>`). Padding is
+/// optional: some exporters leave it out.
+fn decode_data_uri(uri: &str) -> std::result::Result<Vec<u8>, String> {
+    let (meta, payload) = uri.split_once(',').ok_or("data: URI has no ',' before its payload")?;
+    if !meta.ends_with(";base64") {
+        return Err("data: URI is not base64-encoded (only base64 payloads are read)".into());
+    }
+    let engine = GeneralPurpose::new(
+        &base64::alphabet::STANDARD,
+        GeneralPurposeConfig::new().with_decode_padding_mode(DecodePaddingMode::Indifferent),
+    );
+    engine.decode(payload).map_err(|e| format!("data: URI is not valid base64 ({e})"))
+}
 
 fn buffers(doc: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>> {
     doc.buffers()
@@ -25,7 +90,7 @@ fn buffers(doc: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>> {
                     doc.blob.clone().ok_or_else(|| Error::format(path, &at, "GLB has no binary chunk"))?
                 }
                 Source::Uri(uri) if uri.starts_with("data:") => {
-                    return Err(Error::format(path, &at, "data: URIs are not supported"))
+                    decode_data_uri(uri).map_err(|what| Error::format(path, &at, what))?
                 }
                 Source::Uri(uri) => {
                     let file = path.parent().unwrap_or(Path::new(".")).join(uri);
@@ -45,7 +110,7 @@ fn buffers(doc: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>> {
 }
 
 pub(super) fn load(bytes: &[u8], path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> Result<()> {
-    let doc = gltf::Gltf::from_slice(bytes).map_err(|e| Error::format(path, "glTF", e.to_string()))?;
+    let doc = parse(bytes, path)?;
     let buffers = buffers(&doc, path)?;
     let scene = doc
         .default_scene()

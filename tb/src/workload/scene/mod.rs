@@ -12,23 +12,8 @@
 //!
 //! [`CameraOverride`] replaces any scene's camera (the `--camera-*` and `--vfov` flags).
 //!
-//! A description looks like this (every table but `[[mesh]]` is optional):
-//! ```toml
-//! [[mesh]]
-//! file = "karimSchooner.obj.gz"          # relative to the data folder (shipped descriptions)
-//!                                        # or to the description's folder (given by path)
-//! transform = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]   # row-major, p_world = M * p
-//! [camera]                               # no eye/look_at: frame the bounding box
-//! eye = [378, 278, 500]
-//! look_at = [178, 278, 0]
-//! up = [0, 1, 0]
-//! vfov = 50                              # vertical, degrees
-//! [render]
-//! width = 128
-//! height = 128
-//! spp = 2
-//! max_bounces = 3
-//! ```
+//! A description's format, every key annotated, is [`DESCRIPTION_EXAMPLE`]; `sms scenes --help`
+//! and docs/scenes.md show it.
 
 mod glb;
 mod mesh;
@@ -217,6 +202,36 @@ struct SceneDesc {
     render: RenderSettings,
 }
 
+/// A scene description with every key, annotated (shown by `sms scenes --help` and
+/// docs/scenes.md; a test loads it). Unknown keys are errors.
+pub const DESCRIPTION_EXAMPLE: &str = r#"# Every table but [[mesh]] is optional.
+[[mesh]]                  # one table per mesh file, in any number
+file = "ship.obj.gz"      # .obj, .ply, .glb or .gltf, optionally .gz; relative to this file
+                          # (a shipped description's: to the shared scene folder)
+transform = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]   # optional, row-major: p_world = M * p
+[camera]                  # without eye and look_at the camera frames the scene's bounds
+eye = [378, 278, 500]
+look_at = [178, 278, 0]
+up = [0, 1, 0]            # default 0,1,0
+vfov = 50                 # vertical field of view in degrees, default 45
+[render]                  # defaults: LumiBench's 128x128 pixels, 2 spp, 15 bounces
+width = 128
+height = 128
+spp = 2
+max_bounces = 3           # diffuse bounces after the primary ray
+"#;
+
+/// `sms scenes --help`'s account of scene descriptions.
+pub fn description_help() -> String {
+    format!(
+        "Scene descriptions: `--scene path/to/scene.toml` loads a TOML file like this one:\n\n{}\n\n\
+         Each OBJ file (or each `o` object in it) and each PLY file is one BLAS; a glTF mesh is one BLAS \
+         placed by each node that references it. --camera-eye, --camera-look-at, --camera-up and \
+         --vfov override [camera]; --res, --spp and --bounces override [render].",
+        DESCRIPTION_EXAMPLE.lines().map(|l| format!("    {l}")).collect::<Vec<_>>().join("\n")
+    )
+}
+
 /// The scene descriptions shipped with sms (`scenes/*.toml`), embedded at build time (see
 /// `tb/build.rs`): `(name, text)` sorted by name. Their mesh paths are relative to the shared
 /// data folder ([`SceneLibrary::data`]).
@@ -385,7 +400,7 @@ impl SceneLibrary {
 
     /// What `spec` names: a built-in scene, a shipped description, or else a file by path: a
     /// `.toml` description or a mesh (`.obj`, `.ply`, `.glb`, `.gltf`, optionally `.gz`).
-    /// Anything else, or a file that does not exist, is an error naming it.
+    /// Anything else, a folder, or a file that does not exist, is an error naming it.
     pub fn resolve(&self, spec: &str) -> Result<SceneSource> {
         if procedural::NAMES.contains(&spec) {
             return Ok(SceneSource::BuiltIn(spec.to_owned()));
@@ -394,6 +409,9 @@ impl SceneLibrary {
             return Ok(SceneSource::Described(name.to_string(), text));
         }
         let path = PathBuf::from(spec);
+        if path.is_dir() {
+            return Err(Error::SceneIsDirectory { path });
+        }
         let toml = spec.to_ascii_lowercase().ends_with(".toml");
         if !toml && !is_mesh_name(spec) {
             if path.is_file() {
@@ -540,8 +558,8 @@ impl SceneLibrary {
         })
     }
 
-    /// How the data folder was chosen, for [`Error::MissingData`].
-    fn describe_origin(&self) -> String {
+    /// How the data folder was chosen, for [`Error::MissingData`] and `sms scenes`.
+    pub(crate) fn describe_origin(&self) -> String {
         let dir = self.data.display();
         match self.origin {
             DataOrigin::Flag => format!("the scenes folder {dir} given by --scenes-dir"),

@@ -3,6 +3,8 @@
 //! A hand-written reader rather than tobj: it reports the line of every error, never stores
 //! normals, texture coordinates or materials (so `mtllib` is never opened), and streams the
 //! 130 MB forest file line by line. Faces are fan-triangulated; indices may be negative (relative).
+//! Lines are bytes, not text: names and comments in any encoding (a Latin-1 material name) are
+//! skipped unread, and only the keywords, numbers and indices read must be ASCII.
 //!
 //! Objects: an `o` line starts a new object (a BLAS and its instance in a two-level
 //! acceleration structure); a file without `o` lines is one object. `g` (and `usemtl`) groups do
@@ -33,29 +35,28 @@ pub(super) fn load(mut reader: impl BufRead, file: MeshFile, sink: &mut Triangle
         }
         line_no += 1;
         let at = || format!("line {line_no}");
-        let line = std::str::from_utf8(&buf).map_err(|_| Error::format(path, at(), "not valid UTF-8"))?;
-        let mut tokens = line.split_ascii_whitespace();
+        let mut tokens = buf.split(u8::is_ascii_whitespace).filter(|t| !t.is_empty());
         match tokens.next() {
-            Some("v") => {
+            Some(b"v") => {
                 let mut p = [0.0f32; 3];
                 for c in &mut p {
                     let token = tokens
                         .next()
                         .ok_or_else(|| Error::format(path, at(), "vertex needs 3 coordinates"))?;
-                    *c = token
-                        .parse()
-                        .map_err(|_| Error::format(path, at(), format!("'{token}' is not a number")))?;
+                    *c = parse(token).ok_or_else(|| {
+                        Error::format(path, at(), format!("'{}' is not a number", shown(token)))
+                    })?;
                 }
                 vertices.push(checked_vertex(path, at, xf, Vec3A::from(p))?);
             }
-            Some("o") => sink.begin_object(),
-            Some("f") => {
+            Some(b"o") => sink.begin_object(),
+            Some(b"f") => {
                 face.clear();
                 for token in tokens {
-                    let index = token.split('/').next().unwrap_or_default();
-                    let i: i64 = index
-                        .parse()
-                        .map_err(|_| Error::format(path, at(), format!("'{token}' is not a vertex index")))?;
+                    let index = token.split(|&b| b == b'/').next().unwrap_or_default();
+                    let i: i64 = parse(index).ok_or_else(|| {
+                        Error::format(path, at(), format!("'{}' is not a vertex index", shown(token)))
+                    })?;
                     let n = vertices.len() as i64;
                     let resolved = if i > 0 { i - 1 } else { n + i };
                     if i == 0 || !(0..n).contains(&resolved) {
@@ -73,4 +74,14 @@ pub(super) fn load(mut reader: impl BufRead, file: MeshFile, sink: &mut Triangle
         }
     }
     Ok(())
+}
+
+/// A number token; `None` when it is not one (or not ASCII).
+fn parse<T: std::str::FromStr>(token: &[u8]) -> Option<T> {
+    std::str::from_utf8(token).ok()?.parse().ok()
+}
+
+/// A token as an error message shows it (bytes that are not UTF-8 replaced).
+fn shown(token: &[u8]) -> std::borrow::Cow<'_, str> {
+    String::from_utf8_lossy(token)
 }

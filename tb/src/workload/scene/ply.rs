@@ -3,6 +3,11 @@
 //! Hand-written (ply-rs builds a property map per element, far too slow and large for big meshes):
 //! reads `vertex` x/y/z and `face` `vertex_indices` (or `vertex_index`) lists, skips every other
 //! element and property, and names the element of every error.
+//!
+//! The header is read as bytes: `comment` and `obj_info` lines, and free-text lines such as the
+//! bare `Created by Blender3D …` line Blender's exporter writes, are skipped whatever their
+//! encoding, as assimp skips them; a malformed `format`, `element` or `property` line is still an
+//! error naming its line.
 
 use std::io::BufRead;
 use std::path::Path;
@@ -63,10 +68,12 @@ impl<R: BufRead> Body<R> {
         match self {
             Body::Ascii(reader, pending) => {
                 while pending.is_empty() {
-                    let mut line = String::new();
-                    if reader.read_line(&mut line)? == 0 {
+                    let mut line = Vec::new();
+                    if reader.read_until(b'\n', &mut line)? == 0 {
                         return Ok(None);
                     }
+                    // Bytes that are not UTF-8 cannot be numbers: they fail to parse below.
+                    let line = String::from_utf8_lossy(&line);
                     pending.extend(line.split_ascii_whitespace().rev().map(str::to_owned));
                 }
                 let token = pending.pop().unwrap_or_default();
@@ -105,11 +112,13 @@ fn parse_header(reader: &mut impl BufRead, path: &Path) -> Result<(bool, Vec<Ele
     let mut ascii = None;
     let mut elements: Vec<Element> = Vec::new();
     let mut line_no = 0;
+    let mut bytes = Vec::new();
     loop {
-        let mut line = String::new();
-        if reader.read_line(&mut line).map_err(|e| Error::io(path, e))? == 0 {
+        bytes.clear();
+        if reader.read_until(b'\n', &mut bytes).map_err(|e| Error::io(path, e))? == 0 {
             return Err(Error::format(path, "header", "no end_header"));
         }
+        let line = String::from_utf8_lossy(&bytes);
         line_no += 1;
         let at = format!("header line {line_no}");
         let bad = |what: &str| Error::format(path, at.clone(), what.to_owned());
@@ -120,7 +129,6 @@ fn parse_header(reader: &mut impl BufRead, path: &Path) -> Result<(bool, Vec<Ele
             ["format", "ascii", _] => ascii = Some(true),
             ["format", "binary_little_endian", _] => ascii = Some(false),
             ["format", other, ..] => return Err(bad(&format!("unsupported format '{other}'"))),
-            ["comment", ..] | ["obj_info", ..] | [] => {}
             ["element", name, count] => elements.push(Element {
                 name: name.to_string(),
                 count: count.parse().map_err(|_| bad("bad element count"))?,
@@ -145,7 +153,11 @@ fn parse_header(reader: &mut impl BufRead, path: &Path) -> Result<(bool, Vec<Ele
                     .push(Property::Scalar(name.to_string(), ty));
             }
             ["end_header"] => break,
-            _ => return Err(bad(&format!("unexpected header line '{}'", line.trim()))),
+            ["format" | "element" | "property" | "end_header", ..] => {
+                return Err(bad(&format!("malformed header line '{}'", line.trim())))
+            }
+            // `comment`, `obj_info`, free text.
+            _ => {}
         }
     }
     let ascii = ascii.ok_or_else(|| Error::format(path, "header", "no format line"))?;

@@ -197,25 +197,35 @@ fn ply_errors_name_the_element() {
     assert!(e.contains("vertex 1") && e.contains("'zz'"), "{e}");
 }
 
-/// A GLB with one triangle mesh used by three nodes: a root, a translated root, and a scaled
-/// child of the translated one.
-fn glb(indices: [u32; 3]) -> Vec<u8> {
+/// One triangle's positions (3 × VEC3 float) then its indices (3 × u32): 48 bytes.
+fn triangle_bin(indices: [u32; 3]) -> Vec<u8> {
     let mut bin: Vec<u8> = Vec::new();
     for c in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
         bin.extend(c.to_le_bytes());
     }
     indices.iter().for_each(|i| bin.extend(i.to_le_bytes()));
-    let json = format!(
+    bin
+}
+
+/// The JSON of a glTF whose one triangle mesh (in [`triangle_bin`]'s layout) is used by three
+/// nodes: a root, a translated root, and a scaled child of the translated one. `buffer` is the
+/// buffer object.
+fn gltf_json(buffer: &str) -> String {
+    format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1]}}],
         "nodes":[{{"mesh":0}},{{"mesh":0,"translation":[5,0,0],"children":[2]}},{{"mesh":0,"scale":[2,2,2]}}],
         "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
-        "buffers":[{{"byteLength":{}}}],
+        "buffers":[{buffer}],
         "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":12}}],
         "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
-                     {{"bufferView":1,"componentType":5125,"count":3,"type":"SCALAR"}}]}}"#,
-        bin.len()
-    );
-    let mut json = json.into_bytes();
+                     {{"bufferView":1,"componentType":5125,"count":3,"type":"SCALAR"}}]}}"#
+    )
+}
+
+/// A GLB of [`gltf_json`]'s scene.
+fn glb(indices: [u32; 3]) -> Vec<u8> {
+    let bin = triangle_bin(indices);
+    let mut json = gltf_json(&format!(r#"{{"byteLength":{}}}"#, bin.len())).into_bytes();
     while json.len() % 4 != 0 {
         json.push(b' ');
     }
@@ -288,6 +298,185 @@ fn glb_errors() {
     assert!(e.contains("range.glb") && e.contains("mesh 0 primitive 0") && e.contains("out of range"), "{e}");
     let e = load_err(&dir, "junk.glb", "not a gltf file at all");
     assert!(e.contains("glTF"), "{e}");
+}
+
+#[test]
+fn gltf_buffers_in_data_uris_load_like_external_and_glb_ones() {
+    use base64::Engine;
+    let dir = temp_dir("gltf_data_uri");
+    // One byte past the data, so the base64 text ends in padding (which some writers omit).
+    let mut bin = triangle_bin([0, 1, 2]);
+    bin.push(0);
+    let uri = |engine: &base64::engine::GeneralPurpose| {
+        let buffer = format!(
+            r#"{{"byteLength":{},"uri":"data:application/octet-stream;base64,{}"}}"#,
+            bin.len(),
+            engine.encode(&bin)
+        );
+        gltf_json(&buffer)
+    };
+    let padded = uri(&base64::engine::general_purpose::STANDARD);
+    assert!(padded.contains("==\""), "the payload is padded");
+    let unpadded = uri(&base64::engine::general_purpose::STANDARD_NO_PAD);
+    write(&dir, "m.bin", &bin);
+    let external = gltf_json(&format!(r#"{{"byteLength":{},"uri":"m.bin"}}"#, bin.len()));
+    let from_glb = load(&write(&dir, "m.glb", &glb([0, 1, 2]))).expect("glb");
+    assert_eq!(from_glb.0.len(), 3);
+    for (name, json) in [("padded.gltf", padded), ("unpadded.gltf", unpadded), ("external.gltf", external)] {
+        let loaded = load(&write(&dir, name, json.as_bytes())).expect(name);
+        assert_eq!(format!("{loaded:?}"), format!("{from_glb:?}"), "{name}");
+    }
+}
+
+#[test]
+fn bad_data_uris_are_one_line_errors() {
+    let dir = temp_dir("gltf_bad_data_uri");
+    for (name, uri, what) in [
+        (
+            "text.gltf",
+            "data:text/plain,abc",
+            "data: URI is not base64-encoded (only base64 payloads are read)",
+        ),
+        ("comma.gltf", "data:application/octet-stream;base64", "data: URI has no ',' before its payload"),
+        (
+            "symbol.gltf",
+            "data:application/octet-stream;base64,AA!A",
+            "data: URI is not valid base64 (Invalid symbol 33, offset 2.)",
+        ),
+    ] {
+        let json = gltf_json(&format!(r#"{{"byteLength":48,"uri":"{uri}"}}"#));
+        let path = write(&dir, name, json.as_bytes());
+        assert_eq!(load(&path).expect_err(name), format!("{}: buffer 0: {what}", path.display()));
+    }
+}
+
+/// A Draco-compressed file: its accessors have no buffer views (the extension holds the data),
+/// which plain validation reports once per accessor.
+#[test]
+fn a_required_gltf_extension_is_one_line_naming_it() {
+    let dir = temp_dir("gltf_extension");
+    let body = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1,
+            "extensions":{"KHR_draco_mesh_compression":{"bufferView":0,"attributes":{"POSITION":0}}}}]}],
+        "accessors":[{"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                     {"componentType":5125,"count":3,"type":"SCALAR"}],
+        "buffers":[{"byteLength":4,"uri":"data:application/octet-stream;base64,AAAAAA=="}],
+        "bufferViews":[{"buffer":0,"byteLength":4}],
+        "extensionsUsed":["KHR_draco_mesh_compression"]"#;
+    let json = format!(r#"{body},"extensionsRequired":["KHR_draco_mesh_compression"]}}"#);
+    let path = write(&dir, "draco.gltf", json.as_bytes());
+    assert_eq!(
+        load(&path).expect_err("draco"),
+        format!(
+            "{}: glTF: requires the extension KHR_draco_mesh_compression, which sms does not read",
+            path.display()
+        )
+    );
+    // Without the extension, the same accessors are invalid: the first is named, the rest counted.
+    let plain = format!("{body}}}");
+    let path = write(&dir, "plain.gltf", plain.as_bytes());
+    assert_eq!(
+        load(&path).expect_err("no buffer views"),
+        format!("{}: glTF: invalid: accessors[0].bufferView: Missing data (and 1 more)", path.display())
+    );
+}
+
+#[test]
+fn gltf_1_files_are_refused_by_version() {
+    let dir = temp_dir("gltf_1");
+    let json = r#"{"asset":{"version":"1.0"},"accessors":{"a":{"bufferView":"b"}},"scene":"s"}"#;
+    let path = write(&dir, "old.gltf", json.as_bytes());
+    let want = |version: &str| {
+        format!("{}: glTF: version {version}; sms reads glTF 2.0 (convert the file)", path.display())
+    };
+    assert_eq!(load(&path).expect_err("gltf 1"), want("1.0"));
+    let mut glb1 = b"glTF".to_vec();
+    glb1.extend(1u32.to_le_bytes());
+    glb1.extend([0; 12]);
+    let path = write(&dir, "old.glb", &glb1);
+    assert_eq!(
+        load(&path).expect_err("glb 1"),
+        format!("{}: glTF: version 1; sms reads glTF 2.0 (convert the file)", path.display())
+    );
+}
+
+#[test]
+fn obj_names_and_comments_need_not_be_utf8() {
+    let dir = temp_dir("obj_bytes");
+    // Latin-1 'é' (0xE9) in a comment, an object name, a group, a material library and name.
+    let mut text =
+        b"# caf\xe9\nmtllib caf\xe9.mtl\no caf\xe9\ng terrain\xe6\nusemtl Terraind\xe6k\n".to_vec();
+    text.extend(format!("{QUAD}f 1 2 3 4\n").as_bytes());
+    let (tris, dropped) = load(&write(&dir, "latin1.obj", &text)).expect("loads");
+    assert_eq!((tris.len(), dropped), (2, 0));
+    // In a number it is an error naming the line, the byte shown replaced.
+    let path = write(&dir, "number.obj", b"v 0 0 0\nv 1 2\xe9 0\n");
+    assert_eq!(
+        load(&path).expect_err("number"),
+        format!("{}: line 2: '2\u{FFFD}' is not a number", path.display())
+    );
+    let path = write(&dir, "index.obj", &[QUAD.as_bytes(), b"f 1 2 3\xe9\n"].concat());
+    assert_eq!(
+        load(&path).expect_err("index"),
+        format!("{}: line 5: '3\u{FFFD}' is not a vertex index", path.display())
+    );
+}
+
+#[test]
+fn ply_header_comments_and_free_text_are_skipped() {
+    let dir = temp_dir("ply_header");
+    // Blender 2.4x writes a bare free-text line; comments and obj_info may hold any bytes.
+    let header: &[u8] = b"ply\nformat ascii 1.0\n\
+        Created by Blender3D 247 - www.blender.org, source file: caf\xe9.blend\n\
+        comment caf\xe9\nobj_info made by hand\nelement vertex 4\nproperty float x\n\
+        property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+        end_header\n";
+    let ply = [header, b"0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n"].concat();
+    let quad = load(&write(&dir, "quad.obj", format!("{QUAD}f 1 2 3 4\n").as_bytes())).unwrap();
+    let loaded = load(&write(&dir, "blender.ply", &ply)).expect("loads");
+    assert_eq!(format!("{loaded:?}"), format!("{quad:?}"));
+    // The keywords the reader needs are still checked.
+    for (name, line, what) in [
+        ("count.ply", "element vertex many", "header line 3: bad element count"),
+        ("type.ply", "property quad x", "header line 3: unknown property type"),
+        ("short.ply", "element vertex", "header line 3: malformed header line 'element vertex'"),
+    ] {
+        let text = format!("ply\nformat ascii 1.0\n{line}\nend_header\n");
+        let path = write(&dir, name, text.as_bytes());
+        assert_eq!(load(&path).expect_err(name), format!("{}: {what}", path.display()));
+    }
+}
+
+#[test]
+fn a_directory_is_not_a_scene() {
+    let lib = library("dir_scene");
+    let dir = lib.data.join("meshes.obj");
+    std::fs::create_dir_all(&dir).unwrap();
+    for path in [&lib.data, &dir] {
+        let e = lib.load(path.to_str().unwrap()).expect_err("a directory").to_string();
+        assert_eq!(
+            e,
+            format!(
+                "{}: is a directory; a scene is a name, a mesh file (.obj, .ply, .glb, .gltf, optionally .gz) or a .toml description",
+                path.display()
+            )
+        );
+    }
+}
+
+/// The example `sms scenes --help` and docs/scenes.md show is a working description.
+#[test]
+fn the_description_example_loads_and_is_documented() {
+    let lib = library("example");
+    write(&lib.data, "ship.obj.gz", format!("{QUAD}f 1 2 3 4\n").as_bytes());
+    let path = write(&lib.data, "example.toml", DESCRIPTION_EXAMPLE.as_bytes());
+    let scene = lib.load(path.to_str().unwrap()).expect("the example loads");
+    assert_eq!(scene.primitives.triangle_count(), 2);
+    assert_eq!(scene.camera, Camera::look_at([378.0, 278.0, 500.0], [178.0, 278.0, 0.0], 50.0));
+    assert_eq!(scene.render, RenderSettings { max_bounces: 3, ..RenderSettings::default() });
+    let docs = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/scenes.md"));
+    assert!(docs.contains(DESCRIPTION_EXAMPLE), "docs/scenes.md shows DESCRIPTION_EXAMPLE as it is");
+    assert!(description_help().contains("[[mesh]]"));
 }
 
 fn library(test: &str) -> SceneLibrary {
