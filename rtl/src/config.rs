@@ -331,35 +331,51 @@ impl FromStr for Config {
     /// `RB_8+SH_8+SK+RA`, `SMS` (= RB_8+SH_8+SK+RA). Case-insensitive. The result is validated.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let mut cfg = Config::default();
-        let upper = s.trim().to_ascii_uppercase();
-        if upper == "SMS" {
+        let name = s.trim();
+        if name.eq_ignore_ascii_case("SMS") {
             return Ok(Config::sms());
         }
         let mut saw_rb = false;
-        for part in upper.split('+') {
-            if let Some(n) = part.strip_prefix("RB_") {
+        for part in name.split('+') {
+            // Matched in upper case; errors quote what was written.
+            let upper = part.to_ascii_uppercase();
+            if let Some(n) = upper.strip_prefix("RB_") {
                 saw_rb = true;
                 cfg.rb = if n == "FULL" {
                     RbSize::Full
                 } else {
-                    RbSize::Entries(n.parse().map_err(|_| reject("rb", n, "expected a number or FULL"))?)
+                    RbSize::Entries(
+                        n.parse().map_err(|_| reject("rb", &part[3..], "expected a number or FULL"))?,
+                    )
                 };
-            } else if let Some(m) = part.strip_prefix("SH_") {
-                cfg.sh_entries = m.parse().map_err(|_| reject("sh", m, "expected a number"))?;
-            } else if part == "SK" {
+            } else if let Some(m) = upper.strip_prefix("SH_") {
+                cfg.sh_entries = m.parse().map_err(|_| reject("sh", &part[3..], "expected a number"))?;
+            } else if upper == "SK" {
                 cfg.skew = true;
-            } else if part == "RA" {
+            } else if upper == "RA" {
                 cfg.realloc = Some(Realloc::default());
+            } else if upper == "SMS" {
+                return Err(reject(
+                    "config",
+                    s,
+                    "SMS stands alone (it is RB_8+SH_8+SK+RA); to change it, write its parts out",
+                ));
+            } else if part.is_empty() {
+                return Err(reject(
+                    "config",
+                    s,
+                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA",
+                ));
             } else {
                 return Err(reject(
                     "config",
                     s,
-                    format!("unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK, RA or SMS"),
+                    format!("unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK or RA (or SMS alone)"),
                 ));
             }
         }
         if !saw_rb {
-            return Err(reject("config", s, "a configuration name must start with RB_N or RB_FULL"));
+            return Err(reject("config", s, "a configuration name needs an RB part: RB_N or RB_FULL"));
         }
         cfg.validate()?;
         Ok(cfg)

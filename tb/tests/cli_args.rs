@@ -127,3 +127,47 @@ fn version_names_the_binary() {
     assert!(out.status.success());
     assert_eq!(String::from_utf8_lossy(&out.stdout), format!("sms {}\n", env!("CARGO_PKG_VERSION")));
 }
+
+#[test]
+fn configuration_name_errors_say_what_is_wrong_in_the_names_written() {
+    let error = |name: &str| {
+        let args = StackConfigArgs {
+            config: vec![name.to_owned()],
+            warps: None,
+            warp_size: None,
+            borrow_limit: None,
+            flush_limit: None,
+        };
+        format!("{:#}", args.resolve(&[]).expect_err(name))
+    };
+    let invalid = |name: &str, rest: &str| format!("--config {name}: invalid configuration: {rest}");
+    for (name, rest) in [
+        (
+            "SMS+SK",
+            "config = SMS+SK: SMS stands alone (it is RB_8+SH_8+SK+RA); to change it, write its parts out",
+        ),
+        (
+            "sms+ra",
+            "config = sms+ra: SMS stands alone (it is RB_8+SH_8+SK+RA); to change it, write its parts out",
+        ),
+        (
+            "RB_8+XX",
+            "config = RB_8+XX: unknown part 'XX': expected RB_N, RB_FULL, SH_M, SK or RA (or SMS alone)",
+        ),
+        ("RB_8++SK", "config = RB_8++SK: an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA"),
+        ("rb_x", "rb = x: expected a number or FULL"),
+        ("RB_8+sh_y", "sh = y: expected a number"),
+        ("SH_8+SK", "config = SH_8+SK: a configuration name needs an RB part: RB_N or RB_FULL"),
+    ] {
+        assert_eq!(error(name), invalid(name, rest));
+    }
+    // The parts may come in any order.
+    let args = StackConfigArgs {
+        config: vec!["SH_8+RB_8".into()],
+        warps: None,
+        warp_size: None,
+        borrow_limit: None,
+        flush_limit: None,
+    };
+    assert_eq!(args.resolve(&[]).unwrap()[0], "RB_8+SH_8".parse().unwrap());
+}
