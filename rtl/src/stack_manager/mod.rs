@@ -453,6 +453,26 @@ impl StackManager {
         }
     }
 
+    /// Loads stack `s`'s registers from outside the design: a testbench's back door, for
+    /// replaying a solver's counterexample state.
+    pub fn load_stack(&mut self, s: u32, r: StackRegs) {
+        self.stacks[s as usize] = r;
+    }
+
+    /// Loads thread `t`'s registers, its RB entries (oldest first) and, when `busy`, a queued
+    /// micro-op (a read of its own stack's Top) from outside the design: a testbench's back
+    /// door, for replaying a solver's counterexample state.
+    pub fn load_thread(&mut self, t: u32, th: ThreadRegs, rb: &[Entry], busy: bool) {
+        self.threads[t as usize] = th;
+        self.rb[t as usize] = rb.iter().copied().collect();
+        self.seq[t as usize] = Sequencer::default();
+        if busy {
+            let entry = self.stacks[t as usize].top;
+            self.seq[t as usize].uops.push_back(Uop::ShLoad { stack: t, entry });
+        }
+        self.sync_queued(t);
+    }
+
     /// The base entry of `lane`'s stack (the policy's skew step; [`Config::skew_base`] in the
     /// design).
     fn skew_base(&self, lane: u32) -> u32 {

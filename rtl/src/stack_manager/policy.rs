@@ -293,14 +293,16 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
 
     // ---- chains (reallocation) -----------------------------------------------------------------
 
-    /// The thread's chain, following Next TID around the ring from its dedicated stack.
+    /// The thread's chain, following Next TID around the ring from its dedicated stack. A chain
+    /// holds at most 1 + borrow limit stacks (SPEC 5; one without reallocation), so the walker
+    /// has that many stages.
     pub fn members(&mut self) -> Chain<L> {
         let t = self.tw();
         let base = self.l.word(self.base);
         let mut on = self.l.bit(true);
         let mut c = Chain { ids: [t; 32], on: [on; 32], len: 0 };
         let mut s = t;
-        let bound = self.cfg.warp_size as usize;
+        let bound = self.cfg.realloc.map_or(1, |ra| ra.borrow_limit as usize + 1).min(32);
         loop {
             c.ids[c.len] = s;
             c.on[c.len] = on;

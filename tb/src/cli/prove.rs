@@ -7,6 +7,7 @@ use rtl::stack_manager::policy::Design;
 use rtl::stack_manager::Mutant;
 
 use super::stack_config::StackConfigArgs;
+use crate::prove::replay::replay;
 use crate::prove::solver::{Solver, Verdict};
 use crate::prove::{obligations, prove, Outcome};
 
@@ -14,8 +15,9 @@ use crate::prove::{obligations, prove, Outcome};
 pub struct Args {
     #[command(flatten)]
     pub stack: StackConfigArgs,
-    /// Solvers to run every proof with, comma-separated (Debian packages `z3`, `cvc5`).
-    #[arg(long, value_delimiter = ',', default_values_t = ["z3".to_string(), "cvc5".to_string()])]
+    /// Solvers to run every proof with, comma-separated: z3, boolector, cvc5 (Debian packages
+    /// of the same names).
+    #[arg(long, value_delimiter = ',', default_values_t = ["z3".to_string(), "boolector".to_string()])]
     pub solver: Vec<String>,
     /// Time limit per proof and solver, in seconds; past it the verdict is "unknown".
     #[arg(long, default_value_t = 600)]
@@ -27,18 +29,25 @@ pub struct Args {
     /// counterexample is the expected answer.
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Mutant::NAMES))]
     pub mutant: Option<String>,
+    /// Replay the first counterexample on the simulator and dump it to FILE (VCD, with a
+    /// GTKWave save file beside it): time 0 is the solver's state, time 1 the cycle after.
+    #[arg(long, value_name = "FILE")]
+    pub vcd: Option<std::path::PathBuf>,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let cfgs = args.stack.resolve(&["SMS"])?;
     let mut solvers = Vec::new();
     for s in &args.solver {
-        let Some(sv) = Solver::from_name(s) else { bail!("--solver {s}: unknown; one of z3, cvc5") };
+        let Some(sv) = Solver::from_name(s) else {
+            bail!("--solver {s}: unknown; one of z3, boolector, cvc5")
+        };
         sv.check_installed()?;
         solvers.push(sv);
     }
     let limit = Duration::from_secs(args.timeout);
     let mut all = Vec::new();
+    let mut dumped = false;
     for cfg in &cfgs {
         for ob in obligations(cfg) {
             if args.only.as_ref().is_some_and(|t| !ob.name.contains(t.as_str())) {
@@ -52,6 +61,17 @@ pub fn run(args: Args) -> Result<()> {
             for o in &outs {
                 println!("{}", line(o));
             }
+            if let (Some(path), Some(vals)) = (&args.vcd, outs.iter().find_map(counterexample)) {
+                if !dumped {
+                    let sm = design(rtl::stack_manager::StackManager::new(*cfg, 0)?, args.mutant.as_deref());
+                    let r = replay(*cfg, sm, &ob, vals, path)?;
+                    for a in r.answers {
+                        println!("  replayed: {a}");
+                    }
+                    println!("  counterexample dumped to {} (+ .gtkw)", path.display());
+                    dumped = true;
+                }
+            }
             all.extend(outs);
         }
     }
@@ -60,6 +80,20 @@ pub fn run(args: Args) -> Result<()> {
         bail!("{failed} of {} proofs not proved", all.len());
     }
     Ok(())
+}
+
+fn counterexample(o: &Outcome) -> Option<&Vec<(String, u64)>> {
+    match &o.verdict {
+        Verdict::Counterexample(v) => Some(v),
+        _ => None,
+    }
+}
+
+/// The stack manager as built, or with the planted bug `mutant`.
+fn design(sm: rtl::stack_manager::StackManager, _mutant: Option<&str>) -> rtl::stack_manager::StackManager {
+    #[cfg(feature = "mutants")]
+    let sm = sm.with_mutant(_mutant.and_then(Mutant::from_name));
+    sm
 }
 
 fn line(o: &Outcome) -> String {

@@ -262,13 +262,12 @@ fn select_bit<L: Logic>(l: &mut L, bits: &[L::Bit], lane: L::Word) -> L::Bit {
     v
 }
 
-/// The symbolic register file both sides plan against: the cycle's registers so far (`now`),
-/// one plan's working copy (`work`), the registers as the cycle began (`q`), and what the plan
-/// emitted.
+/// The symbolic register file both sides plan against: one plan's working copy of the
+/// registers (`work`, from the cycle's registers so far), the registers as the cycle began
+/// (`q`), and what the plan emitted.
 pub struct SymWarp<'a> {
     pub base: u32,
     pub q: &'a [Regs<Sym>],
-    pub now: Vec<Regs<Sym>>,
     pub work: Vec<Regs<Sym>>,
     pub done: &'a [B],
     pub lane: LaneIn,
@@ -438,12 +437,14 @@ pub enum Side<'a, P: Steps> {
     Spec,
 }
 
-/// Runs one side over every path and merges the paths' outputs under their conditions.
+/// Runs one side, lane by lane in the cycle's order: each lane's plan over every path, its
+/// paths' outputs and registers merged under their conditions before the next lane plans (so
+/// the paths of two lanes add, not multiply).
 fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots: usize) -> Cycle {
-    let paths = s.explore(|l| {
-        let mut now = st.regs.clone();
-        let mut lanes = Vec::new();
-        for lane in &st.lanes {
+    let mut now = st.regs.clone();
+    let mut lanes = Vec::new();
+    for lane in &st.lanes {
+        let paths = s.explore(|l| {
             let t = st.base + lane.lane;
             let cmd = match lane.kind {
                 Kind::Push => CmdOf::Push(lane.value),
@@ -453,7 +454,6 @@ fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots:
             let mut rf = SymWarp {
                 base: st.base,
                 q: &st.regs,
-                now: now.clone(),
                 work: now.clone(),
                 done: &st.done,
                 lane: *lane,
@@ -488,20 +488,18 @@ fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots:
                 Err(e) => (error_code(&e), zv, false),
             };
             let code = l.word(code);
-            let (prog, th, rb_len) = if accepted {
-                now = rf.work.clone();
-                (compact(l, &rf.prog, slots), th, rf.rb_len)
+            // A refused command changes nothing.
+            if accepted {
+                let prog = compact(l, &rf.prog, slots);
+                (Answer { code, value, prog, th, rb_len: rf.rb_len }, rf.work)
             } else {
-                (compact(l, &[], slots), lane.th, lane.rb_len)
-            };
-            lanes.push(Answer { code, value, prog, th, rb_len });
-        }
-        Cycle { lanes, regs: now }
-    });
-    let mut it = paths.into_iter().rev();
-    let (_, mut acc) = it.next().expect("at least one path");
-    for (c, p) in it {
-        for (a, x) in acc.lanes.iter_mut().zip(&p.lanes) {
+                let prog = compact(l, &[], slots);
+                (Answer { code, value, prog, th: lane.th, rb_len: lane.rb_len }, now.clone())
+            }
+        });
+        let mut it = paths.into_iter().rev();
+        let (_, (mut a, mut regs)) = it.next().expect("at least one path");
+        for (c, (x, xr)) in it {
             a.code = s.mux(c, x.code, a.code);
             a.value = s.mux_val(c, x.value, a.value);
             for (sa, sx) in a.prog.iter_mut().zip(&x.prog) {
@@ -510,12 +508,14 @@ fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots:
             }
             a.th = ThreadRegsOf::mux(s, c, x.th, a.th);
             a.rb_len = s.mux(c, x.rb_len, a.rb_len);
+            for (ra, rx) in regs.iter_mut().zip(&xr) {
+                *ra = StackRegsOf::mux(s, c, *rx, *ra);
+            }
         }
-        for (ra, rx) in acc.regs.iter_mut().zip(&p.regs) {
-            *ra = StackRegsOf::mux(s, c, *rx, *ra);
-        }
+        lanes.push(a);
+        now = regs;
     }
-    acc
+    Cycle { lanes, regs: now }
 }
 
 /// What the two sides must agree on, and the names of the parts (for a counterexample's

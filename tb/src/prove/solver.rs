@@ -1,4 +1,5 @@
-//! SMT solvers as processes speaking SMT-LIB 2 on stdin (Debian's `z3` and `cvc5`): a query is
+//! SMT solvers as processes speaking SMT-LIB 2 on stdin (Debian's `z3`, `boolector` and
+//! `cvc5`): a query is
 //! satisfiable (a counterexample, with the values of the variables asked for), unsatisfiable
 //! (proved), or unknown within the time limit.
 
@@ -12,15 +13,17 @@ use anyhow::{bail, Context, Result};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Solver {
     Z3,
+    Boolector,
     Cvc5,
 }
 
 impl Solver {
-    pub const ALL: [Solver; 2] = [Solver::Z3, Solver::Cvc5];
+    pub const ALL: [Solver; 3] = [Solver::Z3, Solver::Boolector, Solver::Cvc5];
 
     pub fn name(self) -> &'static str {
         match self {
             Solver::Z3 => "z3",
+            Solver::Boolector => "boolector",
             Solver::Cvc5 => "cvc5",
         }
     }
@@ -34,6 +37,9 @@ impl Solver {
         let mut c = Command::new(self.name());
         match self {
             Solver::Z3 => c.args(["-in", "-smt2", &format!("-t:{ms}")]),
+            // Boolector prints the model itself (`-m`; it has no `get-value`), in its own
+            // format: a line per variable, `name bits`.
+            Solver::Boolector => c.args(["--smt2", "-m", "-t", &limit.as_secs().max(1).to_string()]),
             Solver::Cvc5 => c.args(["--lang", "smt2", "--produce-models", &format!("--tlimit-per={ms}")]),
         };
         c
@@ -41,7 +47,12 @@ impl Solver {
 
     /// Fails with what to install when the solver is not on the PATH.
     pub fn check_installed(self) -> Result<()> {
-        match Command::new(self.name()).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status()
+        match Command::new(self.name())
+            .arg("--version")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
         {
             Ok(_) => Ok(()),
             Err(_) => bail!(
@@ -70,17 +81,23 @@ pub enum Verdict {
 pub fn check(solver: Solver, query: &str, vars: &[String], limit: Duration) -> Result<(Verdict, Duration)> {
     let start = Instant::now();
     let mut text = String::with_capacity(query.len() + 64 * vars.len());
-    text.push_str(query);
-    text.push_str("(check-sat)\n");
-    if !vars.is_empty() {
-        text.push_str("(get-value (");
-        for v in vars {
-            text.push_str(v);
-            text.push(' ');
+    if solver == Solver::Boolector {
+        // It stops at a command it does not know: no options, no `get-value`.
+        text.extend(query.lines().filter(|l| !l.starts_with("(set-option")).flat_map(|l| [l, "\n"]));
+        text.push_str("(check-sat)\n(exit)\n");
+    } else {
+        text.push_str(query);
+        text.push_str("(check-sat)\n");
+        if !vars.is_empty() {
+            text.push_str("(get-value (");
+            for v in vars {
+                text.push_str(v);
+                text.push(' ');
+            }
+            text.push_str("))\n");
         }
-        text.push_str("))\n");
+        text.push_str("(exit)\n");
     }
-    text.push_str("(exit)\n");
     let mut child = solver
         .command(limit)
         .stdin(Stdio::piped())
@@ -99,6 +116,7 @@ pub fn check(solver: Solver, query: &str, vars: &[String], limit: Duration) -> R
     let first = stdout.lines().next().unwrap_or("").trim();
     let verdict = match first {
         "unsat" => Verdict::Proved,
+        "sat" if solver == Solver::Boolector => Verdict::Counterexample(parse_model_lines(&stdout, vars)),
         "sat" => Verdict::Counterexample(parse_values(&stdout)),
         "unknown" | "timeout" => Verdict::Unknown(format!("{} said {first}", solver.name())),
         _ => {
@@ -142,6 +160,18 @@ fn parse_values(out: &str) -> Vec<(String, u64)> {
         i += 1;
     }
     vals
+}
+
+/// Boolector's model: a line per variable, `name bits` (bits in binary; a Bool is one bit).
+fn parse_model_lines(out: &str, vars: &[String]) -> Vec<(String, u64)> {
+    out.lines()
+        .skip(1)
+        .filter_map(|l| {
+            let (name, bits) = l.trim().split_once(' ')?;
+            let v = u64::from_str_radix(bits.get(bits.len().saturating_sub(64)..)?, 2).ok()?;
+            vars.iter().any(|x| x == name).then(|| (name.to_string(), v))
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -123,13 +123,15 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
         self.l.mux(r.empty, zero, n)
     }
 
-    /// The ring of the commanding thread's chain, from its dedicated stack.
+    /// The ring of the commanding thread's chain, from its dedicated stack: at most 1 + borrow
+    /// limit stacks (SPEC 5), one without reallocation.
     fn ring(&mut self) -> Ring<L> {
         let me = self.l.word(self.t);
         let mut at = vec![(self.l.bit(true), me)];
         let mut s = me;
         let mut on = self.l.bit(true);
-        for _ in 1..self.cfg.warp_size {
+        let most = self.cfg.realloc.map_or(1, |ra| ra.borrow_limit + 1).min(self.cfg.warp_size);
+        for _ in 1..most {
             let next = self.get(s).next_tid;
             s = self.l.add_k(next, self.base);
             let home = self.l.eq(s, me);

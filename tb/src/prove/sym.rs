@@ -161,7 +161,9 @@ impl Sym {
     /// reach, and asserting each of `asserts`.
     pub fn smtlib(&self, asserts: &[B], keep: &[B]) -> String {
         let mut need = vec![false; self.nodes.len()];
-        let mut stack: Vec<u32> = asserts.iter().chain(keep).map(|b| b.0).collect();
+        // Every variable is declared, read or not, so a model can be asked for each.
+        let mut stack: Vec<u32> =
+            asserts.iter().chain(keep).map(|b| b.0).chain(self.vars.iter().map(|v| v.0)).collect();
         while let Some(i) = stack.pop() {
             if std::mem::replace(&mut need[i as usize], true) {
                 continue;
@@ -257,6 +259,14 @@ impl Sym {
         }
     }
 
+    /// `a` as `x + k` with a constant `k`, when it is a sum with a constant.
+    fn offset(&self, a: W) -> Option<(W, u32)> {
+        match self.nodes[a.0 as usize] {
+            Node::Add(x, k) => self.word_of(k).map(|k| (W(x), k)),
+            _ => None,
+        }
+    }
+
     /// Terms in the DAG (a size measure for reports).
     pub fn size(&self) -> usize {
         self.nodes.len()
@@ -311,17 +321,31 @@ impl Logic for Sym {
         }
     }
     fn add(&mut self, a: W, b: W) -> W {
+        // Canonical form `x + k`: the constant on the right, constants gathered (exact in
+        // wrapping arithmetic), so that sums the design and the specification form differently
+        // are one term.
         match (self.word_of(a.0), self.word_of(b.0)) {
             (Some(x), Some(y)) => self.word(x.wrapping_add(y)),
             (Some(0), _) => b,
             (_, Some(0)) => a,
-            _ => W(self.mk(Node::Add(a.0, b.0))),
+            (Some(_), None) => self.add(b, a),
+            (None, Some(k)) => match self.offset(a) {
+                Some((x, k1)) => {
+                    let k = self.word(k1.wrapping_add(k));
+                    self.add(x, k)
+                }
+                None => W(self.mk(Node::Add(a.0, b.0))),
+            },
+            (None, None) => W(self.mk(Node::Add(a.0.min(b.0), a.0.max(b.0)))),
         }
     }
     fn sub(&mut self, a: W, b: W) -> W {
         match (self.word_of(a.0), self.word_of(b.0)) {
             (Some(x), Some(y)) => self.word(x.wrapping_sub(y)),
-            (_, Some(0)) => a,
+            (_, Some(k)) => {
+                let neg = self.word(k.wrapping_neg());
+                self.add(a, neg)
+            }
             _ if a == b => self.word(0),
             _ => W(self.mk(Node::Sub(a.0, b.0))),
         }
@@ -361,7 +385,30 @@ impl Logic for Sym {
         }
         match (self.word_of(a.0), self.word_of(b.0)) {
             (Some(x), Some(y)) => self.bit(x == y),
-            _ => B(self.mk(Node::Eq(a.0.min(b.0), a.0.max(b.0)))),
+            (Some(_), None) => self.eq(b, a),
+            // x + k = c  ⇔  x = c − k (wrapping arithmetic is a group).
+            (None, Some(c)) => match self.offset(a) {
+                Some((x, k)) => {
+                    let c = self.word(c.wrapping_sub(k));
+                    self.eq(x, c)
+                }
+                None => B(self.mk(Node::Eq(a.0, b.0))),
+            },
+            (None, None) => {
+                // x + k1 = y + k2  ⇔  x = y + (k2 − k1).
+                let (x, k1) = self.offset(a).unwrap_or((a, 0));
+                let (y, k2) = self.offset(b).unwrap_or((b, 0));
+                let d = k2.wrapping_sub(k1);
+                if x == y {
+                    return self.bit(d == 0);
+                }
+                if d == 0 {
+                    return B(self.mk(Node::Eq(x.0.min(y.0), x.0.max(y.0))));
+                }
+                let dw = self.word(d);
+                let y = self.add(y, dw);
+                B(self.mk(Node::Eq(x.0, y.0)))
+            }
         }
     }
     fn lt(&mut self, a: W, b: W) -> B {

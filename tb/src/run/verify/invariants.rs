@@ -246,13 +246,7 @@ pub fn check_warp_exit(sm: &StackManager, w: u32) -> Result<(), Violation> {
 /// DESIGN 9.6's base entry of `lane`, written from the formula (not through the design's
 /// `Config::skew_base`).
 pub fn formula_base(c: &rtl::config::Config, lane: u32) -> u32 {
-    let m = c.sh_entries;
-    if !c.skew || m == 0 {
-        return 0;
-    }
-    let words_per_entry = c.entry_bytes / c.bank_bytes;
-    let k = (c.banks / (m * words_per_entry)).max(1);
-    (lane / k) % m
+    crate::prove::spec::formula_base(&mut rtl::logic::Int, c, lane)
 }
 
 /// [`Property::Placement`] for stack `s`, which has just been loaded or lent and holds at most
