@@ -36,7 +36,7 @@ fn program(m: &mut Model, t: u32, cmd: Cmd) -> Vec<Uop> {
 /// SH load → global store → SH store of case 3, and a pop that reloads SH → RB and global → SH.
 #[test]
 fn spec_section_3_sequences_by_hand() {
-    use Uop::*;
+    use rtl::stack_manager::UopOf::*;
     let mut m = Model::new(config(1, 0)).unwrap();
     assert_eq!(program(&mut m, 0, Cmd::Push(1)), vec![], "push, RB not full");
     let case2 = vec![ShStore { stack: 0, entry: 0, src: Src::Value(1) }];
@@ -64,7 +64,7 @@ fn spec_section_3_sequences_by_hand() {
 /// borrowed stack releases it after the load that read its entry.
 #[test]
 fn spec_section_5_borrow_and_release_by_hand() {
-    use Uop::*;
+    use rtl::stack_manager::UopOf::*;
     let mut m = Model::new(config(1, 1)).unwrap();
     program(&mut m, 1, Cmd::Finish);
     program(&mut m, 0, Cmd::Push(1));

@@ -193,7 +193,7 @@ mod planted {
         }
 
         fn reload_target<L: Logic, R: Regfile<L>>(p: &mut P<L, R>, c: &Chain<L>) -> L::Word {
-            p.by_priority(c, !is(p, Mutant::ReloadIntoTop))
+            p.by_priority(c, is(p, Mutant::ReloadIntoTop))
         }
 
         fn first_idle<L: Logic, R: Regfile<L>>(p: &mut P<L, R>) -> (L::Bit, L::Word) {
