@@ -219,8 +219,8 @@ pub fn large_cap(c: &Config) -> u32 {
 pub enum Goal {
     /// A thread borrows an idle stack.
     Borrow,
-    /// A borrowed stack is released from a rotated chain: it does not sit right after its
-    /// owner on the ring, or the ring order is not the priority order.
+    /// A borrowed stack is released out of allocation order: it does not sit right after its
+    /// owner on the ring, or the ring's order was not the priority order before the pop.
     RotatedRelease,
     /// A chain of 1 + borrow-limit stacks.
     FullChain,
@@ -232,7 +232,8 @@ pub enum Goal {
     PerEntryFallback,
     /// A drained dedicated stack moves to the bottom of its chain.
     Demotion,
-    /// A pop reloads from global memory into the oldest stack of a chain of two or more.
+    /// A pop reloads from global memory into the oldest stack (lowest Priority) of a chain of
+    /// two or more: the reload's SH store names that stack.
     OldestReload,
     /// A warp exits after one of its threads borrowed.
     ExitAfterBorrow,
@@ -549,9 +550,12 @@ impl Model {
         let sm = &mut self.sm;
         let before = sm.stats;
         let ra = sm.config().realloc;
-        // The chain before a pop, in ring order, for the rotated-release cover.
-        let ring_before = match a {
-            Action::Cmd(t, _) if ra.is_some() => Some(sm.chain(t)),
+        // The chain before a pop, in ring order with each member's Priority then, for the
+        // rotated-release cover.
+        let ring_before: Option<Vec<(u32, u32)>> = match a {
+            Action::Cmd(t, _) if ra.is_some() => {
+                Some(sm.chain(t).into_iter().map(|s| (s, sm.stack(s).priority)).collect())
+            }
             _ => None,
         };
         match a {
@@ -595,7 +599,7 @@ impl Model {
         cov.releases += d.releases;
         if let Action::Cmd(t, _) = a {
             if let (true, Some(ring)) = (d.borrows > 0, &ring_before) {
-                for s in sm.chain(t).into_iter().filter(|s| !ring.contains(s)) {
+                for s in sm.chain(t).into_iter().filter(|s| !ring.iter().any(|r| r.0 == *s)) {
                     check_placement(sm, s)?;
                 }
             }
@@ -758,8 +762,8 @@ fn live_reads(
 }
 
 /// Records the cover goals a command of thread `t` reached; `d` is what it counted, `ring` its
-/// chain before a pop (ring order from its dedicated stack).
-fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[u32]>, c: &mut Covers) {
+/// chain before a pop (ring order from its dedicated stack, each member's Priority then).
+fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[(u32, u32)]>, c: &mut Covers) {
     let cfg = sm.config();
     if d.borrows > 0 {
         c.hit(Goal::Borrow);
@@ -782,13 +786,22 @@ fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[u32]
             c.hit(Goal::FullChain);
         }
     }
-    if d.global_to_sh > 0 && chain.len() > 1 {
+    // The reload's SH store (data from the latch after a global load) must land in the chain's
+    // oldest stack, not merely happen in a chain.
+    let oldest = chain.iter().copied().min_by_key(|&s| sm.stack(s).priority);
+    let reload_into = sm.pending_uops(t).find_map(|u| match *u {
+        Uop::ShStore { stack, src: Src::Latch, .. } => Some(stack),
+        _ => None,
+    });
+    if d.global_to_sh > 0 && chain.len() > 1 && reload_into.is_some() && reload_into == oldest {
         c.hit(Goal::OldestReload);
     }
     if let (true, Some(ring)) = (d.releases > 0, ring) {
-        let released = ring.iter().copied().find(|s| !chain.contains(s));
-        let in_order = ring.iter().enumerate().all(|(i, &s)| sm.stack(s).priority == i as u32);
-        let apart = released.is_some_and(|s| ring.get(1) != Some(&s));
+        // Out of allocation order: the released stack is not the one after the owner, or the
+        // ring's order was not the priority order before the pop.
+        let released = ring.iter().map(|r| r.0).find(|s| !chain.contains(s));
+        let in_order = ring.iter().enumerate().all(|(i, r)| r.1 == i as u32);
+        let apart = released.is_some_and(|s| ring.get(1).map(|r| r.0) != Some(s));
         if apart || !in_order {
             c.hit(Goal::RotatedRelease);
         }
