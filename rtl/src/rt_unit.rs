@@ -633,9 +633,16 @@ impl RtUnit {
     fn stack_clear(&self, t: u32) -> bool {
         let manager = &self.stack_unit.manager;
         let st = manager.stack(t);
+        let th = manager.thread(t);
+        let lane = t % self.cfg.warp_size;
+        // As the proofs' WarpExit: every queue empty, and every stack back with its owner
+        // (alone on its ring, rank 0).
         manager.rb(t).is_empty()
             && (self.cfg.sh_entries == 0 || st.empty)
-            && manager.thread(t).spill_ptr == 0
+            && th.spill_ptr == 0
+            && !th.overflow
+            && st.next_tid == lane
+            && st.priority == 0
             && (self.cfg.realloc.is_none() || st.idle)
     }
 

@@ -430,6 +430,8 @@ fn planted_stack_bugs_stop_the_run() {
         (Mutant::MissingGlobalReload, "RB_2+SH_4"),
         (Mutant::SkipOverflowClear, "RB_2+SH_4"),
         (Mutant::EarlyRelease, "RB_2+SH_4+SK+RA"),
+        // Only the exit check sees it: a released stack left with its rank.
+        (Mutant::PriorityKeptOnRelease, "RB_2+SH_4+SK+RA"),
     ];
     for (m, cfg) in cases {
         let c: Config = cfg.parse().unwrap();
