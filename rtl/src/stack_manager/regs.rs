@@ -30,7 +30,7 @@ pub enum StackTiming {
     /// response FIFO (so a warp cannot leave with a store unacknowledged).
     #[default]
     Blocking,
-    /// The model before issue 12: global stores are posted (complete when issued), and a pop's
+    /// Global stores are posted (complete when issued), and a pop's
     /// refill and a push's spill proceed while the thread fetches its next node; only the
     /// thread's next stack command waits for them.
     Overlapped,
