@@ -530,12 +530,12 @@ fn agreement(s: &mut Sym, d: &Cycle, sp: &Cycle, lanes: &[LaneIn]) -> Vec<(Strin
         parts.push((format!("lane {n}: popped entry"), value));
         let mut prog = s.bit(true);
         for (x, y) in a.prog.iter().zip(&b.prog) {
-            let v = eq_b(s, x.0, y.0);
+            let v = eq_bit(s, x.0, y.0);
             let fields = {
                 let k = s.eq(x.1.kind, y.1.kind);
                 let f1 = s.eq(x.1.a, y.1.a);
                 let f2 = s.eq(x.1.b, y.1.b);
-                let f3 = eq_b(s, x.1.latch, y.1.latch);
+                let f3 = eq_bit(s, x.1.latch, y.1.latch);
                 let f4 = s.eq_val(x.1.value, y.1.value);
                 let all = s.and(k, f1);
                 let all = s.and(all, f2);
@@ -549,9 +549,9 @@ fn agreement(s: &mut Sym, d: &Cycle, sp: &Cycle, lanes: &[LaneIn]) -> Vec<(Strin
         }
         parts.push((format!("lane {n}: micro-op program"), prog));
         let th = {
-            let o = eq_b(s, a.th.overflow, b.th.overflow);
+            let o = eq_bit(s, a.th.overflow, b.th.overflow);
             let p = s.eq(a.th.spill_ptr, b.th.spill_ptr);
-            let dn = eq_b(s, a.th.done, b.th.done);
+            let dn = eq_bit(s, a.th.done, b.th.done);
             let x = s.and(o, p);
             s.and(x, dn)
         };
@@ -563,8 +563,8 @@ fn agreement(s: &mut Sym, d: &Cycle, sp: &Cycle, lanes: &[LaneIn]) -> Vec<(Strin
         let fields = [
             s.eq(x.top, y.top),
             s.eq(x.bottom, y.bottom),
-            eq_b(s, x.empty, y.empty),
-            eq_b(s, x.idle, y.idle),
+            eq_bit(s, x.empty, y.empty),
+            eq_bit(s, x.idle, y.idle),
             s.eq(x.next_tid, y.next_tid),
             s.eq(x.priority, y.priority),
             s.eq(x.flush, y.flush),
@@ -573,11 +573,6 @@ fn agreement(s: &mut Sym, d: &Cycle, sp: &Cycle, lanes: &[LaneIn]) -> Vec<(Strin
         parts.push((format!("stack of lane {j}: registers"), all));
     }
     parts
-}
-
-fn eq_b(s: &mut Sym, a: B, b: B) -> B {
-    let nb = s.not(b);
-    s.mux_bit(a, b, nb)
 }
 
 /// A built query: the SMT-LIB text, the variables whose values a counterexample reports, and

@@ -138,13 +138,6 @@ impl Sym {
         }
     }
 
-    /// `a == b` over any sort's terms built by this builder.
-    pub fn eq_bit(&mut self, a: B, b: B) -> B {
-        let x = self.not(a);
-        let l = self.mux_bit(b, a, x);
-        l
-    }
-
     /// `c ? a : b` for terms of sort `sort`.
     fn ite(&mut self, sort: Sort, c: u32, a: u32, b: u32) -> u32 {
         if a == b {
