@@ -316,7 +316,7 @@ mod planted {
 
         fn global_reload<L: Logic, R: Regfile<L>>(p: &mut P<L, R>) {
             if !is(p, Mutant::MissingGlobalReload) {
-                Self::reload(p)
+                p.global_reload()
             }
         }
 
@@ -334,12 +334,6 @@ mod planted {
                 p.th.overflow = p.l.and(p.th.overflow, kept);
             }
             sp
-        }
-    }
-
-    impl Mutated {
-        fn reload<L: Logic, R: Regfile<L>>(p: &mut P<L, R>) {
-            p.global_reload()
         }
     }
 }

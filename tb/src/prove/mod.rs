@@ -76,10 +76,6 @@ pub fn prove<P: Steps>(
     limit: Duration,
 ) -> Result<Vec<Outcome>> {
     let q = query::one_step(cfg, steps, ob.base, &ob.cmds);
-    if let Some(dir) = std::env::var_os("SMS_PROVE_DUMP") {
-        let name = format!("{}-{}.smt2", cfg.name(), ob.name.replace(' ', "_"));
-        std::fs::write(std::path::Path::new(&dir).join(name), &q.text)?;
-    }
     let mut out = Vec::new();
     for &sv in solvers {
         let (verdict, took) = solver::check(sv, &q.text, &q.vars, limit)?;
