@@ -459,6 +459,14 @@ impl StackManager {
         self.stacks[s as usize] = r;
     }
 
+    /// Writes SH entry `e` of stack `s` from outside the design: a testbench's back door, with
+    /// which the exhaustive search overwrites dead words with [`POISON`] so that stale memory is
+    /// never state.
+    pub fn load_sh_entry(&mut self, s: u32, e: u32, v: Entry) {
+        let i = self.sh_index(s, e);
+        self.sh_data[i] = v;
+    }
+
     /// Loads thread `t`'s registers, its RB entries (oldest first) and, when `busy`, a queued
     /// micro-op (a read of its own stack's Top) from outside the design: a testbench's back
     /// door, for replaying a solver's counterexample state.
@@ -579,6 +587,20 @@ impl StackManager {
         d.clear();
         self.plan(&[(t, cmd)], &mut d);
         let r = d.answer(t);
+        self.commit(&d);
+        d.clear();
+        self.scratch = d;
+        r
+    }
+
+    /// Accepts several threads' commands in one cycle, planned in order (a plan sees the stack
+    /// registers earlier ones changed), as [`StackManager::eval`] plans a cycle's commands.
+    /// Returns each command's answer, in order; a thread that is not ready is refused (Busy).
+    pub fn accept_all(&mut self, cmds: &[(u32, Cmd)]) -> Vec<Result<Option<Entry>, StackError>> {
+        let mut d = std::mem::take(&mut self.scratch);
+        d.clear();
+        self.plan(cmds, &mut d);
+        let r = cmds.iter().map(|c| d.answer(c.0)).collect();
         self.commit(&d);
         d.clear();
         self.scratch = d;

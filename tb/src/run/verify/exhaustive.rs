@@ -107,7 +107,7 @@ use std::hash::{Hash, Hasher};
 use std::time::{Duration, Instant};
 
 use rtl::config::Config;
-use rtl::stack_manager::{Cmd, Src, StackManager, StackRegs, StackStats, Uop};
+use rtl::stack_manager::{Cmd, Src, StackError, StackManager, StackRegs, StackStats, Uop, POISON};
 
 use super::harness::Scoreboard;
 use super::invariants::{
@@ -120,6 +120,9 @@ use super::sequence::{check_sequence, Before};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Action {
     Cmd(u32, Cmd),
+    /// Two threads' commands in one cycle, planned in this order (the second sees the stack
+    /// registers the first changed).
+    Both(u32, Cmd, u32, Cmd),
     /// Thread's next micro-op completes.
     Uop(u32),
 }
@@ -157,6 +160,15 @@ pub struct Bounds {
     /// Print a progress line to stderr every 2²² states of a depth-first search (`sms check
     /// --full`).
     pub progress: bool,
+    /// Also offer every command to threads that are busy (a program still running), which the
+    /// design must refuse without changing anything ([`Property::Busy`]).
+    pub busy_cmds: bool,
+    /// Also offer two ready threads' commands planned in one cycle ([`Action::Both`]), which
+    /// must equal planning them one after the other ([`Property::SameCycle`]).
+    pub pairs: bool,
+    /// The warp explored: its threads start at `warp × warp size`, and the configuration
+    /// holds `warp + 1` warps (so a nonzero warp's thread ids differ from its lanes).
+    pub warp: u32,
 }
 
 impl Default for Bounds {
@@ -172,6 +184,9 @@ impl Default for Bounds {
             por: false,
             dfs: false,
             progress: false,
+            busy_cmds: false,
+            pairs: false,
+            warp: 0,
         }
     }
 }
@@ -243,10 +258,18 @@ pub enum Goal {
     /// a chain of three). Asked of the partial-warp cases ([`Case::goals`]) only: a full warp
     /// reaches it only past the default cap.
     NonAdjacentRelease,
+    /// A stack's flush counter stands at its limit, when the limit is above 1.
+    FlushAtLimit,
+    /// A command offered to a busy thread is refused. Asked of the cases that offer such
+    /// commands ([`Case::busy_cmds`]).
+    BusyRefusal,
+    /// Two threads borrow in one cycle, the second seeing the first's lend. Asked of the cases
+    /// that plan two threads' commands in one cycle ([`Case::pairs`]) with reallocation.
+    SameCycleBorrow,
 }
 
 impl Goal {
-    pub const ALL: [Goal; 11] = [
+    pub const ALL: [Goal; 14] = [
         Goal::Borrow,
         Goal::RotatedRelease,
         Goal::FullChain,
@@ -258,6 +281,9 @@ impl Goal {
         Goal::ExitAfterBorrow,
         Goal::SkewBase,
         Goal::NonAdjacentRelease,
+        Goal::FlushAtLimit,
+        Goal::BusyRefusal,
+        Goal::SameCycleBorrow,
     ];
 
     /// Whether `c` has the feature the goal needs (so it must be reached).
@@ -271,7 +297,8 @@ impl Goal {
             // then follow the ring at every release.
             Goal::RotatedRelease => finite && c.realloc.is_some_and(|r| r.borrow_limit >= 2),
             Goal::SkewBase => finite && (0..c.warp_size).any(|l| c.skew_base(l) != 0),
-            Goal::NonAdjacentRelease => false,
+            Goal::FlushAtLimit => finite && c.realloc.is_some_and(|r| r.flush_limit >= 2),
+            Goal::NonAdjacentRelease | Goal::BusyRefusal | Goal::SameCycleBorrow => false,
         }
     }
 }
@@ -368,6 +395,12 @@ pub struct Model {
     pub one_mark: bool,
     /// A push of [`MARKED`] was accepted on the way here (path history, part of the state).
     marked: bool,
+    /// The warp explored ([`Bounds::warp`]).
+    pub warp: u32,
+    /// Offer commands to busy threads too ([`Bounds::busy_cmds`]).
+    pub busy_cmds: bool,
+    /// Offer two threads' commands in one cycle too ([`Bounds::pairs`]).
+    pub pairs: bool,
 }
 
 /// The one distinguished push value of a [`Bounds::one_mark`] run.
@@ -396,7 +429,8 @@ impl Clone for Shadow {
 /// before. Both functions name every field, so a new field not cloned here does not compile.
 impl Clone for Model {
     fn clone(&self) -> Self {
-        let Model { sm, sb, shadow, borrowed, request_sequence, one_mark, marked } = self;
+        let Model { sm, sb, shadow, borrowed, request_sequence, one_mark, marked, warp, busy_cmds, pairs } =
+            self;
         Model {
             sm: sm.clone(),
             sb: sb.clone(),
@@ -405,10 +439,14 @@ impl Clone for Model {
             request_sequence: *request_sequence,
             one_mark: *one_mark,
             marked: *marked,
+            warp: *warp,
+            busy_cmds: *busy_cmds,
+            pairs: *pairs,
         }
     }
     fn clone_from(&mut self, src: &Self) {
-        let Model { sm, sb, shadow, borrowed, request_sequence, one_mark, marked } = src;
+        let Model { sm, sb, shadow, borrowed, request_sequence, one_mark, marked, warp, busy_cmds, pairs } =
+            src;
         self.sm.clone_from(sm);
         self.sb.clone_from(sb);
         self.shadow.clone_from(shadow);
@@ -416,7 +454,18 @@ impl Clone for Model {
         self.request_sequence = *request_sequence;
         self.one_mark = *one_mark;
         self.marked = *marked;
+        self.warp = *warp;
+        self.busy_cmds = *busy_cmds;
+        self.pairs = *pairs;
     }
+}
+
+/// A 128-bit hash of the stack manager's whole architectural state
+/// ([`StackManager::hash_state`]).
+fn state_hash(sm: &StackManager) -> u128 {
+    let mut h = KeyHasher::new();
+    sm.hash_state(&mut h);
+    h.key()
 }
 
 /// The state key's hasher. The bytes the state's `Hash` impls write form one stream (each
@@ -487,26 +536,40 @@ impl Hasher for KeyHasher {
 impl Model {
     /// One warp of `cfg` (its `warps` is forced to 1).
     pub fn new(cfg: Config) -> Result<Model, rtl::config::ConfigError> {
-        let cfg = Config { warps: 1, ..cfg };
+        Model::on_warp(cfg, 0)
+    }
+
+    /// Warp `warp` of `cfg`, whose `warps` is forced to `warp + 1` (the warps below stay as
+    /// reset and take no commands).
+    pub fn on_warp(cfg: Config, warp: u32) -> Result<Model, rtl::config::ConfigError> {
+        let cfg = Config { warps: warp + 1, ..cfg };
         Ok(Model {
             sm: StackManager::new(cfg, 0)?,
             sb: Scoreboard::new(cfg.threads()),
-            shadow: vec![Shadow::default(); cfg.warp_size as usize],
+            shadow: vec![Shadow::default(); cfg.threads() as usize],
             borrowed: false,
             request_sequence: true,
             one_mark: false,
             marked: false,
+            warp,
+            busy_cmds: false,
+            pairs: false,
         })
+    }
+
+    /// The explored warp's threads.
+    pub fn threads(&self) -> std::ops::Range<u32> {
+        self.sm.warp_threads(self.warp)
     }
 
     /// The state key: a 128-bit hash of everything that decides the warp's future behaviour —
     /// thread and stack registers, RB entries, pending micro-ops, data latches, the values
-    /// pending global loads will read, the *live* SH entries (Bottom..Top of every non-empty
-    /// stack, and those pending loads will read), the live global slots (below the spill
-    /// pointer) and the reference stacks — and nothing else: no event counter, no stale word.
-    /// Leaving stale words out is sound because [`Property::LiveReads`] is checked on every
-    /// accepted command: a program reads only words that are live when it is accepted (or that
-    /// it stored itself), so two states with equal keys behave alike forever.
+    /// pending global loads will read, every SH word of the warp's stacks, the global slots
+    /// and the reference stacks — and no event counter. Stale SH words are not state because
+    /// every action ends by overwriting them with [`POISON`] ([`Model::scrub`]): the model
+    /// itself holds no history in dead memory, so two states with equal keys behave alike
+    /// forever. A design that reads a dead word ([`Property::LiveReads`]) or moves a pointer
+    /// over one it never stored reads POISON, which no push carries.
     pub fn key(&self) -> u128 {
         let mut h = KeyHasher::new();
         self.hash_live(&mut h);
@@ -516,25 +579,18 @@ impl Model {
     fn hash_live<H: Hasher>(&self, h: &mut H) {
         let sm = &self.sm;
         let m = sm.config().sh_entries;
-        for t in sm.warp_threads(0) {
+        for t in sm.warp_threads(self.warp) {
             sm.thread(t).hash(h);
             let st = sm.stack(t);
             st.hash(h);
             sm.rb(t).hash(h);
             sm.global(t).hash(h);
-            if m > 0 && !st.empty {
-                let mut e = st.bottom;
-                for _ in 0..st.count(m) {
-                    sm.sh_entry(t, e).hash(h);
-                    e = (e + 1) % m;
-                }
+            for e in 0..m {
+                sm.sh_entry(t, e).hash(h);
             }
             h.write_u8(0xEE);
             for u in sm.pending_uops(t) {
                 u.hash(h);
-                if let Uop::ShLoad { stack, entry } = *u {
-                    sm.sh_entry(stack, entry).hash(h);
-                }
             }
             h.write_u8(0xEF);
         }
@@ -545,8 +601,106 @@ impl Model {
     }
 
     /// Applies `a` and checks every property. Returns false if `a` does not apply (a micro-op of
-    /// a thread with none pending).
+    /// a thread with none pending). Then overwrites every dead SH word with [`POISON`]
+    /// ([`Model::scrub`]).
     pub fn act(&mut self, a: Action, cov: &mut Coverage) -> Result<bool, Violation> {
+        let r = match a {
+            Action::Cmd(t, cmd) if !self.sm.ready(t) => self.refuse_busy(t, cmd, cov),
+            Action::Both(t, c, u, d) => self.same_cycle((t, c), (u, d), cov),
+            Action::Cmd(..) | Action::Uop(_) => self.act_one(a, cov),
+        };
+        if r == Ok(true) {
+            self.scrub();
+        }
+        r
+    }
+
+    /// A command to a busy thread: the design must refuse it (Busy) and change nothing.
+    fn refuse_busy(&mut self, t: u32, cmd: Cmd, cov: &mut Coverage) -> Result<bool, Violation> {
+        let before = state_hash(&self.sm);
+        let got = self.sm.accept(t, cmd);
+        if got != Err(StackError::Busy { thread: t }) {
+            return fail(Property::Busy, format!("thread {t} is busy: {cmd:?} answered {got:?}"));
+        }
+        if state_hash(&self.sm) != before {
+            return fail(
+                Property::Busy,
+                format!("thread {t} is busy: the refused {cmd:?} changed the state"),
+            );
+        }
+        cov.covers.hit(Goal::BusyRefusal);
+        Ok(true)
+    }
+
+    /// Two threads' commands planned in one cycle: the design must answer and leave the state
+    /// exactly as planning them one after the other does ([`Property::SameCycle`]); every other
+    /// property is checked on the way, command by command.
+    fn same_cycle(&mut self, a: (u32, Cmd), b: (u32, Cmd), cov: &mut Coverage) -> Result<bool, Violation> {
+        let start = self.sm.clone();
+        let mut one_by_one = start.clone();
+        let want = [one_by_one.accept(a.0, a.1), one_by_one.accept(b.0, b.1)];
+        let got = self.sm.accept_all(&[a, b]);
+        if got != want || state_hash(&self.sm) != state_hash(&one_by_one) {
+            return fail(
+                Property::SameCycle,
+                format!(
+                    "threads {} and {} in one cycle ({:?}, {:?}) answered {got:?} and left another state \
+                     than one after the other ({want:?})",
+                    a.0, b.0, a.1, b.1
+                ),
+            );
+        }
+        // The same commands once more, one by one through the checked path, from the state
+        // before the cycle (they end in the state the cycle left).
+        self.sm = start;
+        let b0 = self.sm.stats.borrows;
+        self.act_one(Action::Cmd(a.0, a.1), cov)?;
+        let b1 = self.sm.stats.borrows;
+        self.act_one(Action::Cmd(b.0, b.1), cov)?;
+        if b1 > b0 && self.sm.stats.borrows > b1 {
+            cov.covers.hit(Goal::SameCycleBorrow);
+        }
+        Ok(true)
+    }
+
+    /// Overwrites every SH word of the warp that is dead — outside its stack's Bottom..Top and
+    /// named by no pending micro-op — with [`POISON`], which no push carries. Stale memory is
+    /// then never state (the key hashes every word), and a design that revives a dead word
+    /// without storing it shows POISON in the logical stack ([`Property::Conservation`]), what
+    /// ever the word held before.
+    fn scrub(&mut self) {
+        let sm = &self.sm;
+        let m = sm.config().sh_entries;
+        if m == 0 {
+            return;
+        }
+        let base = self.warp * sm.config().warp_size;
+        let mut live = vec![false; (sm.config().warp_size * m) as usize];
+        for s in sm.warp_threads(self.warp) {
+            let st = sm.stack(s);
+            if !st.empty {
+                let mut e = st.bottom;
+                for _ in 0..st.count(m) {
+                    live[((s - base) * m + e) as usize] = true;
+                    e = (e + 1) % m;
+                }
+            }
+            for u in sm.pending_uops(s) {
+                if let Uop::ShLoad { stack, entry } | Uop::ShStore { stack, entry, .. } = *u {
+                    live[((stack - base) * m + entry) as usize] = true;
+                }
+            }
+        }
+        for (i, _) in live.iter().enumerate().filter(|x| !x.1) {
+            let (s, e) = (base + i as u32 / m, i as u32 % m);
+            if self.sm.sh_entry(s, e) != POISON {
+                self.sm.load_sh_entry(s, e, POISON);
+            }
+        }
+    }
+
+    fn act_one(&mut self, a: Action, cov: &mut Coverage) -> Result<bool, Violation> {
+        let base = self.warp * self.sm.config().warp_size;
         let sm = &mut self.sm;
         let before = sm.stats;
         let ra = sm.config().realloc;
@@ -560,7 +714,7 @@ impl Model {
         };
         match a {
             Action::Cmd(t, cmd) => {
-                let stacks: Vec<_> = sm.warp_threads(0).map(|s| *sm.stack(s)).collect();
+                let stacks: Vec<_> = sm.warp_threads(self.warp).map(|s| *sm.stack(s)).collect();
                 let global = sm.global(t).to_vec();
                 let (thread, rb) = (*sm.thread(t), sm.rb(t).clone());
                 let got = sm.accept(t, cmd);
@@ -569,7 +723,7 @@ impl Model {
                 self.sb.check(t, cmd, got)?;
                 if self.request_sequence {
                     let before = Before { cfg: sm.config(), stacks: &stacks, thread, rb: &rb };
-                    check_sequence(&before, 0, t, cmd, accepted, sm.pending_uops(t))?;
+                    check_sequence(&before, base, t, cmd, accepted, sm.pending_uops(t))?;
                 }
                 let loads = live_reads(sm, t, &stacks, &global)?;
                 self.shadow[t as usize].global_loads = loads;
@@ -590,6 +744,7 @@ impl Model {
                 }
                 sm.complete_next(t);
             }
+            Action::Both(..) => unreachable!("two commands in one cycle go through Model::same_cycle"),
         }
         let d = sm.stats.since(&before);
         cov.borrows += d.borrows;
@@ -607,12 +762,12 @@ impl Model {
             observe_covers(sm, t, &d, ring, &mut cov.covers);
         }
         let quiescent = sm.quiescent();
-        check_warp_fields(sm, 0, quiescent)?;
-        for t in sm.warp_threads(0).filter(|&t| sm.ready(t)) {
+        check_warp_fields(sm, self.warp, quiescent)?;
+        for t in sm.warp_threads(self.warp).filter(|&t| sm.ready(t)) {
             check_thread(sm, t, self.sb.reference(t))?;
         }
-        if quiescent && sm.warp_done(0) {
-            check_warp_exit(sm, 0)?;
+        if quiescent && sm.warp_done(self.warp) {
+            check_warp_exit(sm, self.warp)?;
             cov.warp_exits += 1;
             if self.borrowed {
                 cov.covers.hit(Goal::ExitAfterBorrow);
@@ -626,7 +781,7 @@ impl Model {
     /// sequencer and data latch, which no other thread's action reads or writes — or `None`.
     /// The ample set of the partial-order reduction (module doc).
     pub fn private_uop(&self) -> Option<u32> {
-        self.sm.warp_threads(0).find(|&t| {
+        self.sm.warp_threads(self.warp).find(|&t| {
             matches!(
                 self.sm.pending_uops(t).next(),
                 Some(Uop::GlobalLoad { .. } | Uop::GlobalStore { .. } | Uop::RbBottom)
@@ -650,7 +805,7 @@ impl Model {
         b += block(n * (std::mem::size_of::<std::collections::VecDeque<Uop>>() + 48));
         b += block(8) + block(n * m * 8);
         b += block(n * std::mem::size_of::<Vec<u64>>());
-        for t in sm.warp_threads(0) {
+        for t in sm.warp_threads(self.warp) {
             b += block(sm.rb(t).len() * 8);
             b += block(sm.pending_uops(t).count() * std::mem::size_of::<Uop>());
             b += block(sm.global(t).len() * 8);
@@ -664,7 +819,7 @@ impl Model {
 
     /// Entries the warp holds (the reference's view).
     pub fn held(&self) -> u32 {
-        self.sm.warp_threads(0).map(|t| self.sb.reference(t).len() as u32).sum()
+        self.sm.warp_threads(self.warp).map(|t| self.sb.reference(t).len() as u32).sum()
     }
 
     /// Every action possible now: commands (valid or not) of ready unfinished threads with push
@@ -679,9 +834,12 @@ impl Model {
         let sm = &self.sm;
         let push = cap.is_none_or(|c| self.held() < c);
         let mut out = Vec::new();
-        for t in sm.warp_threads(0) {
+        for t in sm.warp_threads(self.warp) {
             if !sm.ready(t) {
                 out.push(Action::Uop(t));
+                if self.busy_cmds && !sm.thread(t).done {
+                    out.extend([Cmd::Push(UNMARKED), Cmd::Pop, Cmd::Finish].map(|c| Action::Cmd(t, c)));
+                }
                 continue;
             }
             if sm.thread(t).done {
@@ -698,14 +856,41 @@ impl Model {
             out.push(Action::Cmd(t, Cmd::Pop));
             out.push(Action::Cmd(t, Cmd::Finish));
         }
+        if self.pairs {
+            self.pair_actions(cap, &mut out);
+        }
         out
+    }
+
+    /// Two ready, unfinished threads' commands in one cycle, in lane order: every pair of
+    /// kinds, pushes carrying [`UNMARKED`] (or value 2) while the cap leaves room for them.
+    fn pair_actions(&self, cap: Option<u32>, out: &mut Vec<Action>) {
+        let sm = &self.sm;
+        let room = cap.map_or(u32::MAX, |c| c.saturating_sub(self.held()));
+        let open: Vec<u32> =
+            sm.warp_threads(self.warp).filter(|&t| sm.ready(t) && !sm.thread(t).done).collect();
+        let kinds = [Cmd::Push(UNMARKED), Cmd::Pop, Cmd::Finish];
+        for (i, &t) in open.iter().enumerate() {
+            for &u in &open[i + 1..] {
+                for a in kinds {
+                    for b in kinds {
+                        let pushes =
+                            u32::from(matches!(a, Cmd::Push(_))) + u32::from(matches!(b, Cmd::Push(_)));
+                        if pushes <= room {
+                            out.push(Action::Both(t, a, u, b));
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// Decodes one input byte pair into an action for the current state: the first byte picks
     /// the thread (a busy thread completes a micro-op), the second the command, biased to
     /// pushes so stacks get deep. `value` is the push value to use.
     pub fn decode(&self, (a, b): (u8, u8), value: u64) -> Action {
-        let t = a as u32 % self.sm.config().warp_size;
+        let ws = self.sm.config().warp_size;
+        let t = self.warp * ws + a as u32 % ws;
         if !self.sm.ready(t) {
             return Action::Uop(t);
         }
@@ -773,6 +958,11 @@ fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[(u32
     }
     if d.flushes_saturated > 0 {
         c.hit(Goal::FlushSaturation);
+    }
+    if let Some(ra) = cfg.realloc.filter(|r| r.flush_limit >= 2) {
+        if sm.warp_threads(sm.warp_of(t)).any(|s| sm.stack(s).flush == ra.flush_limit) {
+            c.hit(Goal::FlushAtLimit);
+        }
     }
     if d.demotions > 0 {
         c.hit(Goal::Demotion);
@@ -891,16 +1081,20 @@ pub fn check(
     design: impl Fn(StackManager) -> StackManager,
 ) -> Result<Coverage, Box<Counterexample>> {
     let start = Instant::now();
-    let mut model = Model::new(cfg).expect("exhaustive configurations are validated by the caller");
+    let mut model =
+        Model::on_warp(cfg, bounds.warp).expect("exhaustive configurations are validated by the caller");
     model.sm = design(model.sm);
     // Load the warp again with the design under check, so its placement is the one checked.
     let active = bounds.active.unwrap_or(u32::MAX) & u32::MAX >> (32 - cfg.warp_size);
-    model.sm.load_warp(0, active);
-    model.sb.load_warp(model.sm.warp_threads(0), active);
+    model.sm.load_warp(bounds.warp, active);
+    model.sb.load_warp(model.sm.warp_threads(bounds.warp), active);
     model.request_sequence = bounds.request_sequence;
     model.one_mark = bounds.one_mark;
+    model.busy_cmds = bounds.busy_cmds;
+    model.pairs = bounds.pairs;
+    model.scrub();
     let mut cov = Coverage { complete: true, ..Default::default() };
-    let placed = model.sm.warp_threads(0).try_for_each(|s| check_placement(&model.sm, s));
+    let placed = model.threads().try_for_each(|s| check_placement(&model.sm, s));
     if let Err(violation) = placed.and_then(|_| check_no_overlap(&model.sm)) {
         return Err(Box::new(Counterexample { violation, trace: vec![] }));
     }
@@ -1165,6 +1359,15 @@ pub struct Case {
     /// Explore depth first ([`Bounds::dfs`]): the 4-thread warps with M = 2 and reallocation,
     /// whose BFS levels would hold millions of models.
     pub dfs: bool,
+    /// Offer commands to busy threads ([`Bounds::busy_cmds`]).
+    pub busy_cmds: bool,
+    /// Offer two threads' commands in one cycle ([`Bounds::pairs`]).
+    pub pairs: bool,
+    /// The warp explored ([`Bounds::warp`]).
+    pub warp: u32,
+    /// Cover goals the case's cap cannot reach, which its siblings reach (see
+    /// [`corner_cases`]).
+    pub waived: &'static [Goal],
 }
 
 impl Case {
@@ -1174,7 +1377,20 @@ impl Case {
     /// Every lane active, under [`default_cap`]; the 4-thread warps with M = 2 and reallocation
     /// depth first.
     pub fn full(cfg: Config) -> Case {
-        Case { cfg, active: Case::all_lanes(&cfg), cap: default_cap(&cfg), dfs: is_large(&cfg) }
+        Case { active: Case::all_lanes(&cfg), cap: default_cap(&cfg), dfs: is_large(&cfg), ..Case::new(cfg) }
+    }
+    /// Every lane active under [`default_cap`], breadth first, warp 0, one command per action.
+    pub fn new(cfg: Config) -> Case {
+        Case {
+            cfg,
+            active: Case::all_lanes(&cfg),
+            cap: default_cap(&cfg),
+            dfs: false,
+            busy_cmds: false,
+            pairs: false,
+            warp: 0,
+            waived: &[],
+        }
     }
     pub fn partial(&self) -> bool {
         self.active != Case::all_lanes(&self.cfg)
@@ -1196,10 +1412,24 @@ impl Case {
                 _ => g.retain(|&g| g != Goal::FlushSaturation),
             }
         }
+        g.retain(|g| !self.waived.contains(g));
+        if self.busy_cmds {
+            g.push(Goal::BusyRefusal);
+        }
+        if self.pairs && self.cfg.realloc.is_some() {
+            g.push(Goal::SameCycleBorrow);
+        }
         g
     }
     pub fn bounds(&self) -> Bounds {
-        Bounds { active: Some(self.active), dfs: self.dfs, ..Bounds::fixpoint(self.cap) }
+        Bounds {
+            active: Some(self.active),
+            dfs: self.dfs,
+            busy_cmds: self.busy_cmds,
+            pairs: self.pairs,
+            warp: self.warp,
+            ..Bounds::fixpoint(self.cap)
+        }
     }
     pub fn describe(&self) -> String {
         let lanes = if self.partial() {
@@ -1207,7 +1437,11 @@ impl Case {
         } else {
             String::new()
         };
-        format!("{}{lanes}", describe(&self.cfg))
+        let warp =
+            if self.warp > 0 { format!(" (warp {} of {})", self.warp, self.warp + 1) } else { String::new() };
+        let busy = if self.busy_cmds { " +busy commands" } else { "" };
+        let pairs = if self.pairs { " +two per cycle" } else { "" };
+        format!("{}{lanes}{warp}{busy}{pairs}", describe(&self.cfg))
     }
 }
 
@@ -1237,12 +1471,60 @@ pub fn full_cases() -> Vec<Case> {
         // RB, then every stack of the chain filled, flushed once, and the first flushed again
         // (flush saturation), then one more entry.
         let cap = 1 + 2 * m * 3 + 1;
-        out.push(Case { cfg, active: 1, cap, dfs: false });
+        out.push(Case { active: 1, cap, ..Case::new(cfg) });
     }
     for c in skew_configs().into_iter().filter(|c| c.realloc.is_some()) {
-        out.push(Case { cfg: c, active: 0b0011, cap: default_cap(&c), dfs: false });
+        out.push(Case { active: 0b0011, ..Case::new(c) });
     }
+    out.extend(corner_cases());
     out
+}
+
+/// The cases at the design's own sizes, each with few active lanes so the search stays small
+/// (each waives only the cover goals a sibling case reaches):
+/// - M = 4 on an 8-lane warp (skew bases 0 0 0 0 1 1 1 1), one lane at base 1 whose chains of
+///   three rotate under flushes;
+/// - the paper's RB_8+SH_8, borrow limit 4, flush limit 3, on one lane of a 32-lane warp (lane
+///   21: skew base 2): its RB, a chain of five 8-entry stacks and an entry in global memory;
+/// - chains of 5 one-entry stacks with flush limit 3, deep enough that flushes rotate the chain
+///   until a flush counter stands at its limit; and chains of 2 with flush limit 3, deep enough
+///   that a flush saturates;
+/// - two active lanes above 15 of a 32-lane warp (Next TID needs 5 bits), racing for Idle
+///   stacks in chains of up to 5;
+/// - the second warp of an RT unit (thread ids differ from lanes);
+/// - two threads' commands planned in one cycle, and commands offered to busy threads.
+pub fn corner_cases() -> Vec<Case> {
+    use rtl::config::{RbSize, Realloc};
+    let ra = |borrow_limit, flush_limit| Some(Realloc { borrow_limit, flush_limit });
+    let cfg = |n, m, ws, realloc| Config {
+        rb: RbSize::Entries(n),
+        sh_entries: m,
+        skew: m > 0,
+        realloc,
+        warp_size: ws,
+        warps: 1,
+        ..Config::default()
+    };
+    let deep = &[Goal::FlushSaturation, Goal::FlushAtLimit, Goal::NonAdjacentRelease];
+    vec![
+        Case { active: 1 << 5, cap: 22, ..Case::new(cfg(1, 4, 8, ra(2, 1))) },
+        Case { active: 1 << 21, cap: 8 + 8 * 5 + 1, waived: deep, ..Case::new(cfg(8, 8, 32, ra(4, 3))) },
+        Case {
+            active: 1 << 3,
+            cap: 18,
+            waived: &[Goal::FlushSaturation],
+            ..Case::new(cfg(1, 1, 8, ra(4, 3)))
+        },
+        Case { active: 1 << 2, cap: 10, ..Case::new(cfg(1, 1, 4, ra(1, 3))) },
+        Case {
+            active: 1 << 17 | 1 << 30,
+            cap: 12,
+            waived: &[Goal::FlushAtLimit],
+            ..Case::new(cfg(1, 2, 32, ra(4, 3)))
+        },
+        Case { active: 0b0110, warp: 1, ..Case::new(cfg(1, 1, 4, ra(2, 1))) },
+        Case { active: 0b0011, busy_cmds: true, pairs: true, cap: 6, ..Case::new(cfg(1, 1, 4, ra(2, 1))) },
+    ]
 }
 
 /// Small skewed configurations with few banks: RB_1+SH_2 on 4-thread warps with 4 banks (bases

@@ -36,6 +36,12 @@ pub enum Property {
     /// global load a slot below the thread's spill pointer. The exhaustive search relies on it
     /// to ignore stale memory words (see [`super::exhaustive`]).
     LiveReads,
+    /// A command offered to a busy thread (its program still running) is refused as Busy and
+    /// changes nothing.
+    Busy,
+    /// Several threads' commands planned in one cycle answer and leave the registers, programs
+    /// and memory exactly as planning them one after the other in the same order does.
+    SameCycle,
     /// Skew placement (DESIGN 9.6, SPEC section 4): every lane's stack starts at base entry
     /// `(lane / k) mod M`, `k = max(1, banks / (M × words per entry))` — at warp load and
     /// whenever the stack is lent; every SH entry's words sit in the banks SPEC section 4's
