@@ -62,11 +62,15 @@ pub enum Mutant {
     SkewWrongForM4,
     /// A Finish is accepted while the thread's sequencer is busy.
     FinishWhileBusy,
+    /// A pop's global reload moves the oldest stack's Bottom and frees the spill slot but loads
+    /// and stores nothing, as if the entry were still in the SH word it was flushed from (it
+    /// often is: a flush copies words without clearing them).
+    ReloadAssumesWordKept,
 }
 
 impl Mutant {
     /// Every mutant, in declaration order (the order of [`Self::NAMES`]).
-    pub const ALL: [Mutant; 22] = [
+    pub const ALL: [Mutant; 23] = [
         Mutant::QueueWrapOffByOne,
         Mutant::ReloadWrongEntry,
         Mutant::SpillDropsEntry,
@@ -89,6 +93,7 @@ impl Mutant {
         Mutant::LinkWithThreadId,
         Mutant::SkewWrongForM4,
         Mutant::FinishWhileBusy,
+        Mutant::ReloadAssumesWordKept,
     ];
 }
 
@@ -115,7 +120,8 @@ named_enum!(
     Mutant::TopComparatorThreeMembers => "top-comparator-three-members",
     Mutant::LinkWithThreadId => "link-with-thread-id",
     Mutant::SkewWrongForM4 => "skew-wrong-for-m4",
-    Mutant::FinishWhileBusy => "finish-while-busy"
+    Mutant::FinishWhileBusy => "finish-while-busy",
+    Mutant::ReloadAssumesWordKept => "reload-assumes-word-kept"
 );
 
 #[cfg(feature = "mutants")]
@@ -315,6 +321,19 @@ mod planted {
         }
 
         fn global_reload<L: Logic, R: Regfile<L>>(p: &mut P<L, R>) {
+            if is(p, Mutant::ReloadAssumesWordKept) {
+                if p.l.decide(p.th.overflow) {
+                    let chain = p.members();
+                    let oldest = p.by_priority(&chain, false);
+                    let full = p.full(oldest);
+                    let room = p.l.not(full);
+                    if p.l.decide(room) {
+                        p.release_spill_slot();
+                        p.push_bottom(oldest);
+                    }
+                }
+                return;
+            }
             if !is(p, Mutant::MissingGlobalReload) {
                 p.global_reload()
             }

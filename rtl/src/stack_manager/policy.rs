@@ -235,7 +235,7 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         r.entries(self.l, self.m())
     }
 
-    fn full(&mut self, s: L::Word) -> L::Bit {
+    pub fn full(&mut self, s: L::Word) -> L::Bit {
         let r = self.stack(s);
         let n = P::entries(self, &r);
         self.l.eq_k(n, self.m())
@@ -261,7 +261,7 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         r.top
     }
 
-    fn push_bottom(&mut self, s: L::Word) -> L::Word {
+    pub fn push_bottom(&mut self, s: L::Word) -> L::Word {
         let r = self.stack(s);
         let down = self.dec(r.bottom);
         let bottom = self.l.mux(r.empty, r.bottom, down);

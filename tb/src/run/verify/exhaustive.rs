@@ -169,6 +169,13 @@ pub struct Bounds {
     /// The warp explored: its threads start at `warp × warp size`, and the configuration
     /// holds `warp + 1` warps (so a nonzero warp's thread ids differ from its lanes).
     pub warp: u32,
+    /// Overwrite dead SH words with [`POISON`] after every action ([`Model::scrub`]; on by
+    /// default). Off only to show what the state key would miss without it.
+    pub scrub: bool,
+    /// Lanes (bit per lane) that load active but are never offered a command: threads still
+    /// waiting on their first node, which keep their stacks out of the Idle pool so the idle
+    /// search reaches higher lanes.
+    pub silent: u32,
 }
 
 impl Default for Bounds {
@@ -187,6 +194,8 @@ impl Default for Bounds {
             busy_cmds: false,
             pairs: false,
             warp: 0,
+            scrub: true,
+            silent: 0,
         }
     }
 }
@@ -401,6 +410,10 @@ pub struct Model {
     pub busy_cmds: bool,
     /// Offer two threads' commands in one cycle too ([`Bounds::pairs`]).
     pub pairs: bool,
+    /// Overwrite dead SH words after every action ([`Bounds::scrub`]).
+    pub scrub_dead: bool,
+    /// Lanes never offered a command ([`Bounds::silent`]).
+    pub silent: u32,
 }
 
 /// The one distinguished push value of a [`Bounds::one_mark`] run.
@@ -429,8 +442,20 @@ impl Clone for Shadow {
 /// before. Both functions name every field, so a new field not cloned here does not compile.
 impl Clone for Model {
     fn clone(&self) -> Self {
-        let Model { sm, sb, shadow, borrowed, request_sequence, one_mark, marked, warp, busy_cmds, pairs } =
-            self;
+        let Model {
+            sm,
+            sb,
+            shadow,
+            borrowed,
+            request_sequence,
+            one_mark,
+            marked,
+            warp,
+            busy_cmds,
+            pairs,
+            scrub_dead,
+            silent,
+        } = self;
         Model {
             sm: sm.clone(),
             sb: sb.clone(),
@@ -442,11 +467,25 @@ impl Clone for Model {
             warp: *warp,
             busy_cmds: *busy_cmds,
             pairs: *pairs,
+            scrub_dead: *scrub_dead,
+            silent: *silent,
         }
     }
     fn clone_from(&mut self, src: &Self) {
-        let Model { sm, sb, shadow, borrowed, request_sequence, one_mark, marked, warp, busy_cmds, pairs } =
-            src;
+        let Model {
+            sm,
+            sb,
+            shadow,
+            borrowed,
+            request_sequence,
+            one_mark,
+            marked,
+            warp,
+            busy_cmds,
+            pairs,
+            scrub_dead,
+            silent,
+        } = src;
         self.sm.clone_from(sm);
         self.sb.clone_from(sb);
         self.shadow.clone_from(shadow);
@@ -457,6 +496,8 @@ impl Clone for Model {
         self.warp = *warp;
         self.busy_cmds = *busy_cmds;
         self.pairs = *pairs;
+        self.scrub_dead = *scrub_dead;
+        self.silent = *silent;
     }
 }
 
@@ -554,7 +595,14 @@ impl Model {
             warp,
             busy_cmds: false,
             pairs: false,
+            scrub_dead: true,
+            silent: 0,
         })
+    }
+
+    /// Thread `t` is never offered a command ([`Bounds::silent`]).
+    fn is_silent(&self, t: u32) -> bool {
+        self.silent >> (t % self.sm.config().warp_size) & 1 == 1
     }
 
     /// The explored warp's threads.
@@ -604,12 +652,24 @@ impl Model {
     /// a thread with none pending). Then overwrites every dead SH word with [`POISON`]
     /// ([`Model::scrub`]).
     pub fn act(&mut self, a: Action, cov: &mut Coverage) -> Result<bool, Violation> {
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.act_checked(a, cov)));
+        r.unwrap_or_else(|p| {
+            let why = p
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| p.downcast_ref::<&str>().copied())
+                .unwrap_or("no message");
+            fail(Property::InRange, format!("the design panicked on {a:?}: {why}"))
+        })
+    }
+
+    fn act_checked(&mut self, a: Action, cov: &mut Coverage) -> Result<bool, Violation> {
         let r = match a {
             Action::Cmd(t, cmd) if !self.sm.ready(t) => self.refuse_busy(t, cmd, cov),
             Action::Both(t, c, u, d) => self.same_cycle((t, c), (u, d), cov),
             Action::Cmd(..) | Action::Uop(_) => self.act_one(a, cov),
         };
-        if r == Ok(true) {
+        if r == Ok(true) && self.scrub_dead {
             self.scrub();
         }
         r
@@ -842,7 +902,7 @@ impl Model {
                 }
                 continue;
             }
-            if sm.thread(t).done {
+            if sm.thread(t).done || self.is_silent(t) {
                 continue;
             }
             if push && self.one_mark {
@@ -867,8 +927,10 @@ impl Model {
     fn pair_actions(&self, cap: Option<u32>, out: &mut Vec<Action>) {
         let sm = &self.sm;
         let room = cap.map_or(u32::MAX, |c| c.saturating_sub(self.held()));
-        let open: Vec<u32> =
-            sm.warp_threads(self.warp).filter(|&t| sm.ready(t) && !sm.thread(t).done).collect();
+        let open: Vec<u32> = sm
+            .warp_threads(self.warp)
+            .filter(|&t| sm.ready(t) && !sm.thread(t).done && !self.is_silent(t))
+            .collect();
         let kinds = [Cmd::Push(UNMARKED), Cmd::Pop, Cmd::Finish];
         for (i, &t) in open.iter().enumerate() {
             for &u in &open[i + 1..] {
@@ -1092,7 +1154,11 @@ pub fn check(
     model.one_mark = bounds.one_mark;
     model.busy_cmds = bounds.busy_cmds;
     model.pairs = bounds.pairs;
-    model.scrub();
+    model.scrub_dead = bounds.scrub;
+    model.silent = bounds.silent;
+    if bounds.scrub {
+        model.scrub();
+    }
     let mut cov = Coverage { complete: true, ..Default::default() };
     let placed = model.threads().try_for_each(|s| check_placement(&model.sm, s));
     if let Err(violation) = placed.and_then(|_| check_no_overlap(&model.sm)) {
@@ -1368,6 +1434,8 @@ pub struct Case {
     /// Cover goals the case's cap cannot reach, which its siblings reach (see
     /// [`corner_cases`]).
     pub waived: &'static [Goal],
+    /// Active lanes never offered a command ([`Bounds::silent`]).
+    pub silent: u32,
 }
 
 impl Case {
@@ -1390,6 +1458,7 @@ impl Case {
             pairs: false,
             warp: 0,
             waived: &[],
+            silent: 0,
         }
     }
     pub fn partial(&self) -> bool {
@@ -1428,6 +1497,7 @@ impl Case {
             busy_cmds: self.busy_cmds,
             pairs: self.pairs,
             warp: self.warp,
+            silent: self.silent,
             ..Bounds::fixpoint(self.cap)
         }
     }
@@ -1441,7 +1511,8 @@ impl Case {
             if self.warp > 0 { format!(" (warp {} of {})", self.warp, self.warp + 1) } else { String::new() };
         let busy = if self.busy_cmds { " +busy commands" } else { "" };
         let pairs = if self.pairs { " +two per cycle" } else { "" };
-        format!("{}{lanes}{warp}{busy}{pairs}", describe(&self.cfg))
+        let silent = if self.silent != 0 { format!(" silent {:b}", self.silent) } else { String::new() };
+        format!("{}{lanes}{silent}{warp}{busy}{pairs}", describe(&self.cfg))
     }
 }
 
@@ -1489,8 +1560,9 @@ pub fn full_cases() -> Vec<Case> {
 /// - chains of 5 one-entry stacks with flush limit 3, deep enough that flushes rotate the chain
 ///   until a flush counter stands at its limit; and chains of 2 with flush limit 3, deep enough
 ///   that a flush saturates;
-/// - two active lanes above 15 of a 32-lane warp (Next TID needs 5 bits), racing for Idle
-///   stacks in chains of up to 5;
+/// - two lanes above 15 of a 32-lane warp (16 and 30) racing for Idle stacks in chains of up
+///   to 5, while lanes 0–15 are active but silent (still waiting on their first node), so the
+///   stacks lent are lanes 17 and up (Next TID needs 5 bits);
 /// - the second warp of an RT unit (thread ids differ from lanes);
 /// - two threads' commands planned in one cycle, and commands offered to busy threads.
 pub fn corner_cases() -> Vec<Case> {
@@ -1517,9 +1589,10 @@ pub fn corner_cases() -> Vec<Case> {
         },
         Case { active: 1 << 2, cap: 10, ..Case::new(cfg(1, 1, 4, ra(1, 3))) },
         Case {
-            active: 1 << 17 | 1 << 30,
+            active: 0x1_FFFF | 1 << 30,
+            silent: 0xFFFF,
             cap: 12,
-            waived: &[Goal::FlushAtLimit],
+            waived: &[Goal::FlushAtLimit, Goal::ExitAfterBorrow],
             ..Case::new(cfg(1, 2, 32, ra(4, 3)))
         },
         Case { active: 0b0110, warp: 1, ..Case::new(cfg(1, 1, 4, ra(2, 1))) },

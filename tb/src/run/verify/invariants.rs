@@ -36,6 +36,9 @@ pub enum Property {
     /// global load a slot below the thread's spill pointer. The exhaustive search relies on it
     /// to ignore stale memory words (see [`super::exhaustive`]).
     LiveReads,
+    /// Every register that indexes an array (Next TID, a stack or entry number) holds an index
+    /// inside it: the design never panics.
+    InRange,
     /// A command offered to a busy thread (its program still running) is refused as Busy and
     /// changes nothing.
     Busy,
