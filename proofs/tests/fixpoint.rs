@@ -4,7 +4,7 @@
 //! `sms check --full` runs the whole set.
 
 use rtl::config::{Config, RbSize, Realloc};
-use rtl::stack_manager::{Cmd, Mutant};
+use rtl::stack_manager::{Cmd, Mutant, StackRegs, POISON};
 use tb::run::verify::exhaustive::{
     check, default_cap, describe, full_cases, full_configs, is_large, large_cap, Action, Bounds, Case,
     Coverage, Goal, Model,
@@ -72,8 +72,7 @@ fn counters_are_not_part_of_the_state() {
 }
 
 /// Stale memory words are not state: pushing 1, 1 or 2, 2 through the SH level and popping
-/// both leaves different stale SH words but equal keys (the design never reads them:
-/// Property::LiveReads).
+/// both leaves the same model — every dead SH word overwritten with POISON — and equal keys.
 #[test]
 fn stale_words_are_not_part_of_the_state() {
     let c =
@@ -85,6 +84,7 @@ fn stale_words_are_not_part_of_the_state() {
             assert!(m.act(act, &mut cov).unwrap());
             while m.act(Action::Uop(0), &mut cov).unwrap() {}
         }
+        assert_eq!(m.sm.sh_entry(0, 0), v, "the spilled entry is live");
         for _ in 0..2 {
             assert!(m.act(Action::Cmd(0, Cmd::Pop), &mut cov).unwrap());
             while m.act(Action::Uop(0), &mut cov).unwrap() {}
@@ -92,8 +92,43 @@ fn stale_words_are_not_part_of_the_state() {
         m
     };
     let (one, two) = (run(1), run(2));
-    assert_ne!(one.sm.sh_entry(0, 0), two.sm.sh_entry(0, 0), "the stale words differ");
+    assert_eq!((one.sm.sh_entry(0, 0), two.sm.sh_entry(0, 0)), (POISON, POISON), "the dead word is scrubbed");
     assert_eq!(one.key(), two.key());
+}
+
+/// The state key may leave stale words out only because the search scrubs them. Planted
+/// through the back door: after 1 was spilled to an SH word and popped again, the stack's
+/// registers claim that dead word once more while the reference holds a 1 (a push that moved
+/// Top over the word without storing). Without the scrub the word still holds 1 and every
+/// property holds — two states that differ only in that stale word would behave differently;
+/// with it the word reads POISON and Conservation fails.
+#[test]
+fn a_revived_dead_word_is_caught_only_with_the_scrub() {
+    let c =
+        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 2 && c.warp_size == 2 && c.realloc.is_none());
+    let run = |scrub: bool| {
+        let mut m = Model::new(c).unwrap();
+        m.scrub_dead = scrub;
+        let mut cov = Coverage::default();
+        for v in [1, 2] {
+            assert!(m.act(Action::Cmd(0, Cmd::Push(v)), &mut cov).unwrap());
+            while m.act(Action::Uop(0), &mut cov).unwrap() {}
+        }
+        let word = m.sm.stack(0).top;
+        assert_eq!(m.sm.sh_entry(0, word), 1, "1 was spilled to the SH word");
+        for _ in 0..2 {
+            assert!(m.act(Action::Cmd(0, Cmd::Pop), &mut cov).unwrap());
+            while m.act(Action::Uop(0), &mut cov).unwrap() {}
+        }
+        let st = *m.sm.stack(0);
+        m.sm.load_stack(0, StackRegs { empty: false, top: word, bottom: word, ..st });
+        m.sb.check(0, Cmd::Push(1), Ok(None)).unwrap();
+        m.act(Action::Cmd(1, Cmd::Pop), &mut cov)
+    };
+    assert_eq!(run(false), Ok(true), "without the scrub the revived stale word passes");
+    let caught = run(true).expect_err("with the scrub the revived word reads POISON");
+    assert_eq!(caught.property, Property::Conservation);
+    assert!(caught.detail.contains(&format!("{POISON:x}")), "{caught}");
 }
 
 /// A skew base wrong for one geometry (M = 2 with 8 banks) passes every other property but is

@@ -1,14 +1,16 @@
-//! The planted bugs of the one [`Mutant`] list that small sizes show, caught by the exhaustive
-//! layer itself: the fixpoint search of one small configuration of [`full_configs`] — per mutant the
-//! smallest that catches it, for ReleaseAssumesAdjacent with one lane active — every property
-//! on, the property that caught it named.
-//! `sms check --full --mutant NAME` (a `--features mutants` build) runs the whole set. The bugs
-//! that only the real design point shows (M = 8, chains of 5, lanes ≥ 16, a second warp, two
-//! lanes in one cycle) are caught by the SMT layer: `proofs/tests/smt.rs`.
+//! Every planted bug of the one [`Mutant`] list, caught by the exhaustive layer itself: the
+//! fixpoint search of one case of [`full_cases`] — per mutant the smallest that catches it: a
+//! small configuration of [`full_configs`], or for the bugs only the design's own sizes show
+//! (M = 4 or 8, chains of 5, lanes ≥ 16, a second warp, two lanes in one cycle, a busy thread)
+//! a case of [`corner_cases`] — every property on, the property that caught it named.
+//! `sms check --full --mutant NAME` (a `--features mutants` build) runs the whole set; the SMT
+//! layer catches the same bugs from any well-formed state (`proofs/tests/smt.rs`).
 
 use rtl::config::{Config, RbSize};
 use rtl::stack_manager::Mutant;
-use tb::run::verify::exhaustive::{check, default_cap, describe, full_cases, full_configs, Bounds, Case};
+use tb::run::verify::exhaustive::{
+    check, corner_cases, default_cap, describe, full_cases, full_configs, Bounds, Case,
+};
 use tb::run::verify::invariants::Property;
 
 /// The configurations of the table, by short name.
@@ -27,14 +29,22 @@ enum Pick {
     Chain3,
     /// RB_1+SH_2+SK warp 4 with 8 banks: skew bases 0 0 1 1.
     Skew8,
+    /// The case of [`corner_cases`] whose description contains the text.
+    Corner(&'static str),
 }
 
 fn case(p: Pick) -> Case {
-    if let Pick::Chain3 = p {
-        let one_lane = |c: &Case| c.partial() && c.cfg.sh_entries == 1;
-        return full_cases().into_iter().find(one_lane).expect("the one-lane chain-of-three case");
+    match p {
+        Pick::Chain3 => {
+            let one_lane = |c: &Case| c.partial() && c.cfg.sh_entries == 1;
+            full_cases().into_iter().find(one_lane).expect("the one-lane chain-of-three case")
+        }
+        Pick::Corner(text) => corner_cases()
+            .into_iter()
+            .find(|c| c.describe().contains(text))
+            .unwrap_or_else(|| panic!("a corner case named {text:?}")),
+        _ => Case::full(config(p)),
     }
-    Case::full(config(p))
 }
 
 fn config(p: Pick) -> Config {
@@ -51,7 +61,7 @@ fn config(p: Pick) -> Config {
         Pick::Sh2 => &|c| is(c, 1, 2, 2, None, 32),
         Pick::Ra => &|c| is(c, 1, 1, 2, Some(1), 32),
         Pick::Ra2 => &|c| is(c, 1, 2, 2, Some(1), 32),
-        Pick::Chain3 => unreachable!("a partial case: see case()"),
+        Pick::Chain3 | Pick::Corner(_) => unreachable!("a partial case: see case()"),
         Pick::Skew8 => &|c| is(c, 1, 2, 4, None, 8),
     };
     full_configs().into_iter().find(|c| want(c)).unwrap_or_else(|| panic!("{p:?} in the full set"))
@@ -60,7 +70,7 @@ fn config(p: Pick) -> Config {
 /// Per mutant: the smallest case whose fixpoint search catches it, extra depth-cap entries
 /// beyond the case's cap ([`default_cap`] for full warps), and the property that catches it
 /// first.
-const TABLE: [(Mutant, Pick, u32, Property); 14] = [
+const TABLE: [(Mutant, Pick, u32, Property); 23] = [
     (Mutant::QueueWrapOffByOne, Pick::Sh2, 0, Property::RequestSequence),
     (Mutant::ReloadWrongEntry, Pick::Sh2, 0, Property::RequestSequence),
     (Mutant::SpillDropsEntry, Pick::Sh1, 0, Property::RequestSequence),
@@ -79,14 +89,30 @@ const TABLE: [(Mutant, Pick, u32, Property); 14] = [
     (Mutant::ReleaseAssumesAdjacent, Pick::Chain3, 0, Property::Chains),
     (Mutant::ReloadIntoTop, Pick::Ra, 0, Property::RequestSequence),
     (Mutant::LendActiveStack, Pick::Ra, 0, Property::RequestSequence),
+    // A full stack of 8 entries, on the paper's RB_8+SH_8 (one lane of a 32-lane warp).
+    (Mutant::CountAdderTooNarrow, Pick::Corner("RB_8+SH_8"), 0, Property::RequestSequence),
+    // The fifth stack of a chain, ranked 0.
+    (Mutant::PriorityTooNarrow, Pick::Corner("RB_8+SH_8"), 0, Property::Chains),
+    // Two lanes borrowing in one cycle get the same Idle stack.
+    (Mutant::IdleSearchIgnoresEarlierLends, Pick::Corner("two per cycle"), 0, Property::SameCycle),
+    // Lane 16 borrows lane 17's stack and links to lane 1.
+    (Mutant::NextTidTooNarrow, Pick::Corner("silent"), 0, Property::Chains),
+    // A chain of 5 whose top is its fourth member.
+    (Mutant::TopComparatorThreeMembers, Pick::Corner("warp 8 borrow 4"), 0, Property::RequestSequence),
+    // In warp 1 the link names thread 4 + lane: past the register file.
+    (Mutant::LinkWithThreadId, Pick::Corner("(warp 1"), 0, Property::InRange),
+    // Lane 5's borrowed stacks, M = 4 with bases 0 0 0 0 1 1 1 1.
+    (Mutant::SkewWrongForM4, Pick::Corner("SH_4"), 0, Property::Placement),
+    (Mutant::FinishWhileBusy, Pick::Corner("busy commands"), 0, Property::Busy),
+    (Mutant::ReloadAssumesWordKept, Pick::Sh1, 0, Property::RequestSequence),
 ];
 
 #[test]
 fn every_mutant_is_caught_by_the_fixpoint_search() {
     assert_eq!(
         TABLE.map(|r| r.0)[..],
-        Mutant::ALL[..TABLE.len()],
-        "the table lists the mutants of the one list the small sizes show, in its order"
+        Mutant::ALL[..],
+        "the table lists every mutant of the one list, in its order"
     );
     let mut wrong = Vec::new();
     for (m, pick, extra, expected) in TABLE {
@@ -129,6 +155,9 @@ fn without_request_sequence_the_state_properties_catch_them() {
         (Mutant::EarlyRelease, Pick::Ra2),
         (Mutant::ReloadIntoTop, Pick::Ra2),
         (Mutant::LendActiveStack, Pick::Ra),
+        (Mutant::CountAdderTooNarrow, Pick::Corner("RB_8+SH_8")),
+        (Mutant::TopComparatorThreeMembers, Pick::Corner("warp 8 borrow 4")),
+        (Mutant::ReloadAssumesWordKept, Pick::Sh1),
     ];
     let rs: Vec<Mutant> = TABLE
         .iter()
@@ -141,8 +170,11 @@ fn without_request_sequence_the_state_properties_catch_them() {
         "every mutant RequestSequence catches first, but EagerRelease"
     );
     for (m, pick) in table {
-        let c = config(pick);
-        let bounds = Bounds { request_sequence: false, ..Bounds::fixpoint(default_cap(&c)) };
+        let (c, bounds) = match pick {
+            Pick::Corner(_) => (case(pick).cfg, case(pick).bounds()),
+            _ => (config(pick), Bounds::fixpoint(default_cap(&config(pick)))),
+        };
+        let bounds = Bounds { request_sequence: false, ..bounds };
         let cex = check(c, bounds, |sm| sm.with_mutant(Some(m)))
             .err()
             .unwrap_or_else(|| panic!("{m:?} survived {} without RequestSequence", describe(&c)));
