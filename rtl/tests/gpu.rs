@@ -533,7 +533,7 @@ const PORT_NODE: &str = "sm0.rt_unit.port.req_node";
 /// 0 none, 1 push, 2 pop, 3 finish: the command the stack manager accepted in a cycle.
 const CMD: &str = "sm0.rt_unit.stack_manager.warp[0].thread[0].cmd_kind";
 
-/// Issue 12, item 1: with `Blocking` a global store completes only when the L2's
+/// With `Blocking` a global store completes only when the L2's
 /// acknowledgement comes back through the response FIFO, so the thread's next stack command
 /// waits for it. `spill_then_fetch`, derived by hand (memory defaults: a store is acknowledged
 /// `l2_latency` = 160 cycles after the L1D takes it, as a load that hits in L2 answers):
@@ -553,7 +553,7 @@ fn blocking_stores_wait_for_the_l2_ack() {
     assert_eq!((old[1][1], new[1][1]), ((9, 1), (9, 1)));
 }
 
-/// Issue 12, item 1: with `Blocking` the node fetch after a pop that reloads from global memory
+/// With `Blocking` the node fetch after a pop that reloads from global memory
 /// waits for the reload; with `Overlapped` it goes right after. `spill_then_fetch`, by hand
 /// (continuing `blocking_stores_wait_for_the_l2_ack`; the reload hits in L2: 160 cycles; the
 /// triangle is a fresh line: L1D and L2 miss, 260 cycles):

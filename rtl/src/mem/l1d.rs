@@ -53,7 +53,7 @@ enum Pending {
 
 /// Down requests awaiting L2's response, by down id. Ids are handed out in order, so the table
 /// is a window from the oldest id still in flight (`base`) to the newest, with a hole for each
-/// id already answered: a lookup is an index, where a hash map (the form before stop 18) cost
+/// id already answered: a lookup is an index, where a hash map would cost
 /// a hash probe per insert and per removal.
 #[derive(Clone, Debug, Default)]
 struct InFlight {

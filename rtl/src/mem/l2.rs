@@ -582,7 +582,7 @@ mod tests {
         (b.resp_log, *b.l2.counters())
     }
 
-    /// The windowed run's split L2 (issue 16): the front end at its cycle and the back end up to
+    /// The windowed run's split L2: the front end at its cycle and the back end up to
     /// the bank pipelines' delay in front of it give the whole L2's responses, at the same
     /// cycles, and its counters; a back end further ahead than that (the windowed run's planted
     /// `WindowBackEndTooFar`) checks a bank's head before a request let in later would have been

@@ -11,7 +11,7 @@
 //! registers), [`l1d`], [`l2`], [`dram`], and [`hierarchy`] which composes them into
 //! [`hierarchy::MemSystem`].
 //!
-//! Clocking (see [`hierarchy`] for the wiring and rtl/DESIGN.md "Memory hierarchy: one cycle"):
+//! Clocking (see [`hierarchy`] for the wiring and docs/memory.md "One cycle"):
 //! every unit has register outputs (`ready`, `down_req`, `dram_req`, `resp`: functions of its
 //! registers alone), `eval(&self, &In, &mut Step)`, a pure function of its registers and this
 //! cycle's inputs that writes the cycle's combinational outputs (`Step::out`) and next-state
@@ -40,7 +40,7 @@
 //! writes are posted (they use bandwidth but nobody waits for them).
 //!
 //! Memory path as Vulkan-Sim's RT unit uses it (each mechanism has its old behaviour as an
-//! option; sources are Vulkan-Sim files, see also rtl/DESIGN.md "Memory path"):
+//! option; sources are Vulkan-Sim files, see also docs/memory.md "Memory path"):
 //! - The RT unit accesses the L1D directly (`-gpgpu_rt_use_l1 1`; `rt_unit::memory_cycle`,
 //!   `shader.cc:3233`, calls `cache->access` at `shader.cc:3502`) and uses a hit in the cycle of
 //!   the lookup (`shader.cc:3557-3575`); the 20-cycle `l1_latency_queue` belongs to the load/store
