@@ -123,7 +123,7 @@ fn single_warp(lane0: Vec<RayOp>) -> WarpJob {
 /// -  819: no ops left → Stack (Finish). 820: finish accepted → Done.
 /// -  821: warp done and its stacks quiet: the slot frees. 822: nothing left: the run ends.
 ///
-/// The derivation holds for both stack timings (the old `Overlapped` with `sh_latency` 2, and the
+/// The derivation holds for both stack timings (`Overlapped` with `sh_latency` 2, and the
 /// default `Blocking` with 20): the push and the pop move no entry (the RB never fills), so the
 /// stack sequencer is idle in the cycle after each command and neither timing adds a cycle.
 #[test]
@@ -455,7 +455,7 @@ fn planted_stack_bugs_stop_the_run() {
 /// a global store; 8 the sequencer issues it to the memory scheduler; 9 the port sends it
 /// instead of a node piece, and the sequencer is free again, so lane 0 pops 3, planning a
 /// reload of 1; 10 the reload is issued; 11 the port sends it. The 31 node pieces take cycles
-/// 6–8, 10 and 12–38. (Posted stores: the old `Overlapped` timing; with `Blocking` the pop waits
+/// 6–8, 10 and 12–38. (Posted stores: the `Overlapped` timing; with `Blocking` the pop waits
 /// for the store's acknowledgement, see `blocking_stores_wait_for_the_l2_ack`.)
 #[test]
 fn stack_requests_go_before_node_pieces() {

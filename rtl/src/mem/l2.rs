@@ -11,7 +11,7 @@
 //!
 //! Banks are memory sub-partitions (GPGPU-Sim's `addrdec_tlx`): `bank = addr / l2_interleave_bytes
 //! mod l2_banks`, each with its own sets indexed by the address with the bank digit removed
-//! (linear or IPOLY, see [`super::addr::L2Map`]); the old mapping is `bank = line mod l2_banks`
+//! (linear or IPOLY, see [`super::addr::L2Map`]); the `legacy` preset's mapping is `bank = line mod l2_banks`
 //! over one array indexed `line mod sets`. Each bank grants at most one SM
 //! per cycle, round-robin starting after the SM it granted last, while its pipeline has room. The
 //! tag check sits at the end of the bank pipeline, so a miss pays the L2 latency and then DRAM's.

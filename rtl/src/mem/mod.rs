@@ -287,7 +287,7 @@ pub struct MemParams {
     pub l1d_assoc: Assoc,
     /// Cycles from accepting a read that hits to its response being visible to the RT unit (1:
     /// Vulkan-Sim's RT unit uses an L1D hit in the cycle of the lookup, and 1 is the earliest a
-    /// registered response allows; the old value 20 is the load/store unit's `-gpgpu_l1_latency`).
+    /// registered response allows; `legacy`'s 20 is the load/store unit's `-gpgpu_l1_latency`).
     pub l1d_hit_latency: u32,
     /// Outstanding missed sectors per L1D (4096: Vulkan-Sim's streaming L1D, `gpu-cache.h:562`;
     /// old 32).
@@ -307,8 +307,8 @@ pub struct MemParams {
     /// accepts one request per cycle (8).
     pub l2_banks: u32,
     /// Bytes of consecutive addresses per bank before the next bank: `bank = addr /
-    /// interleave mod banks` (256: MOBILE `-gpgpu_mem_addr_mapping dramid@8`; old 128 = the line,
-    /// which with [`SetIndex::Linear`] is the old `line mod banks`, `line mod sets`). A power of
+    /// interleave mod banks` (256: MOBILE `-gpgpu_mem_addr_mapping dramid@8`; `legacy`'s 128 = the
+    /// line, which with [`SetIndex::Linear`] is one array: `line mod banks`, `line mod sets`). A power of
     /// two, at least the line.
     pub l2_interleave_bytes: u32,
     /// Set index within a bank, over the address with the bank digit removed (IPOLY; old linear).
@@ -475,7 +475,7 @@ impl MemParams {
         Ok(())
     }
 
-    /// The L2's bank and set mapping, or `None` for the old single-array mapping (linear index,
+    /// The L2's bank and set mapping, or `None` for the single-array mapping (linear index,
     /// line interleaving: `bank = line mod banks`, `set = line mod sets`). `sets_per_bank` is 0
     /// when the L2 does not split into whole sets per bank (rejected by `validate`). A fully
     /// associative L2 is one set per bank.
