@@ -2,7 +2,7 @@
 # Instructions the cycle-level model executes for one SMS run of the throughput bench (clutter
 # 64x64, paper hardware), counted by valgrind's callgrind inside `Gpu::run_timed` only: loading
 # the scene, building the BVH, tracing the rays and making the RT units' jobs from the traces
-# (on their own thread; since stop 20 the jobs too) are not counted. Wall
+# (all on their own thread) are not counted. Wall
 # time on a shared virtual machine swings by 15 % and more between runs minutes apart; this count
 # moves by about 0.001 % between runs of one build (only waits for the tracing thread vary), so
 # it compares two builds of the model where timing cannot.

@@ -1,5 +1,5 @@
 #!/bin/sh
-# What tracing costs when it is off (issue 5): the same SMS cycle-level run with a NullSink,
+# What tracing costs when it is off: the same SMS cycle-level run with a NullSink,
 # timed in the normal build and in one with rtl's probe calls compiled out (feature `untraced`),
 # alternating builds so both see the same machine load. Prints the best wall and on-CPU times of
 # each build and the ratios (on a loaded machine trust the on-CPU figure).

@@ -1,4 +1,4 @@
-//! Exhaustive exploration to the fixpoint (issue 14 items 1 to 3): a representative subset of
+//! Exhaustive exploration to the fixpoint: a representative subset of
 //! [`full_configs`] proved under its depth cap with every cover goal reached, the state key
 //! free of counters and stale words, and the skew placement property catching a planted bug.
 //! `sms check --full` runs the whole set.
@@ -164,7 +164,7 @@ fn cover_goals_follow_the_features() {
     assert!(!Goal::SkewBase.applies(&three), "32 banks: every base is 0");
 }
 
-/// New planted bugs (issue 14 item 5), each caught by the fixpoint search of a configuration of
+/// Planted bugs of chains and lending, each caught by the fixpoint search of a configuration of
 /// the full set, by the state property named (RequestSequence off: `tests/mutants.rs` runs them
 /// with every property on).
 #[test]

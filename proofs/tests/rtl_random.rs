@@ -1,4 +1,4 @@
-//! Issue 2's acceptance runs: 4 warps × 32 threads of random streams with depths past 100,
+//! Long random runs: 4 warps × 32 threads of random streams with depths past 100,
 //! through the cycle-level RTL, for every configuration of SPEC section 8, scoreboard on.
 
 use rtl::config::Config;
@@ -47,7 +47,7 @@ fn every_cycle_checks_hold_on_the_full_sms() {
     }
 }
 
-/// Issue 12: acknowledged global stores (Blocking) and the 20-cycle SH latency keep every pop
+/// Acknowledged global stores (Blocking) and the 20-cycle SH latency keep every pop
 /// right and every per-cycle invariant, and only cost time.
 #[test]
 fn acknowledged_stores_and_sh_latency_keep_the_checks() {

@@ -1,4 +1,4 @@
-//! Property::RequestSequence (issue 14 item 4): the micro-ops the stack manager plans for an
+//! Property::RequestSequence: the micro-ops the stack manager plans for an
 //! accepted command equal SPEC sections 3 and 5's sequence for that case, written independently
 //! in `tb::run::verify::sequence::expected_program`. Checked on every accepted command of the
 //! exhaustive search and of the random runs (both drive `Model::act`).

@@ -145,13 +145,13 @@ fn lockstep_run(c: Config, m: Option<Mutant>) -> rtl::stack_unit::UnitStats {
     run_cycle(&mut unit, work, o, &mut NullSink).unwrap().stats
 }
 
-/// The lockstep bank-conflict bound of issue 14 item 3, for full 32-thread warps and every M
-/// from 1 to 32 (the issue asks 4 to 32; 1 and 2 are cheap and M = 2 is where the planted skew
-/// bug is): in lockstep every lane makes the same SH accesses, one access round per micro-op,
-/// and a round costs at most `lockstep_bank_load − 1` conflict cycles, the load computed from
-/// DESIGN 9.6's skew formula and SPEC section 4's bank map in the spec layer. With skew the
-/// load is 2 for every M (lanes t and t + 16 share a bank pair); the arbiter and manager never
-/// exceed rounds × (load − 1). A skew formula wrong for M = 2 (every lane at `lane % 2`) does.
+/// The lockstep bank-conflict bound, for full 32-thread warps and every M from 1 to 32 (M = 2 is
+/// where the planted skew bug is): in lockstep every lane makes the same SH accesses, one access
+/// round per micro-op, and a round costs at most `lockstep_bank_load − 1` conflict cycles, the load
+/// computed from the skew formula (docs/stack.md, "Skew") and SPEC section 4's bank map in the spec
+/// layer. With skew the load is 2 for every M (lanes t and t + 16 share a bank pair); the arbiter
+/// and manager never exceed rounds × (load − 1). A skew formula wrong for M = 2 (every lane at
+/// `lane % 2`) does.
 #[test]
 fn lockstep_bank_conflicts_stay_within_the_skew_bound() {
     use tb::run::verify::invariants::lockstep_bank_load;

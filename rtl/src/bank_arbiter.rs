@@ -15,8 +15,8 @@
 //! Latency (`sh_latency`, [`BankArbiter::with_latency`]): the cycles from the stack manager issuing
 //! an unconflicted request to the cycle its sequencer sees it done (and issues its next micro-op);
 //! each conflict cycle adds one. The request reaches the banks the cycle after issue, so with
-//! `sh_latency = 2` it is reported in `done` right after its last word is served (the model before
-//! issue 12), and every cycle above 2 is a pipeline stage after the banks. Vulkan-Sim's ldst unit
+//! `sh_latency = 2` it is reported in `done` right after its last word is served (the `legacy`
+//! preset), and every cycle above 2 is a pipeline stage after the banks. Vulkan-Sim's ldst unit
 //! is a pipeline `-gpgpu_smem_latency` deep (20 in `configs/tested-cfgs/MOBILE/gpgpusim.config`
 //! line 108; `shader.cc` ~3646 builds the unit with that depth and asserts it is > 1) that a shared
 //! access enters only after `shared_cycle` (~2261) has stalled it for its bank conflicts, so the
@@ -52,8 +52,8 @@ struct Pending {
     served: u8,
 }
 
-/// Total cycles of an unconflicted SH access in the model before issue 12 (issue, bank cycle,
-/// done): the least `sh_latency` can be.
+/// Total cycles of an unconflicted SH access with no pipeline after the banks (issue, bank
+/// cycle, done; the `legacy` preset's): the least `sh_latency` can be.
 pub const MIN_SH_LATENCY: u32 = 2;
 
 /// Registers of the arbiter.

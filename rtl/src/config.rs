@@ -438,7 +438,7 @@ pub struct Widths {
 /// Bits of the memory scheduler's request queue with posted stores (`StackTiming::Overlapped`):
 /// a thread keeps taking commands while its stores wait for the port, so the model declares no
 /// hardware bound; a dump that sees more than `2^16 - 1` queued requests reports it as an error
-/// (rtl/DESIGN.md, "Widths of the queues").
+/// (docs/stack.md, "Widths of the queues").
 pub const GM_POSTED_QUEUE_BITS: u32 = 16;
 
 impl Widths {

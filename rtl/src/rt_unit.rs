@@ -81,14 +81,14 @@ pub struct RtParams {
     /// Jump over cycles in which every thread waits on memory (identical results, faster).
     pub idle_skip: bool,
     /// Whether stack traffic is on the ray's critical path (`Blocking`, the paper's sequence and
-    /// the default) or overlaps the next node fetch with posted stores (`Overlapped`, the model
-    /// before issue 12). See [`StackTiming`].
+    /// the default) or overlaps the next node fetch with posted stores (`Overlapped`, the `legacy`
+    /// preset's). See [`StackTiming`].
     pub stack_timing: StackTiming,
     /// Total cycles of an unconflicted shared-memory (SH stack) access, from the cycle the
     /// sequencer issues it to the cycle it issues its next micro-op; each bank-conflict cycle adds
     /// one. Default 20: Vulkan-Sim's `-gpgpu_smem_latency 20`
     /// (`configs/tested-cfgs/MOBILE/gpgpusim.config` line 108; the ldst unit's pipeline depth,
-    /// `shader.cc` ~3646). 2 is the model before issue 12 (issue, then one bank cycle) and the
+    /// `shader.cc` ~3646). 2 (issue, then one bank cycle) is the `legacy` preset's and the
     /// least allowed ([`MIN_SH_LATENCY`]).
     pub sh_latency: u32,
 }
@@ -122,7 +122,7 @@ impl RtParams {
         }
     }
 
-    /// The timing of the model before issue 12 ([`StackTiming::Overlapped`], `sh_latency` 2),
+    /// The `legacy` preset's stack timing ([`StackTiming::Overlapped`], `sh_latency` 2),
     /// other fields unchanged.
     pub fn overlapped(self) -> Self {
         RtParams { stack_timing: StackTiming::Overlapped, sh_latency: MIN_SH_LATENCY, ..self }

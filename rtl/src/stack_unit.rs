@@ -180,8 +180,8 @@ pub struct UnitStats {
 }
 
 impl StandaloneStack {
-    /// The stack subsystem as before issue 12: posted global stores and SH accesses done right
-    /// after the banks (`sh_latency` 2).
+    /// The stack subsystem with the `legacy` preset's timing: posted global stores and SH
+    /// accesses done right after the banks (`sh_latency` 2).
     pub fn new(cfg: Config, global_latency: u64) -> Result<Self, ConfigError> {
         StandaloneStack::with_timing(cfg, global_latency, StackTiming::Overlapped, MIN_SH_LATENCY)
     }

@@ -40,10 +40,9 @@ impl Lanes {
 
     /// Lane `l` moves from `old` to `new`: the mask of `old`'s state loses the lane and the mask
     /// of `new`'s gains it (Done has no mask). Each mask is computed from the states'
-    /// [`ThreadState::code`]s in registers, with no branch: the form before stop 23 wrote the
-    /// masks to a small array, changed one element by index and read the array back, and that
-    /// read waited for the narrow store to reach the cache (a failed store-to-load forward),
-    /// which `perf annotate` showed as 35–50 % of [`WarpBuffer::apply`]'s time.
+    /// [`ThreadState::code`]s in registers, with no branch. Masks kept in a small array, changed
+    /// by index and read back as a whole, would make that read wait for the narrow store to
+    /// reach the cache (a failed store-to-load forward) on every thread update.
     #[inline]
     fn set(&mut self, l: u32, old: ThreadState, new: ThreadState) {
         let bit = 1u32 << l;
@@ -125,7 +124,7 @@ pub struct WarpBuffer {
     /// Derived from `lanes` at every edge, bit w per warp: lanes waiting to fetch, lanes holding
     /// a stack command, Busy lanes, and (resident warps only) no live lane. Each is a subset of
     /// `occupied`: a warp leaves only with no live lane, so its other bits are clear then. The RT unit's scans
-    /// visit only the warps whose bit is set (stop 18: most warps have nothing to do in a cycle).
+    /// visit only the warps whose bit is set (most warps have nothing to do in a cycle).
     fetch_warps: u64,
     stack_warps: u64,
     busy_warps: u64,

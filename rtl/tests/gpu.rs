@@ -123,7 +123,7 @@ fn single_warp(lane0: Vec<RayOp>) -> WarpJob {
 /// -  819: no ops left → Stack (Finish). 820: finish accepted → Done.
 /// -  821: warp done and its stacks quiet: the slot frees. 822: nothing left: the run ends.
 ///
-/// The derivation holds for both stack timings (the old `Overlapped` with `sh_latency` 2, and the
+/// The derivation holds for both stack timings (`Overlapped` with `sh_latency` 2, and the
 /// default `Blocking` with 20): the push and the pop move no entry (the RB never fills), so the
 /// stack sequencer is idle in the cycle after each command and neither timing adds a cycle.
 #[test]
@@ -455,7 +455,7 @@ fn planted_stack_bugs_stop_the_run() {
 /// a global store; 8 the sequencer issues it to the memory scheduler; 9 the port sends it
 /// instead of a node piece, and the sequencer is free again, so lane 0 pops 3, planning a
 /// reload of 1; 10 the reload is issued; 11 the port sends it. The 31 node pieces take cycles
-/// 6–8, 10 and 12–38. (Posted stores: the old `Overlapped` timing; with `Blocking` the pop waits
+/// 6–8, 10 and 12–38. (Posted stores: the `Overlapped` timing; with `Blocking` the pop waits
 /// for the store's acknowledgement, see `blocking_stores_wait_for_the_l2_ack`.)
 #[test]
 fn stack_requests_go_before_node_pieces() {
@@ -533,7 +533,7 @@ const PORT_NODE: &str = "sm0.rt_unit.port.req_node";
 /// 0 none, 1 push, 2 pop, 3 finish: the command the stack manager accepted in a cycle.
 const CMD: &str = "sm0.rt_unit.stack_manager.warp[0].thread[0].cmd_kind";
 
-/// Issue 12, item 1: with `Blocking` a global store completes only when the L2's
+/// With `Blocking` a global store completes only when the L2's
 /// acknowledgement comes back through the response FIFO, so the thread's next stack command
 /// waits for it. `spill_then_fetch`, derived by hand (memory defaults: a store is acknowledged
 /// `l2_latency` = 160 cycles after the L1D takes it, as a load that hits in L2 answers):
@@ -553,7 +553,7 @@ fn blocking_stores_wait_for_the_l2_ack() {
     assert_eq!((old[1][1], new[1][1]), ((9, 1), (9, 1)));
 }
 
-/// Issue 12, item 1: with `Blocking` the node fetch after a pop that reloads from global memory
+/// With `Blocking` the node fetch after a pop that reloads from global memory
 /// waits for the reload; with `Overlapped` it goes right after. `spill_then_fetch`, by hand
 /// (continuing `blocking_stores_wait_for_the_l2_ack`; the reload hits in L2: 160 cycles; the
 /// triangle is a fresh line: L1D and L2 miss, 260 cycles):

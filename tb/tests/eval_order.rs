@@ -1,8 +1,8 @@
-//! Issue 13's "done when": evaluation order does not matter. Two real scenes run through the
+//! Evaluation order does not matter. Two real scenes run through the
 //! whole GPU under every paper configuration with the RT units evaluated in a seeded random order
 //! each cycle, and with every kernel evaluated twice per cycle; each report equals the normal
 //! (dataflow) run's bit for bit, and so do the split form on two threads and the run by windows
-//! on one thread and two (issue 16). A planted order dependence of each kind is caught.
+//! on one thread and two. A planted order dependence of each kind is caught.
 
 use rtl::clock::EvalCheck;
 use rtl::config::Config;
@@ -78,7 +78,7 @@ fn bits(r: &GpuReport) -> String {
     format!("{r:?} {} {}", r.l1d_hit_rate.to_bits(), r.l2_hit_rate.to_bits())
 }
 
-/// Also issue 16: the split form (the RT units on a helper thread, the memory system on the
+/// The split form (the RT units on a helper thread, the memory system on the
 /// calling one) gives the one-thread run's report bit for bit.
 #[test]
 fn shuffled_twice_evaluated_and_two_thread_runs_equal_the_dataflow_run() {
@@ -284,7 +284,7 @@ fn window_hardware() -> Vec<(&'static str, Hardware)> {
     ]
 }
 
-/// Issue 16: the windowed run (each SM runs a window of cycles on its own and meets the L2
+/// The windowed run (each SM runs a window of cycles on its own and meets the L2
 /// between windows) gives the cycle-by-cycle loop's report bit for bit — cycles, evaluated
 /// cycles, every count — on one thread and on two, on two scenes, under every paper
 /// configuration on the default hardware and under three configurations on each other kind.

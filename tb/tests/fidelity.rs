@@ -1,4 +1,4 @@
-//! Issue 8: the cheaper fidelities agree with the cycle-level GPU on real traces. The functional
+//! The cheaper fidelities agree with the cycle-level GPU on real traces. The functional
 //! level counts exactly the cycle level's stack traffic without reallocation (with it, the
 //! difference is measured), and sampled runs' 95 % intervals cover the full run's totals.
 

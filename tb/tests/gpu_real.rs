@@ -1,6 +1,6 @@
-//! Issue 4 on real traces through the whole GPU (8 SMs, RT units, memory hierarchy; cycle level):
-//! more on-chip stack never adds off-chip stack traffic, RB_FULL never goes off chip, and a run is
-//! a pure function of its inputs.
+//! Stack traffic on real traces through the whole GPU (8 SMs, RT units, memory hierarchy; cycle
+//! level): more on-chip stack never adds off-chip stack traffic, RB_FULL never goes off chip, and a
+//! run is a pure function of its inputs.
 
 use std::collections::BTreeMap;
 

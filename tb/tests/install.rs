@@ -1,4 +1,4 @@
-//! Issue 15 items 1 and 2: an installed `sms` works from any folder, on meshes and scene
+//! An installed `sms` works from any folder, on meshes and scene
 //! descriptions given by path, and bad meshes given by path are clear errors.
 //!
 //! "Installed" here is the built binary copied alone into a temporary `bin/` folder, then run

@@ -1,5 +1,5 @@
-//! Issue 12: hardware presets. The `legacy` preset, with the old workload options, reproduces the
-//! reports of the model before the Vulkan-Sim mechanisms were adopted, bit for bit (numbers from
+//! Hardware presets. The `legacy` preset, with `--accel flat --order nearest --path-end always`,
+//! reproduces the reports of the model without the Vulkan-Sim mechanisms, bit for bit (numbers from
 //! `sms run` at commit e21cd48); the default (`paper`) differs from it in the way the mechanisms
 //! say.
 

@@ -390,7 +390,7 @@ fn ok(o: Output) -> String {
     err
 }
 
-/// Issue 16: a sweep stopped part-way and run again gives byte-identical reports to one that ran
+/// A sweep stopped part-way and run again gives byte-identical reports to one that ran
 /// through, taking what was finished from the cache; a changed key part (seed, hardware) is
 /// recomputed, and corrupt cache files are recomputed, never used.
 #[test]

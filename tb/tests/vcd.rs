@@ -1,4 +1,4 @@
-//! Issue 5: VCD dumps of the stack unit are well formed and show exactly the RTL's values.
+//! VCD dumps of the stack unit are well formed and show exactly the RTL's values.
 //!
 //! Every dump is read back by the strict checker and replayed cycle by cycle against the values
 //! the RTL reported in the same run (a [`Recorder`] beside the [`VcdSink`]). Planted bugs show
@@ -234,7 +234,7 @@ const FORMATS: u32 = TR_HEX | TR_DEC | TR_BIN;
 
 /// Addresses and data in hex, masks in binary, counts in decimal, encoded enumerations by name
 /// through a filter file that lists every value of the rtl enum; chosen from the kind each probe
-/// declares (issue 15).
+/// declares.
 #[test]
 fn save_file_formats_follow_the_declared_kinds() {
     use rtl::stack_manager::{Cmd, Uop};

@@ -1,4 +1,4 @@
-//! Issue 5 on the whole GPU: a real-scene run of all SMs (RT units, stack managers, memory
+//! VCD dumps of the whole GPU: a real-scene run of all SMs (RT units, stack managers, memory
 //! system) dumped through [`VcdSink`] with a cycle window and SM/warp/lane filters is strictly
 //! valid VCD, and the values replayed from it are the RTL's own, cycle by cycle, also after
 //! GTKWave's `vcd2fst` → `fst2vcd` round trip. Bad requests are clear errors.

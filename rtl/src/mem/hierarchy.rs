@@ -25,11 +25,9 @@
 //!    DRAM's input is the L2's `dram_req`, a register output. No sibling reads another's step.
 //!
 //! The L1Ds cannot be evaluated before the L2: their `In` takes the grant from the value the L2's
-//! evaluation returns, so moving them before it does not compile. (Before issue 13
-//! the L1Ds read the grant out of the L2 between its eval and its commit, and evaluating them
-//! first made later responses arrive for unknown ids.) [`MemSystem::set_eval_check`] evaluates the
-//! siblings in a seeded random order every cycle, or every kernel twice, and the tests below show
-//! both give the same responses, counters and cycle counts as the dataflow order.
+//! evaluation returns, so moving them before it does not compile. [`MemSystem::set_eval_check`]
+//! evaluates the siblings in a seeded random order every cycle, or every kernel twice, and the
+//! tests below show both give the same responses, counters and cycle counts as the dataflow order.
 //!
 //! When no SM has anything to offer, [`MemSystem::next_event_cycle`] tells the first cycle in
 //! which anything happens, and [`MemSystem::skip_to`] jumps there: the skipped cycles would have

@@ -19,7 +19,7 @@
 //! MSHR entry of its sector or allocates one and queues a sector read for L2; a store goes on to
 //! L2 and is acknowledged when L2 acknowledges it. A store hit invalidates its sector
 //! (write-evict, [`L1dWrite::WriteEvict`], Vulkan-Sim's dl1 policy for the RT unit's global
-//! stores) or refreshes LRU and keeps it (write-through, the old behaviour); a store miss leaves
+//! stores) or refreshes LRU and keeps it (write-through, the `legacy` preset's); a store miss leaves
 //! the tags alone (no write-allocate) in both. A request that needs an MSHR entry or a miss-queue slot
 //! that is not there is parked and retried every cycle, and `ready` is low meanwhile (so a later
 //! hit waits behind it, as in an in-order cache pipeline). Responses from L2 are registered: they
@@ -53,7 +53,7 @@ enum Pending {
 
 /// Down requests awaiting L2's response, by down id. Ids are handed out in order, so the table
 /// is a window from the oldest id still in flight (`base`) to the newest, with a hole for each
-/// id already answered: a lookup is an index, where a hash map (the form before stop 18) cost
+/// id already answered: a lookup is an index, where a hash map would cost
 /// a hash probe per insert and per removal.
 #[derive(Clone, Debug, Default)]
 struct InFlight {

@@ -11,7 +11,7 @@
 //!
 //! Banks are memory sub-partitions (GPGPU-Sim's `addrdec_tlx`): `bank = addr / l2_interleave_bytes
 //! mod l2_banks`, each with its own sets indexed by the address with the bank digit removed
-//! (linear or IPOLY, see [`super::addr::L2Map`]); the old mapping is `bank = line mod l2_banks`
+//! (linear or IPOLY, see [`super::addr::L2Map`]); the `legacy` preset's mapping is `bank = line mod l2_banks`
 //! over one array indexed `line mod sets`. Each bank grants at most one SM
 //! per cycle, round-robin starting after the SM it granted last, while its pipeline has room. The
 //! tag check sits at the end of the bank pipeline, so a miss pays the L2 latency and then DRAM's.
@@ -582,7 +582,7 @@ mod tests {
         (b.resp_log, *b.l2.counters())
     }
 
-    /// The windowed run's split L2 (issue 16): the front end at its cycle and the back end up to
+    /// The windowed run's split L2: the front end at its cycle and the back end up to
     /// the bank pipelines' delay in front of it give the whole L2's responses, at the same
     /// cycles, and its counters; a back end further ahead than that (the windowed run's planted
     /// `WindowBackEndTooFar`) checks a bank's head before a request let in later would have been

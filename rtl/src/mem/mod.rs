@@ -11,7 +11,7 @@
 //! registers), [`l1d`], [`l2`], [`dram`], and [`hierarchy`] which composes them into
 //! [`hierarchy::MemSystem`].
 //!
-//! Clocking (see [`hierarchy`] for the wiring and rtl/DESIGN.md "Memory hierarchy: one cycle"):
+//! Clocking (see [`hierarchy`] for the wiring and docs/memory.md "One cycle"):
 //! every unit has register outputs (`ready`, `down_req`, `dram_req`, `resp`: functions of its
 //! registers alone), `eval(&self, &In, &mut Step)`, a pure function of its registers and this
 //! cycle's inputs that writes the cycle's combinational outputs (`Step::out`) and next-state
@@ -40,7 +40,7 @@
 //! writes are posted (they use bandwidth but nobody waits for them).
 //!
 //! Memory path as Vulkan-Sim's RT unit uses it (each mechanism has its old behaviour as an
-//! option; sources are Vulkan-Sim files, see also rtl/DESIGN.md "Memory path"):
+//! option; sources are Vulkan-Sim files, see also docs/memory.md "Memory path"):
 //! - The RT unit accesses the L1D directly (`-gpgpu_rt_use_l1 1`; `rt_unit::memory_cycle`,
 //!   `shader.cc:3233`, calls `cache->access` at `shader.cc:3502`) and uses a hit in the cycle of
 //!   the lookup (`shader.cc:3557-3575`); the 20-cycle `l1_latency_queue` belongs to the load/store
@@ -287,7 +287,7 @@ pub struct MemParams {
     pub l1d_assoc: Assoc,
     /// Cycles from accepting a read that hits to its response being visible to the RT unit (1:
     /// Vulkan-Sim's RT unit uses an L1D hit in the cycle of the lookup, and 1 is the earliest a
-    /// registered response allows; the old value 20 is the load/store unit's `-gpgpu_l1_latency`).
+    /// registered response allows; `legacy`'s 20 is the load/store unit's `-gpgpu_l1_latency`).
     pub l1d_hit_latency: u32,
     /// Outstanding missed sectors per L1D (4096: Vulkan-Sim's streaming L1D, `gpu-cache.h:562`;
     /// old 32).
@@ -307,8 +307,8 @@ pub struct MemParams {
     /// accepts one request per cycle (8).
     pub l2_banks: u32,
     /// Bytes of consecutive addresses per bank before the next bank: `bank = addr /
-    /// interleave mod banks` (256: MOBILE `-gpgpu_mem_addr_mapping dramid@8`; old 128 = the line,
-    /// which with [`SetIndex::Linear`] is the old `line mod banks`, `line mod sets`). A power of
+    /// interleave mod banks` (256: MOBILE `-gpgpu_mem_addr_mapping dramid@8`; `legacy`'s 128 = the
+    /// line, which with [`SetIndex::Linear`] is one array: `line mod banks`, `line mod sets`). A power of
     /// two, at least the line.
     pub l2_interleave_bytes: u32,
     /// Set index within a bank, over the address with the bank digit removed (IPOLY; old linear).
@@ -475,7 +475,7 @@ impl MemParams {
         Ok(())
     }
 
-    /// The L2's bank and set mapping, or `None` for the old single-array mapping (linear index,
+    /// The L2's bank and set mapping, or `None` for the single-array mapping (linear index,
     /// line interleaving: `bank = line mod banks`, `set = line mod sets`). `sets_per_bank` is 0
     /// when the L2 does not split into whole sets per bank (rejected by `validate`). A fully
     /// associative L2 is one set per bank.

@@ -33,7 +33,7 @@
 //! memory scheduler) and [`StackManager::apply`] (functional: micro-ops complete at once).
 //! Decisions that depend only on a thread's own history are identical in both.
 //!
-//! Design choices for SPEC section 9 are argued in `rtl/DESIGN.md`.
+//! Design choices for SPEC section 9 are argued in `docs/stack.md`.
 
 use std::collections::VecDeque;
 

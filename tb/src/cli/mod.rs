@@ -185,7 +185,7 @@ pub struct WorkloadArgs {
     pub bounces: Option<u32>,
     /// When a hit ends a path besides a miss and the bounce limit: lumibench (a hit on a
     /// surface's back does not scatter, as LumiBench's Lambertian material) or always (every
-    /// hit scatters: the model before issue 12). No Russian roulette either way.
+    /// hit scatters, from either side). No Russian roulette either way.
     #[arg(long, value_enum, default_value = "lumibench")]
     pub path_end: crate::workload::PathEnd,
     /// Seed of the ray generator: the same seed gives bit-identical results.

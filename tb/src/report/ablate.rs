@@ -40,8 +40,8 @@ pub struct Mechanism {
     pub off: Tweak,
 }
 
-/// Every mechanism the ablation turns off, in report order (issue 12 items 1 to 5 and 7). "Off" is
-/// always the model's behaviour before that item (the `legacy` preset's value, or the old
+/// Every mechanism the ablation turns off, in report order. "Off" is always the simpler
+/// assumption the model can make instead (the `legacy` preset's value, or the reduced
 /// workload), so each row says what one simulator assumption is worth.
 pub const MECHANISMS: &[Mechanism] = &[
     Mechanism {
@@ -103,7 +103,7 @@ pub const MECHANISMS: &[Mechanism] = &[
         what: "LumiBench's workload: 128x128 pixels, 2 spp, 16 rays per path, a hit on a surface's back ends \
                the path (RayTracingInVulkan lumibench.sh, src/Options.cpp:22, assets/shaders/Scatter.glsl:17, \
                RayTracing.rgen:71-75)",
-        off_means: "the reduced workload of the sweep before issue 12: 3/4 of the resolution (96x96 at \
+        off_means: "a reduced workload: 3/4 of the resolution (96x96 at \
                     LumiBench's), 1 spp, 2 bounces, every hit scatters",
         off: |_, w| {
             (w.width, w.height) = ((w.width * 3 / 4).max(1), (w.height * 3 / 4).max(1));

@@ -136,7 +136,7 @@ impl CostReport {
                 origin: Origin::Rtl,
                 bits: w.sh_empty,
                 copies_per_sm: t,
-                note: "settles Top == Bottom: empty or one entry (DESIGN 9.1)",
+                note: "settles Top == Bottom: empty or one entry (SPEC 9.1)",
             });
             fields.push(Field {
                 name: "seq_step",

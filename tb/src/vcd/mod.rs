@@ -1,4 +1,4 @@
-//! VCD waveforms of every per-cycle signal, for debugging in GTKWave (issue 5).
+//! VCD waveforms of every per-cycle signal, for debugging in GTKWave.
 //!
 //! [`VcdSink`] is an [`rtl::trace::Sink`]: it sits on the probe walk the RTL already does, so
 //! any driver that takes a sink (the cycle-level harness, later a real-scene run) can dump waves

@@ -62,7 +62,7 @@ pub enum PathEnd {
     /// also end a path there (Scatter.glsl:56-63), do not exist here: no scene has materials.
     #[default]
     Lumibench,
-    /// Every hit scatters, from either side (the model before issue 12).
+    /// Every hit scatters, from either side (the `legacy` preset's workload).
     Always,
 }
 

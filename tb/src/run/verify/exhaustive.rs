@@ -232,12 +232,12 @@ pub fn is_large(c: &Config) -> bool {
 /// lanes' entries together force flushes, saturation, demotion and reloads into the oldest
 /// stack), in 10.6 · 10⁶ states (RB_1) and 4.8 · 10⁶ (RB_2); their default is [`default_cap`]
 /// (8 and 9: a whole chain and one entry in global memory): 1.0 · 10⁸ and 3.9 · 10⁷ states,
-/// 842 s and 369 s here (README, Verification).
+/// 842 s and 369 s here (docs/verification.md).
 pub fn large_cap(c: &Config) -> u32 {
     c.rb.capacity().unwrap_or(0) + 2 * c.sh_entries + 1
 }
 
-/// The cover goals of issue 14, each a situation a run must reach (when the configuration has
+/// The cover goals, each a situation a run must reach (when the configuration has
 /// the feature) for its "all properties hold" to mean anything.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Goal {

@@ -7,7 +7,7 @@ use rtl::stack_manager::StackManager;
 
 use super::reference::RefStack;
 
-/// The properties of issue 6, one name each.
+/// The stack's properties, one name each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Property {
     /// Every pop returns what the reference returns; pop on empty is reported.
@@ -45,7 +45,7 @@ pub enum Property {
     /// Several threads' commands planned in one cycle answer and leave the registers, programs
     /// and memory exactly as planning them one after the other in the same order does.
     SameCycle,
-    /// Skew placement (DESIGN 9.6, SPEC section 4): every lane's stack starts at base entry
+    /// Skew placement (docs/stack.md, SPEC section 4): every lane's stack starts at base entry
     /// `(lane / k) mod M`, `k = max(1, banks / (M × words per entry))` — at warp load and
     /// whenever the stack is lent; every SH entry's words sit in the banks SPEC section 4's
     /// address formula gives (thread t owns M entries from byte t × M × entry bytes); and no two
@@ -252,8 +252,8 @@ pub fn check_warp_exit(sm: &StackManager, w: u32) -> Result<(), Violation> {
     Ok(())
 }
 
-/// DESIGN 9.6's base entry of `lane`, written from the formula (not through the design's
-/// `Config::skew_base`).
+/// The skewed base entry of `lane` (docs/stack.md), written from the formula (not through the
+/// design's `Config::skew_base`).
 pub fn formula_base(c: &rtl::config::Config, lane: u32) -> u32 {
     crate::prove::spec::formula_base(&mut rtl::logic::Int, c, lane)
 }
@@ -270,7 +270,7 @@ pub fn check_placement(sm: &StackManager, s: u32) -> Result<(), Violation> {
     if st.bottom != want {
         return fail(
             Property::Placement,
-            format!("stack {s}: starts at entry {} (top {}), DESIGN 9.6 says {want}", st.bottom, st.top),
+            format!("stack {s}: starts at entry {} (top {}), skew says {want}", st.bottom, st.top),
         );
     }
     Ok(())
@@ -327,7 +327,7 @@ pub fn check_no_overlap(sm: &StackManager) -> Result<(), Violation> {
 }
 
 /// The most distinct words one bank must serve when every lane of a `warp_size`-thread warp
-/// (warp slot `w`) accesses the entry the same distance from its skewed base (DESIGN 9.6,
+/// (warp slot `w`) accesses the entry the same distance from its skewed base (docs/stack.md "Skew",
 /// [`formula_base`]) — the largest over the M distances. In lockstep, one such access round
 /// costs at most this many bank cycles, so `bound − 1` conflict cycles: RB_8+SH_8+SK gives 2
 /// (lanes t and t + 16 share a bank pair), RB_8+SH_8 without skew 16.

@@ -1,5 +1,5 @@
 //! [`Property::RequestSequence`]: the micro-op program the stack manager loads when it accepts a
-//! command equals the request sequence SPEC sections 3 and 5 (with DESIGN 9.1–9.4's choices)
+//! command equals the request sequence SPEC sections 3 and 5 (with docs/stack.md's SPEC 9.1–9.4)
 //! give for that case.
 //!
 //! [`expected_program`] is the specification ([`crate::prove::spec`], SPEC's case table over the
