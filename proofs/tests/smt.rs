@@ -143,10 +143,10 @@ fn invariant_holds(sm: &StackManager, w: u32) -> bool {
     let threads = sm.warp_threads(w);
     let regs: Vec<StackRegs> = threads.clone().map(|t| *sm.stack(t)).collect();
     let done: Vec<bool> = threads.clone().map(|t| sm.thread(t).done).collect();
-    let lanes: Vec<(u32, Thread<Int>, u32)> = threads
+    let lanes: Vec<(u32, Thread<Int>, u32, bool)> = threads
         .clone()
         .filter(|&t| !sm.thread(t).done)
-        .map(|t| (t % c.warp_size, *sm.thread(t), sm.rb(t).len() as u32))
+        .map(|t| (t % c.warp_size, *sm.thread(t), sm.rb(t).len() as u32, !sm.ready(t)))
         .collect();
     well_formed(&mut Int, &c, &regs, &done, &lanes)
 }

@@ -23,12 +23,25 @@ use rtl::stack_manager::policy::Steps;
 use query::Kind;
 use solver::{Solver, Verdict};
 
-/// A proof obligation: one cycle's commands (lanes of the warp at `base`, planned in order).
+/// A proof obligation: one cycle's commands (lanes of the warp at `base`, planned in order),
+/// and what is proved of that cycle.
 #[derive(Clone, Debug)]
 pub struct Obligation {
     pub name: String,
     pub base: u32,
     pub cmds: Vec<(u32, Kind)>,
+    pub what: What,
+}
+
+/// What an obligation proves of one cycle, from every state satisfying the invariant
+/// ([`query::well_formed`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum What {
+    /// The design's answers, programs and register writes equal the specification's.
+    Equivalence,
+    /// The design's cycle leaves a state satisfying the invariant (an induction step; with the
+    /// reset state satisfying it, the invariant holds in every reachable state).
+    Invariant,
 }
 
 /// The one-step equivalence obligations at `cfg`: each command kind on one lane, and two
@@ -39,16 +52,16 @@ pub fn obligations(cfg: &Config) -> Vec<Obligation> {
     let base = if cfg.warps > 1 { ws } else { 0 };
     let a = 5.min(ws - 1);
     let b = (a + ws / 2) % ws;
-    let mut out: Vec<Obligation> = [Kind::Push, Kind::Pop, Kind::Finish]
-        .into_iter()
-        .map(|k| Obligation { name: format!("one-step {}", k.name()), base, cmds: vec![(a, k)] })
-        .collect();
+    let mut cycles: Vec<(String, Vec<(u32, Kind)>)> =
+        [Kind::Push, Kind::Pop, Kind::Finish].into_iter().map(|k| (k.name().to_string(), vec![(a, k)])).collect();
     if b != a {
-        out.push(Obligation {
-            name: "one-step push+push (two lanes, one cycle)".into(),
-            base,
-            cmds: vec![(a, Kind::Push), (b, Kind::Push)],
-        });
+        cycles.push(("push+push (two lanes, one cycle)".into(), vec![(a, Kind::Push), (b, Kind::Push)]));
+    }
+    let mut out = Vec::new();
+    for (what, prefix) in [(What::Equivalence, "one-step"), (What::Invariant, "invariant kept by")] {
+        for (name, cmds) in &cycles {
+            out.push(Obligation { name: format!("{prefix} {name}"), base, cmds: cmds.clone(), what });
+        }
     }
     out
 }
@@ -75,7 +88,10 @@ pub fn prove<P: Steps>(
     solvers: &[Solver],
     limit: Duration,
 ) -> Result<Vec<Outcome>> {
-    let q = query::one_step(cfg, steps, ob.base, &ob.cmds);
+    let q = match ob.what {
+        What::Equivalence => query::one_step(cfg, steps, ob.base, &ob.cmds),
+        What::Invariant => query::preserves(cfg, steps, ob.base, &ob.cmds),
+    };
     let mut out = Vec::new();
     for &sv in solvers {
         let (verdict, took) = solver::check(sv, &q.text, &q.vars, limit)?;

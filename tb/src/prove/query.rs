@@ -101,77 +101,125 @@ impl State {
 /// Idle or linked. Every commanding lane: RB length ≤ N; Overflow exactly when the spill pointer
 /// is above 0, which is at most the region's size; its ring returns to it within 1 + borrow limit
 /// steps; the ring's ranks are distinct and below its length; its other members are finished and
-/// not Idle; it is not Idle unless finished.
+/// not Idle; it is not Idle unless finished. Between an unfinished lane's commands (its
+/// sequencer idle, `busy` false): with room in its RB its stack is empty and alone and nothing
+/// is in global memory (entries fill the RB first, and every pop refills it from below before
+/// the thread is ready again); a borrowed stack below the top of its ring holds entries; the
+/// top is empty only on a ring of one; an empty member's Flush is 0.
 pub fn well_formed<L: Logic>(
     l: &mut L,
     cfg: &Config,
     regs: &[Regs<L>],
     done: &[L::Bit],
-    lanes: &[(u32, Thread<L>, L::Word)],
+    lanes: &[(u32, Thread<L>, L::Word, L::Bit)],
 ) -> L::Bit {
+    let parts = well_formed_parts(l, cfg, regs, done, lanes);
+    parts.into_iter().fold(l.bit(true), |ok, p| l.and(ok, p.1))
+}
+
+/// Which registers a clause of [`well_formed_parts`] is about.
+#[derive(Clone, Copy)]
+enum Who {
+    Stack(u32),
+    Lane(u32),
+}
+
+fn need<B>(parts: &mut Vec<(String, B)>, who: Who, what: &str, b: B) {
+    let name = match who {
+        Who::Stack(j) => format!("stack of lane {j}: {what}"),
+        Who::Lane(n) => format!("lane {n}: {what}"),
+    };
+    parts.push((name, b));
+}
+
+/// [`well_formed`] clause by clause, each named (for a counterexample's report).
+pub fn well_formed_parts<L: Logic>(
+    l: &mut L,
+    cfg: &Config,
+    regs: &[Regs<L>],
+    done: &[L::Bit],
+    lanes: &[(u32, Thread<L>, L::Word, L::Bit)],
+) -> Vec<(String, L::Bit)> {
     let m = cfg.sh_entries;
     let ws = cfg.warp_size;
-    let mut ok = l.bit(true);
-    let all = |l: &mut L, ok: &mut L::Bit, b: L::Bit| *ok = l.and(*ok, b);
+    let mut parts: Vec<(String, L::Bit)> = Vec::new();
     for (j, r) in regs.iter().enumerate() {
+        let who = Who::Stack(j as u32);
         let jw = l.word(j as u32);
         if m > 0 {
             let a = l.lt_k(r.top, m);
-            all(l, &mut ok, a);
+            need(&mut parts, who, "Top below M", a);
             let b = l.lt_k(r.bottom, m);
-            all(l, &mut ok, b);
+            need(&mut parts, who, "Bottom below M", b);
             let same = l.eq(r.top, r.bottom);
             let full_or_same = implies(l, r.empty, same);
-            all(l, &mut ok, full_or_same);
+            need(&mut parts, who, "an empty queue has Top = Bottom", full_or_same);
         }
         let n = l.lt_k(r.next_tid, ws);
-        all(l, &mut ok, n);
+        need(&mut parts, who, "Next TID names a lane", n);
         let alone = l.eq(r.next_tid, jw);
         let rank0 = l.eq_k(r.priority, 0);
         let count0 = l.eq_k(r.flush, 0);
         match cfg.realloc {
             Some(ra) => {
                 let p = l.lt_k(r.priority, ra.borrow_limit + 1);
-                all(l, &mut ok, p);
+                need(&mut parts, who, "Priority within the borrow limit", p);
                 let f = l.lt_k(r.flush, ra.flush_limit + 1);
-                all(l, &mut ok, f);
+                need(&mut parts, who, "Flush within its limit", f);
                 let a = l.and(done[j], alone);
                 let b = l.and(r.empty, rank0);
                 let c = l.and(a, b);
                 let idle_ok = l.and(c, count0);
                 let not_idle = l_not(l, r.idle);
                 let imp = l.or(not_idle, idle_ok);
-                all(l, &mut ok, imp);
+                need(&mut parts, who, "an Idle stack is a finished thread's empty stack, alone, rank and Flush 0", imp);
             }
             None => {
                 let not_idle = l_not(l, r.idle);
-                all(l, &mut ok, not_idle);
-                all(l, &mut ok, alone);
-                all(l, &mut ok, rank0);
-                all(l, &mut ok, count0);
+                need(&mut parts, who, "no stack Idle without reallocation", not_idle);
+                need(&mut parts, who, "no chains without reallocation", alone);
+                need(&mut parts, who, "Priority 0 without reallocation", rank0);
+                need(&mut parts, who, "Flush 0 without reallocation", count0);
             }
         }
     }
     let limit = (1u32 << cfg.spill_ptr_bits.min(31)) - 1;
     let max_ring = cfg.realloc.map_or(1, |ra| ra.borrow_limit + 1) as usize;
-    for &(lane, th, rb_len) in lanes {
+    for &(lane, th, rb_len, busy) in lanes {
+        let who = Who::Lane(lane);
         if let Some(n) = cfg.rb.capacity() {
             let a = l.lt_k(rb_len, n + 1);
-            all(l, &mut ok, a);
+            need(&mut parts, who, "RB length at most N", a);
+            // Quiescent with room in the RB: nothing below it.
+            let room = l.lt_k(rb_len, n);
+            let idle = l.not(busy);
+            let quiet = l.and(room, idle);
+            let live = l.not(th.done);
+            let quiet = l.and(quiet, live);
+            let own = regs[lane as usize];
+            let mut below = l.not(th.overflow);
+            if m > 0 {
+                let me = l.word(lane);
+                let alone = l.eq(own.next_tid, me);
+                let e = l.and(own.empty, alone);
+                below = l.and(below, e);
+            }
+            let imp = implies(l, quiet, below);
+            need(&mut parts, who, "quiescent with room in the RB: stack empty and alone, no overflow", imp);
         }
         let zero = l.word(0);
         let some = l.lt(zero, th.spill_ptr);
         let same = eq_bit(l, some, th.overflow);
-        all(l, &mut ok, same);
+        need(&mut parts, who, "Overflow exactly when the spill pointer is above 0", same);
         let sp = l.lt_k(th.spill_ptr, limit + 1);
-        all(l, &mut ok, sp);
+        need(&mut parts, who, "spill pointer within its region", sp);
         let d = eq_bit(l, th.done, done[lane as usize]);
-        all(l, &mut ok, d);
+        need(&mut parts, who, "done bit agrees", d);
         let me = l.word(lane);
         let own = regs[lane as usize];
         let not_idle = l_not(l, own.idle);
         let a = l.or(th.done, not_idle);
-        all(l, &mut ok, a);
+        need(&mut parts, who, "not Idle unless finished", a);
         // Walk the ring: `ids[k]` is the lane k steps along; it must come home within max_ring.
         let mut ids = vec![me];
         let mut home = l.bit(false);
@@ -189,7 +237,7 @@ pub fn well_formed<L: Logic>(
             cur = next;
         }
         let r = l.or(home, th.done);
-        all(l, &mut ok, r);
+        need(&mut parts, who, "ring returns home within 1 + borrow limit", r);
         // Members (positions below len): ranks distinct and below len; others finished, not Idle.
         for (k, &x) in ids.iter().enumerate().take(max_ring) {
             let kw = l.word(k as u32);
@@ -197,27 +245,59 @@ pub fn well_formed<L: Logic>(
             let p = select(l, regs, x, |r| r.priority);
             let below = l.lt(p, len);
             let imp = implies(l, member, below);
-            let need = l.or(imp, th.done);
-            all(l, &mut ok, need);
+            let held = l.or(imp, th.done);
+            need(&mut parts, who, "ring ranks below its length", held);
             if k > 0 {
                 let fin = select_bit(l, done, x);
                 let idle = select_idle(l, regs, x);
                 let awake = l.not(idle);
                 let good = l.and(fin, awake);
                 let imp = implies(l, member, good);
-                let need = l.or(imp, th.done);
-                all(l, &mut ok, need);
+                let held = l.or(imp, th.done);
+                need(&mut parts, who, "ring members finished and not Idle", held);
             }
             for &y in ids.iter().take(k) {
                 let q = select(l, regs, y, |r| r.priority);
                 let distinct = l.ne(p, q);
                 let imp = implies(l, member, distinct);
-                let need = l.or(imp, th.done);
-                all(l, &mut ok, need);
+                let held = l.or(imp, th.done);
+                need(&mut parts, who, "ring ranks distinct", held);
+            }
+            if m > 0 {
+                // Between the owner's commands (its sequencer idle): a borrowed stack below the
+                // top holds entries (a drained one is released at once), the top is empty only
+                // on a ring of one (a drained dedicated stack moves to the bottom), and an
+                // empty member's Flush is 0.
+                let quiet = l.not(busy);
+                let live = l.not(th.done);
+                let quiet = l.and(quiet, live);
+                let here = l.and(quiet, member);
+                let e = select_flag(l, regs, x, |r| r.empty);
+                let top_rank = l.sub_k(len, 1);
+                let top = l.eq(p, top_rank);
+                let full = l.not(e);
+                if k > 0 {
+                    let not_top = l.not(top);
+                    let c = l.and(here, not_top);
+                    let imp = implies(l, c, full);
+                    need(&mut parts, who, "quiescent: a borrowed stack below the top holds entries", imp);
+                }
+                let c = l.and(here, top);
+                let c = l.and(c, e);
+                let one = l.eq_k(len, 1);
+                let imp = implies(l, c, one);
+                need(&mut parts, who, "quiescent: the top is empty only on a ring of one", imp);
+                if cfg.realloc.is_some() {
+                    let c = l.and(here, e);
+                    let f = select(l, regs, x, |r| r.flush);
+                    let zero = l.eq_k(f, 0);
+                    let imp = implies(l, c, zero);
+                    need(&mut parts, who, "quiescent: an empty member's Flush is 0", imp);
+                }
             }
         }
     }
-    ok
+    parts
 }
 
 fn l_not<L: Logic>(l: &mut L, b: L::Bit) -> L::Bit {
@@ -245,10 +325,15 @@ fn select<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word, f: impl Fn(&Regs
 }
 
 fn select_idle<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word) -> L::Bit {
-    let mut v = regs[regs.len() - 1].idle;
+    select_flag(l, regs, lane, |r| r.idle)
+}
+
+/// Bit `f` of the lane `lane` names (a multiplexer over the warp).
+fn select_flag<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word, f: impl Fn(&Regs<L>) -> L::Bit) -> L::Bit {
+    let mut v = f(&regs[regs.len() - 1]);
     for j in (0..regs.len() - 1).rev() {
         let hit = l.eq_k(lane, j as u32);
-        v = l.mux_bit(hit, regs[j].idle, v);
+        v = l.mux_bit(hit, f(&regs[j]), v);
     }
     v
 }
@@ -590,17 +675,49 @@ pub struct Query {
 pub fn one_step<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind)]) -> Query {
     let mut s = Sym::default();
     let st = State::new(&mut s, cfg, base, cmds);
-    let lanes: Vec<(u32, Thread<Sym>, W)> = st.lanes.iter().map(|x| (x.lane, x.th, x.rb_len)).collect();
+    let lanes: Vec<(u32, Thread<Sym>, W, B)> =
+        st.lanes.iter().map(|x| (x.lane, x.th, x.rb_len, x.busy)).collect();
     let inv = well_formed(&mut s, cfg, &st.regs, &st.done, &lanes);
     let slots = 2 * cfg.sh_entries as usize + 4;
     let d = side(&mut s, cfg, &st, &Side::Design(steps), slots);
     let sp = side::<P>(&mut s, cfg, &st, &Side::Spec, slots);
     let parts = agreement(&mut s, &d, &sp, &st.lanes);
+    finish(s, inv, parts)
+}
+
+/// Builds the invariant-preservation query of `cmds` (one induction step of [`well_formed`]):
+/// from every state satisfying it, the design's cycle leaves a state satisfying it — every
+/// lane's stack registers, and the commanding lanes' thread registers, RB lengths and
+/// sequencers (busy when the cycle loaded a program) as the cycle leaves them.
+pub fn preserves<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind)]) -> Query {
+    let mut s = Sym::default();
+    let st = State::new(&mut s, cfg, base, cmds);
+    let lanes: Vec<(u32, Thread<Sym>, W, B)> =
+        st.lanes.iter().map(|x| (x.lane, x.th, x.rb_len, x.busy)).collect();
+    let inv = well_formed(&mut s, cfg, &st.regs, &st.done, &lanes);
+    let slots = 2 * cfg.sh_entries as usize + 4;
+    let d = side(&mut s, cfg, &st, &Side::Design(steps), slots);
+    let mut done = st.done.clone();
+    let mut after = Vec::new();
+    for (x, a) in st.lanes.iter().zip(&d.lanes) {
+        done[x.lane as usize] = a.th.done;
+        // The program is compacted, so it is not empty exactly when its first slot is valid.
+        let runs = a.prog.first().map_or_else(|| s.bit(false), |p| p.0);
+        let busy = s.or(x.busy, runs);
+        after.push((x.lane, a.th, a.rb_len, busy));
+    }
+    let kept = well_formed_parts(&mut s, cfg, &d.regs, &done, &after);
+    finish(s, inv, kept.into_iter().map(|(n, b)| (format!("after the cycle, {n}"), b)).collect())
+}
+
+/// The query asserting `assume` and that some part fails, with one `agree_k` variable per part
+/// (so a counterexample names the parts that failed).
+fn finish(mut s: Sym, assume: B, parts: Vec<(String, B)>) -> Query {
     let all = parts.iter().fold(s.bit(true), |acc, p| s.and(acc, p.1));
     let differ = s.not(all);
     let names: Vec<String> = parts.iter().map(|p| p.0.clone()).collect();
     let keep: Vec<B> = parts.iter().map(|p| p.1).collect();
-    let mut text = s.smtlib(&[inv, differ], &keep);
+    let mut text = s.smtlib(&[assume, differ], &keep);
     for (k, b) in keep.iter().enumerate() {
         text += &format!("(declare-fun agree_{k} () Bool)\n(assert (= agree_{k} {}))\n", s.name_of(*b));
     }
