@@ -514,7 +514,7 @@ impl RtUnit {
                     stack_ready: q.state == ThreadState::Stack && manager.ready(t),
                     sector_bytes,
                 };
-                let (th, out) = thread_fsm::next(&self.rt, q, b.ops(w, l), &ti);
+                let (th, out) = thread_fsm::next(|k| self.rt.latency(k), q, b.ops(w, l), &ti);
                 if th != q {
                     d.threads.push((t, th));
                 }
