@@ -98,7 +98,7 @@ impl Dram {
     }
 
     /// The counters, for a runner that ran this unit past its run's end and puts back the
-    /// counts of the end ([`crate::gpu`]'s windowed run).
+    /// counts of the end (the windowed run, [`crate::sim`]).
     pub(crate) fn counters_mut(&mut self) -> &mut Counters {
         &mut self.counters
     }

@@ -177,7 +177,7 @@ impl L2 {
     }
 
     /// The counters, for a runner that ran this unit past its run's end and puts back the
-    /// counts of the end ([`crate::gpu`]'s windowed run).
+    /// counts of the end (the windowed run, [`crate::sim`]).
     pub(crate) fn counters_mut(&mut self) -> &mut Counters {
         &mut self.counters
     }
@@ -257,7 +257,7 @@ impl L2 {
         }
     }
 
-    /// The windowed run's split of the L2 (in `gpu`): from now on the front end
+    /// The windowed run's split of the L2 (`sim::window`): from now on the front end
     /// ([`L2::front_eval`] and [`L2::front_commit`]: the grants and the bank pipelines' entrances) and the back end (the
     /// tag checks onward: [`L2::eval`] and [`L2::commit`] with no request, which is all they then
     /// do) keep clocks of their own, the back end ahead. A bank's length as the front end's
