@@ -217,7 +217,8 @@ fn windows_fail_as_the_reference_loop() {
 /// Each of the windowed run's three stops, planted away, is caught by comparing with the
 /// reference loop: an SM that runs on while its miss queue may be full (on a one-entry queue),
 /// one that runs on with a free warp slot instead of stopping for the dispatch, and an L2 back end
-/// that runs further ahead than its pipelines' delay allows. Each run still does every ray's work
+/// that runs further ahead than its pipelines' delay allows; and so is a skip over an SM's quiet
+/// cycles that wakes its RT unit a cycle late. Each run still does every ray's work
 /// and checks every pop (the slips are of timing, not of traversal), but its cycles differ from
 /// the reference loop's; the late jobs also show in the last dispatch's cycle.
 #[test]
@@ -232,6 +233,7 @@ fn the_windowed_runs_planted_slips_are_caught() {
         (OrderBug::WindowIgnoresFullQueue, hw_of("miss queue 1")),
         (OrderBug::WindowSkipsJobStop, hw_of("paper")),
         (OrderBug::WindowBackEndTooFar, hw_of("paper")),
+        (OrderBug::WindowWakesLate, hw_of("paper")),
     ] {
         let plain = windowed(cfg, &hw, &jobs, false, false, None).unwrap().unwrap();
         let slipped = windowed(cfg, &hw, &jobs, true, false, Some(bug))

@@ -111,6 +111,13 @@ pub(crate) trait Steps: Copy + Send + Sync {
         true
     }
 
+    /// The cycle in which an SM in a window that has nothing to do wakes for its RT unit's next
+    /// event, due in cycle `event` (that cycle).
+    #[inline]
+    fn rt_wakes_at(self, event: u64) -> u64 {
+        event
+    }
+
     /// The responses an SM takes in a cycle of a window (all of them).
     #[inline]
     fn take_fills(self, _fills: &mut Vec<MemResp>) {}

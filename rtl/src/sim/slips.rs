@@ -30,6 +30,9 @@ pub enum OrderBug {
     /// pipelines' delay: it checks a bank's head before the request that the front end lets in
     /// later would have been there.
     WindowBackEndTooFar,
+    /// The windowed run's skip over an SM's quiet cycles wakes its RT unit a cycle after its
+    /// event is due, so a unit otherwise quiet acts a cycle late.
+    WindowWakesLate,
     /// The windowed run's SMs drop the L2's responses: their rays wait for ever, and the run
     /// must end as stalled rather than go on.
     WindowLosesResponses,
@@ -43,6 +46,7 @@ impl OrderBug {
             OrderBug::WindowIgnoresFullQueue
                 | OrderBug::WindowSkipsJobStop
                 | OrderBug::WindowBackEndTooFar
+                | OrderBug::WindowWakesLate
                 | OrderBug::WindowLosesResponses
         )
     }
@@ -83,6 +87,13 @@ impl Steps for Slipped {
 
     fn stops_for_full_queue(self) -> bool {
         self.0 != OrderBug::WindowIgnoresFullQueue
+    }
+
+    fn rt_wakes_at(self, event: u64) -> u64 {
+        match self.0 {
+            OrderBug::WindowWakesLate => event + 1,
+            _ => Design.rt_wakes_at(event),
+        }
     }
 
     fn take_fills(self, fills: &mut Vec<MemResp>) {

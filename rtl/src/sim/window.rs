@@ -192,8 +192,9 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
         let rt_idle = idle(u, req, &lane.job, c);
         if rt_idle && lane.now_fills.is_empty() && !l1_due {
             // Nothing happens in this SM before its next event or response: only the L1D's clock
-            // moves (as the loop's quiet SM), to there or to the window's end.
-            let next = [u.next_event(), l1.next_event(), lane.fills.front().map(|f| f.0)]
+            // moves (as the reference loop's quiet units), to there or to the window's end.
+            let rt_next = u.next_event().map(|e| steps.rt_wakes_at(e));
+            let next = [rt_next, l1.next_event(), lane.fills.front().map(|f| f.0)]
                 .into_iter()
                 .flatten()
                 .min()
