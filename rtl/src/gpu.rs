@@ -240,13 +240,14 @@ impl Gpu {
             windows: self.windows,
         };
         let o = sim::run(parts, steps, jobs, sink, every, progress, residence)?;
-        Ok(GpuReport { evaluated_cycles: o.evaluated, last_dispatch: o.last_dispatch, ..self.report() })
+        Ok(self.report(&o))
     }
 
-    fn report(&self) -> GpuReport {
-        let dram = self.mem.dram().counters();
+    /// The report of a run that ended as `o` says.
+    fn report(&self, o: &sim::Outcome) -> GpuReport {
+        let (l2, dram) =
+            o.l2_dram_counters.unwrap_or((*self.mem.l2().counters(), *self.mem.dram().counters()));
         // Every L2 access is a request an SM's L1D sent down (the L2 serves nothing else).
-        let l2 = self.mem.l2().counters();
         let mut stack = StackStats::default();
         for u in &self.units {
             stack.add(&u.stack_unit.manager.stats);
@@ -254,7 +255,7 @@ impl Gpu {
         let sum = |f: fn(&RtUnit) -> u64| self.units.iter().map(f).sum::<u64>();
         GpuReport {
             cycles: self.mem.cycle(),
-            evaluated_cycles: 0,
+            evaluated_cycles: o.evaluated,
             warps: sum(|u| u.stats.warps),
             rays: sum(|u| u.stats.rays),
             visits: sum(|u| u.stats.visits),
@@ -264,11 +265,11 @@ impl Gpu {
             l2_node: l2.kind(ReqKind::NodeFetch).accesses,
             l2_stack: l2.kind(ReqKind::StackSpill).accesses + l2.kind(ReqKind::StackReload).accesses,
             l1d_hit_rate: hit_rate(&self.mem.l1d_counters()),
-            l2_hit_rate: hit_rate(self.mem.l2().counters()),
+            l2_hit_rate: hit_rate(&l2),
             stack,
             bank_conflict_cycles: sum(|u| u.stack_unit.arb.conflict_cycles),
             pops_checked: sum(|u| u.stats.pops_checked),
-            last_dispatch: 0,
+            last_dispatch: o.last_dispatch,
         }
     }
 }

@@ -113,7 +113,12 @@ pub fn decode(ops: &[RayOp], pos: u32) -> ThreadState {
 /// The thread's next state and outputs: pure. `latency` is the operation units' latency for a
 /// node kind (the RT unit's `RtParams::latency`).
 #[inline]
-pub fn next(latency: impl Fn(NodeKind) -> u32, q: Thread, ops: &[RayOp], i: &ThreadIn) -> (Thread, ThreadOut) {
+pub fn next(
+    latency: impl Fn(NodeKind) -> u32,
+    q: Thread,
+    ops: &[RayOp],
+    i: &ThreadIn,
+) -> (Thread, ThreadOut) {
     let mut d = q;
     let mut out = ThreadOut::default();
     match q.state {
@@ -125,10 +130,8 @@ pub fn next(latency: impl Fn(NodeKind) -> u32, q: Thread, ops: &[RayOp], i: &Thr
         }
         ThreadState::Fetch => {
             if let (true, Some(RayOp::Visit { addr, kind, bytes })) = (i.scheduled, ops.get(q.pos as usize)) {
-                d.state = ThreadState::WaitMem {
-                    left: pieces(*addr, *bytes, i.sector_bytes),
-                    lat: latency(*kind),
-                };
+                d.state =
+                    ThreadState::WaitMem { left: pieces(*addr, *bytes, i.sector_bytes), lat: latency(*kind) };
                 d.pos += 1;
                 out.visit = true;
             }

@@ -88,8 +88,11 @@ fn cycles(g: &BTreeMap<String, BTreeSet<String>>) -> Vec<Vec<String>> {
         if !reached[m].contains(m) || out.iter().any(|c| c.contains(m)) {
             continue;
         }
-        let comp: Vec<String> =
-            g.keys().filter(|n| *n == m || (reached[m].contains(*n) && reached[*n].contains(m))).cloned().collect();
+        let comp: Vec<String> = g
+            .keys()
+            .filter(|n| *n == m || (reached[m].contains(*n) && reached[*n].contains(m)))
+            .cloned()
+            .collect();
         out.push(comp);
     }
     out
@@ -109,7 +112,8 @@ fn the_base_layer_depends_on_no_unit() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let g = graph(&sources(&src));
     for base in ["config", "logic", "trace", "clock"] {
-        let deps: Vec<&String> = g[base].iter().filter(|d| !["config", "logic", "trace", "clock"].contains(&d.as_str())).collect();
+        let deps: Vec<&String> =
+            g[base].iter().filter(|d| !["config", "logic", "trace", "clock"].contains(&d.as_str())).collect();
         assert!(deps.is_empty(), "{base} depends on {deps:?}");
     }
 }
@@ -129,7 +133,10 @@ fn a_planted_cycle_is_found() {
     // A path in a comment or a unit test is no edge.
     let files = vec![
         ("a.rs".to_string(), "use crate::b::X;\n".to_string()),
-        ("b.rs".to_string(), "// crate::a::Y\n#[cfg(test)]\nmod tests {\n    use crate::a::Y;\n}\n".to_string()),
+        (
+            "b.rs".to_string(),
+            "// crate::a::Y\n#[cfg(test)]\nmod tests {\n    use crate::a::Y;\n}\n".to_string(),
+        ),
     ];
     assert!(cycles(&graph(&files)).is_empty());
     let files = vec![

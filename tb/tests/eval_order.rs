@@ -8,9 +8,9 @@
 use rtl::clock::EvalCheck;
 use rtl::config::Config;
 use rtl::gpu::{Gpu, GpuReport};
-use rtl::sim::OrderBug;
 use rtl::ray_op::WarpJob;
 use rtl::rt_unit::RunError;
+use rtl::sim::OrderBug;
 use rtl::trace::NullSink;
 use tb::run::sim::{rtl_job, Hardware};
 use tb::workload::traverse::ChildOrder;

@@ -176,12 +176,6 @@ impl L2 {
         &self.counters
     }
 
-    /// The counters, for a runner that ran this unit past its run's end and puts back the
-    /// counts of the end (the windowed run, [`crate::sim`]).
-    pub(crate) fn counters_mut(&mut self) -> &mut Counters {
-        &mut self.counters
-    }
-
     pub fn mshr_occupancy(&self) -> usize {
         self.mshr.len()
     }

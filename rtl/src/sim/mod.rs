@@ -36,7 +36,7 @@ pub(crate) use slips::Slipped;
 
 use crate::clock::EvalCheck;
 use crate::mem::hierarchy::MemSystem;
-use crate::mem::MemResp;
+use crate::mem::{Counters, MemResp};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
 use crate::trace::{Probe, Sink};
@@ -62,13 +62,16 @@ pub(crate) struct Parts<'a> {
     pub windows: bool,
 }
 
-/// What a run adds to the units' and the memory system's counters.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// What a run reports beside the units' and the memory system's counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Outcome {
     /// Cycles evaluated (the others were skipped as idle).
     pub evaluated: u64,
     /// Cycle of the last dispatch.
     pub last_dispatch: u64,
+    /// The L2's and DRAM's counters at the run's end, where the runner ran them further (the
+    /// windowed run's back end runs ahead); `None`: theirs as they are.
+    pub l2_dram_counters: Option<(Counters, Counters)>,
 }
 
 /// The decisions a runner makes that a planted bug may get wrong; the default methods are the
@@ -158,18 +161,29 @@ pub(crate) fn run<S: Sink, P: Steps>(
             && n <= 64
             && sink.next_wanted(0).is_none()
     });
-    let evaluated = match windowed {
+    let (evaluated, l2_dram_counters) = match windowed {
         Some(w) if parts.helper_thread && n >= 2 => helper::with_helper(|h| {
-            window::run(&mut *parts.units, &mut *parts.mem, steps, Some(h), &mut dispatcher, w, every, progress)
+            window::run(
+                &mut *parts.units,
+                &mut *parts.mem,
+                steps,
+                Some(h),
+                &mut dispatcher,
+                w,
+                every,
+                progress,
+            )
         })?,
-        Some(w) => window::run(&mut *parts.units, &mut *parts.mem, steps, None, &mut dispatcher, w, every, progress)?,
-        None => reference::run(&mut parts, steps, &mut dispatcher, sink, every, progress)?,
+        Some(w) => {
+            window::run(&mut *parts.units, &mut *parts.mem, steps, None, &mut dispatcher, w, every, progress)?
+        }
+        None => (reference::run(&mut parts, steps, &mut dispatcher, sink, every, progress)?, None),
     };
     if windowed.is_some() {
         sink.end_run(parts.mem.cycle());
     }
     dispatcher.residence(parts.units, residence);
-    Ok(Outcome { evaluated, last_dispatch: dispatcher.last_dispatch })
+    Ok(Outcome { evaluated, last_dispatch: dispatcher.last_dispatch, l2_dram_counters })
 }
 
 /// The dispatcher: hands the next jobs to SMs with a free warp slot, round robin.
@@ -220,7 +234,8 @@ impl<I: Iterator<Item = WarpJob>> Dispatcher<I> {
                 continue;
             }
             let Some(job) = self.jobs.next() else { break };
-            job.validate(self.warp_size).map_err(|reason| RunError::BadJob { job: self.dispatched, reason })?;
+            job.validate(self.warp_size)
+                .map_err(|reason| RunError::BadJob { job: self.dispatched, reason })?;
             land(sm, job);
             self.loaded[sm].push(self.dispatched);
             self.dispatched += 1;
@@ -243,7 +258,12 @@ impl<I: Iterator<Item = WarpJob>> Dispatcher<I> {
 }
 
 /// Every SM's RT unit (with its step of the cycle, `step(sm)`) and the memory system, to the sink.
-pub(crate) fn probe<'a, S: Sink>(units: &[RtUnit], step: impl Fn(usize) -> &'a RtStep, mem: &MemSystem, s: &mut S) {
+pub(crate) fn probe<'a, S: Sink>(
+    units: &[RtUnit],
+    step: impl Fn(usize) -> &'a RtStep,
+    mem: &MemSystem,
+    s: &mut S,
+) {
     if !s.enabled() {
         return;
     }

@@ -81,7 +81,13 @@ pub(super) fn run<S: Sink, P: Steps, I: Iterator<Item = WarpJob>>(
         // Nothing to look at while every slot is full.
         if l.status.iter().any(|s| s.free_slot) {
             let (status, jobs_in) = (&l.status, &mut l.jobs_in);
-            dispatcher.dispatch(now, steps, &l.order, |sm| status[sm].free_slot, |sm, job| jobs_in[sm] = Some(job))?;
+            dispatcher.dispatch(
+                now,
+                steps,
+                &l.order,
+                |sm| status[sm].free_slot,
+                |sm, job| jobs_in[sm] = Some(job),
+            )?;
         }
         let more_jobs = dispatcher.jobs_left();
         if !more_jobs && l.jobs_in.iter().all(Option::is_none) && l.status.iter().all(|s| s.empty) {
@@ -173,7 +179,13 @@ impl Loop {
 
     /// Jumps to the next cycle in which anything happens (never over one the sink wants to see);
     /// work left with nothing ever to happen again is a stall.
-    fn skip_idle<S: Sink>(&self, parts: &mut Parts, sink: &mut S, more_jobs: bool, now: u64) -> Result<(), RunError> {
+    fn skip_idle<S: Sink>(
+        &self,
+        parts: &mut Parts,
+        sink: &mut S,
+        more_jobs: bool,
+        now: u64,
+    ) -> Result<(), RunError> {
         let dispatch_next = more_jobs && self.status.iter().any(|s| s.free_slot);
         // The memory system's events need not be looked at when the next cycle is the earliest
         // possible (they are never before the cycle it is in now).
@@ -186,7 +198,9 @@ impl Loop {
             units_next.into_iter().chain(l1d_next).chain(parts.mem.shared_next_event()).min()
         };
         match next {
-            None if more_jobs || !self.status.iter().all(|s| s.empty) => Err(RunError::Stalled { cycle: now }),
+            None if more_jobs || !self.status.iter().all(|s| s.empty) => {
+                Err(RunError::Stalled { cycle: now })
+            }
             Some(at) if parts.idle_skip && at > soon => {
                 #[cfg(not(feature = "untraced"))]
                 let at = sink.next_wanted(soon).map_or(at, |w| w.min(at));

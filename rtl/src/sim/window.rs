@@ -395,7 +395,8 @@ struct Windows {
 
 /// Runs every job to completion by windows (see the module documentation), the SMs split between
 /// this thread and `helper`'s if there is one; returns the cycles the reference loop would have
-/// evaluated. The memory system is left as that loop leaves it.
+/// evaluated and the L2's and DRAM's counters as it would have left them (the back end may have
+/// run further). Every unit's clock is left where that loop leaves it.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn run<P: Steps, I: Iterator<Item = WarpJob>>(
     units: &mut [RtUnit],
@@ -406,7 +407,7 @@ pub(super) fn run<P: Steps, I: Iterator<Item = WarpJob>>(
     w: u64,
     every: u64,
     mut progress: impl FnMut(Progress),
-) -> Result<u64, RunError> {
+) -> Result<(u64, Option<(Counters, Counters)>), RunError> {
     let mut r = Windows::new(units.len(), mem, w);
     let mut next_report = every;
     loop {
@@ -417,10 +418,11 @@ pub(super) fn run<P: Steps, I: Iterator<Item = WarpJob>>(
         }
         r.first_error()?;
         let jobs_left = dispatcher.jobs_left();
-        let drained = !jobs_left && r.lanes.iter().all(|l| l.job.is_none()) && units.iter().all(RtUnit::empty);
+        let drained =
+            !jobs_left && r.lanes.iter().all(|l| l.job.is_none()) && units.iter().all(RtUnit::empty);
         if drained {
-            if let Some(evaluated) = r.finish(m, units, mem) {
-                return Ok(evaluated);
+            if let Some(end) = r.finish(m, units, mem) {
+                return Ok(end);
             }
         }
         r.rounds += 1;
@@ -505,17 +507,24 @@ impl Windows {
             .filter(|(_, (l, u))| l.frontier == m && l.job.is_none() && u.free_slot().is_some())
             .fold(0u64, |b, (sm, _)| b | 1 << sm);
         let (lanes, due) = (&mut self.lanes, &mut self.front.due);
-        dispatcher.dispatch(m, steps, &[], |sm| takes >> sm & 1 != 0, |sm, job| {
-            lanes[sm].job = Some(job);
-            due.set(m);
-        })
+        dispatcher.dispatch(
+            m,
+            steps,
+            &[],
+            |sm| takes >> sm & 1 != 0,
+            |sm, job| {
+                lanes[sm].job = Some(job);
+                due.set(m);
+            },
+        )
     }
 
     /// A failed check: the earliest, and in its cycle the lowest SM's, once every other SM is past
     /// that cycle (as the reference loop, which stops at the first SM that fails).
     fn first_error(&mut self) -> Result<(), RunError> {
         let lanes = &mut self.lanes;
-        let failed = lanes.iter().enumerate().filter(|(_, l)| l.error.is_some()).map(|(k, l)| (l.frontier, k)).min();
+        let failed =
+            lanes.iter().enumerate().filter(|(_, l)| l.error.is_some()).map(|(k, l)| (l.frontier, k)).min();
         match failed {
             Some((c, k)) if lanes.iter().all(|l| l.error.is_some() || l.frontier > c) => {
                 Err(lanes[k].error.take().expect("failed"))
@@ -531,9 +540,15 @@ impl Windows {
 
     /// Every unit is empty with no job left (`m`: the slowest SM's frontier): the reference loop
     /// ends at the first cycle after the edge that emptied the last unit in which some unit has an
-    /// event due. Once every part has run up to there, sets the memory system as that loop leaves
-    /// it and returns the cycles it evaluated; `None` until then.
-    fn finish(&mut self, m: u64, units: &[RtUnit], mem: &mut MemSystem) -> Option<u64> {
+    /// event due. Once every part has run up to there, sets every unit's clock there and returns
+    /// the cycles that loop evaluated and the L2's and DRAM's counters as it leaves them (when the
+    /// back end ran further); `None` until then.
+    fn finish(
+        &mut self,
+        m: u64,
+        units: &[RtUnit],
+        mem: &mut MemSystem,
+    ) -> Option<(u64, Option<(Counters, Counters)>)> {
         let (l1ds, l2, dram) = mem.parts_mut();
         let after = self.lanes.iter().map(|l| l.empty_since).max().unwrap_or(0);
         if m < after || self.front.next < after || l2.cycle() < after {
@@ -560,13 +575,10 @@ impl Windows {
             .min()
             .map_or(after, |e| e.max(after));
         // The L2's and DRAM's counts as they were after the cycle before `end`.
-        if let Some((_, l2c, dramc)) = self.back.snapshots.iter().find(|s| s.0 >= end) {
-            *l2.counters_mut() = *l2c;
-            *dram.counters_mut() = *dramc;
-        }
+        let counters = self.back.snapshots.iter().find(|s| s.0 >= end).map(|&(_, l2c, dramc)| (l2c, dramc));
         let evaluated = count_union(self.due_sets(), end);
         mem.set_now(end);
-        Some(evaluated)
+        Some((evaluated, counters))
     }
 
     /// Nothing will ever happen again, yet work remains: the reference loop's `Stalled`. (Looked
