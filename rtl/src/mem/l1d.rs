@@ -27,9 +27,9 @@
 //! responses visible in a cycle are delivered together.
 //!
 //! Detached miss queue (the windowed run's interface, `sim::window`): after
-//! [`L1d::detach_miss_queue`] a runner that grants the queue's head beside the L2's front end
-//! takes each request sent down ([`L1d::take_sent`]) and reports each that left
-//! ([`L1d::left_queue`]); the queue's length ([`L1d::queue_len`]) is then an upper bound.
+//! `L1d::detach_miss_queue` a runner that grants the queue's head beside the L2's front end
+//! takes each request sent down (`L1d::take_sent`) and reports each that left
+//! (`L1d::left_queue`); the queue's length (`L1d::queue_len`) is then an upper bound.
 
 use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};

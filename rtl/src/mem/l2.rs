@@ -27,9 +27,9 @@
 //! grants ([`L2Out::granted`], the L1Ds' `down_ready`) and the cycle's decisions into a step,
 //! which [`L2::commit`] applies at the clock edge.
 //!
-//! Split clocking (the windowed run's interface, `sim::window`): after [`L2::split_front_end`]
-//! the front end (the banks' arbiters and the pipelines' entrances: [`L2::front_eval`],
-//! [`L2::front_commit`]) and the back end (the tag checks on: `eval` and `commit` with no request)
+//! Split clocking (the windowed run's interface, `sim::window`): after `L2::split_front_end`
+//! the front end (the banks' arbiters and the pipelines' entrances: `L2::front_eval`,
+//! `L2::front_commit`) and the back end (the tag checks on: `eval` and `commit` with no request)
 //! keep clocks of their own, the back end up to the pipelines' delay ahead. The same results as
 //! the whole L2 (tested below).
 

@@ -1,15 +1,15 @@
 //! The runners: what clocks the GPU's units, cycle after cycle, until every job is done.
 //!
 //! Two runners, each written once:
-//! - the **reference loop** ([`reference`]): one cycle at a time, phase by phase (every RT unit's
+//! - the **reference loop** (`reference.rs`): one cycle at a time, phase by phase (every RT unit's
 //!   request, the memory system's evaluation, every RT unit's evaluation, every clock edge). It is
 //!   the model as the hardware describes it; waveforms, the evaluation checks
 //!   ([`EvalCheck`]), runs without idle skipping and an L2 too short for windows use it;
-//! - the **windowed run** ([`window`]): each SM runs a window of up to 64 cycles on its own
+//! - the **windowed run** (`window.rs`): each SM runs a window of up to 64 cycles on its own
 //!   between meetings at the L2, on one thread or split between two ([`helper`]). Every other run
 //!   uses it. Its report is the reference loop's, bit for bit (`tb/tests/eval_order.rs`).
 //!
-//! Both dispatch jobs the same way ([`Dispatcher`]): a kernel launch's round robin, job i to the
+//! Both dispatch jobs the same way (`Dispatcher`, below): a kernel launch's round robin, job i to the
 //! next SM after the one that took job i-1 that has a free warp slot, so at launch SM k gets jobs
 //! k, k + n, k + 2n, … and later jobs go wherever a warp left. Every decision reads registers: a
 //! slot freed in cycle c takes a job in c + 1.
@@ -19,9 +19,9 @@
 //! were evaluated (`GpuReport::evaluated_cycles`), the same for both.
 //!
 //! The decisions a runner makes (which SM the dispatcher tries next, when an SM in a window must
-//! stop, how far the L2's back end may run ahead, …) go through the [`Steps`] trait; the product
-//! runs [`Design`]. Test builds (the `mutants` feature) also have `slips::Slipped`, which replaces
-//! one of those decisions with a planted bug ([`OrderBug`]) so the tests can show they catch it.
+//! stop, how far the L2's back end may run ahead, …) go through the `Steps` trait; the product
+//! runs `Design`. Test builds (the `mutants` feature) also have `slips::Slipped`, which replaces
+//! one of those decisions with a planted bug (`OrderBug`, `slips.rs`) so the tests can show they catch it.
 
 pub mod helper;
 mod reference;
