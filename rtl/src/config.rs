@@ -421,7 +421,7 @@ pub struct Widths {
     pub warp: u32,
     /// Live-lane count of a warp, 0..=warp_size.
     pub live: u32,
-    /// A thread's traversal state ([`crate::thread_fsm::ThreadState`]).
+    /// A thread's traversal state ([`THREAD_STATES`] of them).
     pub thread_state: u32,
     /// Sequencer step: position in the longest micro-op program a command loads (a flush of M
     /// entries, 2M micro-ops, with the spill and the refill around it): 2M + 4 states.
@@ -434,6 +434,12 @@ pub struct Widths {
     /// stores (`Overlapped`) have no such bound; see [`GM_POSTED_QUEUE_BITS`].
     pub gm_queue: u32,
 }
+
+/// States of a thread's traversal state machine (`thread_fsm::ThreadState`: done, busy, fetch,
+/// wait for memory, stack), which sizes its waveform field ([`Widths::thread_state`]). Declared
+/// here, in the base layer, so that the widths depend on no unit; the state machine checks it
+/// against its list of states at compile time.
+pub const THREAD_STATES: u64 = 5;
 
 /// Bits of the memory scheduler's request queue with posted stores (`StackTiming::Overlapped`):
 /// a thread keeps taking commands while its stores wait for the port, so the model declares no
@@ -463,7 +469,7 @@ impl Widths {
             sh_requests: bits_for(c.threads() as u64),
             warp: bits_for(u64::from(c.warps.max(2) - 1)),
             live: bits_for(c.warp_size as u64),
-            thread_state: bits_for(crate::thread_fsm::ThreadState::STATES - 1),
+            thread_state: bits_for(THREAD_STATES - 1),
             seq_step: bits_for(u64::from(2 * m + 4)),
             gm_responses: bits_for(c.threads() as u64),
             gm_queue: bits_for(c.threads() as u64),

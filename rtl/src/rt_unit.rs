@@ -284,13 +284,13 @@ pub struct RtStep {
 }
 
 impl RtStep {
-    /// Visits this cycle started (for [`crate::gpu::OrderBug::StaleStep`]).
+    /// Visits this cycle started (for [`crate::sim::OrderBug::StaleStep`]).
     #[cfg(feature = "mutants")]
     pub fn visits(&self) -> u64 {
         self.visits
     }
 
-    /// The planted bug of [`crate::gpu::OrderBug::StaleStep`]: an earlier evaluation's visits
+    /// The planted bug of [`crate::sim::OrderBug::StaleStep`]: an earlier evaluation's visits
     /// counted again.
     #[cfg(feature = "mutants")]
     pub fn count_visits_again(&mut self, earlier: u64) {
@@ -514,7 +514,7 @@ impl RtUnit {
                     stack_ready: q.state == ThreadState::Stack && manager.ready(t),
                     sector_bytes,
                 };
-                let (th, out) = thread_fsm::next(&self.rt, q, b.ops(w, l), &ti);
+                let (th, out) = thread_fsm::next(|k| self.rt.latency(k), q, b.ops(w, l), &ti);
                 if th != q {
                     d.threads.push((t, th));
                 }

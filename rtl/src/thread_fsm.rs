@@ -15,9 +15,11 @@
 //! one thread: its state and this cycle's inputs in, its next state and its command out.
 
 use crate::node_fetch::pieces;
-use crate::ray_op::RayOp;
-use crate::rt_unit::RtParams;
+use crate::ray_op::{NodeKind, RayOp};
 use crate::stack_manager::Cmd;
+
+// The base layer's count of states is this machine's.
+const _: () = assert!(ThreadState::NAMES.len() as u64 == ThreadState::STATES);
 
 /// Where a thread is in its traversal.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -36,8 +38,9 @@ pub enum ThreadState {
 }
 
 impl ThreadState {
-    /// Number of states: the waveform's `state` field is `bits_for(STATES - 1)` wide.
-    pub const STATES: u64 = ThreadState::NAMES.len() as u64;
+    /// Number of states: the waveform's `state` field is `bits_for(STATES - 1)` wide (the base
+    /// layer's [`crate::config::THREAD_STATES`], which the widths are derived from).
+    pub const STATES: u64 = crate::config::THREAD_STATES;
 
     /// The states by waveform code ([`ThreadState::code`]): the names of the variants.
     pub const NAMES: &'static [&'static str] = &["done", "busy", "fetch", "wait_mem", "stack"];
@@ -107,9 +110,15 @@ pub fn decode(ops: &[RayOp], pos: u32) -> ThreadState {
     }
 }
 
-/// The thread's next state and outputs: pure.
+/// The thread's next state and outputs: pure. `latency` is the operation units' latency for a
+/// node kind (the RT unit's `RtParams::latency`).
 #[inline]
-pub fn next(rt: &RtParams, q: Thread, ops: &[RayOp], i: &ThreadIn) -> (Thread, ThreadOut) {
+pub fn next(
+    latency: impl Fn(NodeKind) -> u32,
+    q: Thread,
+    ops: &[RayOp],
+    i: &ThreadIn,
+) -> (Thread, ThreadOut) {
     let mut d = q;
     let mut out = ThreadOut::default();
     match q.state {
@@ -121,10 +130,8 @@ pub fn next(rt: &RtParams, q: Thread, ops: &[RayOp], i: &ThreadIn) -> (Thread, T
         }
         ThreadState::Fetch => {
             if let (true, Some(RayOp::Visit { addr, kind, bytes })) = (i.scheduled, ops.get(q.pos as usize)) {
-                d.state = ThreadState::WaitMem {
-                    left: pieces(*addr, *bytes, i.sector_bytes),
-                    lat: rt.latency(*kind),
-                };
+                d.state =
+                    ThreadState::WaitMem { left: pieces(*addr, *bytes, i.sector_bytes), lat: latency(*kind) };
                 d.pos += 1;
                 out.visit = true;
             }

@@ -1,14 +1,16 @@
-//! Evaluation order does not matter. Two real scenes run through the
+//! Evaluation order does not matter, and the two runners agree. Two real scenes run through the
 //! whole GPU under every paper configuration with the RT units evaluated in a seeded random order
-//! each cycle, and with every kernel evaluated twice per cycle; each report equals the normal
-//! (dataflow) run's bit for bit, and so do the split form on two threads and the run by windows
-//! on one thread and two. A planted order dependence of each kind is caught.
+//! each cycle, with every kernel evaluated twice per cycle and with every unit evaluated every
+//! cycle (the reference loop); each report equals the normal run's (by windows) bit for bit, and
+//! so does the reference loop's, on one thread and two. A planted slip of each kind (`OrderBug`,
+//! entering through the runners' `Steps`) is caught, each by the divergence it must cause.
 
 use rtl::clock::EvalCheck;
 use rtl::config::Config;
-use rtl::gpu::{Gpu, GpuReport, OrderBug};
+use rtl::gpu::{Gpu, GpuReport};
 use rtl::ray_op::WarpJob;
 use rtl::rt_unit::RunError;
+use rtl::sim::OrderBug;
 use rtl::trace::NullSink;
 use tb::run::sim::{rtl_job, Hardware};
 use tb::workload::traverse::ChildOrder;
@@ -23,25 +25,11 @@ fn jobs(scene: &str, res: u32) -> Vec<WarpJob> {
     w.warp_jobs().map(|j| rtl_job(&j, bvh)).collect()
 }
 
+/// A run on the default hardware: by windows under [`EvalCheck::Dataflow`], on the reference
+/// loop under the other checks (and with a slip of that loop planted).
 fn run(cfg: Config, jobs: &[WarpJob], check: EvalCheck, bug: Option<OrderBug>) -> GpuReport {
-    run_on(cfg, jobs, check, bug, false)
-}
-
-/// [`run`], in the split form (RT units and memory system on two threads, cycle by cycle, not by
-/// windows) if `parallel`.
-fn run_on(
-    cfg: Config,
-    jobs: &[WarpJob],
-    check: EvalCheck,
-    bug: Option<OrderBug>,
-    parallel: bool,
-) -> GpuReport {
     let hw = Hardware::default();
-    let mut gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
-        .unwrap()
-        .with_eval_check(check)
-        .with_helper_thread(parallel)
-        .with_windows(!parallel);
+    let mut gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap().with_eval_check(check);
     if let Some(b) = bug {
         gpu = gpu.with_order_bug(b);
     }
@@ -78,17 +66,13 @@ fn bits(r: &GpuReport) -> String {
     format!("{r:?} {} {}", r.l1d_hit_rate.to_bits(), r.l2_hit_rate.to_bits())
 }
 
-/// The split form (the RT units on a helper thread, the memory system on the
-/// calling one) gives the one-thread run's report bit for bit.
 #[test]
-fn shuffled_twice_evaluated_and_two_thread_runs_equal_the_dataflow_run() {
+fn shuffled_twice_evaluated_and_every_unit_runs_equal_the_dataflow_run() {
     for (scene, res) in [("clutter", 16), ("wknd", 16)] {
         let jobs = jobs(scene, res);
         for cfg in Config::paper_set() {
             let normal = run(cfg, &jobs, EvalCheck::Dataflow, None);
             assert!(normal.pops_checked > 0 && normal.cycles > 0, "{scene} {}", cfg.name());
-            let split = run_on(cfg, &jobs, EvalCheck::Dataflow, None, true);
-            assert_eq!(bits(&split), bits(&normal), "{scene} {} on two threads", cfg.name());
             for check in [EvalCheck::Shuffled { seed: 13 }, EvalCheck::Twice, EvalCheck::EveryUnit] {
                 let other = run(cfg, &jobs, check, None);
                 assert_eq!(bits(&other), bits(&normal), "{scene} {} under {check:?}", cfg.name());
@@ -117,8 +101,9 @@ fn planted_order_dependences_are_caught() {
     assert_ne!(bits(&a), bits(&b), "evaluating twice must expose the stale step");
 }
 
-/// A wake-up skip that lets a unit sleep through a memory response loses the response: the run
-/// stalls or its report differs from the run that evaluates every unit every cycle.
+/// A wake-up skip that lets a unit sleep through a memory response loses the response: the ray
+/// waiting for it never moves again, and the run stops as stalled, long before the run that
+/// evaluates every unit every cycle (which never sleeps, so the slip cannot touch it) ends.
 #[test]
 fn a_wake_up_that_misses_a_response_is_caught() {
     let jobs = jobs("clutter", 16);
@@ -127,124 +112,13 @@ fn a_wake_up_that_misses_a_response_is_caught() {
     let every = deaf(EvalCheck::EveryUnit).expect("evaluating every unit never sleeps");
     assert_eq!(bits(&every), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
     match deaf(EvalCheck::Dataflow) {
-        Ok(r) => assert_ne!(bits(&r), bits(&every), "the lost response must show"),
-        Err(e) => eprintln!("caught as a failed run: {e}"),
+        Err(RunError::Stalled { cycle }) => assert!(cycle < every.cycles, "stalled in cycle {cycle}"),
+        other => panic!("the lost response must stall the run, got {other:?}"),
     }
 }
 
-/// Runs `bug`, a slip in the normal run's SM-by-SM loop only: the phase-by-phase run (a shuffled
-/// check) must be unaffected and equal the clean run, and the SM-by-SM run must differ from it,
-/// fail, or panic (`what` names what must show).
-fn caught_in_the_sm_by_sm_loop(bug: OrderBug, what: &str) {
-    let jobs = jobs("clutter", 16);
-    let cfg = Config::sms();
-    let planted = |check| {
-        let jobs = jobs.clone();
-        std::panic::catch_unwind(move || try_run(cfg, jobs, check, bug))
-    };
-    let phased =
-        planted(EvalCheck::Shuffled { seed: 13 }).expect("no panic").expect("the phased run is unaffected");
-    assert_eq!(bits(&phased), bits(&run(cfg, &jobs, EvalCheck::Dataflow, None)));
-    match planted(EvalCheck::Dataflow) {
-        Ok(Ok(r)) => assert_ne!(bits(&r), bits(&phased), "{what} must show"),
-        Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
-        Err(_) => eprintln!("caught as a panic"),
-    }
-}
-
-/// The normal run evaluates SM by SM, the checks above phase by phase, so comparing their
-/// reports compares the two forms: an SM-by-SM loop that hands each SM its neighbour's memory
-/// outputs is caught (its run stops on a response it cannot place, or stalls, or reports
-/// otherwise), while the phase-by-phase run is unaffected.
-#[test]
-fn an_sm_by_sm_loop_with_crossed_ports_is_caught() {
-    caught_in_the_sm_by_sm_loop(OrderBug::SmPortsCrossed, "the crossed ports");
-}
-
-/// The normal run skips a whole SM that has nothing to do (its RT unit quiet, its L1D with no
-/// fill or event); the phase-by-phase checks never do. A skip that takes an RT unit's event as
-/// due a cycle late delays that unit, and the comparison shows it.
-#[test]
-fn a_whole_sm_skip_that_wakes_late_is_caught() {
-    caught_in_the_sm_by_sm_loop(OrderBug::SkipLate, "the late wake-up");
-}
-
-/// The normal run keeps each L1D's down request as its clock edge leaves it, for the next
-/// cycle's L2, instead of reading every L1D again; the phase-by-phase run reads them. An edge that
-/// passes on the request from before it leaves the L2 a stale one, and the comparison shows it.
-#[test]
-fn a_down_request_left_stale_at_the_edge_is_caught() {
-    caught_in_the_sm_by_sm_loop(OrderBug::StaleDown, "the stale down request");
-}
-
-/// The first error of a cycle is the lowest SM's, whichever thread stepped it: broken stack
-/// managers fail the same way in the split form as on one thread, including where the error is
-/// in a unit the helper thread steps. Dropping the helper's error (a planted bug) is caught: the
-/// run goes on past the failure and ends otherwise.
-#[test]
-fn an_error_on_the_helper_thread_stops_the_run_as_on_one_thread() {
-    use rtl::stack_manager::Mutant;
-    let jobs = jobs("clutter", 16);
-    let cfg = Config::sms();
-    let hw = Hardware::default();
-    let sms = hw.mem_for(&cfg).sms as usize;
-    // Two threads: the split form (the windowed run's are `windows_fail_as_the_cycle_by_cycle_loop`).
-    let attempt = |m: Mutant, parallel: bool, bug: Option<OrderBug>| {
-        let mut gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
-            .unwrap()
-            .with_mutant(m)
-            .with_helper_thread(parallel)
-            .with_windows(!parallel);
-        if let Some(b) = bug {
-            gpu = gpu.with_order_bug(b);
-        }
-        guarded(gpu, jobs.clone())
-    };
-    let mut on_helper = 0;
-    for m in Mutant::ALL {
-        let one = attempt(m, false, None).expect("no panic");
-        let Err(e) = &one else { continue };
-        assert_eq!(
-            format!("{:?}", attempt(m, true, None)),
-            format!("{:?}", Ok::<_, String>(one.clone())),
-            "{m:?}"
-        );
-        // The calling thread steps the first units, the helper the rest.
-        if e.sm().is_some_and(|sm| sm as usize >= Gpu::units_on_calling_thread(sms)) {
-            on_helper += 1;
-            let lost = attempt(m, true, Some(OrderBug::HelperErrorLost));
-            assert_ne!(
-                format!("{lost:?}"),
-                format!("{:?}", Ok::<_, String>(one.clone())),
-                "{m:?}: the lost error must show"
-            );
-        }
-    }
-    assert!(on_helper > 0, "some broken manager must fail first in a unit the helper steps");
-}
-
-/// In the split form each side reads the other's registers as latched when the cycle began. If
-/// the L1Ds' latched outputs were never renewed, the RT units would see the same responses again
-/// and again: the run fails, panics, runs away or reports otherwise than the one-thread run.
-#[test]
-fn a_latch_that_is_not_renewed_is_caught() {
-    let jobs = jobs("clutter", 16);
-    let cfg = Config::sms();
-    let clean = run(cfg, &jobs, EvalCheck::Dataflow, None);
-    let hw = Hardware::default();
-    let gpu = Gpu::new(cfg, hw.rt, hw.mem_for(&cfg))
-        .unwrap()
-        .with_helper_thread(true)
-        .with_order_bug(OrderBug::StaleLatch);
-    match guarded(gpu, jobs) {
-        Ok(Ok(r)) => assert_ne!(bits(&r), bits(&clean), "the stale latch must show"),
-        Ok(Err(e)) => eprintln!("caught as a failed run: {e}"),
-        Err(_) => eprintln!("caught as a panic"),
-    }
-}
-
-/// A run on hardware `hw`, by windows or cycle by cycle, on one thread or two, with a planted
-/// bug: its report or error, or "panic".
+/// A run on hardware `hw`, by windows or on the reference loop, on one thread or two, with a
+/// planted slip: its report or error, or "panic".
 fn windowed(
     cfg: Config,
     hw: &Hardware,
@@ -264,7 +138,7 @@ fn windowed(
 /// The hardware the windowed run is compared on: the default; the legacy preset (a miss queue
 /// of 8 and 32 MSHRs, so SMs stop for their queue's length); a one-entry miss queue (they stop
 /// all the time); Vulkan-Sim's RTX 2060 (30 SMs); an L2 whose pipeline leaves windows of five
-/// cycles; one too short for windows (the cycle-by-cycle loop runs); overlapped stack timing
+/// cycles; one too short for windows (the reference loop runs); overlapped stack timing
 /// (posted stores, still queued when warps leave).
 fn window_hardware() -> Vec<(&'static str, Hardware)> {
     let d = Hardware::default();
@@ -285,11 +159,11 @@ fn window_hardware() -> Vec<(&'static str, Hardware)> {
 }
 
 /// The windowed run (each SM runs a window of cycles on its own and meets the L2
-/// between windows) gives the cycle-by-cycle loop's report bit for bit — cycles, evaluated
+/// between windows) gives the reference loop's report bit for bit — cycles, evaluated
 /// cycles, every count — on one thread and on two, on two scenes, under every paper
 /// configuration on the default hardware and under three configurations on each other kind.
 #[test]
-fn windows_equal_the_cycle_by_cycle_loop() {
+fn windows_equal_the_reference_loop() {
     for (scene, res) in [("clutter", 16), ("wknd", 16)] {
         let jobs = jobs(scene, res);
         for (name, hw) in window_hardware() {
@@ -311,11 +185,11 @@ fn windows_equal_the_cycle_by_cycle_loop() {
     }
 }
 
-/// A failed check stops the windowed run with the error the cycle-by-cycle loop stops with (the
+/// A failed check stops the windowed run with the error the reference loop stops with (the
 /// earliest cycle's, and in it the lowest SM's), on one thread and on two: every broken stack
 /// manager that fails the loop, on the paper's and the legacy hardware.
 #[test]
-fn windows_fail_as_the_cycle_by_cycle_loop() {
+fn windows_fail_as_the_reference_loop() {
     use rtl::stack_manager::Mutant;
     let jobs = jobs("clutter", 16);
     let cfg = Config::sms();
@@ -341,10 +215,12 @@ fn windows_fail_as_the_cycle_by_cycle_loop() {
 }
 
 /// Each of the windowed run's three stops, planted away, is caught by comparing with the
-/// cycle-by-cycle loop (a different report, a failed run or a panic): an SM that runs on while its
-/// miss queue may be full (on a one-entry queue), one that runs on with a free warp slot instead
-/// of stopping for the dispatch, and an L2 back end that runs further ahead than its pipelines'
-/// delay allows.
+/// reference loop: an SM that runs on while its miss queue may be full (on a one-entry queue),
+/// one that runs on with a free warp slot instead of stopping for the dispatch, and an L2 back end
+/// that runs further ahead than its pipelines' delay allows; and so is a skip over an SM's quiet
+/// cycles that wakes its RT unit a cycle late. Each run still does every ray's work
+/// and checks every pop (the slips are of timing, not of traversal), but its cycles differ from
+/// the reference loop's; the late jobs also show in the last dispatch's cycle.
 #[test]
 fn the_windowed_runs_planted_slips_are_caught() {
     // More warps than the RT units' slots, so that jobs are dispatched as warps leave.
@@ -357,14 +233,22 @@ fn the_windowed_runs_planted_slips_are_caught() {
         (OrderBug::WindowIgnoresFullQueue, hw_of("miss queue 1")),
         (OrderBug::WindowSkipsJobStop, hw_of("paper")),
         (OrderBug::WindowBackEndTooFar, hw_of("paper")),
+        (OrderBug::WindowWakesLate, hw_of("paper")),
     ] {
         let plain = windowed(cfg, &hw, &jobs, false, false, None).unwrap().unwrap();
-        match windowed(cfg, &hw, &jobs, true, false, Some(bug)) {
-            Ok(Ok(r)) => assert_ne!(bits(&r), bits(&plain), "{bug:?} must show"),
-            Ok(Err(e)) => eprintln!("{bug:?} caught as a failed run: {e}"),
-            Err(_) => eprintln!("{bug:?} caught as a panic"),
+        let slipped = windowed(cfg, &hw, &jobs, true, false, Some(bug))
+            .unwrap_or_else(|p| panic!("{bug:?}: {p}"))
+            .unwrap_or_else(|e| panic!("{bug:?}: {e}"));
+        assert_eq!(
+            (slipped.rays, slipped.visits, slipped.pops_checked),
+            (plain.rays, plain.visits, plain.pops_checked),
+            "{bug:?}: the same work"
+        );
+        assert_ne!(slipped.cycles, plain.cycles, "{bug:?} must show in the cycles");
+        if bug == OrderBug::WindowSkipsJobStop {
+            assert_ne!(slipped.last_dispatch, plain.last_dispatch, "the late jobs must show");
         }
-        // The cycle-by-cycle loop ignores it.
+        // The reference loop ignores it.
         let loop_run = windowed(cfg, &hw, &jobs, false, false, Some(bug)).unwrap().unwrap();
         assert_eq!(bits(&loop_run), bits(&plain));
     }

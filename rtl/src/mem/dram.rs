@@ -97,12 +97,6 @@ impl Dram {
         &self.counters
     }
 
-    /// The counters, for a runner that ran this unit past its run's end and puts back the
-    /// counts of the end ([`crate::gpu`]'s windowed run).
-    pub(crate) fn counters_mut(&mut self) -> &mut Counters {
-        &mut self.counters
-    }
-
     /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
     /// `d` (every field overwritten).
     pub fn eval(&self, i: &DramIn, d: &mut DramStep) {

@@ -65,10 +65,6 @@ pub struct MemStep {
     dram: DramStep,
     /// Wires: each L1D's down request (its register output), the L2's input.
     down: Vec<Option<MemReq>>,
-    /// `down` holds the L1Ds' down requests after the last clock edge: the SM-by-SM loop's
-    /// [`SmPorts::commit`] wrote each there, so [`MemSystem::eval_shared`] need not read every
-    /// L1D again (which another thread may have in its cache).
-    down_kept: bool,
     /// This cycle's evaluation order of the siblings: L1D `sm` is `sm`, DRAM is `sms`.
     order: Vec<usize>,
     /// [`EvalCheck::Twice`]: where the first evaluation of a kernel goes, to be compared with the
@@ -90,80 +86,6 @@ impl MemStep {
 #[inline]
 pub(crate) fn port_ready(l1: &L1d, step: &L1dStep, offered: bool) -> bool {
     l1.ready() && (!offered || step.out.req_fire)
-}
-
-/// The SMs' L1Ds in one cycle of the SM-by-SM loop ([`MemSystem::sm_ports`]). Per SM, in this
-/// order: [`SmPorts::eval`] on the SM's request, [`SmPorts::sm_in`] for what the SM sees,
-/// [`SmPorts::commit`] for the L1D's clock edge; or, for an SM with nothing to do,
-/// [`SmPorts::skip_quiet`] instead of all three.
-pub struct SmPorts<'a> {
-    l1d: &'a mut [L1d],
-    steps: &'a mut [L1dStep],
-    /// Each L1D's down request after its clock edge (for the next cycle's L2).
-    down: &'a mut [Option<MemReq>],
-    granted: &'a [bool],
-    l2: &'a L2,
-}
-
-impl<'a> SmPorts<'a> {
-    /// The SMs: `0..sms`.
-    pub fn range(&self) -> std::ops::Range<usize> {
-        0..self.l1d.len()
-    }
-
-    /// Whether SM `sm`'s L1D takes a request this cycle (a register output).
-    #[inline]
-    pub fn ready(&self, sm: usize) -> bool {
-        self.l1d[sm].ready()
-    }
-
-    /// SM `sm`'s L1D on the SM's request `req`.
-    #[inline]
-    pub fn eval(&mut self, sm: usize, req: Option<MemReq>) {
-        let i = L1dIn { req, down_ready: self.granted[sm], fills: self.l2.resp(sm) };
-        self.l1d[sm].eval(&i, &mut self.steps[sm]);
-    }
-
-    /// What SM `sm` sees this cycle, after [`SmPorts::eval`] (`offered`: the SM offered a
-    /// request): whether its L1D takes a request (with one offered, whether it took it) and the
-    /// responses it shows. Both are the L1D's outputs, read where they are (the phase-by-phase
-    /// [`MemSystem::eval`] copies them into its [`SmOut`]s; the SM-by-SM loop need not).
-    #[inline]
-    pub fn sm_in(&self, sm: usize, offered: bool) -> (bool, &[MemResp]) {
-        let l1 = &self.l1d[sm];
-        (port_ready(l1, &self.steps[sm], offered), l1.resp())
-    }
-
-    /// SM `sm` offers no request and its L1D has nothing to do this cycle (no fill from the L2,
-    /// no event in its registers): its clock edge, without [`SmPorts::eval`] and
-    /// [`SmPorts::commit`] (whose quiet step would change nothing but the clock). Returns false,
-    /// doing nothing, otherwise (the L1D's outputs are its registers: no response, and `ready`
-    /// as [`SmPorts::ready`]).
-    #[inline]
-    pub fn skip_quiet(&mut self, sm: usize) -> bool {
-        self.l1d[sm].tick_if_quiet(self.l2.resp(sm))
-    }
-
-    /// SM `sm`'s L1D.
-    #[inline]
-    pub fn l1d(&self, sm: usize) -> &L1d {
-        &self.l1d[sm]
-    }
-
-    /// Clock edge of SM `sm`'s L1D (after [`SmPorts::eval`]).
-    #[inline]
-    pub fn commit(&mut self, sm: usize) {
-        self.l1d[sm].commit(&self.steps[sm]);
-        self.down[sm] = self.l1d[sm].down_req();
-    }
-
-    /// [`SmPorts::commit`] passing on the down request from before the edge instead of after it
-    /// (a planted bug, for [`crate::gpu::OrderBug::StaleDown`]).
-    #[cfg(feature = "mutants")]
-    pub fn commit_stale_down(&mut self, sm: usize) {
-        self.down[sm] = self.l1d[sm].down_req();
-        self.l1d[sm].commit(&self.steps[sm]);
-    }
 }
 
 /// Evaluates one kernel into `d`, or with two passes first into `first` and then into `d`,
@@ -255,20 +177,6 @@ impl MemSystem {
         &self.step.insert(d).out
     }
 
-    /// [`MemSystem::eval`] taken apart for a runner that finishes one SM before it starts the
-    /// next (better locality; same results): first the shared part, the L2 (whose inputs are
-    /// register outputs only) and DRAM (whose input is the L2's `dram_req` register); then each
-    /// SM's L1D ([`SmPorts::eval`]) and its clock edge ([`SmPorts::commit`]), and last
-    /// [`MemSystem::commit_shared`]. Siblings in index order only ([`EvalCheck::Dataflow`]).
-    pub fn eval_shared(&mut self) {
-        let mut d = self.step.take().unwrap_or_default();
-        self.begin_step(&mut d);
-        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
-        self.l2.eval(&l2_in, &mut d.l2);
-        self.dram.eval(&DramIn { req: self.l2.dram_req() }, &mut d.dram);
-        self.step = Some(d);
-    }
-
     /// Starts the cycle's step `d`: its cycle, a slot per SM, and the L1Ds' down requests (with
     /// DRAM's register outputs, the L2's inputs).
     fn begin_step(&self, d: &mut MemStep) {
@@ -276,35 +184,8 @@ impl MemSystem {
         d.at = self.now;
         d.out.resize_with(sms, SmOut::default);
         d.l1d.resize_with(sms, L1dStep::default);
-        if !d.down_kept {
-            d.down.clear();
-            d.down.extend(self.l1d.iter().map(L1d::down_req));
-        }
-    }
-
-    /// The SMs' side of the cycle [`MemSystem::eval_shared`] began: each L1D with its step, its
-    /// grant and its fills from the L2.
-    pub fn sm_ports(&mut self) -> SmPorts<'_> {
-        let d = self.step.as_mut().expect("eval_shared first");
-        // Every L1D's clock edge goes through the ports (SmPorts::commit, or SmPorts::skip_quiet,
-        // which leaves the down request as it is), so `d.down` is kept for the next cycle.
-        d.down_kept = true;
-        SmPorts {
-            l1d: &mut self.l1d,
-            steps: &mut d.l1d,
-            down: &mut d.down,
-            granted: &d.l2.out.granted,
-            l2: &self.l2,
-        }
-    }
-
-    /// Clock edge of the L2 and DRAM, after every SM's [`SmPorts::commit`]: the cycle ends.
-    pub fn commit_shared(&mut self) {
-        let d = self.step.as_ref().expect("eval_shared first");
-        assert_eq!(d.at, self.now, "memory system committed a step evaluated in another cycle");
-        self.dram.commit(&d.dram);
-        self.l2.commit(&d.l2);
-        self.now += 1;
+        d.down.clear();
+        d.down.extend(self.l1d.iter().map(L1d::down_req));
     }
 
     /// Clock edge for the step of the last [`MemSystem::eval`].
@@ -322,7 +203,6 @@ impl MemSystem {
         let passes = self.check.passes();
 
         // 1. The L2, from register outputs only.
-        d.down_kept = false;
         self.begin_step(d);
         let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
         let l2 = eval_kernel(passes, "L2", &mut d.l2, &mut d.first_l2, |s| self.l2.eval(&l2_in, s));
@@ -427,7 +307,7 @@ impl MemSystem {
         self.set_now(cycle);
     }
 
-    /// The units, for a runner that clocks them apart (the windowed run, [`crate::gpu`]).
+    /// The units, for a runner that clocks them apart (the windowed run, [`crate::sim`]).
     pub(crate) fn parts_mut(&mut self) -> (&mut [L1d], &mut L2, &mut Dram) {
         (&mut self.l1d, &mut self.l2, &mut self.dram)
     }

@@ -25,6 +25,11 @@
 //! hit waits behind it, as in an in-order cache pipeline). Responses from L2 are registered: they
 //! fill the tags at the clock edge and their waiters' responses are visible the next cycle. All
 //! responses visible in a cycle are delivered together.
+//!
+//! Detached miss queue (the windowed run's interface, `sim::window`): after
+//! `L1d::detach_miss_queue` a runner that grants the queue's head beside the L2's front end
+//! takes each request sent down (`L1d::take_sent`) and reports each that left
+//! (`L1d::left_queue`); the queue's length (`L1d::queue_len`) is then an upper bound.
 
 use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
@@ -166,8 +171,8 @@ impl L1d {
         }
     }
 
-    /// Hands the miss queue to a runner that simulates it beside the L2 (the windowed run in
-    /// `gpu`): from now on every request sent down is also listed with the cycle of
+    /// Hands the miss queue to a runner that simulates it beside the L2 (the windowed run,
+    /// `sim::window`): from now on every request sent down is also listed with the cycle of
     /// the edge that queued it ([`L1d::take_sent`]), nothing pops the queue but
     /// [`L1d::left_queue`], and [`L1d::next_event`] leaves the queue out (the runner counts it).
     /// `eval` must then get `down_ready` false. The queue's length here is an upper bound on the
@@ -235,19 +240,6 @@ impl L1d {
         }
         self.eval_full(i, d);
         d.quiet = quiet;
-    }
-
-    /// The clock edge of a cycle with no request and no fill in which the registers have no event
-    /// (what [`L1d::eval`] would find quiet): only the clock moves, as when a quiet step is
-    /// committed. Returns false, doing nothing, if there is a fill or an event. The caller
-    /// guarantees there is no request, and does not evaluate this cycle.
-    #[inline]
-    pub fn tick_if_quiet(&mut self, fills: &[MemResp]) -> bool {
-        if !self.quiet(&L1dIn { req: None, down_ready: false, fills }) {
-            return false;
-        }
-        self.now += 1;
-        true
     }
 
     /// No request or fill comes in and the registers have no event this cycle

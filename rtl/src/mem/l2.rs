@@ -26,6 +26,12 @@
 //! down requests and DRAM's `ready` and responses (all register outputs) and writes the per-SM
 //! grants ([`L2Out::granted`], the L1Ds' `down_ready`) and the cycle's decisions into a step,
 //! which [`L2::commit`] applies at the clock edge.
+//!
+//! Split clocking (the windowed run's interface, `sim::window`): after `L2::split_front_end`
+//! the front end (the banks' arbiters and the pipelines' entrances: `L2::front_eval`,
+//! `L2::front_commit`) and the back end (the tag checks on: `eval` and `commit` with no request)
+//! keep clocks of their own, the back end up to the pipelines' delay ahead. The same results as
+//! the whole L2 (tested below).
 
 use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
@@ -176,12 +182,6 @@ impl L2 {
         &self.counters
     }
 
-    /// The counters, for a runner that ran this unit past its run's end and puts back the
-    /// counts of the end ([`crate::gpu`]'s windowed run).
-    pub(crate) fn counters_mut(&mut self) -> &mut Counters {
-        &mut self.counters
-    }
-
     pub fn mshr_occupancy(&self) -> usize {
         self.mshr.len()
     }
@@ -257,7 +257,7 @@ impl L2 {
         }
     }
 
-    /// The windowed run's split of the L2 (in `gpu`): from now on the front end
+    /// The windowed run's split of the L2 (`sim::window`): from now on the front end
     /// ([`L2::front_eval`] and [`L2::front_commit`]: the grants and the bank pipelines' entrances) and the back end (the
     /// tag checks onward: [`L2::eval`] and [`L2::commit`] with no request, which is all they then
     /// do) keep clocks of their own, the back end ahead. A bank's length as the front end's

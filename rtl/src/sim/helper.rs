@@ -1,10 +1,11 @@
-//! Two threads working on one cycle: the caller and one helper thread, for the split form of the
-//! run loop ([`crate::gpu::Gpu::with_helper_thread`]: the memory system here, the RT units there).
+//! Two threads working on one round of the windowed run: the caller and one helper thread
+//! ([`crate::gpu::Gpu::with_helper_thread`]: the L2's back end and the first SMs here, the other
+//! SMs there).
 //!
 //! [`Helper::join`] is `rayon::join` with one dedicated worker that spins instead of sleeping: a
-//! cycle of the model is a couple of microseconds of work, less than a thread pool takes to wake
+//! round of the windowed run is little work, often less than a thread pool takes to wake
 //! a sleeping worker or a blocked caller, while handing a job to a spinning thread on another
-//! core and back costs about 40 ns here (a two-thread ping-pong of one atomic, stop 19).
+//! core and back costs about 40 ns here (a two-thread ping-pong of one atomic).
 //!
 //! The caller offers the second job, runs the first, and then takes the second back and runs it
 //! itself if the helper has not started it (its core may be busy with another thread, say the

@@ -1,7 +1,7 @@
 //! The windowed run: each SM (its RT unit and its L1D) runs a window of cycles on its own,
 //! ahead of the others, and the SMs meet the L2 only between windows. The same cycles, the same
-//! registers and the same report as the cycle-by-cycle loop (`tests/eval_order.rs` and the tests
-//! below compare them), with one meeting of the two threads per window instead of one per cycle.
+//! registers and the same report as the reference loop (`tb/tests/eval_order.rs` compares them);
+//! with a helper thread, the two threads meet once per window.
 //!
 //! Why an SM may run ahead. The SMs meet only in the memory system, and there only through:
 //! - **responses**: a request the L2 lets into a bank pipeline in cycle `x` reaches its tag
@@ -19,7 +19,7 @@
 //! - **jobs**: the dispatcher hands the next job to the first SM with a free warp slot, round
 //!   robin, so which job an SM gets depends on the others' slots in that cycle. An SM with a
 //!   free slot (while jobs remain) stops at that cycle, and the dispatch is made when every SM
-//!   has reached it, from the same registers as the cycle-by-cycle loop's.
+//!   has reached it, from the same registers as the reference loop's.
 //!
 //! One round: the coordinator (the calling thread, alone) moves each SM's requests sent down
 //! into the front end's miss queues and the back end's responses into each SM's inputs, runs
@@ -28,20 +28,20 @@
 //! thread is there (the back end and the first SMs on the calling thread, the rest on the
 //! helper: [`split_point`]).
 //!
-//! What the cycle-by-cycle loop also reports is rebuilt exactly: a cycle it would evaluate is one
+//! What the reference loop also reports is rebuilt exactly: a cycle it would evaluate is one
 //! in which some unit has an event due (an RT unit's or L1D's next event, a non-empty miss queue,
 //! the L2's or DRAM's next event, a dispatch); each part marks those cycles as it runs them and
 //! the run counts their union. The run ends where that loop ends: at the first such cycle after
 //! the last unit emptied with no job left, with the L2's and DRAM's counters as they were then
 //! (the back end may have run further: [`Back::snapshots`]).
 
-use super::{idle, rt_cycle, Gpu, GpuReport, Progress};
-use crate::lockstep::Helper;
+use super::helper::Helper;
+use super::{Dispatcher, Progress, Steps};
 use crate::mem::dram::{Dram, DramIn, DramStep};
-use crate::mem::hierarchy::port_ready;
+use crate::mem::hierarchy::{port_ready, MemSystem};
 use crate::mem::l1d::{L1d, L1dIn, L1dStep};
 use crate::mem::l2::{FrontStep, L2In, L2Step, L2};
-use crate::mem::{Counters, MemReq, MemResp};
+use crate::mem::{Counters, MemReq, MemResp, ReqKind};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
 use crate::warp_buffer::Bits;
@@ -55,7 +55,7 @@ use std::collections::VecDeque;
 const WINDOW: u64 = 64;
 
 /// The window for an L2 whose bank pipelines hold a request `delay` cycles (`l2_latency - 3`):
-/// `None` when that is too short for windows to pay (the cycle-by-cycle loop runs instead).
+/// `None` when that is too short for windows to pay (the reference loop runs instead).
 pub(super) fn window_for(delay: u64) -> Option<u64> {
     let w = WINDOW.min(delay / 2);
     (w >= 4).then_some(w)
@@ -67,7 +67,7 @@ fn split_point(sms: usize) -> usize {
     sms * 3 / 8
 }
 
-/// Cycles in which some unit had an event due (those the cycle-by-cycle loop evaluates), one bit
+/// Cycles in which some unit had an event due (those the reference loop evaluates), one bit
 /// each.
 #[derive(Clone, Debug, Default)]
 struct CycleSet {
@@ -148,14 +148,12 @@ struct Limits {
     /// A job remains: an SM with a free slot stops for the dispatch.
     jobs_left: bool,
     queue_depth: usize,
-    #[cfg(feature = "mutants")]
-    bug: Option<super::OrderBug>,
 }
 
 /// Runs SM `u`/`l1` from its frontier to the window's end, or to the first cycle in which it
 /// needs what another SM decides (a job, or its miss queue's exact length), or to a failed
-/// check. Each cycle is the cycle-by-cycle loop's SM step (`SmLoop::step`), on the same inputs.
-fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
+/// check. Each cycle is the reference loop's cycle of this SM, on the same inputs.
+fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, steps: P) {
     if lane.error.is_some() {
         return;
     }
@@ -165,21 +163,14 @@ fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
             lane.pops.pop_front();
             l1.left_queue();
         }
-        #[cfg(feature = "mutants")]
-        let (stop_for_job, stop_for_queue) = (
-            lim.bug != Some(super::OrderBug::WindowSkipsJobStop),
-            lim.bug != Some(super::OrderBug::WindowIgnoresFullQueue),
-        );
-        #[cfg(not(feature = "mutants"))]
-        let (stop_for_job, stop_for_queue) = (true, true);
-        if stop_for_job && lane.job.is_none() && lim.jobs_left && u.free_slot().is_some() {
+        if steps.stops_for_job() && lane.job.is_none() && lim.jobs_left && u.free_slot().is_some() {
             break;
         }
         let req_ready = l1.ready();
         let req = u.req(req_ready);
         // The L1D asks whether its miss queue has room only for a request it takes or holds
         // parked; the bound answers unless it has reached the queue's depth.
-        if stop_for_queue
+        if steps.stops_for_full_queue()
             && (req.is_some() || !req_ready)
             && l1.queue_len() >= lim.queue_depth
             && lim.front < c
@@ -197,15 +188,13 @@ fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
             lane.now_fills.push(r);
             lane.fills.pop_front();
         }
-        #[cfg(feature = "mutants")]
-        if lim.bug == Some(super::OrderBug::WindowLosesResponses) {
-            lane.now_fills.clear();
-        }
+        steps.take_fills(&mut lane.now_fills);
         let rt_idle = idle(u, req, &lane.job, c);
         if rt_idle && lane.now_fills.is_empty() && !l1_due {
             // Nothing happens in this SM before its next event or response: only the L1D's clock
-            // moves (as the loop's quiet SM), to there or to the window's end.
-            let next = [u.next_event(), l1.next_event(), lane.fills.front().map(|f| f.0)]
+            // moves (as the reference loop's quiet units), to there or to the window's end.
+            let rt_next = u.next_event().map(|e| steps.rt_wakes_at(e));
+            let next = [rt_next, l1.next_event(), lane.fills.front().map(|f| f.0)]
                 .into_iter()
                 .flatten()
                 .min()
@@ -225,7 +214,7 @@ fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
             req_fire: port_ready(l1, &lane.l1_step, req.is_some()) && req.is_some(),
             resp: l1.resp(),
         };
-        match rt_cycle(u, &mut lane.rt_step, &mut lane.job, rt_idle, &i, false) {
+        match rt_cycle(u, &mut lane.rt_step, &mut lane.job, rt_idle, &i) {
             Ok(stepped) => {
                 if stepped && u.empty() {
                     lane.empty_since = c + 1;
@@ -243,10 +232,35 @@ fn run_sm(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits) {
     lane.frontier = c;
 }
 
+/// The RT unit offers no request (`req`), gets no job (`job`) and has no event due: it acts only
+/// on a memory response.
+#[inline]
+fn idle(u: &RtUnit, req: Option<MemReq>, job: &Option<WarpJob>, now: u64) -> bool {
+    req.is_none() && job.is_none() && u.next_event().is_none_or(|e| e > now)
+}
+
+/// One RT unit's cycle: evaluated on `i` and committed with the job landing (`job`), unless it is
+/// idle and gets no response, when its step would change nothing. Returns whether it was stepped.
+#[inline]
+fn rt_cycle(
+    u: &mut RtUnit,
+    step: &mut RtStep,
+    job: &mut Option<WarpJob>,
+    rt_idle: bool,
+    i: &RtIn,
+) -> Result<bool, RunError> {
+    if rt_idle && i.resp.is_empty() {
+        return Ok(false);
+    }
+    u.eval(i, step)?;
+    u.commit(step, job.take());
+    Ok(true)
+}
+
 /// A group of SMs' windows, in index order.
-fn run_group(units: &mut [RtUnit], l1ds: &mut [L1d], lanes: &mut [Lane], lim: Limits) {
+fn run_group<P: Steps>(units: &mut [RtUnit], l1ds: &mut [L1d], lanes: &mut [Lane], lim: Limits, steps: P) {
     for ((u, l1), lane) in units.iter_mut().zip(l1ds.iter_mut()).zip(lanes.iter_mut()) {
-        run_sm(u, l1, lane, lim);
+        run_sm(u, l1, lane, lim, steps);
     }
 }
 
@@ -339,8 +353,8 @@ struct Back {
 
 impl Back {
     /// Runs the cycles before `to`: each cycle in which the L2 or DRAM has an event due is their
-    /// `eval_shared` and `commit_shared` with no request coming in; the others only move their
-    /// clocks (they would change nothing else).
+    /// evaluation and clock edge with no request coming in; the others only move their clocks
+    /// (they would change nothing else).
     fn run_to(&mut self, to: u64, l2: &mut L2, dram: &mut Dram) {
         while l2.cycle() < to {
             let y = l2.cycle();
@@ -364,212 +378,279 @@ impl Back {
     }
 }
 
-/// [`Gpu::run_timed`] as windows (see the module documentation); `w` from [`window_for`].
-pub(super) fn run(
-    gpu: &mut Gpu,
+/// The windowed run's state between rounds: the SMs' lanes, the L2's two ends and the bookkeeping
+/// of the run's end.
+struct Windows {
+    lanes: Vec<Lane>,
+    front: Front,
+    back: Back,
+    /// The window's length ([`window_for`]) and the L2's pipeline delay.
+    w: u64,
+    delay: u64,
+    queue_depth: usize,
+    /// The slowest SM's frontier in the last round before every unit emptied.
+    last_min: u64,
+    rounds: u64,
+}
+
+/// Runs every job to completion by windows (see the module documentation), the SMs split between
+/// this thread and `helper`'s if there is one; returns the cycles the reference loop would have
+/// evaluated and the L2's and DRAM's counters as it would have left them (the back end may have
+/// run further). Every unit's clock is left where that loop leaves it.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn run<P: Steps, I: Iterator<Item = WarpJob>>(
+    units: &mut [RtUnit],
+    mem: &mut MemSystem,
+    steps: P,
     helper: Option<&Helper>,
-    jobs: impl IntoIterator<Item = WarpJob>,
+    dispatcher: &mut Dispatcher<I>,
     w: u64,
     every: u64,
     mut progress: impl FnMut(Progress),
-    residence: &mut Vec<u64>,
-) -> Result<GpuReport, RunError> {
-    let n = gpu.units.len();
-    let params = *gpu.mem.params();
-    let delay = u64::from(params.l2_latency - 3);
-    {
-        let (l1ds, l2, _) = gpu.mem.parts_mut();
+) -> Result<(u64, Option<(Counters, Counters)>), RunError> {
+    let mut r = Windows::new(units.len(), mem, w);
+    let mut next_report = every;
+    loop {
+        let m = r.exchange(mem);
+        r.front.run_to(m, mem.parts_mut().1, &mut r.lanes);
+        if dispatcher.jobs_left() {
+            r.dispatch(m, units, steps, dispatcher)?;
+        }
+        r.first_error()?;
+        let jobs_left = dispatcher.jobs_left();
+        let drained =
+            !jobs_left && r.lanes.iter().all(|l| l.job.is_none()) && units.iter().all(RtUnit::empty);
+        if drained {
+            if let Some(end) = r.finish(m, units, mem) {
+                return Ok(end);
+            }
+        }
+        r.rounds += 1;
+        if !drained && r.rounds.is_multiple_of(64) && r.stalled(units, mem, jobs_left) {
+            let last = r.due_sets().filter_map(CycleSet::last).max();
+            return Err(RunError::Stalled { cycle: last.unwrap_or(0) });
+        }
+        r.round(m, units, mem, steps, helper, jobs_left, drained);
+        if m >= next_report {
+            progress(Progress { cycle: m, warps_dispatched: dispatcher.dispatched });
+            next_report = m.saturating_add(every);
+        }
+    }
+}
+
+impl Windows {
+    /// Detaches the L1Ds' miss queues and the L2's front end from the memory system, for the
+    /// run to clock them apart.
+    fn new(n: usize, mem: &mut MemSystem, w: u64) -> Windows {
+        let params = *mem.params();
+        let (l1ds, l2, _) = mem.parts_mut();
         for l1 in l1ds.iter_mut() {
             l1.detach_miss_queue();
         }
         l2.split_front_end();
-    }
-    let mut lanes: Vec<Lane> = (0..n).map(|_| Lane::default()).collect();
-    let mut front = Front {
-        queues: vec![VecDeque::new(); n],
-        queued: 0,
-        next: 0,
-        want: vec![0; params.l2_banks as usize],
-        heads: vec![MemReq::read(0, 0, 0, crate::mem::ReqKind::NodeFetch); n],
-        step: FrontStep::default(),
-        due: CycleSet::default(),
-    };
-    let mut back = Back {
-        none: vec![None; n],
-        step: L2Step::default(),
-        dram_step: DramStep::default(),
-        due: CycleSet::default(),
-        staged: vec![Vec::new(); n],
-        snapshots: VecDeque::new(),
-    };
-    let mut jobs = jobs.into_iter().peekable();
-    let mut loaded: Vec<Vec<u64>> = vec![Vec::new(); n];
-    let (mut dispatched, mut last_dispatch) = (0u64, 0u64);
-    let mut next_report = every;
-    let mut last_min = 0;
-    let mut rounds = 0u64;
-    loop {
-        let l2 = gpu.mem.l2();
-        for (k, lane) in lanes.iter_mut().enumerate() {
-            for (at, r) in lane.sent.drain(..) {
-                front.push(k, at, l2.bank_of(r.addr), r);
-            }
-            lane.fills.extend(back.staged[k].drain(..));
-        }
-        let m = lanes.iter().map(|l| l.frontier).min().unwrap_or(0);
-        let (l1ds, l2, dram) = gpu.mem.parts_mut();
-        front.run_to(m, l2, &mut lanes);
-        // The dispatch in cycle `m`: every SM has run the cycles before it, and those ahead of it
-        // had no free slot in it (they would have stopped there). It comes before any failed
-        // check of cycle `m` or later, as in the loop.
-        if jobs.peek().is_some() {
-            let start = gpu.rr;
-            for k in 0..n {
-                let sm = (start + k) % n;
-                if lanes[sm].frontier != m || lanes[sm].job.is_some() || gpu.units[sm].free_slot().is_none() {
-                    continue;
-                }
-                let Some(job) = jobs.next() else { break };
-                job.validate(gpu.cfg.warp_size)
-                    .map_err(|reason| RunError::BadJob { job: dispatched, reason })?;
-                lanes[sm].job = Some(job);
-                loaded[sm].push(dispatched);
-                dispatched += 1;
-                last_dispatch = m;
-                gpu.rr = (sm + 1) % n;
-                front.due.set(m);
-            }
-        }
-        // A failed check: the earliest, and in its cycle the lowest SM's, once every other SM is
-        // past that cycle (as the loop, which stops at the first SM that fails).
-        if let Some((c, k)) =
-            lanes.iter().enumerate().filter(|(_, l)| l.error.is_some()).map(|(k, l)| (l.frontier, k)).min()
-        {
-            if lanes.iter().all(|l| l.error.is_some() || l.frontier > c) {
-                return Err(lanes[k].error.take().expect("failed"));
-            }
-        }
-        let jobs_left = jobs.peek().is_some();
-        let drained =
-            !jobs_left && lanes.iter().all(|l| l.job.is_none()) && gpu.units.iter().all(RtUnit::empty);
-        if drained {
-            // After the edge that emptied the last unit, the loop's next cycle is the first in
-            // which some unit has an event due: every part must have run up to there first.
-            let after = lanes.iter().map(|l| l.empty_since).max().unwrap_or(0);
-            if m >= after && front.next >= after && l2.cycle() >= after {
-                let end = lanes
-                    .iter()
-                    .zip(gpu.units.iter())
-                    .zip(l1ds.iter())
-                    .map(|((lane, u), l1)| {
-                        lane.due
-                            .first_in(after, lane.frontier)
-                            .or_else(|| [u.next_event(), l1.next_event()].into_iter().flatten().min())
-                    })
-                    .chain([front.due.first_in(after, front.next).or_else(|| front.next_head(front.next))])
-                    .chain([back
-                        .due
-                        .first_in(after, l2.cycle())
-                        .or_else(|| l2.next_event().into_iter().chain(dram.next_event()).min())])
-                    .flatten()
-                    .min()
-                    .map_or(after, |e| e.max(after));
-                // The L2's and DRAM's counts as they were after the cycle before `end`.
-                if let Some((_, l2c, dramc)) = back.snapshots.iter().find(|s| s.0 >= end) {
-                    *l2.counters_mut() = *l2c;
-                    *dram.counters_mut() = *dramc;
-                }
-                let evaluated = count_union(lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]), end);
-                gpu.mem.set_now(end);
-                residence.clear();
-                residence.resize(dispatched as usize, 0);
-                for (u, jobs) in gpu.units.iter().zip(&loaded) {
-                    for (&job, &cycles) in jobs.iter().zip(&u.residence) {
-                        residence[job as usize] = cycles;
-                    }
-                }
-                return Ok(GpuReport { evaluated_cycles: evaluated, last_dispatch, ..gpu.report() });
-            }
-        }
-        // Nothing will ever happen again, yet work remains: the loop's `Stalled`, in the last
-        // cycle it evaluated.
-        // (Looked at every 64th round: it reads every unit, some in the other core's cache, and a
-        // run that has stalled stays so.)
-        rounds += 1;
-        let quiet = rounds.is_multiple_of(64)
-            && lanes.iter().zip(gpu.units.iter()).zip(l1ds.iter()).all(|((lane, u), l1)| {
-                lane.job.is_none()
-                    && lane.fills.is_empty()
-                    && lane.error.is_none()
-                    && u.next_event().is_none()
-                    && l1.next_event().is_none()
-                    && !(jobs_left && u.free_slot().is_some())
-            })
-            && front.queued == 0
-            && back.staged.iter().all(Vec::is_empty)
-            && l2.next_event().is_none()
-            && dram.next_event().is_none();
-        if quiet && !drained {
-            let last =
-                lanes.iter().map(|l| &l.due).chain([&front.due, &back.due]).filter_map(CycleSet::last).max();
-            return Err(RunError::Stalled { cycle: last.unwrap_or(0) });
-        }
-        // The window: every response in it is visible (the back end ran the cycles before its
-        // last); the back end then runs on to the next window's needs, as far as the requests
-        // the front end let in allow (a request let in at the front end's last cycle is due at
-        // its tag check `delay` cycles later).
-        let lim = Limits {
-            end: (m + w).min(l2.cycle() + 1),
-            front: front.next,
-            jobs_left,
+        Windows {
+            lanes: (0..n).map(|_| Lane::default()).collect(),
+            front: Front {
+                queues: vec![VecDeque::new(); n],
+                queued: 0,
+                next: 0,
+                want: vec![0; params.l2_banks as usize],
+                heads: vec![MemReq::read(0, 0, 0, ReqKind::NodeFetch); n],
+                step: FrontStep::default(),
+                due: CycleSet::default(),
+            },
+            back: Back {
+                none: vec![None; n],
+                step: L2Step::default(),
+                dram_step: DramStep::default(),
+                due: CycleSet::default(),
+                staged: vec![Vec::new(); n],
+                snapshots: VecDeque::new(),
+            },
+            w,
+            delay: u64::from(params.l2_latency - 3),
             queue_depth: params.l1d_miss_queue as usize,
-            #[cfg(feature = "mutants")]
-            bug: gpu.order_bug,
+            last_min: 0,
+            rounds: 0,
+        }
+    }
+
+    /// The meeting at the L2: each SM's requests sent down go into the front end's miss queues,
+    /// the back end's responses into the SMs' inputs. Returns the slowest SM's frontier.
+    fn exchange(&mut self, mem: &MemSystem) -> u64 {
+        let l2 = mem.l2();
+        for (k, lane) in self.lanes.iter_mut().enumerate() {
+            for (at, r) in lane.sent.drain(..) {
+                self.front.push(k, at, l2.bank_of(r.addr), r);
+            }
+            lane.fills.extend(self.back.staged[k].drain(..));
+        }
+        self.lanes.iter().map(|l| l.frontier).min().unwrap_or(0)
+    }
+
+    /// The dispatch in cycle `m`: every SM has run the cycles before it, and those ahead of it
+    /// had no free slot in it (they would have stopped there). It comes before any failed check
+    /// of cycle `m` or later, as in the reference loop.
+    fn dispatch<P: Steps, I: Iterator<Item = WarpJob>>(
+        &mut self,
+        m: u64,
+        units: &[RtUnit],
+        steps: P,
+        dispatcher: &mut Dispatcher<I>,
+    ) -> Result<(), RunError> {
+        // At most 64 SMs go by windows: one bit each.
+        let takes = self
+            .lanes
+            .iter()
+            .zip(units)
+            .enumerate()
+            .filter(|(_, (l, u))| l.frontier == m && l.job.is_none() && u.free_slot().is_some())
+            .fold(0u64, |b, (sm, _)| b | 1 << sm);
+        let (lanes, due) = (&mut self.lanes, &mut self.front.due);
+        dispatcher.dispatch(
+            m,
+            steps,
+            &[],
+            |sm| takes >> sm & 1 != 0,
+            |sm, job| {
+                lanes[sm].job = Some(job);
+                due.set(m);
+            },
+        )
+    }
+
+    /// A failed check: the earliest, and in its cycle the lowest SM's, once every other SM is past
+    /// that cycle (as the reference loop, which stops at the first SM that fails).
+    fn first_error(&mut self) -> Result<(), RunError> {
+        let lanes = &mut self.lanes;
+        let failed =
+            lanes.iter().enumerate().filter(|(_, l)| l.error.is_some()).map(|(k, l)| (l.frontier, k)).min();
+        match failed {
+            Some((c, k)) if lanes.iter().all(|l| l.error.is_some() || l.frontier > c) => {
+                Err(lanes[k].error.take().expect("failed"))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Every part's cycles in which some unit had an event due.
+    fn due_sets(&self) -> impl Iterator<Item = &CycleSet> + Clone {
+        self.lanes.iter().map(|l| &l.due).chain([&self.front.due, &self.back.due])
+    }
+
+    /// Every unit is empty with no job left (`m`: the slowest SM's frontier): the reference loop
+    /// ends at the first cycle after the edge that emptied the last unit in which some unit has an
+    /// event due. Once every part has run up to there, sets every unit's clock there and returns
+    /// the cycles that loop evaluated and the L2's and DRAM's counters as it leaves them (when the
+    /// back end ran further); `None` until then.
+    fn finish(
+        &mut self,
+        m: u64,
+        units: &[RtUnit],
+        mem: &mut MemSystem,
+    ) -> Option<(u64, Option<(Counters, Counters)>)> {
+        let (l1ds, l2, dram) = mem.parts_mut();
+        let after = self.lanes.iter().map(|l| l.empty_since).max().unwrap_or(0);
+        if m < after || self.front.next < after || l2.cycle() < after {
+            return None;
+        }
+        let front = &self.front;
+        let end = self
+            .lanes
+            .iter()
+            .zip(units)
+            .zip(l1ds.iter())
+            .map(|((lane, u), l1)| {
+                lane.due
+                    .first_in(after, lane.frontier)
+                    .or_else(|| [u.next_event(), l1.next_event()].into_iter().flatten().min())
+            })
+            .chain([front.due.first_in(after, front.next).or_else(|| front.next_head(front.next))])
+            .chain([self
+                .back
+                .due
+                .first_in(after, l2.cycle())
+                .or_else(|| l2.next_event().into_iter().chain(dram.next_event()).min())])
+            .flatten()
+            .min()
+            .map_or(after, |e| e.max(after));
+        // The L2's and DRAM's counts as they were after the cycle before `end`.
+        let counters = self.back.snapshots.iter().find(|s| s.0 >= end).map(|&(_, l2c, dramc)| (l2c, dramc));
+        let evaluated = count_union(self.due_sets(), end);
+        mem.set_now(end);
+        Some((evaluated, counters))
+    }
+
+    /// Nothing will ever happen again, yet work remains: the reference loop's `Stalled`. (Looked
+    /// at every 64th round: it reads every unit, some in the other core's cache, and a run that
+    /// has stalled stays so.)
+    fn stalled(&self, units: &[RtUnit], mem: &mut MemSystem, jobs_left: bool) -> bool {
+        let (l1ds, l2, dram) = mem.parts_mut();
+        self.lanes.iter().zip(units).zip(l1ds.iter()).all(|((lane, u), l1)| {
+            lane.job.is_none()
+                && lane.fills.is_empty()
+                && lane.error.is_none()
+                && u.next_event().is_none()
+                && l1.next_event().is_none()
+                && !(jobs_left && u.free_slot().is_some())
+        }) && self.front.queued == 0
+            && self.back.staged.iter().all(Vec::is_empty)
+            && l2.next_event().is_none()
+            && dram.next_event().is_none()
+    }
+
+    /// One round from the slowest SM's frontier `m`: the SMs run their window, every response in
+    /// which is visible (the back end ran the cycles before its last), and the back end runs on
+    /// to the next window's needs, as far as the requests the front end let in allow (a request
+    /// let in at the front end's last cycle is due at its tag check `delay` cycles later). With a
+    /// helper, the back end and the first SMs run on this thread, the other SMs on the helper.
+    #[allow(clippy::too_many_arguments)]
+    fn round<P: Steps>(
+        &mut self,
+        m: u64,
+        units: &mut [RtUnit],
+        mem: &mut MemSystem,
+        steps: P,
+        helper: Option<&Helper>,
+        jobs_left: bool,
+        drained: bool,
+    ) {
+        let (l1ds, l2, dram) = mem.parts_mut();
+        let lim = Limits {
+            end: (m + self.w).min(l2.cycle() + 1),
+            front: self.front.next,
+            jobs_left,
+            queue_depth: self.queue_depth,
         };
-        // The L2's side of the round: the front end up to the slowest SM, then the back end on to
-        // the next window's needs, as far as the requests the front end let in allow (a request
-        // let in at the front end's last cycle is due at its tag check `delay` cycles later).
-        #[cfg(feature = "mutants")]
-        let too_far = gpu.order_bug == Some(super::OrderBug::WindowBackEndTooFar);
-        #[cfg(not(feature = "mutants"))]
-        let too_far = false;
-        let front_next = front.next;
-        let l2_side = move |back: &mut Back, l2: &mut L2, dram: &mut Dram| {
-            let back_to =
-                if too_far { front_next + delay + w } else { (front_next + delay).min(lim.end + w + 1) };
-            back.run_to(back_to, l2, dram);
-        };
+        let back_to = steps.back_end_to(self.front.next, self.delay, lim.end, self.w);
         // Once every unit is empty with no job left the run ends in a cycle not yet known, perhaps
         // before the slowest SM's frontier: the counts of every cycle since then are kept.
         if !drained {
-            while back.snapshots.front().is_some_and(|s| s.0 < last_min) {
-                back.snapshots.pop_front();
+            while self.back.snapshots.front().is_some_and(|s| s.0 < self.last_min) {
+                self.back.snapshots.pop_front();
             }
-            last_min = m;
+            self.last_min = m;
         }
-        let back = &mut back;
+        let back = &mut self.back;
+        let lanes = &mut self.lanes;
         match helper {
-            Some(h) if n >= 2 => {
-                let a = split_point(n);
-                let (ua, ub) = gpu.units.split_at_mut(a);
+            Some(h) => {
+                let a = split_point(units.len());
+                let (ua, ub) = units.split_at_mut(a);
                 let (la, lb) = l1ds.split_at_mut(a);
                 let (na, nb) = lanes.split_at_mut(a);
                 h.join(
                     || {
-                        l2_side(back, l2, dram);
-                        run_group(ua, la, na, lim);
+                        back.run_to(back_to, l2, dram);
+                        run_group(ua, la, na, lim, steps);
                     },
-                    move || run_group(ub, lb, nb, lim),
+                    move || run_group(ub, lb, nb, lim, steps),
                 );
             }
-            _ => {
-                l2_side(back, l2, dram);
-                run_group(&mut gpu.units, l1ds, &mut lanes, lim);
+            None => {
+                back.run_to(back_to, l2, dram);
+                run_group(units, l1ds, lanes, lim, steps);
             }
-        }
-        if m >= next_report {
-            progress(Progress { cycle: m, warps_dispatched: dispatched });
-            next_report = m.saturating_add(every);
         }
     }
 }
