@@ -52,8 +52,10 @@ pub fn obligations(cfg: &Config) -> Vec<Obligation> {
     let base = if cfg.warps > 1 { ws } else { 0 };
     let a = 5.min(ws - 1);
     let b = (a + ws / 2) % ws;
-    let mut cycles: Vec<(String, Vec<(u32, Kind)>)> =
-        [Kind::Push, Kind::Pop, Kind::Finish].into_iter().map(|k| (k.name().to_string(), vec![(a, k)])).collect();
+    let mut cycles: Vec<(String, Vec<(u32, Kind)>)> = [Kind::Push, Kind::Pop, Kind::Finish]
+        .into_iter()
+        .map(|k| (k.name().to_string(), vec![(a, k)]))
+        .collect();
     if b != a {
         cycles.push(("push+push (two lanes, one cycle)".into(), vec![(a, Kind::Push), (b, Kind::Push)]));
     }

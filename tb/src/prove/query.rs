@@ -96,7 +96,8 @@ impl State {
 /// reachable states satisfy it: a test checks that on random runs).
 ///
 /// Every lane: Top and Bottom below M, an empty queue has Top = Bottom, Next TID names a lane;
-/// with reallocation Priority ≤ borrow limit and Flush ≤ flush limit, and an Idle stack is a
+/// with reallocation Priority ≤ borrow limit, Priority 0 when alone on its ring, Flush ≤ flush
+/// limit, and an Idle stack is a
 /// finished thread's empty stack alone on its ring with rank and count 0; without it, no stack is
 /// Idle or linked. Every commanding lane: RB length ≤ N; Overflow exactly when the spill pointer
 /// is above 0, which is at most the region's size; its ring returns to it within 1 + borrow limit
@@ -166,13 +167,20 @@ pub fn well_formed_parts<L: Logic>(
                 need(&mut parts, who, "Priority within the borrow limit", p);
                 let f = l.lt_k(r.flush, ra.flush_limit + 1);
                 need(&mut parts, who, "Flush within its limit", f);
+                let ranked = implies(l, alone, rank0);
+                need(&mut parts, who, "a stack alone on its ring has Priority 0", ranked);
                 let a = l.and(done[j], alone);
                 let b = l.and(r.empty, rank0);
                 let c = l.and(a, b);
                 let idle_ok = l.and(c, count0);
                 let not_idle = l_not(l, r.idle);
                 let imp = l.or(not_idle, idle_ok);
-                need(&mut parts, who, "an Idle stack is a finished thread's empty stack, alone, rank and Flush 0", imp);
+                need(
+                    &mut parts,
+                    who,
+                    "an Idle stack is a finished thread's empty stack, alone, rank and Flush 0",
+                    imp,
+                );
             }
             None => {
                 let not_idle = l_not(l, r.idle);
@@ -329,7 +337,12 @@ fn select_idle<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word) -> L::Bit {
 }
 
 /// Bit `f` of the lane `lane` names (a multiplexer over the warp).
-fn select_flag<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word, f: impl Fn(&Regs<L>) -> L::Bit) -> L::Bit {
+fn select_flag<L: Logic>(
+    l: &mut L,
+    regs: &[Regs<L>],
+    lane: L::Word,
+    f: impl Fn(&Regs<L>) -> L::Bit,
+) -> L::Bit {
     let mut v = f(&regs[regs.len() - 1]);
     for j in (0..regs.len() - 1).rev() {
         let hit = l.eq_k(lane, j as u32);
