@@ -54,7 +54,8 @@ impl Estimate {
     }
 
     pub fn describe(&self) -> String {
-        format!("at most {:.3e} rays, {} of memory, {}", self.rays, bytes(self.bytes), duration(self.secs))
+        let rays = if self.rays < 1e12 { format!("{:.0}", self.rays) } else { format!("{:.3e}", self.rays) };
+        format!("at most {rays} rays, {} of memory, {}", bytes(self.bytes), duration(self.secs))
     }
 
     /// An error naming the estimate and `--force` when it exceeds the limits of a machine with

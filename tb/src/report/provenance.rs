@@ -116,7 +116,8 @@ impl WorkloadId {
     fn describe(&self) -> String {
         let each = "each scene's own";
         let or_each = |v: Option<String>| v.unwrap_or_else(|| each.to_string());
-        let lower = |v: String| v.to_lowercase();
+        // Named as in JSON and on the command line (`two-level`, `bvh6`).
+        let name = |v: serde_json::Value| v.as_str().map_or_else(|| v.to_string(), str::to_string);
         format!(
             "scene {} · {} px · {} spp · {} bounce(s) · seed {} · {} {} ({} order, path end {})",
             self.scenes.join(","),
@@ -124,10 +125,10 @@ impl WorkloadId {
             or_each(self.spp.map(|v| v.to_string())),
             or_each(self.bounces.map(|v| v.to_string())),
             or_each(self.seed.map(|v| v.to_string())),
-            or_each(self.accel.map(|v| lower(format!("{v:?}")))),
-            or_each(self.bvh.map(|v| lower(format!("{v:?}")))),
-            or_each(self.order.map(|v| lower(format!("{v:?}")))),
-            or_each(self.path_end.map(|v| lower(format!("{v:?}")))),
+            or_each(self.accel.map(|v| name(serde_json::json!(v)))),
+            or_each(self.bvh.map(|v| name(serde_json::json!(v)))),
+            or_each(self.order.map(|v| name(serde_json::json!(v)))),
+            or_each(self.path_end.map(|v| name(serde_json::json!(v)))),
         )
     }
 }
