@@ -126,10 +126,10 @@ fn cost_and_depth_reports_state_their_provenance() {
 #[test]
 fn a_workload_too_large_is_refused_with_its_estimate_before_any_work() {
     let start = Instant::now();
-    let err = error(&sms(&["run", "--scene", "clutter", "--spp", "1000000000"]));
+    let err = error(&sms(&["run", "-q", "--scene", "clutter", "--spp", "1000000000"]));
     assert!(err.starts_with("error: estimated at most ") && err.contains(" rays, "), "{err}");
     assert!(err.contains("--force"), "names the override: {err}");
-    let err = error(&sms(&["depth", "--scene", "clutter", "--res", "100000x100000", "--spp", "1000"]));
+    let err = error(&sms(&["depth", "-q", "--scene", "clutter", "--res", "100000x100000", "--spp", "1000"]));
     assert!(err.contains("--force"), "{err}");
     assert!(start.elapsed() < Duration::from_secs(30), "refused at once, not after tracing");
     // A run within the limits says what it expects on stderr.
@@ -209,8 +209,16 @@ fn three_shards_and_a_collect_write_the_reports_of_one_process() {
 
     let err = error(&small_sweep(&sharded, &["--cache", c, "--collect"]).output().unwrap());
     assert!(err.contains("--collect: 6 result(s) are not in the cache"), "{err}");
-    let err = error(&small_sweep(&sharded, &["--cache", c, "--shard", "3/3"]).output().unwrap());
-    assert!(err.contains("K must be 0 to N-1"), "{err}");
+    // Refused by the argument parser: its one-line error, then clap's pointer to --help.
+    for (shard, why) in [("3/3", "K must be 0 to N-1"), ("1", "expected K/N"), ("0/0", "N at least 1")] {
+        let o = small_sweep(&sharded, &["--cache", c, "--shard", shard]).output().unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        let first = err.lines().next().unwrap();
+        assert!(!o.status.success() && first.starts_with("error: ") && first.contains(why), "{err}");
+    }
+    let o = small_sweep(&sharded, &["--no-cache", "--collect"]).output().unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(!o.status.success() && err.lines().next().unwrap().contains("cannot be used with"), "{err}");
 
     // Three processes at once, each its share, into one cache.
     let shards: Vec<_> = (0..3)
@@ -246,11 +254,15 @@ fn ctrl_c_on_a_sweep_says_what_is_cached_and_a_rerun_resumes() {
     let out = tmp.join("sweep");
     let cache = out.join("cache");
     // Large enough to be interrupted part-way: 32x32 pixels, the default plan, one job.
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_sms"));
-    cmd.args(["sweep", "-q", "--scenes", "wknd,clutter", "--res", "32x32", "--spp", "1", "--bounces", "1"])
-        .args(["--jobs", "1", "--out", out.to_str().unwrap()])
-        .stderr(Stdio::piped());
-    let child = cmd.spawn().unwrap();
+    let sweep = || {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_sms"));
+        cmd.args(["sweep", "-q", "--scenes", "wknd,clutter", "--res", "32x32", "--spp", "1", "--bounces", "1"])
+            .args(["--jobs", "1", "--out", out.to_str().unwrap()])
+            .env_remove(tb::run::sweep::cache::STOP_AFTER_ENV)
+            .stderr(Stdio::piped());
+        cmd
+    };
+    let child = sweep().spawn().unwrap();
     let start = Instant::now();
     while std::fs::read_dir(&cache).map_or(0, |d| d.count()) < 2 {
         assert!(start.elapsed() < Duration::from_secs(120), "no result cached");
@@ -264,4 +276,11 @@ fn ctrl_c_on_a_sweep_says_what_is_cached_and_a_rerun_resumes() {
     assert!(err.contains("interrupted: ") && err.contains("run the same command again to resume"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert!(!out.join("report.json").exists());
+    let stored: usize = err.split("interrupted: ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    // Run again: what was stored is read back, the rest computed, the report written.
+    let err = ok(sweep());
+    let line = err.lines().find_map(|l| l.strip_prefix("cache: ")).unwrap_or_else(|| panic!("{err}"));
+    let hits: usize = line.split(' ').next().unwrap().parse().unwrap();
+    assert!(hits >= stored && stored >= 1, "{stored} stored, {hits} read back: {err}");
+    assert!(out.join("report.json").exists());
 }
