@@ -152,7 +152,9 @@ fn check_performance(dir: &Path, report: &Value) {
         assert!((geomean - hand).abs() <= 1e-12 * hand, "{config}: geomean {geomean} vs {hand}");
     }
     let csv = std::fs::read_to_string(dir.join("performance.csv")).unwrap();
-    assert!(csv.lines().nth(1).unwrap().starts_with("RB_8,1.0000,1.0000,1.0000"), "{csv}");
+    assert!(csv.starts_with("# provenance: scene wknd,clutter · 16x16 px"), "{csv}");
+    let mut rows = csv.lines().filter(|l| !l.starts_with('#'));
+    assert!(rows.nth(1).unwrap().starts_with("RB_8,1.0000,1.0000,1.0000"), "{csv}");
 }
 
 /// Every design marked Pareto-optimal is undominated, every other one is dominated.
@@ -233,7 +235,9 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
 
     let csv = std::fs::read_to_string(abl.join("ablation.csv")).unwrap();
     assert_eq!(printed, csv, "--format csv prints the ablation table as written");
-    let rows: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    let table = |csv: &str| csv.lines().filter(|l| !l.starts_with("# provenance: ")).count();
+    let rows: Vec<&str> =
+        csv.lines().filter(|l| !l.starts_with('#')).skip(1).map(|l| l.split(',').next().unwrap()).collect();
     assert_eq!(rows[0], "all on");
     let mechanisms = tb::report::ablate::MECHANISMS;
     assert_eq!(rows.len(), 1 + mechanisms.len(), "{csv}");
@@ -241,7 +245,7 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
         assert_eq!(*row, format!("{} off", m.name));
     }
     let per_scene = std::fs::read_to_string(abl.join("ablation_per_scene.csv")).unwrap();
-    assert_eq!(per_scene.lines().count(), 1 + 2 * (1 + mechanisms.len()));
+    assert_eq!(table(&per_scene), 1 + 2 * (1 + mechanisms.len()));
 
     let ablation = json(&abl.join("ablation.json"));
     let reference = &ablation["data"]["rows"][0];
