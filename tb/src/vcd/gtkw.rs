@@ -9,7 +9,9 @@
 //! Layout: one group per stack thread with the stack fields in [`FIELD_ORDER`] (the first
 //! thread's group open, the others closed), then the unit-level scopes (bank arbiter, memory
 //! scheduler, response FIFO, and in a GPU dump the RT unit's and memory system's), then the RT
-//! unit's per-lane traversal states. The zoom shows the whole written window.
+//! unit's per-lane traversal states. The view ([`View`]) opens on the first RB → SH spill of
+//! the dumped lanes, marked, with a few cycles before it and [`FOCUS_CYCLES`] in all; a dump
+//! without a spill opens on its whole window.
 //!
 //! Each trace's display format follows the [`Kind`] its probe declares ([`Format::of`]), not
 //! its name: addresses and data words in hex, masks (and one-bit signals) in binary, counts in
@@ -67,6 +69,30 @@ const WAVE_PIXELS: f64 = 780.0;
 /// Time units per pixel at zoom 0, and each zoom step halves it: measured with GTKWave 3.3.118
 /// on a 1 ns timescale (zoom -5 shows 32 times the span of zoom 0).
 const UNITS_PER_PIXEL_AT_ZOOM_0: f64 = 1.0 / 200.0;
+/// Cycles the view around a spill spans, and how many of them come before it.
+pub const FOCUS_CYCLES: u64 = 96;
+const FOCUS_BEFORE: u64 = 16;
+
+/// What the save file shows first: cycles `start..end`, and a marker.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct View {
+    pub start: u64,
+    pub end: u64,
+    pub marker: Option<u64>,
+}
+
+impl View {
+    /// The dumped cycles `from..end`, focused on `spill` (the first RB → SH spill) if any.
+    pub fn around(from: u64, end: u64, spill: Option<u64>) -> View {
+        match spill {
+            Some(c) if (from..end).contains(&c) => {
+                let start = c.saturating_sub(FOCUS_BEFORE).max(from);
+                View { start, end: (start + FOCUS_CYCLES).min(end), marker: Some(c) }
+            }
+            _ => View { start: from, end, marker: None },
+        }
+    }
+}
 
 /// How GTKWave shows a trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -152,9 +178,9 @@ pub fn write(
     save: &Path,
     dump: &Path,
     signals: &[(String, u32, Kind)],
-    from: u64,
-    end: u64,
+    view: View,
 ) -> io::Result<()> {
+    let units = super::UNITS_PER_CYCLE;
     let dir = save.parent().unwrap_or(Path::new("."));
     let mut filters: Vec<&'static str> = Vec::new();
     for (_, width, kind) in signals {
@@ -174,14 +200,18 @@ pub fn write(
         |p: &Path| if beside { p.file_name().map_or(p.into(), PathBuf::from) } else { p.to_path_buf() };
     writeln!(f, "[dumpfile] \"{}\"", name(dump).display())?;
     writeln!(f, "[savefile] \"{}\"", name(save).display())?;
-    writeln!(f, "[timestart] {from}")?;
+    writeln!(f, "[timestart] {}", view.start * units)?;
     writeln!(f, "[size] {} {}", SIZE.0, SIZE.1)?;
     writeln!(f, "[signals_width] {SIGNALS_WIDTH}")?;
     writeln!(f, "[sst_expanded] 1")?;
-    let span = end.saturating_sub(from).max(1) as f64;
+    let span = (view.end.saturating_sub(view.start).max(1) * units) as f64;
     let zoom = -(span / WAVE_PIXELS / UNITS_PER_PIXEL_AT_ZOOM_0).log2();
-    writeln!(f, "*{zoom:.6} -1{}", " -1".repeat(26))?;
-    let mut flags = 0;
+    let marker = view.marker.map_or(-1, |c| (c * units) as i64);
+    writeln!(f, "*{zoom:.6} {marker}{}", " -1".repeat(26))?;
+    // The clock first, as a viewer expects it.
+    writeln!(f, "@{:x}", Format::Binary.flags())?;
+    writeln!(f, "{}", super::CLOCK)?;
+    let mut flags = Format::Binary.flags();
     let mut set_flags = |f: &mut BufWriter<File>, new: u32| {
         if new != flags {
             flags = new;
