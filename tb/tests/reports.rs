@@ -284,3 +284,34 @@ fn ctrl_c_on_a_sweep_says_what_is_cached_and_a_rerun_resumes() {
     assert!(hits >= stored && stored >= 1, "{stored} stored, {hits} read back: {err}");
     assert!(out.join("report.json").exists());
 }
+
+#[test]
+fn a_dump_has_a_clock_reads_in_cycles_and_its_save_file_opens_on_the_first_spill() {
+    let tmp = TmpDir::new("reports", "waves");
+    let vcd = tmp.join("clutter.vcd");
+    let args = ["run", "-q", "--scene", "clutter", "--res", "16x16", "--spp", "1", "--bounces", "1"];
+    let dump = ["-c", "RB_2+SH_2+SK+RA", "--vcd", vcd.to_str().unwrap(), "--vcd-to", "3000"];
+    stdout(&sms(&[&args[..], &dump, &["--vcd-sms", "0", "--vcd-warps", "0", "--vcd-lanes", "0,1,2,3"]].concat()));
+    let text = std::fs::read_to_string(&vcd).unwrap();
+    assert!(text.contains("$timescale 100 ms $end") && text.contains("$var wire 1 ! clk $end"), "{}", &text[..400]);
+    assert!(!text.contains("\nb0000"), "vectors are written without leading zeros");
+    let waves = tb::vcd::check::read(text.as_bytes(), tb::vcd::check::Mode::Strict).unwrap();
+    // The first cycle a dumped micro-op is an SH store (an RB → SH spill), from the dump itself.
+    let uops: Vec<usize> = (0..waves.signals.len()).filter(|&i| waves.signals[i].0.ends_with(".uop")).collect();
+    let mut replay = waves.replay();
+    let spill = waves
+        .times()
+        .collect::<Vec<_>>()
+        .into_iter()
+        .find(|&t| replay.at(t).is_some_and(|v| uops.iter().any(|&i| v[i] == 2)))
+        .expect("the dump has a spill");
+    let save = std::fs::read_to_string(tmp.join("clutter.gtkw")).unwrap();
+    let mut lines = save.lines();
+    let start: u64 = lines.find_map(|l| l.strip_prefix("[timestart] ")).unwrap().parse().unwrap();
+    let zoom = lines.find(|l| l.starts_with('*')).unwrap();
+    let marker: u64 = zoom.split(' ').nth(1).unwrap().parse().unwrap();
+    // GTKWave's units are ms here: 1000 a cycle.
+    assert_eq!(marker, spill * 1000, "{zoom}");
+    assert!(start < marker && marker - start <= 16_000, "a few cycles before the spill: {start}");
+    assert_eq!(lines.nth(1), Some("clk"), "the clock first");
+}

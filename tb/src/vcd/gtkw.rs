@@ -69,27 +69,35 @@ const WAVE_PIXELS: f64 = 780.0;
 /// Time units per pixel at zoom 0, and each zoom step halves it: measured with GTKWave 3.3.118
 /// on a 1 ns timescale (zoom -5 shows 32 times the span of zoom 0).
 const UNITS_PER_PIXEL_AT_ZOOM_0: f64 = 1.0 / 200.0;
+/// GTKWave's time units per clock cycle: it keeps times in the timescale's unit times its
+/// multiplier (100 ms → ms), so a cycle of [`super::UNITS_PER_CYCLE`] × 100 ms is 1000 of them.
+/// The save file's start, marker and zoom are in these units.
+const GTKWAVE_UNITS_PER_CYCLE: u64 = super::UNITS_PER_CYCLE * 100;
 /// Cycles the view around a spill spans, and how many of them come before it.
 pub const FOCUS_CYCLES: u64 = 96;
 const FOCUS_BEFORE: u64 = 16;
 
-/// What the save file shows first: cycles `start..end`, and a marker.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// What the save file shows first: cycles `start..end`, a marker, and the signal group opened
+/// (by default the first stack thread's).
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct View {
     pub start: u64,
     pub end: u64,
     pub marker: Option<u64>,
+    pub open: Option<String>,
 }
 
 impl View {
-    /// The dumped cycles `from..end`, focused on `spill` (the first RB → SH spill) if any.
-    pub fn around(from: u64, end: u64, spill: Option<u64>) -> View {
+    /// The dumped cycles `from..end`, focused on `spill` (the first RB → SH spill: its cycle
+    /// and the micro-op signal that showed it, whose thread is opened) if any.
+    pub fn around(from: u64, end: u64, spill: Option<(u64, String)>) -> View {
         match spill {
-            Some(c) if (from..end).contains(&c) => {
+            Some((c, path)) if (from..end).contains(&c) => {
                 let start = c.saturating_sub(FOCUS_BEFORE).max(from);
-                View { start, end: (start + FOCUS_CYCLES).min(end), marker: Some(c) }
+                let open = path.rsplit_once('.').map(|(scope, _)| scope.to_string());
+                View { start, end: (start + FOCUS_CYCLES).min(end), marker: Some(c), open }
             }
-            _ => View { start: from, end, marker: None },
+            _ => View { start: from, end, marker: None, open: None },
         }
     }
 }
@@ -180,7 +188,7 @@ pub fn write(
     signals: &[(String, u32, Kind)],
     view: View,
 ) -> io::Result<()> {
-    let units = super::UNITS_PER_CYCLE;
+    let units = GTKWAVE_UNITS_PER_CYCLE;
     let dir = save.parent().unwrap_or(Path::new("."));
     let mut filters: Vec<&'static str> = Vec::new();
     for (_, width, kind) in signals {
@@ -221,7 +229,9 @@ pub fn write(
     };
     let mut first_thread = true;
     for (scope, group) in groups(signals) {
-        let closed = scope.contains("thread[") && !std::mem::take(&mut first_thread);
+        let first = scope.contains("thread[") && std::mem::take(&mut first_thread);
+        let open = view.open.as_ref().map_or(first, |o| *o == scope);
+        let closed = scope.contains("thread[") && !open;
         let label = ["rt_unit.stack_manager.", "rt_unit."]
             .iter()
             .find_map(|p| scope.strip_prefix(p))
@@ -278,4 +288,22 @@ fn groups(signals: &[Signal]) -> Vec<(String, Vec<&Signal>)> {
         (true, true) => 2,
     });
     groups
+}
+
+#[cfg(test)]
+mod tests {
+    use super::View;
+
+    #[test]
+    fn the_view_opens_on_the_first_spill_and_its_thread() {
+        let spill = Some((500, "sm0.rt_unit.stack_manager.warp[0].thread[3].uop".to_string()));
+        let v = View::around(0, 3001, spill);
+        assert_eq!((v.start, v.end, v.marker), (484, 484 + super::FOCUS_CYCLES, Some(500)));
+        assert_eq!(v.open.as_deref(), Some("sm0.rt_unit.stack_manager.warp[0].thread[3]"));
+        // Near the window's edges the view stays inside it; without a spill it is the window.
+        assert_eq!(View::around(490, 520, Some((495, "a.uop".into()))).start, 490);
+        assert_eq!(View::around(490, 520, Some((495, "a.uop".into()))).end, 520);
+        assert_eq!(View::around(0, 100, Some((100, "a.uop".into()))).marker, None, "outside the dump");
+        assert_eq!(View::around(7, 100, None), View { start: 7, end: 100, marker: None, open: None });
+    }
 }

@@ -218,8 +218,9 @@ pub struct VcdSink<W: Write> {
     run_cycles: Option<u64>,
     /// The clock's identifier, once declared.
     clk: Option<IdCode>,
-    /// First cycle a dumped micro-op signal shows an RB → SH spill (the save file's focus).
-    first_spill: Option<u64>,
+    /// First cycle a dumped micro-op signal shows an RB → SH spill, and that signal's walk
+    /// position (the save file's focus).
+    first_spill: Option<(u64, usize)>,
 }
 
 impl VcdSink<BufWriter<File>> {
@@ -287,7 +288,8 @@ impl<W: Write> VcdSink<W> {
             let from = self.select.from.unwrap_or(0);
             let signals: Vec<_> =
                 self.declared.iter().zip(&self.kinds).map(|((p, w), k)| (p.clone(), *w, *k)).collect();
-            let view = gtkw::View::around(from, end, self.first_spill);
+            let spill = self.first_spill.map(|(cycle, pos)| (cycle, self.declared_path(pos)));
+            let view = gtkw::View::around(from, end, spill);
             gtkw::write(save, dump, &signals, view).map_err(io_error(&save.display().to_string()))?;
         }
         Ok(self.out)
@@ -414,7 +416,7 @@ impl<W: Write> VcdSink<W> {
         }
         self.stamp(cycle);
         if slot.spill == Some(value) && self.first_spill.is_none() {
-            self.first_spill = Some(cycle);
+            self.first_spill = Some((cycle, pos));
         }
         let out = &mut self.out;
         let r = if slot.width == 1 { writeln!(out, "{value}{id}") } else { writeln!(out, "b{value:b} {id}") };
