@@ -131,6 +131,10 @@ fn a_workload_too_large_is_refused_with_its_estimate_before_any_work() {
     assert!(err.contains("--force"), "names the override: {err}");
     let err = error(&sms(&["depth", "-q", "--scene", "clutter", "--res", "100000x100000", "--spp", "1000"]));
     assert!(err.contains("--force"), "{err}");
+    for sub in ["sweep", "ablate"] {
+        let err = error(&sms(&[sub, "-q", "--quick", "--spp", "1000000000", "--out", "/nonexistent/never"]));
+        assert!(err.starts_with("error: estimated at most ") && err.contains("--force"), "{err}");
+    }
     assert!(start.elapsed() < Duration::from_secs(30), "refused at once, not after tracing");
     // A run within the limits says what it expects on stderr.
     let o = sms(&[&["run"], &TINY[..], &["-c", "SMS"]].concat());

@@ -51,6 +51,10 @@ pub struct SweepArgs {
     /// again), files that cannot be parsed, and temporary files of killed runs.
     #[arg(long, conflicts_with = "no_cache")]
     pub prune_cache: bool,
+    /// Run even when the estimate of rays, memory and time is above the limits (half the
+    /// available memory, 24 h).
+    #[arg(long)]
+    pub force: bool,
     /// Compute only share K of N (K from 0) of the results into the cache and write no report:
     /// N processes (e.g. a Slurm job array, scripts/slurm-sweep.sh) with the same arguments and
     /// one shared --cache, then one --collect, give the report of one process.
@@ -122,6 +126,12 @@ impl SweepArgs {
             bail!("the unified L1D/shared array must be a whole number of KB");
         }
         let hw_name = self.hardware.name();
+        // The estimate of every scene at the settings asked for (LumiBench's where a scene's
+        // own are kept: the descriptions' settings are of that size).
+        let opts = settings.apply(crate::workload::WorkloadOpts::default());
+        let sims = scenes.len() * plan.variants(hw.mem.l1d_bytes / 1024)?.len();
+        let estimate = crate::cli::guard::Estimate::new(&opts, sims, jobs, crate::run::sim::Fidelity::Cycle);
+        estimate.check(crate::cli::guard::available_memory(), self.force)?;
         let req = Request {
             scenes,
             settings,
