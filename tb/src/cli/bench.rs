@@ -85,7 +85,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if args.workload.res.is_none() {
             (wopts.width, wopts.height) = DEFAULT_RES;
         }
-        bench_scene(&scene, wopts, &opts, &mut report, &mut |line| eprintln!("{line}"))?;
+        bench_scene(&scene, wopts, &opts, &mut report, &mut |line| crate::cli::note(line))?;
     }
     report.peak_rss = crate::run::memory::peak_rss_bytes();
     match args.output.format() {
@@ -95,10 +95,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Format::Json => println!("{}", report.json(args.tolerance)?),
     }
     report.write(&args.out, args.tolerance)?;
-    eprintln!(
+    crate::cli::note(format!(
         "wrote {}/bench.{{txt,md,csv,json}}, summary/throughput/work/savings.csv and time-vs-error.svg; {:.1} s in all",
         args.out.display(),
         start.elapsed().as_secs_f64()
-    );
+    ));
     Ok(())
 }

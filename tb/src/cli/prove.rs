@@ -53,7 +53,7 @@ pub fn run(args: Args) -> Result<()> {
             if args.only.as_ref().is_some_and(|t| !ob.name.contains(t.as_str())) {
                 continue;
             }
-            eprintln!("proving {} at {} ...", ob.name, cfg.name());
+            crate::cli::note(format!("proving {} at {} ...", ob.name, cfg.name()));
             let outs = match args.mutant.as_deref() {
                 None => prove(cfg, &Design, &ob, &solvers, limit)?,
                 Some(name) => prove_mutant(name, cfg, &ob, &solvers, limit)?,
