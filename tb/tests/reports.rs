@@ -166,6 +166,16 @@ fn nothing_is_written_into_the_scene_data_folder() {
         assert!(err.starts_with(&format!("error: {flag} ")), "{err}");
         assert!(err.contains("inside the scene data folder"), "{err}");
     }
+    // Commands without --scenes-dir find the data folder themselves: SMS_SCENES_DIR here.
+    for (argv, flag) in [
+        (vec!["check".to_string(), "--vcd".into(), inside("cex.vcd")], "--vcd"),
+        (vec!["prove".to_string(), "--vcd".into(), inside("cex.vcd")], "--vcd"),
+        (vec!["bench".to_string(), "--out".into(), inside("bench")], "--out"),
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_sms")).args(&argv).env("SMS_SCENES_DIR", d).output().unwrap();
+        let err = error(&o);
+        assert!(err.starts_with(&format!("error: {flag} ")) && err.contains("inside the scene data folder"), "{err}");
+    }
     assert_eq!(std::fs::read_dir(&data).unwrap().count(), 0, "nothing written");
 }
 

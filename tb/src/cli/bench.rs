@@ -61,6 +61,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
+    crate::cli::guard::outside_scene_data("--out", &args.out, &args.scene_files.library().data)?;
     args.stack.names_only("bench")?;
     let configs = args.stack.resolve(&DEFAULT_CONFIGS)?;
     let opts = BenchOpts {

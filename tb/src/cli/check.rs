@@ -207,6 +207,9 @@ fn grid(a: &Args) -> Result<Vec<Config>> {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if let Some(vcd) = &args.vcd {
+        crate::cli::guard::outside_scene_data("--vcd", vcd, &crate::SceneLibrary::default().data)?;
+    }
     if args.values < 2 {
         bail!("--values {}: at least 2 distinct values are needed to see entries reordered", args.values);
     }

@@ -36,6 +36,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if let Some(vcd) = &args.vcd {
+        crate::cli::guard::outside_scene_data("--vcd", vcd, &crate::SceneLibrary::default().data)?;
+    }
     let cfgs = args.stack.resolve(&["SMS"])?;
     let mut solvers = Vec::new();
     for s in &args.solver {
