@@ -46,8 +46,14 @@ fn run_json_states_provenance_and_the_hardware_hash_tells_presets_apart() {
     }
     let p = &paper["provenance"];
     assert_eq!(p["scenes"], serde_json::json!(["clutter"]));
-    assert_eq!((p["resolution"].as_str(), p["spp"].as_u64(), p["bounces"].as_u64()), (Some("8x8"), Some(1), Some(0)));
-    assert_eq!((p["seed"].as_u64(), p["accel"].as_str(), p["bvh"].as_str()), (Some(0), Some("two-level"), Some("bvh6")));
+    assert_eq!(
+        (p["resolution"].as_str(), p["spp"].as_u64(), p["bounces"].as_u64()),
+        (Some("8x8"), Some(1), Some(0))
+    );
+    assert_eq!(
+        (p["seed"].as_u64(), p["accel"].as_str(), p["bvh"].as_str()),
+        (Some(0), Some("two-level"), Some("bvh6"))
+    );
     assert_eq!(p["hardware"]["name"], "paper");
     assert_eq!(legacy["provenance"]["hardware"]["name"], "legacy");
     let hash = |v: &Value| v["provenance"]["hardware"]["hash"].as_str().unwrap().to_string();
@@ -116,8 +122,10 @@ fn cost_and_depth_reports_state_their_provenance() {
     let out = TmpDir::new("reports", "depth");
     let dir = out.path().to_str().unwrap();
     let depth: Value =
-        serde_json::from_str(&stdout(&sms(&[&["depth", "-q", "--out", dir], &TINY[..], &["--json"]].concat())))
-            .unwrap();
+        serde_json::from_str(&stdout(&sms(
+            &[&["depth", "-q", "--out", dir], &TINY[..], &["--json"]].concat()
+        )))
+        .unwrap();
     assert!(depth["histogram"].is_object(), "existing fields kept");
     assert_eq!(depth["provenance"]["resolution"], "8x8");
     assert!(depth["provenance"].get("hardware").is_none(), "depth does not depend on the hardware");
@@ -172,9 +180,13 @@ fn nothing_is_written_into_the_scene_data_folder() {
         (vec!["prove".to_string(), "--vcd".into(), inside("cex.vcd")], "--vcd"),
         (vec!["bench".to_string(), "--out".into(), inside("bench")], "--out"),
     ] {
-        let o = Command::new(env!("CARGO_BIN_EXE_sms")).args(&argv).env("SMS_SCENES_DIR", d).output().unwrap();
+        let o =
+            Command::new(env!("CARGO_BIN_EXE_sms")).args(&argv).env("SMS_SCENES_DIR", d).output().unwrap();
         let err = error(&o);
-        assert!(err.starts_with(&format!("error: {flag} ")) && err.contains("inside the scene data folder"), "{err}");
+        assert!(
+            err.starts_with(&format!("error: {flag} ")) && err.contains("inside the scene data folder"),
+            "{err}"
+        );
     }
     assert_eq!(std::fs::read_dir(&data).unwrap().count(), 0, "nothing written");
 }
@@ -246,7 +258,8 @@ fn three_shards_and_a_collect_write_the_reports_of_one_process() {
         let o = s.wait_with_output().unwrap();
         let err = String::from_utf8(o.stderr).unwrap();
         assert!(o.status.success(), "{err}");
-        let n: usize = err.split(" result(s) computed").next().unwrap().rsplit(' ').next().unwrap().parse().unwrap();
+        let n: usize =
+            err.split(" result(s) computed").next().unwrap().rsplit(' ').next().unwrap().parse().unwrap();
         assert_eq!(n, 2, "each shard computes its third of 2 scenes × (2 runs + depth): {err}");
         computed += n;
     }
@@ -256,7 +269,8 @@ fn three_shards_and_a_collect_write_the_reports_of_one_process() {
     assert!(err.contains("cache: 4 of 4"), "everything from the cache: {err}");
     common::assert_same_reports(&whole, &sharded, "3 shards and a collect");
     // A collected result took no time here: the timing file says so instead of copying old times.
-    let timing: Value = serde_json::from_str(&std::fs::read_to_string(sharded.join("timing.json")).unwrap()).unwrap();
+    let timing: Value =
+        serde_json::from_str(&std::fs::read_to_string(sharded.join("timing.json")).unwrap()).unwrap();
     for r in timing["runs"].as_array().unwrap() {
         assert_eq!((r["cached"].as_bool(), r["wall_secs"].is_null()), (Some(true), true), "{r}");
     }
@@ -270,10 +284,21 @@ fn ctrl_c_on_a_sweep_says_what_is_cached_and_a_rerun_resumes() {
     // Large enough to be interrupted part-way: 32x32 pixels, the default plan, one job.
     let sweep = || {
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_sms"));
-        cmd.args(["sweep", "-q", "--scenes", "wknd,clutter", "--res", "32x32", "--spp", "1", "--bounces", "1"])
-            .args(["--jobs", "1", "--out", out.to_str().unwrap()])
-            .env_remove(tb::run::sweep::cache::STOP_AFTER_ENV)
-            .stderr(Stdio::piped());
+        cmd.args([
+            "sweep",
+            "-q",
+            "--scenes",
+            "wknd,clutter",
+            "--res",
+            "32x32",
+            "--spp",
+            "1",
+            "--bounces",
+            "1",
+        ])
+        .args(["--jobs", "1", "--out", out.to_str().unwrap()])
+        .env_remove(tb::run::sweep::cache::STOP_AFTER_ENV)
+        .stderr(Stdio::piped());
         cmd
     };
     let child = sweep().spawn().unwrap();
@@ -290,7 +315,8 @@ fn ctrl_c_on_a_sweep_says_what_is_cached_and_a_rerun_resumes() {
     assert!(err.contains("interrupted: ") && err.contains("run the same command again to resume"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert!(!out.join("report.json").exists());
-    let stored: usize = err.split("interrupted: ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    let stored: usize =
+        err.split("interrupted: ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
     // Run again: what was stored is read back, the rest computed, the report written.
     let err = ok(sweep());
     let line = err.lines().find_map(|l| l.strip_prefix("cache: ")).unwrap_or_else(|| panic!("{err}"));
@@ -305,13 +331,20 @@ fn a_dump_has_a_clock_reads_in_cycles_and_its_save_file_opens_on_the_first_spill
     let vcd = tmp.join("clutter.vcd");
     let args = ["run", "-q", "--scene", "clutter", "--res", "16x16", "--spp", "1", "--bounces", "1"];
     let dump = ["-c", "RB_2+SH_2+SK+RA", "--vcd", vcd.to_str().unwrap(), "--vcd-to", "3000"];
-    stdout(&sms(&[&args[..], &dump, &["--vcd-sms", "0", "--vcd-warps", "0", "--vcd-lanes", "0,1,2,3"]].concat()));
+    stdout(&sms(
+        &[&args[..], &dump, &["--vcd-sms", "0", "--vcd-warps", "0", "--vcd-lanes", "0,1,2,3"]].concat()
+    ));
     let text = std::fs::read_to_string(&vcd).unwrap();
-    assert!(text.contains("$timescale 100 ms $end") && text.contains("$var wire 1 ! clk $end"), "{}", &text[..400]);
+    assert!(
+        text.contains("$timescale 100 ms $end") && text.contains("$var wire 1 ! clk $end"),
+        "{}",
+        &text[..400]
+    );
     assert!(!text.contains("\nb0000"), "vectors are written without leading zeros");
     let waves = tb::vcd::check::read(text.as_bytes(), tb::vcd::check::Mode::Strict).unwrap();
     // The first cycle a dumped micro-op is an SH store (an RB → SH spill), from the dump itself.
-    let uops: Vec<usize> = (0..waves.signals.len()).filter(|&i| waves.signals[i].0.ends_with(".uop")).collect();
+    let uops: Vec<usize> =
+        (0..waves.signals.len()).filter(|&i| waves.signals[i].0.ends_with(".uop")).collect();
     let mut replay = waves.replay();
     let spill = waves
         .times()

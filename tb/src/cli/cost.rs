@@ -4,8 +4,8 @@ use anyhow::Result;
 
 use super::stack_config::StackConfigArgs;
 use super::{Format, HardwareArgs, OutputArgs};
-use crate::report::provenance::{Provenance, WithProvenance};
 use crate::report::cost::{comparison, fields_of_all, CostReport};
+use crate::report::provenance::{Provenance, WithProvenance};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {

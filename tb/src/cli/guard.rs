@@ -172,12 +172,19 @@ mod tests {
 
     #[test]
     fn a_billion_samples_are_refused_with_the_estimate_and_force_overrides() {
-        let opts = WorkloadOpts { width: 128, height: 128, spp: 1_000_000_000, max_bounces: 15, ..Default::default() };
+        let opts = WorkloadOpts {
+            width: 128,
+            height: 128,
+            spp: 1_000_000_000,
+            max_bounces: 15,
+            ..Default::default()
+        };
         let e = Estimate::new(&opts, 3, 2, Fidelity::Cycle);
         let err = e.check(Some(16 << 30), false).unwrap_err().to_string();
         assert!(err.starts_with("estimated at most 2.621e14 rays") && err.contains("--force"), "{err}");
         assert!(e.check(Some(16 << 30), true).is_ok());
-        let lumibench = WorkloadOpts { width: 128, height: 128, spp: 2, max_bounces: 15, ..Default::default() };
+        let lumibench =
+            WorkloadOpts { width: 128, height: 128, spp: 2, max_bounces: 15, ..Default::default() };
         let e = Estimate::new(&lumibench, 3, 2, Fidelity::Cycle);
         assert!(e.check(Some(4 << 30), false).is_ok(), "{}", e.describe());
         assert!(e.check(None, false).is_ok());

@@ -332,10 +332,12 @@ fn table(report: &RunReport) -> Table {
             full(&|o| o.gpu.map_or("-".into(), |g| g.warp_jobs.to_string())),
         );
     }
-    let per_ray = |f: &dyn Fn(&PerRay) -> Option<f64>, digits: usize| -> Vec<String> {
+    /// A per-ray figure of a result.
+    type PerRayField<'f> = &'f dyn Fn(&PerRay) -> Option<f64>;
+    let per_ray = |f: PerRayField, digits: usize| -> Vec<String> {
         rs.iter().map(|r| f(&r.per_ray).map_or("-".into(), |x| format!("{x:.digits$}"))).collect()
     };
-    let per_ray_rows: [(&str, &dyn Fn(&PerRay) -> Option<f64>, usize); 4] = [
+    let per_ray_rows: [(&str, PerRayField, usize); 4] = [
         ("per ray: cycles", &|p| p.cycles, 2),
         ("per ray: node fetches", &|p| p.node_fetches, 2),
         ("per ray: stack operations", &|p| p.stack_ops, 2),

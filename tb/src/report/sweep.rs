@@ -180,7 +180,7 @@ fn timing_json(s: &Sweep) -> Value {
         // A cached result took no time here: its wall time is the run's that computed it.
         "runs": s.runs.iter().map(|r| json!({
             "scene": r.scene, "config": r.config, "l1d_kb": r.l1d_kb,
-            "wall_secs": (!r.from_cache).then(|| r.outcome.wall.as_secs_f64()),
+            "wall_secs": (!r.from_cache).then_some(r.outcome.wall.as_secs_f64()),
             "cached": r.from_cache,
             "simulated_secs": r.outcome.wall.as_secs_f64(),
         })).collect::<Vec<_>>(),

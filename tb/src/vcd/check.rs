@@ -129,7 +129,10 @@ pub fn read(input: impl BufRead, mode: Mode) -> Result<Waves, CheckError> {
                 half = t % units != 0;
                 if half {
                     if t % units != units / 2 || clock.is_none() {
-                        return fail(line, format!("time {t} is not a cycle's start or middle ({units} units a cycle)"));
+                        return fail(
+                            line,
+                            format!("time {t} is not a cycle's start or middle ({units} units a cycle)"),
+                        );
                     }
                     continue;
                 }
@@ -153,7 +156,10 @@ pub fn read(input: impl BufRead, mode: Mode) -> Result<Waves, CheckError> {
             continue;
         }
         if half {
-            return fail(line, format!("identifier {id} changes half-way through a cycle: only the clock may"));
+            return fail(
+                line,
+                format!("identifier {id} changes half-way through a cycle: only the clock may"),
+            );
         }
         let Some(targets) = ids.get(&id) else {
             return fail(line, format!("identifier {id} is not declared"));

@@ -182,12 +182,7 @@ pub fn filter_file(name: &str) -> String {
 /// Writes the save file `save` for the dump `dump` whose declared signals are `signals`
 /// (`(path, width, kind)` in walk order) and whose written cycles are `from..end`, and the
 /// translate filter file of every enumeration among them next to it.
-pub fn write(
-    save: &Path,
-    dump: &Path,
-    signals: &[(String, u32, Kind)],
-    view: View,
-) -> io::Result<()> {
+pub fn write(save: &Path, dump: &Path, signals: &[(String, u32, Kind)], view: View) -> io::Result<()> {
     let units = GTKWAVE_UNITS_PER_CYCLE;
     let dir = save.parent().unwrap_or(Path::new("."));
     let mut filters: Vec<&'static str> = Vec::new();

@@ -388,7 +388,9 @@ impl<W: Write> VcdSink<W> {
             let id = w.add_wire(*width, name)?;
             let kind = first.kinds.get(i).copied().unwrap_or_default();
             let spill = match kind {
-                Kind::Enum { name: "uop", names } => names.iter().position(|n| *n == SPILL_UOP).map(|c| c as u64),
+                Kind::Enum { name: "uop", names } => {
+                    names.iter().position(|n| *n == SPILL_UOP).map(|c| c as u64)
+                }
                 _ => None,
             };
             self.slots.push(Slot { id: Some(id), width: *width, last: 0, spill });

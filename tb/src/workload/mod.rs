@@ -141,7 +141,11 @@ impl<'s> Workload<'s> {
     }
 
     /// As [`Workload::new`], calling `progress(pixel warps traced, of)` after each pixel warp.
-    pub fn with_progress(scene: &'s Scene, opts: WorkloadOpts, mut progress: impl FnMut(u32, u32)) -> Result<Self> {
+    pub fn with_progress(
+        scene: &'s Scene,
+        opts: WorkloadOpts,
+        mut progress: impl FnMut(u32, u32),
+    ) -> Result<Self> {
         if opts.width == 0 || opts.height == 0 || opts.spp == 0 {
             return Err(Error::Invalid(format!(
                 "resolution {}x{} with {} spp traces nothing",

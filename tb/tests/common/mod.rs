@@ -99,4 +99,3 @@ pub fn assert_same_reports(a: &std::path::Path, b: &std::path::Path, what: &str)
         assert!(p == q, "{what}: {} differs", name.display());
     }
 }
-

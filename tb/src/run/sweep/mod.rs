@@ -349,7 +349,10 @@ impl Sweep {
         use crate::report::provenance::{HardwareId, Provenance, WorkloadId};
         let names = self.scenes.iter().map(|s| s.name.clone()).collect();
         let opts: Vec<WorkloadOpts> = self.scenes.iter().map(|s| s.opts).collect();
-        Provenance::new(Some(WorkloadId::new(names, &opts)), Some(HardwareId::new(self.hw_name.clone(), &self.hw)))
+        Provenance::new(
+            Some(WorkloadId::new(names, &opts)),
+            Some(HardwareId::new(self.hw_name.clone(), &self.hw)),
+        )
     }
 
     pub fn run(&self, scene: &str, config: &str, l1d_kb: u32) -> Option<&Run> {
@@ -426,7 +429,9 @@ pub fn run_arms(
         })
         .collect();
     if (req.shard.is_some() || req.collect) && cache.is_none() {
-        return Err(Error::Invalid("--shard and --collect work through the result cache: drop --no-cache".into()));
+        return Err(Error::Invalid(
+            "--shard and --collect work through the result cache: drop --no-cache".into(),
+        ));
     }
     // Results numbered in plan order (scene, arm, variant, then the scene's depth pass), for shards.
     let mut number = 0usize;
@@ -506,7 +511,10 @@ pub fn run_arms(
             }
             // A depth pass already known is not run again, whoever owns it.
             owned[cached.len()] &= !info_known;
-            let needed = owned.iter().zip(cached.iter().map(Option::is_none).chain([!info_known])).any(|(o, n)| *o && n);
+            let needed = owned
+                .iter()
+                .zip(cached.iter().map(Option::is_none).chain([!info_known]))
+                .any(|(o, n)| *o && n);
             if b.workload.is_none() && needed {
                 progress.status(&format!("building {name}"));
                 let t = Instant::now();
