@@ -5,6 +5,10 @@
 //! Also sets `SMS_MODEL_VERSION`, a hash of every source the model's results can depend on
 //! (`rtl/src`, `tb/src`, both manifests, the workspace lock file and the enabled features): the
 //! sweep's result cache keys on it, so any change to the model invalidates every cached result.
+//!
+//! And `SMS_GIT_COMMIT`: the commit the sources were built from, with `-dirty` when the model's
+//! sources differ from it, or empty when there is no git checkout (a source tarball) or no git.
+//! Every report states it beside the source hash (`tb::report::provenance`).
 
 use std::path::{Path, PathBuf};
 
@@ -65,6 +69,39 @@ fn model_version(manifest: &Path) -> String {
     format!("{:032x}", h.0)
 }
 
+/// `git` run in `dir`, its trimmed stdout; `None` when git is missing or fails.
+fn git(dir: &Path, args: &[&str]) -> Option<String> {
+    let out = std::process::Command::new("git").arg("-C").arg(dir).args(args).output().ok()?;
+    out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_owned())
+}
+
+/// The commit HEAD names (`-dirty` when the model's sources differ from it), or "" outside git.
+/// Reruns when HEAD moves: HEAD itself, the branch it names and packed refs.
+fn git_commit(manifest: &Path) -> String {
+    let root = manifest.join("..");
+    let Some(commit) = git(&root, &["rev-parse", "HEAD"]) else { return String::new() };
+    for (flag, file) in [("--git-dir", "HEAD"), ("--git-common-dir", "packed-refs")] {
+        if let Some(dir) = git(&root, &["rev-parse", flag]) {
+            println!("cargo:rerun-if-changed={}", root.join(dir).join(file).display());
+        }
+    }
+    if let (Some(dir), Some(branch)) =
+        (git(&root, &["rev-parse", "--git-common-dir"]), git(&root, &["symbolic-ref", "-q", "HEAD"]))
+    {
+        println!("cargo:rerun-if-changed={}", root.join(dir).join(branch).display());
+    }
+    let sources = ["rtl/src", "tb/src", "Cargo.lock", "Cargo.toml", "rtl/Cargo.toml", "tb/Cargo.toml"];
+    let mut status = vec!["status", "--porcelain", "--"];
+    status.extend(sources);
+    // Untracked sources count as changes, as edits do.
+    let clean = git(&root, &status).is_some_and(|s| s.is_empty());
+    if clean {
+        commit
+    } else {
+        format!("{commit}-dirty")
+    }
+}
+
 fn main() {
     let manifest = std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
     let dir = Path::new(&manifest).join("../scenes");
@@ -89,4 +126,5 @@ fn main() {
     let out = Path::new(&std::env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("shipped_scenes.rs");
     std::fs::write(out, code).expect("write shipped_scenes.rs");
     println!("cargo:rustc-env=SMS_MODEL_VERSION={}", model_version(Path::new(&manifest)));
+    println!("cargo:rustc-env=SMS_GIT_COMMIT={}", git_commit(Path::new(&manifest)));
 }

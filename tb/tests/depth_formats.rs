@@ -36,7 +36,9 @@ fn depth_prints_every_format_of_one_report() {
     assert_eq!(json.trim_end(), written("json"));
     let csv = depth("csv");
     assert_eq!(csv, written("csv"));
-    assert_eq!(csv.lines().count(), 1 + max as usize);
+    // A provenance comment line, the header, one row per depth.
+    assert!(csv.starts_with("# provenance: scene clutter · 16x16 px"), "{csv}");
+    assert_eq!(csv.lines().filter(|l| !l.starts_with('#')).count(), 1 + max as usize);
 
     // Markdown: one table row per depth, the counts as in the JSON.
     let md = depth("markdown");

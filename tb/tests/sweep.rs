@@ -152,7 +152,9 @@ fn check_performance(dir: &Path, report: &Value) {
         assert!((geomean - hand).abs() <= 1e-12 * hand, "{config}: geomean {geomean} vs {hand}");
     }
     let csv = std::fs::read_to_string(dir.join("performance.csv")).unwrap();
-    assert!(csv.lines().nth(1).unwrap().starts_with("RB_8,1.0000,1.0000,1.0000"), "{csv}");
+    assert!(csv.starts_with("# provenance: scene wknd,clutter · 16x16 px"), "{csv}");
+    let mut rows = csv.lines().filter(|l| !l.starts_with('#'));
+    assert!(rows.nth(1).unwrap().starts_with("RB_8,1.0000,1.0000,1.0000"), "{csv}");
 }
 
 /// Every design marked Pareto-optimal is undominated, every other one is dominated.
@@ -233,7 +235,9 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
 
     let csv = std::fs::read_to_string(abl.join("ablation.csv")).unwrap();
     assert_eq!(printed, csv, "--format csv prints the ablation table as written");
-    let rows: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    let table = |csv: &str| csv.lines().filter(|l| !l.starts_with("# provenance: ")).count();
+    let rows: Vec<&str> =
+        csv.lines().filter(|l| !l.starts_with('#')).skip(1).map(|l| l.split(',').next().unwrap()).collect();
     assert_eq!(rows[0], "all on");
     let mechanisms = tb::report::ablate::MECHANISMS;
     assert_eq!(rows.len(), 1 + mechanisms.len(), "{csv}");
@@ -241,7 +245,7 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
         assert_eq!(*row, format!("{} off", m.name));
     }
     let per_scene = std::fs::read_to_string(abl.join("ablation_per_scene.csv")).unwrap();
-    assert_eq!(per_scene.lines().count(), 1 + 2 * (1 + mechanisms.len()));
+    assert_eq!(table(&per_scene), 1 + 2 * (1 + mechanisms.len()));
 
     let ablation = json(&abl.join("ablation.json"));
     let reference = &ablation["data"]["rows"][0];
@@ -320,51 +324,6 @@ fn a_sampled_sweep_reports_its_sample_and_error() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-/// Every file of a report folder (recursively, the cache excluded) with its bytes; the run's wall
-/// times and peak memory removed (`timing.json`, two lines of `summary.md`).
-fn report_files(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    fn walk(root: &Path, dir: &Path, out: &mut Vec<(PathBuf, Vec<u8>)>) {
-        for e in std::fs::read_dir(dir).unwrap() {
-            let p = e.unwrap().path();
-            let rel = p.strip_prefix(root).unwrap().to_path_buf();
-            if p.is_dir() {
-                if rel != Path::new("cache") {
-                    walk(root, &p, out);
-                }
-            } else if rel != Path::new("timing.json") {
-                let mut bytes = std::fs::read(&p).unwrap();
-                if rel == Path::new("summary.md") {
-                    let text = String::from_utf8(bytes).unwrap();
-                    let kept: Vec<&str> = text
-                        .lines()
-                        .map(|l| if l.contains(" s wall time") { "(wall time)" } else { l })
-                        .filter(|l| !l.starts_with("Peak memory: "))
-                        .collect();
-                    bytes = kept.join("\n").into_bytes();
-                }
-                out.push((rel, bytes));
-            }
-        }
-    }
-    let mut out = Vec::new();
-    walk(dir, dir, &mut out);
-    out.sort();
-    out
-}
-
-fn assert_same_reports(a: &Path, b: &Path, what: &str) {
-    let (x, y) = (report_files(a), report_files(b));
-    assert_eq!(
-        x.iter().map(|f| &f.0).collect::<Vec<_>>(),
-        y.iter().map(|f| &f.0).collect::<Vec<_>>(),
-        "{what}: the same files"
-    );
-    assert!(x.len() > 30, "every figure, depth histogram and report");
-    for ((name, p), (_, q)) in x.iter().zip(&y) {
-        assert!(p == q, "{what}: {} differs", name.display());
-    }
-}
-
 /// `(from the cache, in all)` from the sweep's stderr line `cache: K of N simulation results …`.
 fn cache_counts(stderr: &str) -> (usize, usize) {
     let line = stderr.lines().find_map(|l| l.strip_prefix("cache: ")).unwrap_or_else(|| panic!("{stderr}"));
@@ -413,7 +372,7 @@ fn an_interrupted_sweep_resumes_from_its_cache_with_identical_reports() {
     let (hits, all) = cache_counts(&ok(tiny_sweep(&resumed, &[], None)));
     assert_eq!(all, total);
     assert!((30..total).contains(&hits), "resumed with {hits} results from the cache");
-    assert_same_reports(&whole, &resumed, "resumed");
+    common::assert_same_reports(&whole, &resumed, "resumed");
 
     // Everything cached now; a plan that is a subset reuses the same results.
     let sub_out = out_dir("subset");
@@ -443,10 +402,10 @@ fn an_interrupted_sweep_resumes_from_its_cache_with_identical_reports() {
     assert!(err.contains("unusable cache file(s) ignored"), "{err}");
     let (hits, _) = cache_counts(&err);
     assert!(hits < total, "the damaged results were recomputed: {err}");
-    assert_same_reports(&whole, &resumed, "after corrupt cache files");
+    common::assert_same_reports(&whole, &resumed, "after corrupt cache files");
     // and repaired: everything from the cache again.
     assert_eq!(cache_counts(&ok(tiny_sweep(&resumed, &[], None))), (total, total));
-    assert_same_reports(&whole, &resumed, "all from the cache");
+    common::assert_same_reports(&whole, &resumed, "all from the cache");
 
     for d in [whole, resumed, sub_out] {
         let _ = std::fs::remove_dir_all(d);

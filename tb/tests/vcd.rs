@@ -105,11 +105,26 @@ fn planted_bugs_are_caught() {
     let err = read(backwards.as_bytes(), Mode::Strict).unwrap_err();
     assert!(err.message.contains("does not follow"), "{err}");
 
-    let short = format!("{head}{}", plant(tail, late, |l| format!("b{}", &l[2..])));
-    let err = read(short.as_bytes(), Mode::Strict).unwrap_err();
-    assert!(err.message.contains("bits written to"), "{err}");
-    // The lenient reader accepts it: a shortened vector is legal VCD.
-    read(short.as_bytes(), Mode::Lenient).unwrap();
+    // Vectors are written without leading zeros (legal VCD); one wider than its wire is not.
+    let wide = |l: &str| format!("b{} {}", "1".repeat(65), l.split_once(' ').unwrap().1);
+    let too_wide = format!("{head}{}", plant(tail, late, wide));
+    for mode in [Mode::Strict, Mode::Lenient] {
+        let err = read(too_wide.as_bytes(), mode).unwrap_err();
+        assert!(err.message.contains("bits written to"), "{err}");
+    }
+
+    // The clock rises at every cycle's start and falls half-way, and nothing else changes then.
+    let clk_line = head.lines().find(|l| l.starts_with("$var") && l.contains(" clk $end")).expect("a clock");
+    let clk = clk_line.split_whitespace().nth(3).unwrap();
+    let fall = format!("0{clk}");
+    let stuck = plant(tail, |l| l == fall, |_| format!("1{clk}"));
+    let err = read(format!("{head}{stuck}").as_bytes(), Mode::Strict).unwrap_err();
+    assert!(err.message.contains("the clock must fall"), "{err}");
+    let vector = tail.lines().find(|l| late(l)).unwrap().to_string();
+    let half_way = |l: &str| l.starts_with('#') && l.ends_with('5');
+    let busy = plant(tail, half_way, |l| format!("{l}\n{vector}"));
+    let err = read(format!("{head}{busy}").as_bytes(), Mode::Strict).unwrap_err();
+    assert!(err.message.contains("half-way through a cycle"), "{err}");
 
     let missing = format!("{head}{}", plant(tail, |l| l.starts_with('b'), |_| String::new()));
     let err = read(missing.as_bytes(), Mode::Strict).unwrap_err();

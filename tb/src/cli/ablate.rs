@@ -8,8 +8,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
-
 use crate::cli::sweep::{finish, print_figure, start, SweepArgs};
 use crate::report::ablate;
 
@@ -29,14 +27,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut req = args.common.request(ablate::plan()?)?;
     req.cache = args.common.cache_dir(&args.out);
     req.prune_cache = args.common.prune_cache;
-    crate::report::sweep::prepare(&args.out)
-        .with_context(|| format!("report folder {}", args.out.display()))?;
+    crate::cli::sweep::prepare(&args.common, &req, &args.out)?;
     let per_scene = req.plan.variants(req.base_kb())?.len();
     let mechanisms = ablate::MECHANISMS;
-    let progress = start("ablate", &req, per_scene, mechanisms.len() + 1, &args.out, args.common.quiet);
+    let progress = start("ablate", &req, per_scene, mechanisms.len() + 1, &args.out);
     let result = ablate::run(&req, mechanisms, &args.common.library.library(), &progress)?;
+    if crate::cli::sweep::shard_done(&req, &result.reference).is_some() {
+        return Ok(());
+    }
     let written = crate::report::sweep::write_ablation(&result, &args.out)?;
-    print_figure(&args.common.output, &result.figure())?;
+    print_figure(&args.common.output, &result.figure(), &result.reference.provenance())?;
     finish(&format!("{} arms", mechanisms.len() + 1), &result.reference, written.len(), &args.out);
     Ok(())
 }

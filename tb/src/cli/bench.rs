@@ -61,6 +61,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
+    crate::cli::guard::outside_scene_data("--out", &args.out, &args.scene_files.library().data)?;
     args.stack.names_only("bench")?;
     let configs = args.stack.resolve(&DEFAULT_CONFIGS)?;
     let opts = BenchOpts {
@@ -85,7 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if args.workload.res.is_none() {
             (wopts.width, wopts.height) = DEFAULT_RES;
         }
-        bench_scene(&scene, wopts, &opts, &mut report, &mut |line| eprintln!("{line}"))?;
+        bench_scene(&scene, wopts, &opts, &mut report, &mut |line| crate::cli::note(line))?;
     }
     report.peak_rss = crate::run::memory::peak_rss_bytes();
     match args.output.format() {
@@ -95,10 +96,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Format::Json => println!("{}", report.json(args.tolerance)?),
     }
     report.write(&args.out, args.tolerance)?;
-    eprintln!(
+    crate::cli::note(format!(
         "wrote {}/bench.{{txt,md,csv,json}}, summary/throughput/work/savings.csv and time-vs-error.svg; {:.1} s in all",
         args.out.display(),
         start.elapsed().as_secs_f64()
-    );
+    ));
     Ok(())
 }

@@ -207,6 +207,9 @@ fn grid(a: &Args) -> Result<Vec<Config>> {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if let Some(vcd) = &args.vcd {
+        crate::cli::guard::outside_scene_data("--vcd", vcd, &crate::SceneLibrary::default().data)?;
+    }
     if args.values < 2 {
         bail!("--values {}: at least 2 distinct values are needed to see entries reordered", args.values);
     }
@@ -233,7 +236,7 @@ pub fn run(args: Args) -> Result<()> {
     let started = std::time::Instant::now();
     for c in &configs {
         let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
-        eprintln!("checking {} to depth {depth} ...", describe(c));
+        crate::cli::note(format!("checking {} to depth {depth} ...", describe(c)));
         let bounds = Bounds {
             depth,
             values: args.values,
@@ -257,11 +260,11 @@ pub fn run(args: Args) -> Result<()> {
                 print_report(&args.output, &t, None)?;
                 if let Some(path) = &args.vcd {
                     dump_counterexample(*c, design, u32::MAX >> (32 - c.warp_size), &cex.trace, path)?;
-                    eprintln!(
+                    crate::cli::note(format!(
                         "wrote {} and {} (time step i = after action i)",
                         path.display(),
                         path.with_extension("gtkw").display()
-                    );
+                    ));
                 }
                 bail!(
                     "{}: property violated; shortest counterexample ({} actions):\n{cex}",
@@ -345,7 +348,7 @@ fn run_full(args: &Args) -> Result<()> {
         let c = &case.cfg;
         let cap = args.cap.unwrap_or(case.cap);
         let name = case.describe();
-        eprintln!("proving {name} under cap {cap} ...");
+        crate::cli::note(format!("proving {name} under cap {cap} ..."));
         let bounds = Bounds {
             values: args.values,
             max_states: args.max_states.unwrap_or(MAX_STATES_FULL),
@@ -370,13 +373,13 @@ fn run_full(args: &Args) -> Result<()> {
             }
         };
         let missing = cov.covers.missing_of(&case.goals());
-        eprintln!(
+        crate::cli::note(format!(
             "  {} states, depth {}, {:.2} s, fixpoint {}, missing {missing:?}",
             cov.states,
             cov.depth_reached,
             cov.elapsed.as_secs_f64(),
             cov.fixpoint
-        );
+        ));
         if !cov.fixpoint || !missing.is_empty() {
             failed.push(name.clone());
         }

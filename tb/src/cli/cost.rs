@@ -5,6 +5,7 @@ use anyhow::Result;
 use super::stack_config::StackConfigArgs;
 use super::{Format, HardwareArgs, OutputArgs};
 use crate::report::cost::{comparison, fields_of_all, CostReport};
+use crate::report::provenance::{Provenance, WithProvenance};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -24,7 +25,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let sms = args.hardware.hardware()?.mem.sms;
+    let hw = args.hardware.hardware()?;
+    let sms = hw.mem.sms;
+    let provenance = Provenance::new(None, Some(args.hardware.id(&hw)));
     let mut configs = args.stack.resolve(&["SMS"])?;
     if args.baselines {
         for name in ["RB_8", "RB_16", "RB_FULL"] {
@@ -38,12 +41,17 @@ pub fn run(args: Args) -> Result<()> {
         configs.iter().map(|c| CostReport::new(c, sms, args.full_depth)).collect::<Result<Vec<_>, _>>()?;
     match args.output.format() {
         Format::Json => {
-            let json: Vec<_> = reports.iter().map(CostReport::to_json).collect();
+            // Each report carries the provenance, so the array's layout stays as it was.
+            let json: Vec<_> = reports
+                .iter()
+                .map(|r| WithProvenance { report: r.to_json(), provenance: &provenance })
+                .collect();
             println!("{}", serde_json::to_string_pretty(&json)?);
         }
-        Format::Csv => print!("{}", fields_of_all(&reports).to_csv()),
+        Format::Csv => print!("{}{}", provenance.csv(), fields_of_all(&reports).to_csv()),
         f @ (Format::Text | Format::Markdown) => {
             let md = f == Format::Markdown;
+            print!("{}", if md { provenance.markdown() } else { provenance.text() + "\n" });
             for r in &reports {
                 println!("{}", r.render(md));
             }

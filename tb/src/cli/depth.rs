@@ -6,7 +6,8 @@ use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::cli::{Format, OutputArgs, SceneArgs, WorkloadArgs};
+use crate::cli::{guard, note, Format, OutputArgs, SceneArgs, WorkloadArgs};
+use crate::report::provenance::{Provenance, WithProvenance, WorkloadId};
 use crate::workload::depth::{DepthHistogram, DepthReport};
 use crate::workload::Workload;
 
@@ -23,30 +24,42 @@ pub struct Args {
     pub output: OutputArgs,
     #[command(flatten)]
     pub scenes: SceneArgs,
+    /// Run even when the estimate of rays, memory and time is above the limits (half the
+    /// available memory, 24 h).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
-    let scene = args.scenes.library().load(&args.scene)?;
-    eprintln!(
+    let library = args.scenes.library();
+    if let Some(out) = &args.out {
+        // Checked before the work too, so that a bad folder costs nothing.
+        guard::outside_scene_data("--out", out, &library.data)?;
+    }
+    let scene = library.load(&args.scene)?;
+    note(format!(
         "loaded {} ({} primitives, {} degenerate triangles dropped) in {:.2} s",
         scene.name,
         scene.primitives.len(),
         scene.dropped_degenerate,
         start.elapsed().as_secs_f64()
-    );
+    ));
     let opts = args.workload.opts(&scene);
+    let estimate = guard::Estimate::new(&opts, 0, 1, crate::run::sim::Fidelity::Functional);
+    estimate.check(guard::available_memory(), args.force)?;
+    note(format!("estimated {}", estimate.describe()));
 
     let start = Instant::now();
-    let workload = Workload::new(&scene, opts)?;
-    eprintln!(
+    let workload = Workload::with_progress(&scene, opts, crate::cli::phase_progress("path-tracing"))?;
+    note(format!(
         "built {:?} {:?} ({} nodes) and rendered {} rays in {:.2} s",
         opts.accel,
         opts.bvh,
         workload.bvh().node_count(),
         workload.num_rays(),
         start.elapsed().as_secs_f64()
-    );
+    ));
 
     let start = Instant::now();
     let mut histogram = DepthHistogram::default();
@@ -57,32 +70,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         let done = i as u32 + 1;
         if done.is_multiple_of(warps.div_ceil(10)) || done == warps {
-            eprintln!("  traced {done}/{warps} warps");
+            note(format!("  traced {done}/{warps} warps"));
         }
     }
-    eprintln!("recorded traces in {:.2} s", start.elapsed().as_secs_f64());
+    note(format!("recorded traces in {:.2} s", start.elapsed().as_secs_f64()));
 
     let report = DepthReport::new(&scene.name, opts, workload.num_rays(), histogram);
+    let p = Provenance::new(Some(WorkloadId::new(vec![scene.name.clone()], &[opts])), None);
+    let csv = p.csv() + &report.csv();
+    let json = serde_json::to_string_pretty(&WithProvenance { report: &report, provenance: &p })?;
     match args.output.format() {
-        Format::Text => print!("{}", report.table()),
-        Format::Markdown => print!("{}", report.markdown()),
-        Format::Csv => print!("{}", report.csv()),
-        Format::Json => println!("{}", report.json()),
+        Format::Text => print!("{}{}", p.text(), report.table()),
+        Format::Markdown => print!("{}{}", p.markdown(), report.markdown()),
+        Format::Csv => print!("{csv}"),
+        Format::Json => println!("{json}"),
     }
 
     let out = args.out.unwrap_or_else(|| PathBuf::from("out/depth").join(&scene.name));
+    guard::outside_scene_data("--out", &out, &library.data)?;
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let stem = format!("{:?}-{:?}", opts.bvh, opts.order).to_lowercase();
     let write = |name: String, text: String| {
         let path = out.join(name);
         std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
     };
-    write(format!("{stem}.csv"), report.csv())?;
-    write(format!("{stem}.json"), report.json())?;
+    write(format!("{stem}.csv"), csv)?;
+    write(format!("{stem}.json"), json)?;
     let title =
         format!("{} {stem}: max {} mean {:.2} median {}", scene.name, report.max, report.mean, report.median);
     report.write_svg(&out.join(format!("{stem}.svg")), &title)?;
     workload.image().write_png(&out.join("render.png"))?;
-    eprintln!("wrote {}/{stem}.{{csv,json,svg}} and render.png", out.display());
+    note(format!("wrote {}/{stem}.{{csv,json,svg}} and render.png", out.display()));
     Ok(())
 }

@@ -6,6 +6,7 @@ pub mod bench;
 pub mod check;
 pub mod cost;
 pub mod depth;
+pub mod guard;
 pub mod prove;
 pub mod run;
 pub mod scenes;
@@ -21,8 +22,32 @@ use crate::workload::scene::SceneLibrary;
 // The name is the binary's, not the crate's (`tb`), so `sms --version` says `sms`.
 #[command(name = "sms", version, about = "SMS traversal-stack model tools")]
 pub struct Cli {
+    /// No progress or status lines on stderr (reports and errors still print), for every
+    /// subcommand.
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
     #[command(subcommand)]
     pub command: Command,
+}
+
+/// `-q/--quiet`, set once by [`Cli::run`] for the whole process.
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether progress and status lines are suppressed (`-q`).
+pub fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// Suppresses (or allows) progress and status lines, as `-q` does.
+pub fn set_quiet(on: bool) {
+    QUIET.store(on, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// A progress or status line on stderr, unless `-q`.
+pub fn note(line: impl std::fmt::Display) {
+    if !quiet() {
+        eprintln!("{line}");
+    }
 }
 
 /// The subcommands.
@@ -53,6 +78,7 @@ pub enum Command {
 impl Cli {
     /// Runs the chosen subcommand.
     pub fn run(self) -> anyhow::Result<()> {
+        set_quiet(self.quiet);
         match self.command {
             Command::Scenes(args) => scenes::run(args),
             Command::Depth(args) => depth::run(args),
@@ -64,6 +90,20 @@ impl Cli {
             Command::Ablate(args) => ablate::run(args),
             Command::Bench(args) => bench::run(args),
         }
+    }
+}
+
+/// Progress of a long phase on stderr unless `-q`: `what: done/total pixel warps` every 2 s
+/// once the phase has run that long.
+pub fn phase_progress(what: &'static str) -> impl FnMut(u32, u32) {
+    let start = std::time::Instant::now();
+    let mut last = start;
+    move |done, total| {
+        if quiet() || last.elapsed() < std::time::Duration::from_secs(2) {
+            return;
+        }
+        last = std::time::Instant::now();
+        eprintln!("{what}: {done}/{total} pixel warps, {:.0} s", start.elapsed().as_secs_f64());
     }
 }
 
@@ -287,6 +327,26 @@ pub struct HardwareArgs {
 }
 
 impl HardwareArgs {
+    /// The hardware as named here: the preset or file, then the flags that change it.
+    pub fn name(&self) -> String {
+        let mut name = self.hw.clone().unwrap_or_else(|| crate::hw::presets::DEFAULT.to_string());
+        let mut flag = |f: &str, v: Option<String>| {
+            if let Some(v) = v {
+                name += &format!(" {f} {v}");
+            }
+        };
+        flag("--stack-timing", self.stack_timing.map(|t| format!("{t:?}").to_lowercase()));
+        flag("--l1d-kb", self.l1d_kb.map(|v| v.to_string()));
+        flag("--sms", self.sms.map(|v| v.to_string()));
+        flag("--dram-latency", self.dram_latency.map(|v| v.to_string()));
+        name
+    }
+
+    /// What reports state about this hardware: its name and a hash of `hw`, its resolution.
+    pub fn id(&self, hw: &crate::hw::Hardware) -> crate::report::provenance::HardwareId {
+        crate::report::provenance::HardwareId::new(self.name(), hw)
+    }
+
     pub fn hardware(&self) -> anyhow::Result<crate::hw::Hardware> {
         let mut hw = match &self.hw {
             Some(spec) => crate::hw::resolve(spec).map_err(|e| anyhow::anyhow!("--hw {e}"))?,

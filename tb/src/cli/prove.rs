@@ -36,6 +36,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if let Some(vcd) = &args.vcd {
+        crate::cli::guard::outside_scene_data("--vcd", vcd, &crate::SceneLibrary::default().data)?;
+    }
     let cfgs = args.stack.resolve(&["SMS"])?;
     let mut solvers = Vec::new();
     for s in &args.solver {
@@ -53,7 +56,7 @@ pub fn run(args: Args) -> Result<()> {
             if args.only.as_ref().is_some_and(|t| !ob.name.contains(t.as_str())) {
                 continue;
             }
-            eprintln!("proving {} at {} ...", ob.name, cfg.name());
+            crate::cli::note(format!("proving {} at {} ...", ob.name, cfg.name()));
             let outs = match args.mutant.as_deref() {
                 None => prove(cfg, &Design, &ob, &solvers, limit)?,
                 Some(name) => prove_mutant(name, cfg, &ob, &solvers, limit)?,

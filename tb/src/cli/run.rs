@@ -11,7 +11,8 @@ use rtl::trace::NullSink;
 use serde::Serialize;
 
 use crate::cli::stack_config::StackConfigArgs;
-use crate::cli::{HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
+use crate::cli::{guard, Format, HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
+use crate::report::provenance::{Provenance, WorkloadId};
 use crate::report::table::Table;
 use crate::run::sampling::SamplePlan;
 use crate::run::sim::{simulate, simulate_sampled, Fidelity, Metric, Outcome, RunSpec, Sampled, Tick};
@@ -39,9 +40,10 @@ pub struct Args {
     /// Also write the rendered image here (PNG).
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
-    /// No progress output.
-    #[arg(long, short)]
-    pub quiet: bool,
+    /// Run even when the estimate of rays, memory and time is above the limits (half the
+    /// available memory, 24 h).
+    #[arg(long)]
+    pub force: bool,
     /// Configurations simulated at once (default: the available cores). A run simulated alone
     /// (one configuration, or --jobs 1) uses a second core for itself: it traces its rays and
     /// steps its RT units on two more threads. The results are the same either way.
@@ -57,7 +59,8 @@ pub struct Args {
 #[derive(Clone, Debug, Default, clap::Args)]
 pub struct VcdArgs {
     /// Dump every selected register and per-cycle signal to this VCD file (a GTKWave save file
-    /// is written next to it). Inside the window every cycle is dumped; outside it idle cycles
+    /// is written next to it; a relative path is relative to the current folder, e.g.
+    /// waves/run.vcd; never inside the scene data folder). Inside the window every cycle is dumped; outside it idle cycles
     /// are skipped as usual.
     #[arg(long, value_name = "FILE")]
     pub vcd: Option<PathBuf>,
@@ -101,6 +104,40 @@ struct ConfigResult {
     full: Option<Outcome>,
     #[serde(skip_serializing_if = "Option::is_none")]
     sampled: Option<Sampled>,
+    /// Averages per ray of what was simulated.
+    per_ray: PerRay,
+    /// Seconds from the start of the simulations to this configuration's end (its `wall` is
+    /// how long it took).
+    #[serde(serialize_with = "crate::run::sim::serialize_secs")]
+    finished_at: Duration,
+}
+
+/// Averages per ray of a simulation (`None`: not measured at its fidelity).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+struct PerRay {
+    cycles: Option<f64>,
+    node_fetches: Option<f64>,
+    /// Pushes and pops.
+    stack_ops: Option<f64>,
+    /// Requests leaving the SMs for L2 (node fetches and stack traffic).
+    offchip: Option<f64>,
+}
+
+impl PerRay {
+    /// Of what `o` simulated; `rays` when the GPU did not count them (the functional level).
+    fn of(o: &Outcome, rays: u64) -> PerRay {
+        let rays = o.gpu.map_or(rays, |g| g.rays);
+        if rays == 0 {
+            return PerRay::default();
+        }
+        let per = |x: u64| x as f64 / rays as f64;
+        PerRay {
+            cycles: o.gpu.map(|g| per(g.cycles)),
+            node_fetches: o.gpu.map(|g| per(g.node_fetches)),
+            stack_ops: Some(per(o.stack.pushes + o.stack.pops)),
+            offchip: o.gpu.map(|g| per(g.offchip_node + g.offchip_stack)),
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -111,6 +148,7 @@ struct RunReport<'a> {
     rays: u64,
     fidelity: Fidelity,
     results: Vec<ConfigResult>,
+    provenance: Provenance,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -136,17 +174,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         s.validate()?;
     }
 
-    let start = Instant::now();
-    let scene = args.scenes.library().load(&args.scene)?;
-    let opts = args.workload.opts(&scene);
-    let log = |msg: String| {
-        if !args.quiet {
-            eprintln!("{msg}");
+    let library = args.scenes.library();
+    for (flag, path) in [("--vcd", vcd.as_ref().map(|v| &v.path)), ("--png", args.png.as_ref())] {
+        if let Some(path) = path {
+            guard::outside_scene_data(flag, path, &library.data)?;
+            if flag == "--vcd" {
+                guard::outside_scene_data(flag, &path.with_extension("gtkw"), &library.data)?;
+            }
         }
-    };
-    log(format!("loaded {} ({} primitives) in {:.2} s", scene.name, scene.primitives.len(), secs(start)));
+    }
+    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if jobs == 0 {
+        bail!("--jobs 0: at least one worker is needed");
+    }
+
     let start = Instant::now();
-    let w = Workload::new(&scene, opts)?;
+    let scene = library.load(&args.scene)?;
+    let opts = args.workload.opts(&scene);
+    let log = crate::cli::note;
+    log(format!("loaded {} ({} primitives) in {:.2} s", scene.name, scene.primitives.len(), secs(start)));
+    let estimate = guard::Estimate::new(&opts, specs.len(), jobs, args.fidelity);
+    estimate.check(guard::available_memory(), args.force)?;
+    log(format!("estimated {}", estimate.describe()));
+    let start = Instant::now();
+    let w = Workload::with_progress(&scene, opts, crate::cli::phase_progress("path-tracing"))?;
     log(format!(
         "built {:?} {:?} ({} nodes) and path-traced {}x{} x {} spp, ≤ {} bounces: {} rays in {} pixel warps, {:.2} s",
         opts.accel,
@@ -166,16 +217,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 
     // Configurations run in parallel (one thread each, up to --jobs); results keep their order.
-    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    if jobs == 0 {
-        bail!("--jobs 0: at least one worker is needed");
-    }
     let names: Vec<String> = specs.iter().map(|s| s.config.name()).collect();
-    let bar = ProgressLines::new(&names, args.quiet);
+    let bar = ProgressLines::new(&names, crate::cli::quiet());
+    let rays = w.num_rays();
     let results = crate::run::pool::map_indexed(jobs.min(specs.len()), specs.len(), |i| {
         let r = run_one(&specs[i], &w, plan.as_ref(), vcd.as_ref(), |t| bar.tick(i, t));
-        bar.done(i);
-        r
+        let finished_at = bar.done(i);
+        r.map(|(full, sampled)| {
+            let simulated = full.or(sampled.as_ref().and_then(|s| s.launch));
+            let per_ray = simulated.map_or(PerRay::default(), |o| PerRay::of(&o, rays));
+            ConfigResult { config: specs[i].config.name(), full, sampled, per_ray, finished_at }
+        })
     })
     .into_iter()
     .collect::<anyhow::Result<Vec<ConfigResult>>>()?;
@@ -190,10 +242,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         rays: w.num_rays(),
         fidelity: args.fidelity,
         results,
+        provenance: Provenance::new(
+            Some(WorkloadId::new(vec![scene.name.clone()], &[opts])),
+            Some(args.hardware.id(&hw)),
+        ),
     };
-    match args.output.table(&table(&report)) {
-        Some(text) => print!("{text}"),
-        None => println!("{}", serde_json::to_string_pretty(&report)?),
+    let p = &report.provenance;
+    match args.output.format() {
+        Format::Text => print!("{}{}", p.text(), table(&report).to_text()),
+        Format::Markdown => print!("{}{}", p.markdown(), table(&report).to_markdown()),
+        Format::Csv => print!("{}{}", p.csv(), table(&report).to_csv()),
+        Format::Json => println!("{}", serde_json::to_string_pretty(&report)?),
     }
     Ok(())
 }
@@ -226,6 +285,9 @@ fn table(report: &RunReport) -> Table {
     let metric_row = |m: Metric| rs.iter().map(|r| fmt_value(cell(r, m))).collect::<Vec<_>>();
     if rs.iter().any(|r| cell(r, Metric::Cycles).is_some()) {
         row("cycles", metric_row(Metric::Cycles));
+    }
+    // A speed-up needs something to be faster than: no row for one configuration.
+    if rs.len() > 1 && rs.iter().any(|r| cell(r, Metric::Cycles).is_some()) {
         let base = cell(&rs[0], Metric::Cycles).map(|c| c.0);
         row(
             &format!("speed-up over {}", rs[0].config),
@@ -245,6 +307,8 @@ fn table(report: &RunReport) -> Table {
         (Metric::DramStack, "DRAM accesses: stack traffic"),
         (Metric::StackGlobal, "stack entries to/from global memory"),
         (Metric::ShSpills, "RB → SH spills"),
+        (Metric::ShToGlobal, "SH → global spills"),
+        (Metric::GlobalToSh, "global → SH reloads"),
         (Metric::Borrows, "SH stacks borrowed"),
         (Metric::Flushes, "flushes"),
         (Metric::ConflictCycles, "bank-conflict delay cycles"),
@@ -268,9 +332,29 @@ fn table(report: &RunReport) -> Table {
             full(&|o| o.gpu.map_or("-".into(), |g| g.warp_jobs.to_string())),
         );
     }
+    /// A per-ray figure of a result.
+    type PerRayField<'f> = &'f dyn Fn(&PerRay) -> Option<f64>;
+    let per_ray = |f: PerRayField, digits: usize| -> Vec<String> {
+        rs.iter().map(|r| f(&r.per_ray).map_or("-".into(), |x| format!("{x:.digits$}"))).collect()
+    };
+    let per_ray_rows: [(&str, PerRayField, usize); 4] = [
+        ("per ray: cycles", &|p| p.cycles, 2),
+        ("per ray: node fetches", &|p| p.node_fetches, 2),
+        ("per ray: stack operations", &|p| p.stack_ops, 2),
+        ("per ray: off-chip accesses", &|p| p.offchip, 3),
+    ];
+    for (label, f, digits) in per_ray_rows {
+        if rs.iter().any(|r| f(&r.per_ray).is_some()) {
+            row(label, per_ray(f, digits));
+        }
+    }
     row("pops checked against the trace", full(&|o| o.pops_checked.to_string()));
     row(
-        "wall time",
+        "finished at (since the simulations started)",
+        rs.iter().map(|r| format!("{:.2} s", r.finished_at.as_secs_f64())).collect(),
+    );
+    row(
+        "wall time (this configuration's simulation)",
         rs.iter()
             .map(|r| {
                 let wall = r.full.as_ref().map(|o| o.wall).or(r.sampled.as_ref().map(|s| s.wall));
@@ -288,21 +372,16 @@ fn run_one(
     plan: Option<&SamplePlan>,
     vcd: Option<&VcdOptions>,
     mut tick: impl FnMut(Tick),
-) -> anyhow::Result<ConfigResult> {
-    let config = spec.config.name();
+) -> anyhow::Result<(Option<Outcome>, Option<Sampled>)> {
     Ok(match (plan, vcd) {
-        (Some(p), _) => {
-            ConfigResult { config, full: None, sampled: Some(simulate_sampled(spec, w, p, tick)?) }
-        }
+        (Some(p), _) => (None, Some(simulate_sampled(spec, w, p, tick)?)),
         (None, Some(v)) => {
             let mut sink = VcdSink::create(v, &spec.config)?;
             let o = simulate(spec, w, None, &mut sink, &mut tick)?;
             sink.finish()?;
-            ConfigResult { config, full: Some(o), sampled: None }
+            (Some(o), None)
         }
-        (None, None) => {
-            ConfigResult { config, full: Some(simulate(spec, w, None, &mut NullSink, tick)?), sampled: None }
-        }
+        (None, None) => (Some(simulate(spec, w, None, &mut NullSink, tick)?), None),
     })
 }
 
@@ -355,16 +434,19 @@ impl<'a> ProgressLines<'a> {
         }
     }
 
-    fn done(&self, i: usize) {
+    /// Marks configuration `i` done; returns when, since the bar started.
+    fn done(&self, i: usize) -> Duration {
+        let at = self.start.elapsed();
         if self.quiet {
-            return;
+            return at;
         }
         let mut st = self.state.lock().unwrap_or_else(|e| e.into_inner());
         st.1[i] = None;
         if self.tty {
             eprint!("\r\x1b[K");
         }
-        eprintln!("{}: done at {:.2} s", self.names[i], secs(self.start));
+        eprintln!("{}: done at {:.2} s", self.names[i], at.as_secs_f64());
+        at
     }
 }
 
@@ -379,6 +461,7 @@ mod tests {
     }
 
     fn run(line: &str) -> anyhow::Result<()> {
+        crate::cli::set_quiet(true);
         let argv = std::iter::once("run").chain(line.split_whitespace());
         super::run(Cli::try_parse_from(argv)?.args)
     }
@@ -389,7 +472,7 @@ mod tests {
 
     #[test]
     fn bad_requests_are_clear_errors() {
-        let tiny = "-q --scene wknd --res 8x8 --spp 1 --bounces 0";
+        let tiny = "--scene wknd --res 8x8 --spp 1 --bounces 0";
         assert!(
             error(&format!("{tiny} -c RB_8,SMS --vcd /tmp/x.vcd")).contains("--vcd dumps one configuration")
         );
@@ -401,12 +484,12 @@ mod tests {
         assert!(error(&format!("{tiny} -c RB_9+SH_3")).contains("--config RB_9+SH_3"));
         assert!(error(&format!("{tiny} -c SMS --vcd /tmp/x.vcd --vcd-sms 8")).contains("the GPU has 8 SMs"));
         assert!(error(&format!("{tiny} --jobs 0")).contains("--jobs 0"));
-        assert!(error("-q --scene no-such-scene").contains("unknown scene"));
+        assert!(error("--scene no-such-scene").contains("unknown scene"));
     }
 
     #[test]
     fn a_tiny_run_at_both_levels_and_sampled_succeeds() {
-        let tiny = "-q --scene clutter --res 16x16 --spp 1 --bounces 1 -c RB_4,RB_4+SH_4+SK+RA --json";
+        let tiny = "--scene clutter --res 16x16 --spp 1 --bounces 1 -c RB_4,RB_4+SH_4+SK+RA --json";
         run(tiny).unwrap();
         run(&format!("{tiny} --fidelity functional")).unwrap();
         run(&format!("{tiny} --sample 0.5 --batches 2")).unwrap();

@@ -26,7 +26,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let mut missing = 0;
     for name in names {
-        eprintln!("loading {name} ...");
+        crate::cli::note(format!("loading {name} ..."));
         let start = Instant::now();
         let scene = match library.load(&name) {
             Ok(scene) => scene,

@@ -10,6 +10,7 @@ use anyhow::{bail, Context};
 use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{Format, HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
 use crate::report::figures::Figure;
+use crate::report::provenance::Provenance;
 use crate::report::sweep::{figure_json, figure_markdown};
 use crate::run::sweep::{self, Plan, Progress, Request, DEFAULT_SAMPLE, SAMPLE_ERROR};
 
@@ -35,9 +36,6 @@ pub struct SweepArgs {
     /// for itself (tracing, and its RT units on a helper thread). Results do not depend on it.
     #[arg(long)]
     pub jobs: Option<usize>,
-    /// No progress bar on stderr.
-    #[arg(long)]
-    pub quiet: bool,
     /// Result cache folder [default: cache/ in the report folder]. Each simulation's result is
     /// stored there as it finishes, under a key of scene content, workload, sampling,
     /// configuration, hardware and model version (a hash of sms's sources: a rebuilt sms with
@@ -53,6 +51,19 @@ pub struct SweepArgs {
     /// again), files that cannot be parsed, and temporary files of killed runs.
     #[arg(long, conflicts_with = "no_cache")]
     pub prune_cache: bool,
+    /// Run even when the estimate of rays, memory and time is above the limits (half the
+    /// available memory, 24 h).
+    #[arg(long)]
+    pub force: bool,
+    /// Compute only share K of N (K from 0) of the results into the cache and write no report:
+    /// N processes (e.g. a Slurm job array, scripts/slurm-sweep.sh) with the same arguments and
+    /// one shared --cache, then one --collect, give the report of one process.
+    #[arg(long, value_name = "K/N", conflicts_with_all = ["no_cache", "collect"])]
+    pub shard: Option<sweep::Shard>,
+    /// Simulate nothing: write the report from the cache alone, which the shards filled; an
+    /// error says how many results are missing.
+    #[arg(long, conflicts_with = "no_cache")]
+    pub collect: bool,
     #[command(flatten)]
     pub hardware: HardwareArgs,
     #[command(flatten)]
@@ -63,13 +74,13 @@ pub struct SweepArgs {
     pub output: OutputArgs,
 }
 
-/// Prints `f`'s table in the format asked for (JSON: the figure's `.json` file).
-pub fn print_figure(output: &OutputArgs, f: &Figure) -> anyhow::Result<()> {
+/// Prints `f`'s table in the format asked for (JSON: the figure's `.json` file), stating `p`.
+pub fn print_figure(output: &OutputArgs, f: &Figure, p: &Provenance) -> anyhow::Result<()> {
     match output.format() {
-        Format::Text => println!("{}", f.table.to_text()),
-        Format::Markdown => print!("{}", figure_markdown(f, "#")),
-        Format::Csv => print!("{}", f.table.to_csv()),
-        Format::Json => println!("{}", serde_json::to_string_pretty(&figure_json(f))?),
+        Format::Text => println!("{}{}", p.text(), f.table.to_text()),
+        Format::Markdown => print!("{}{}", p.markdown(), figure_markdown(f, "#")),
+        Format::Csv => print!("{}{}", p.csv(), f.table.to_csv()),
+        Format::Json => println!("{}", serde_json::to_string_pretty(&figure_json(f, p))?),
     }
     Ok(())
 }
@@ -114,7 +125,26 @@ impl SweepArgs {
         if hw.mem.l1d_bytes % 1024 != 0 {
             bail!("the unified L1D/shared array must be a whole number of KB");
         }
-        let req = Request { scenes, settings, hw, plan, jobs, sample, cache: None, prune_cache: false };
+        let hw_name = self.hardware.name();
+        // The estimate of every scene at the settings asked for (LumiBench's where a scene's
+        // own are kept: the descriptions' settings are of that size).
+        let opts = settings.apply(crate::workload::WorkloadOpts::default());
+        let sims = scenes.len() * plan.variants(hw.mem.l1d_bytes / 1024)?.len();
+        let estimate = crate::cli::guard::Estimate::new(&opts, sims, jobs, crate::run::sim::Fidelity::Cycle);
+        estimate.check(crate::cli::guard::available_memory(), self.force)?;
+        let req = Request {
+            scenes,
+            settings,
+            hw,
+            hw_name,
+            plan,
+            jobs,
+            sample,
+            cache: None,
+            prune_cache: false,
+            shard: self.shard,
+            collect: self.collect,
+        };
         req.plan.variants(req.base_kb())?;
         Ok(req)
     }
@@ -161,20 +191,20 @@ pub fn start(
     runs_per_scene: usize,
     arms: usize,
     out: &std::path::Path,
-    quiet: bool,
 ) -> Progress {
+    let quiet = crate::cli::quiet();
     let sample =
         req.sample.map_or("every warp".into(), |p| format!("{:.0} % of the warps", p.fraction * 100.0));
-    eprintln!(
+    crate::cli::note(format!(
         "{what}: {} scenes × {runs_per_scene} simulations{} at {}, {sample}, {} jobs → {}",
         req.scenes.len(),
         if arms > 1 { format!(" × {arms} arms") } else { String::new() },
         req.settings.describe(),
         req.jobs,
         out.display()
-    );
+    ));
     if req.sample.is_some() {
-        eprintln!("sampling; expected error: {SAMPLE_ERROR}");
+        crate::cli::note(format!("sampling; expected error: {SAMPLE_ERROR}"));
     }
     let total = req.scenes.len() * arms * (runs_per_scene + 1);
     if quiet {
@@ -206,17 +236,48 @@ pub fn finish(what: &str, result: &sweep::Sweep, written: usize, out: &std::path
     }
 }
 
+/// Says what shard `result` was of and what it did; `None` unless it was one.
+pub fn shard_done(req: &Request, result: &sweep::Sweep) -> Option<()> {
+    let (s, c) = (req.shard?, result.shard?);
+    eprintln!(
+        "shard {}/{}: {} result(s) computed, {} already in the cache {}, {} left to the other shards; when \
+         every shard is done, the same arguments with --collect (instead of --shard) write the report",
+        s.index,
+        s.count,
+        c.computed,
+        c.cached,
+        req.cache.as_deref().map_or("?".into(), |d| d.display().to_string()),
+        c.others
+    );
+    Some(())
+}
+
+/// Checks that the report folder and cache are writable and not in the scene data, and prints
+/// a line on Ctrl-C saying how many results the cache holds (a re-run resumes from them).
+pub fn prepare(common: &SweepArgs, req: &Request, out: &std::path::Path) -> anyhow::Result<()> {
+    let data = common.library.library().data;
+    crate::cli::guard::outside_scene_data("--out", out, &data)?;
+    if let Some(c) = &req.cache {
+        crate::cli::guard::outside_scene_data("--cache", c, &data)?;
+    }
+    crate::report::sweep::prepare(out).with_context(|| format!("report folder {}", out.display()))?;
+    crate::cli::guard::on_interrupt(req.cache.clone());
+    Ok(())
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut req = args.request()?;
     req.cache = args.common.cache_dir(&args.out);
     req.prune_cache = args.common.prune_cache;
-    crate::report::sweep::prepare(&args.out)
-        .with_context(|| format!("report folder {}", args.out.display()))?;
+    prepare(&args.common, &req, &args.out)?;
     let variants = req.plan.variants(req.base_kb())?.len();
-    let progress = start("sweep", &req, variants, 1, &args.out, args.common.quiet);
+    let progress = start("sweep", &req, variants, 1, &args.out);
     let result = sweep::run(&req, &args.common.library.library(), &progress)?;
+    if shard_done(&req, &result).is_some() {
+        return Ok(());
+    }
     let written = crate::report::sweep::write_all(&result, &args.out)?;
-    print_figure(&args.common.output, &crate::report::figures::cost(&result)?)?;
+    print_figure(&args.common.output, &crate::report::figures::cost(&result)?, &result.provenance())?;
     finish(&format!("{} simulations", result.runs.len()), &result, written.len(), &args.out);
     Ok(())
 }

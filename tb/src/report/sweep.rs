@@ -13,6 +13,7 @@ use serde_json::{json, Value};
 
 use super::ablate::Ablation;
 use super::figures::{self, Figure};
+use super::provenance::Provenance;
 use crate::error::{Error, Result};
 use crate::run::sweep::Sweep;
 
@@ -53,20 +54,21 @@ pub fn figure_markdown(f: &Figure, heading: &str) -> String {
 }
 
 /// A figure's JSON file (layout: docs/json.md).
-pub fn figure_json(f: &Figure) -> Value {
+pub fn figure_json(f: &Figure, p: &Provenance) -> Value {
     json!({
         "title": f.title, "note": f.note, "table": f.table, "per_scene_table": f.per_scene, "data": f.json,
+        "provenance": p.json(),
     })
 }
 
-/// A figure's Markdown, CSV (and per-scene CSV), JSON and SVG.
-fn write_figure(f: &Figure, dir: &Path, written: &mut Vec<PathBuf>) -> Result<()> {
-    write(dir.join(format!("{}.md", f.name)), &figure_markdown(f, "#"), written)?;
-    write(dir.join(format!("{}.csv", f.name)), &f.table.to_csv(), written)?;
+/// A figure's Markdown, CSV (and per-scene CSV), JSON and SVG, each stating `p`.
+fn write_figure(f: &Figure, p: &Provenance, dir: &Path, written: &mut Vec<PathBuf>) -> Result<()> {
+    write(dir.join(format!("{}.md", f.name)), &(p.markdown() + &figure_markdown(f, "#")), written)?;
+    write(dir.join(format!("{}.csv", f.name)), &(p.csv() + &f.table.to_csv()), written)?;
     if let Some(t) = &f.per_scene {
-        write(dir.join(format!("{}_per_scene.csv", f.name)), &t.to_csv(), written)?;
+        write(dir.join(format!("{}_per_scene.csv", f.name)), &(p.csv() + &t.to_csv()), written)?;
     }
-    write(dir.join(format!("{}.json", f.name)), &pretty(&figure_json(f)), written)?;
+    write(dir.join(format!("{}.json", f.name)), &pretty(&figure_json(f, p)), written)?;
     let svg = dir.join(format!("{}.svg", f.name));
     f.chart.write_svg(&svg, &f.title)?;
     written.push(svg);
@@ -79,13 +81,15 @@ pub fn write_ablation(a: &Ablation, dir: &Path) -> Result<Vec<PathBuf>> {
     prepare(dir)?;
     let mut written = Vec::new();
     let f = a.figure();
-    write_figure(&f, dir, &mut written)?;
     let r = &a.reference;
+    let p = r.provenance();
+    write_figure(&f, &p, dir, &mut written)?;
     let mut summary = format!(
-        "# SMS ablation: {} mechanisms on {} scenes\n\nRendered at {} (each mechanism's row says what it \
+        "# SMS ablation: {} mechanisms on {} scenes\n\n{}Rendered at {} (each mechanism's row says what it \
          changes).\n\n",
         a.arms.len(),
         r.scenes.len(),
+        p.markdown(),
         r.settings.describe()
     );
     summary += &sampling_note(r);
@@ -103,7 +107,7 @@ pub fn write_ablation(a: &Ablation, dir: &Path) -> Result<Vec<PathBuf>> {
     for (m, s) in &a.arms {
         arms.push(json!({ "arm": m.name, "off_means": m.off_means, "report": report_json(s)? }));
     }
-    write(dir.join("report.json"), &pretty(&json!({ "arms": arms })), &mut written)?;
+    write(dir.join("report.json"), &pretty(&json!({ "arms": arms, "provenance": p.json() })), &mut written)?;
     write(dir.join("timing.json"), &pretty(&timing_json(r)), &mut written)?;
     Ok(written)
 }
@@ -113,14 +117,15 @@ pub fn write_all(s: &Sweep, dir: &Path) -> Result<Vec<PathBuf>> {
     prepare(dir)?;
     let mut written = Vec::new();
     let figures = figures::all(s)?;
+    let p = s.provenance();
     for f in &figures {
-        write_figure(f, dir, &mut written)?;
+        write_figure(f, &p, dir, &mut written)?;
     }
     let depth_dir = dir.join("depth");
     std::fs::create_dir_all(&depth_dir).map_err(|e| Error::io(&depth_dir, e))?;
     for sc in &s.scenes {
         let d = &sc.depth;
-        write(depth_dir.join(format!("{}.csv", sc.name)), &d.csv(), &mut written)?;
+        write(depth_dir.join(format!("{}.csv", sc.name)), &(p.csv() + &d.csv()), &mut written)?;
         let svg = depth_dir.join(format!("{}.svg", sc.name));
         d.write_svg(&svg, &format!("{}: max {} mean {:.2} median {}", sc.name, d.max, d.mean, d.median))?;
         written.push(svg);
@@ -157,6 +162,7 @@ pub fn report_json(s: &Sweep) -> Result<Value> {
         },
         "scenes": to_value(&s.scenes)?,
         "runs": runs,
+        "provenance": s.provenance().json(),
     }))
 }
 
@@ -171,14 +177,22 @@ fn timing_json(s: &Sweep) -> Value {
         "scenes": s.scenes.iter().map(|sc| json!({
             "scene": sc.name, "load_secs": sc.load_secs, "workload_secs": sc.workload_secs,
         })).collect::<Vec<_>>(),
+        // A cached result took no time here: its wall time is the run's that computed it.
         "runs": s.runs.iter().map(|r| json!({
-            "scene": r.scene, "config": r.config, "l1d_kb": r.l1d_kb, "wall_secs": r.outcome.wall.as_secs_f64(),
+            "scene": r.scene, "config": r.config, "l1d_kb": r.l1d_kb,
+            "wall_secs": (!r.from_cache).then_some(r.outcome.wall.as_secs_f64()),
+            "cached": r.from_cache,
+            "simulated_secs": r.outcome.wall.as_secs_f64(),
         })).collect::<Vec<_>>(),
     })
 }
 
 fn summary(s: &Sweep, figures: &[Figure]) -> String {
-    let mut out = format!("# SMS sweep: the paper's experiments on {} scenes\n\n", s.scenes.len());
+    let mut out = format!(
+        "# SMS sweep: the paper's experiments on {} scenes\n\n{}",
+        s.scenes.len(),
+        s.provenance().markdown()
+    );
     let _ = writeln!(
         out,
         "Rendered at {} (the scene table below gives each scene's workload).\n",

@@ -117,6 +117,11 @@ fn secs<S: serde::Serializer>(d: &Duration, s: S) -> std::result::Result<S::Ok, 
     s.serialize_f64(d.as_secs_f64())
 }
 
+/// Serialises a duration as seconds (a number), as every wall-clock field of the reports.
+pub fn serialize_secs<S: serde::Serializer>(d: &Duration, s: S) -> std::result::Result<S::Ok, S::Error> {
+    secs(d, s)
+}
+
 /// Serialises stack-manager counters as an object of every counter by name, in declaration order.
 pub fn stack_counts<S: serde::Serializer>(c: &StackStats, s: S) -> std::result::Result<S::Ok, S::Error> {
     use serde::ser::SerializeMap;
@@ -221,6 +226,10 @@ pub enum Metric {
     OffchipStack,
     /// RB → SH spills.
     ShSpills,
+    /// SH → global spills (SMS's SH stacks overflowing to local memory).
+    ShToGlobal,
+    /// Global → SH reloads.
+    GlobalToSh,
     Borrows,
     Flushes,
     /// Shared-memory bank-conflict delay cycles (cycle level).
@@ -228,7 +237,7 @@ pub enum Metric {
 }
 
 impl Metric {
-    pub const ALL: [Metric; 11] = [
+    pub const ALL: [Metric; 13] = [
         Metric::Cycles,
         Metric::StackGlobal,
         Metric::DramStack,
@@ -237,6 +246,8 @@ impl Metric {
         Metric::OffchipNode,
         Metric::OffchipStack,
         Metric::ShSpills,
+        Metric::ShToGlobal,
+        Metric::GlobalToSh,
         Metric::Borrows,
         Metric::Flushes,
         Metric::ConflictCycles,
@@ -252,6 +263,8 @@ impl Metric {
             Metric::OffchipNode => "offchip_node",
             Metric::OffchipStack => "offchip_stack",
             Metric::ShSpills => "sh_spills",
+            Metric::ShToGlobal => "sh_to_global",
+            Metric::GlobalToSh => "global_to_sh",
             Metric::Borrows => "borrows",
             Metric::Flushes => "flushes",
             Metric::ConflictCycles => "conflict_cycles",
@@ -270,6 +283,8 @@ impl Metric {
             Metric::OffchipNode => g?.offchip_node as f64,
             Metric::OffchipStack => g?.offchip_stack as f64,
             Metric::ShSpills => o.stack.rb_to_sh as f64,
+            Metric::ShToGlobal => o.stack.sh_to_global as f64,
+            Metric::GlobalToSh => o.stack.global_to_sh as f64,
             Metric::Borrows => o.stack.borrows as f64,
             Metric::Flushes => o.stack.flushes as f64,
             Metric::ConflictCycles => g?.bank_conflict_cycles as f64,

@@ -9,7 +9,9 @@
 //! Layout: one group per stack thread with the stack fields in [`FIELD_ORDER`] (the first
 //! thread's group open, the others closed), then the unit-level scopes (bank arbiter, memory
 //! scheduler, response FIFO, and in a GPU dump the RT unit's and memory system's), then the RT
-//! unit's per-lane traversal states. The zoom shows the whole written window.
+//! unit's per-lane traversal states. The view ([`View`]) opens on the first RB → SH spill of
+//! the dumped lanes, marked, with a few cycles before it and [`FOCUS_CYCLES`] in all; a dump
+//! without a spill opens on its whole window.
 //!
 //! Each trace's display format follows the [`Kind`] its probe declares ([`Format::of`]), not
 //! its name: addresses and data words in hex, masks (and one-bit signals) in binary, counts in
@@ -67,6 +69,38 @@ const WAVE_PIXELS: f64 = 780.0;
 /// Time units per pixel at zoom 0, and each zoom step halves it: measured with GTKWave 3.3.118
 /// on a 1 ns timescale (zoom -5 shows 32 times the span of zoom 0).
 const UNITS_PER_PIXEL_AT_ZOOM_0: f64 = 1.0 / 200.0;
+/// GTKWave's time units per clock cycle: it keeps times in the timescale's unit times its
+/// multiplier (100 ms → ms), so a cycle of [`super::UNITS_PER_CYCLE`] × 100 ms is 1000 of them.
+/// The save file's start, marker and zoom are in these units.
+const GTKWAVE_UNITS_PER_CYCLE: u64 = super::UNITS_PER_CYCLE * 100;
+/// Cycles the view around a spill spans, and how many of them come before it.
+pub const FOCUS_CYCLES: u64 = 96;
+const FOCUS_BEFORE: u64 = 16;
+
+/// What the save file shows first: cycles `start..end`, a marker, and the signal group opened
+/// (by default the first stack thread's).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct View {
+    pub start: u64,
+    pub end: u64,
+    pub marker: Option<u64>,
+    pub open: Option<String>,
+}
+
+impl View {
+    /// The dumped cycles `from..end`, focused on `spill` (the first RB → SH spill: its cycle
+    /// and the micro-op signal that showed it, whose thread is opened) if any.
+    pub fn around(from: u64, end: u64, spill: Option<(u64, String)>) -> View {
+        match spill {
+            Some((c, path)) if (from..end).contains(&c) => {
+                let start = c.saturating_sub(FOCUS_BEFORE).max(from);
+                let open = path.rsplit_once('.').map(|(scope, _)| scope.to_string());
+                View { start, end: (start + FOCUS_CYCLES).min(end), marker: Some(c), open }
+            }
+            _ => View { start: from, end, marker: None, open: None },
+        }
+    }
+}
 
 /// How GTKWave shows a trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -148,13 +182,8 @@ pub fn filter_file(name: &str) -> String {
 /// Writes the save file `save` for the dump `dump` whose declared signals are `signals`
 /// (`(path, width, kind)` in walk order) and whose written cycles are `from..end`, and the
 /// translate filter file of every enumeration among them next to it.
-pub fn write(
-    save: &Path,
-    dump: &Path,
-    signals: &[(String, u32, Kind)],
-    from: u64,
-    end: u64,
-) -> io::Result<()> {
+pub fn write(save: &Path, dump: &Path, signals: &[(String, u32, Kind)], view: View) -> io::Result<()> {
+    let units = GTKWAVE_UNITS_PER_CYCLE;
     let dir = save.parent().unwrap_or(Path::new("."));
     let mut filters: Vec<&'static str> = Vec::new();
     for (_, width, kind) in signals {
@@ -174,14 +203,18 @@ pub fn write(
         |p: &Path| if beside { p.file_name().map_or(p.into(), PathBuf::from) } else { p.to_path_buf() };
     writeln!(f, "[dumpfile] \"{}\"", name(dump).display())?;
     writeln!(f, "[savefile] \"{}\"", name(save).display())?;
-    writeln!(f, "[timestart] {from}")?;
+    writeln!(f, "[timestart] {}", view.start * units)?;
     writeln!(f, "[size] {} {}", SIZE.0, SIZE.1)?;
     writeln!(f, "[signals_width] {SIGNALS_WIDTH}")?;
     writeln!(f, "[sst_expanded] 1")?;
-    let span = end.saturating_sub(from).max(1) as f64;
+    let span = (view.end.saturating_sub(view.start).max(1) * units) as f64;
     let zoom = -(span / WAVE_PIXELS / UNITS_PER_PIXEL_AT_ZOOM_0).log2();
-    writeln!(f, "*{zoom:.6} -1{}", " -1".repeat(26))?;
-    let mut flags = 0;
+    let marker = view.marker.map_or(-1, |c| (c * units) as i64);
+    writeln!(f, "*{zoom:.6} {marker}{}", " -1".repeat(26))?;
+    // The clock first, as a viewer expects it.
+    writeln!(f, "@{:x}", Format::Binary.flags())?;
+    writeln!(f, "{}", super::CLOCK)?;
+    let mut flags = Format::Binary.flags();
     let mut set_flags = |f: &mut BufWriter<File>, new: u32| {
         if new != flags {
             flags = new;
@@ -191,7 +224,9 @@ pub fn write(
     };
     let mut first_thread = true;
     for (scope, group) in groups(signals) {
-        let closed = scope.contains("thread[") && !std::mem::take(&mut first_thread);
+        let first = scope.contains("thread[") && std::mem::take(&mut first_thread);
+        let open = view.open.as_ref().map_or(first, |o| *o == scope);
+        let closed = scope.contains("thread[") && !open;
         let label = ["rt_unit.stack_manager.", "rt_unit."]
             .iter()
             .find_map(|p| scope.strip_prefix(p))
@@ -248,4 +283,22 @@ fn groups(signals: &[Signal]) -> Vec<(String, Vec<&Signal>)> {
         (true, true) => 2,
     });
     groups
+}
+
+#[cfg(test)]
+mod tests {
+    use super::View;
+
+    #[test]
+    fn the_view_opens_on_the_first_spill_and_its_thread() {
+        let spill = Some((500, "sm0.rt_unit.stack_manager.warp[0].thread[3].uop".to_string()));
+        let v = View::around(0, 3001, spill);
+        assert_eq!((v.start, v.end, v.marker), (484, 484 + super::FOCUS_CYCLES, Some(500)));
+        assert_eq!(v.open.as_deref(), Some("sm0.rt_unit.stack_manager.warp[0].thread[3]"));
+        // Near the window's edges the view stays inside it; without a spill it is the window.
+        assert_eq!(View::around(490, 520, Some((495, "a.uop".into()))).start, 490);
+        assert_eq!(View::around(490, 520, Some((495, "a.uop".into()))).end, 520);
+        assert_eq!(View::around(0, 100, Some((100, "a.uop".into()))).marker, None, "outside the dump");
+        assert_eq!(View::around(7, 100, None), View { start: 7, end: 100, marker: None, open: None });
+    }
 }

@@ -11,6 +11,11 @@
 //! level, bank arbiter and memory scheduler, is always dumped). [`VcdSink::create`] also writes a
 //! GTKWave save file next to the dump ([`gtkw`]). [`check`] is the strict reader the tests use.
 //!
+//! Time: GTKWave knows only seconds and their fractions, so the dump reads cycles as seconds:
+//! `$timescale 100 ms`, each cycle [`UNITS_PER_CYCLE`] units, so the time axis shows cycle `n`
+//! at `n s` and a top-level `clk` rises at each cycle's start and falls half-way (docs/waves.md).
+//! Vectors are written without leading zeros (`b101`), as VCD allows.
+//!
 //! A sink cannot return errors from inside the walk, so I/O and walk errors are kept and
 //! reported by [`VcdSink::finish`], which the caller must call.
 
@@ -26,6 +31,15 @@ use std::path::PathBuf;
 use rtl::config::Config;
 use rtl::trace::{Kind, Sink, Snapshot};
 use vcd::{IdCode, TimescaleUnit};
+
+/// Time units per clock cycle: the clock rises at `cycle × UNITS_PER_CYCLE` and falls half-way.
+pub const UNITS_PER_CYCLE: u64 = 10;
+/// The timescale those units are in: 100 ms, so that one cycle reads as 1 s in GTKWave.
+pub const TIMESCALE: (u32, TimescaleUnit) = (100, TimescaleUnit::MS);
+/// The clock's name, at the top of the dump.
+pub const CLOCK: &str = "clk";
+/// The micro-op of an RB → SH spill, whose first appearance the save file zooms to.
+const SPILL_UOP: &str = "sh_store";
 
 /// Which cycles and which threads go into the dump.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -174,6 +188,8 @@ struct Slot {
     id: Option<IdCode>,
     width: u32,
     last: u64,
+    /// The value that means an RB → SH spill, for a micro-op signal.
+    spill: Option<u64>,
 }
 
 /// Writes the probe walks of a run as VCD. See the module docs.
@@ -200,6 +216,11 @@ pub struct VcdSink<W: Write> {
     error: Option<VcdError>,
     /// The run's length, when the driver says ([`Sink::end_run`]).
     run_cycles: Option<u64>,
+    /// The clock's identifier, once declared.
+    clk: Option<IdCode>,
+    /// First cycle a dumped micro-op signal shows an RB → SH spill, and that signal's walk
+    /// position (the save file's focus).
+    first_spill: Option<(u64, usize)>,
 }
 
 impl VcdSink<BufWriter<File>> {
@@ -238,6 +259,8 @@ impl<W: Write> VcdSink<W> {
             gtkw: None,
             error: None,
             run_cycles: None,
+            clk: None,
+            first_spill: None,
         })
     }
 
@@ -259,13 +282,15 @@ impl<W: Write> VcdSink<W> {
         }
         // One more timestamp so the last written cycle has a width in a viewer.
         let end = self.select.to.map_or(cycles, |t| cycles.min(t + 1));
-        let r = writeln!(self.out, "#{end}").and_then(|()| self.out.flush());
+        let r = writeln!(self.out, "#{}", end * UNITS_PER_CYCLE).and_then(|()| self.out.flush());
         r.map_err(io_error(&self.name))?;
         if let Some((save, dump)) = &self.gtkw {
             let from = self.select.from.unwrap_or(0);
             let signals: Vec<_> =
                 self.declared.iter().zip(&self.kinds).map(|((p, w), k)| (p.clone(), *w, *k)).collect();
-            gtkw::write(save, dump, &signals, from, end).map_err(io_error(&save.display().to_string()))?;
+            let spill = self.first_spill.map(|(cycle, pos)| (cycle, self.declared_path(pos)));
+            let view = gtkw::View::around(from, end, spill);
+            gtkw::write(save, dump, &signals, view).map_err(io_error(&save.display().to_string()))?;
         }
         Ok(self.out)
     }
@@ -296,6 +321,26 @@ impl<W: Write> VcdSink<W> {
         }
         if self.select.in_window(cycle) {
             self.dumped = true;
+            // The clock ticks in every dumped cycle, whether or not anything else changed.
+            self.stamp(cycle);
+            if let Some(clk) = self.clk {
+                let r = writeln!(self.out, "#{}\n0{clk}", cycle * UNITS_PER_CYCLE + UNITS_PER_CYCLE / 2);
+                self.io(r);
+            }
+        }
+    }
+
+    /// Opens cycle `cycle` in the dump (its timestamp and the clock's rise), once.
+    fn stamp(&mut self, cycle: u64) {
+        if self.stamped {
+            return;
+        }
+        self.stamped = true;
+        let r = writeln!(self.out, "#{}", cycle * UNITS_PER_CYCLE);
+        self.io(r);
+        if let Some(clk) = self.clk {
+            let r = writeln!(self.out, "1{clk}");
+            self.io(r);
         }
     }
 
@@ -316,13 +361,17 @@ impl<W: Write> VcdSink<W> {
     fn declare(&mut self, first: &Snapshot) -> io::Result<()> {
         let w = &mut vcd::Writer::new(&mut self.out);
         w.version("sms tb::vcd")?;
-        w.comment("one time unit = one clock cycle")?;
-        w.timescale(1, TimescaleUnit::NS)?;
+        w.comment(&format!(
+            "one clock cycle = {UNITS_PER_CYCLE} time units = 1 s on the time axis: read seconds as cycles; \
+             {CLOCK} rises at each cycle's start"
+        ))?;
+        w.timescale(TIMESCALE.0, TIMESCALE.1)?;
+        self.clk = Some(w.add_wire(1, CLOCK)?);
         let mut open: Vec<&str> = Vec::new();
         for (i, (path, width, _)) in first.signals.iter().enumerate() {
             // Zero-width fields do not exist in this configuration; VCD has no such wire.
             if !self.select.selects(path) || *width == 0 {
-                self.slots.push(Slot { id: None, width: *width, last: 0 });
+                self.slots.push(Slot { id: None, width: *width, last: 0, spill: None });
                 continue;
             }
             let mut parts: Vec<&str> = path.split('.').collect();
@@ -337,9 +386,16 @@ impl<W: Write> VcdSink<W> {
                 open.push(scope);
             }
             let id = w.add_wire(*width, name)?;
-            self.slots.push(Slot { id: Some(id), width: *width, last: 0 });
+            let kind = first.kinds.get(i).copied().unwrap_or_default();
+            let spill = match kind {
+                Kind::Enum { name: "uop", names } => {
+                    names.iter().position(|n| *n == SPILL_UOP).map(|c| c as u64)
+                }
+                _ => None,
+            };
+            self.slots.push(Slot { id: Some(id), width: *width, last: 0, spill });
             self.declared.push((path.clone(), *width));
-            self.kinds.push(first.kinds.get(i).copied().unwrap_or_default());
+            self.kinds.push(kind);
         }
         for _ in &open {
             w.upscope()?;
@@ -360,17 +416,12 @@ impl<W: Write> VcdSink<W> {
             let path = self.declared_path(pos);
             return self.fail(VcdError::TooWide { cycle, path, width: slot.width, value });
         }
-        if !self.stamped {
-            self.stamped = true;
-            let r = writeln!(self.out, "#{cycle}");
-            self.io(r);
+        self.stamp(cycle);
+        if slot.spill == Some(value) && self.first_spill.is_none() {
+            self.first_spill = Some((cycle, pos));
         }
         let out = &mut self.out;
-        let r = if slot.width == 1 {
-            writeln!(out, "{value}{id}")
-        } else {
-            writeln!(out, "b{value:0w$b} {id}", w = slot.width as usize)
-        };
+        let r = if slot.width == 1 { writeln!(out, "{value}{id}") } else { writeln!(out, "b{value:b} {id}") };
         self.io(r);
     }
 

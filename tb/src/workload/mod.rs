@@ -137,6 +137,15 @@ struct WarpRun<R> {
 impl<'s> Workload<'s> {
     /// Builds the BVH and renders the image (without recording traces).
     pub fn new(scene: &'s Scene, opts: WorkloadOpts) -> Result<Self> {
+        Self::with_progress(scene, opts, |_, _| {})
+    }
+
+    /// As [`Workload::new`], calling `progress(pixel warps traced, of)` after each pixel warp.
+    pub fn with_progress(
+        scene: &'s Scene,
+        opts: WorkloadOpts,
+        mut progress: impl FnMut(u32, u32),
+    ) -> Result<Self> {
         if opts.width == 0 || opts.height == 0 || opts.spp == 0 {
             return Err(Error::Invalid(format!(
                 "resolution {}x{} with {} spp traces nothing",
@@ -170,6 +179,7 @@ impl<'s> Workload<'s> {
             let run = w.run_warp::<()>(warp);
             w.num_rays += run.jobs.iter().flatten().flatten().count() as u64;
             pixels.extend(run.radiance.iter().map(|r| *r / opts.spp as f32));
+            progress(warp + 1, w.num_warps());
         }
         pixels.truncate(pixel_count);
         w.image.pixels = pixels;

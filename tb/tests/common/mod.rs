@@ -54,3 +54,48 @@ pub fn small_workload(
     use tb::workload::{Workload, WorkloadOpts};
     Workload::new(scene, WorkloadOpts { order, ..WorkloadOpts::quick(scene, res) }).unwrap()
 }
+
+/// Every file of a report folder (recursively, the cache excluded) with its bytes; the run's wall
+/// times and peak memory removed (`timing.json`, two lines of `summary.md`).
+pub fn report_files(dir: &std::path::Path) -> Vec<(PathBuf, Vec<u8>)> {
+    fn walk(root: &std::path::Path, dir: &std::path::Path, out: &mut Vec<(PathBuf, Vec<u8>)>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            let rel = p.strip_prefix(root).unwrap().to_path_buf();
+            if p.is_dir() {
+                if rel != std::path::Path::new("cache") {
+                    walk(root, &p, out);
+                }
+            } else if rel != std::path::Path::new("timing.json") {
+                let mut bytes = std::fs::read(&p).unwrap();
+                if rel == std::path::Path::new("summary.md") {
+                    let text = String::from_utf8(bytes).unwrap();
+                    let kept: Vec<&str> = text
+                        .lines()
+                        .map(|l| if l.contains(" s wall time") { "(wall time)" } else { l })
+                        .filter(|l| !l.starts_with("Peak memory: "))
+                        .collect();
+                    bytes = kept.join("\n").into_bytes();
+                }
+                out.push((rel, bytes));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out);
+    out.sort();
+    out
+}
+
+pub fn assert_same_reports(a: &std::path::Path, b: &std::path::Path, what: &str) {
+    let (x, y) = (report_files(a), report_files(b));
+    assert_eq!(
+        x.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        y.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        "{what}: the same files"
+    );
+    assert!(x.len() > 30, "every figure, depth histogram and report");
+    for ((name, p), (_, q)) in x.iter().zip(&y) {
+        assert!(p == q, "{what}: {} differs", name.display());
+    }
+}

@@ -45,6 +45,9 @@ use crate::workload::geometry::Primitives;
 use crate::workload::scene::{MeshGeometry, Scene};
 use crate::workload::WorkloadOpts;
 
+/// Results stored by this process, in every cache (what an interrupted sweep says it kept).
+pub static STORED: AtomicUsize = AtomicUsize::new(0);
+
 /// The model's version: a hash of its sources, computed at build time (see `tb/build.rs`).
 pub const MODEL_VERSION: &str = env!("SMS_MODEL_VERSION");
 
@@ -413,6 +416,7 @@ impl Cache {
     /// count is reached.
     pub fn put_run(&self, key: &str, m: &Measured) -> Result<()> {
         self.write(key, &RunRecord::new(key, m))?;
+        STORED.fetch_add(1, Ordering::Relaxed);
         let fresh = self.fresh.fetch_add(1, Ordering::Relaxed) + 1;
         if self.stop_after.is_some_and(|n| fresh >= n) {
             self.stopped.store(true, Ordering::Relaxed);

@@ -213,6 +213,8 @@ pub struct Request {
     pub settings: Settings,
     /// The hardware; `mem.l1d_bytes` is the base unified-array size.
     pub hw: Hardware,
+    /// The hardware as named on the command line (reports state it).
+    pub hw_name: String,
     pub plan: Plan,
     /// Worker threads.
     pub jobs: usize,
@@ -223,6 +225,44 @@ pub struct Request {
     pub cache: Option<PathBuf>,
     /// Delete the cache's stale files before the sweep ([`cache::Cache::open_pruning`]).
     pub prune_cache: bool,
+    /// Compute only this share of the results into the cache ([`Shard`]); no reports.
+    pub shard: Option<Shard>,
+    /// Simulate nothing: every result must be in the cache (the shards' work, collected).
+    pub collect: bool,
+}
+
+/// Share `index` of `count` (0 ≤ index < count) of a sweep's work: the results (a scene's
+/// simulation in one arm, or a scene's depth pass) numbered in plan order, every `count`-th
+/// from `index` on. Shards of one sweep together compute every result once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// `K/N`, 0 ≤ K < N (Slurm's `$SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT` with `--array=0-(N-1)`).
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let (k, n) = s.split_once('/').ok_or_else(|| format!("'{s}': expected K/N, e.g. 0/4"))?;
+        let parse = |v: &str| v.trim().parse::<usize>().map_err(|e| format!("'{s}': {v}: {e}"));
+        let (index, count) = (parse(k)?, parse(n)?);
+        if count == 0 || index >= count {
+            return Err(format!("'{s}': K must be 0 to N-1 (shards are numbered from 0), and N at least 1"));
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+/// What a shard did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ShardCounts {
+    /// Of this shard's results: simulated now, and found in the cache.
+    pub computed: usize,
+    pub cached: usize,
+    /// Results left to the other shards.
+    pub others: usize,
 }
 
 impl Request {
@@ -241,6 +281,10 @@ pub struct Run {
     pub outcome: Outcome,
     /// How the counts were estimated, for a sampled run.
     pub sample: Option<RunSample>,
+    /// Read from the cache, not simulated by this process: its `outcome.wall` is the time the
+    /// simulation took when it ran.
+    #[serde(skip)]
+    pub from_cache: bool,
 }
 
 /// A sampled run: what was simulated and the 95 % half width of the cycle estimate.
@@ -276,6 +320,8 @@ pub struct SceneResult {
 pub struct Sweep {
     pub settings: Settings,
     pub hw: Hardware,
+    /// The requested hardware's name ([`Request::hw_name`]; an arm's tweak does not rename it).
+    pub hw_name: String,
     pub plan: Plan,
     pub variants: Vec<Variant>,
     pub scenes: Vec<SceneResult>,
@@ -289,11 +335,24 @@ pub struct Sweep {
     /// How many results came from the cache (not part of any report: a resumed sweep's reports
     /// equal an uninterrupted one's).
     pub cache: Option<CacheStats>,
+    /// A shard's counts; a shard's sweep holds no runs or scenes (its results are in the cache).
+    pub shard: Option<ShardCounts>,
 }
 
 impl Sweep {
     pub fn base_kb(&self) -> u32 {
         self.hw.mem.l1d_bytes / 1024
+    }
+
+    /// What produced this sweep's reports: scenes and their workloads, hardware, model.
+    pub fn provenance(&self) -> crate::report::provenance::Provenance {
+        use crate::report::provenance::{HardwareId, Provenance, WorkloadId};
+        let names = self.scenes.iter().map(|s| s.name.clone()).collect();
+        let opts: Vec<WorkloadOpts> = self.scenes.iter().map(|s| s.opts).collect();
+        Provenance::new(
+            Some(WorkloadId::new(names, &opts)),
+            Some(HardwareId::new(self.hw_name.clone(), &self.hw)),
+        )
     }
 
     pub fn run(&self, scene: &str, config: &str, l1d_kb: u32) -> Option<&Run> {
@@ -356,6 +415,7 @@ pub fn run_arms(
         .map(|(&hw, v)| Sweep {
             settings: req.settings,
             hw,
+            hw_name: req.hw_name.clone(),
             plan: req.plan.clone(),
             variants: v.clone(),
             scenes: Vec::with_capacity(req.scenes.len()),
@@ -365,8 +425,18 @@ pub fn run_arms(
             wall: Duration::ZERO,
             peak_rss: None,
             cache: None,
+            shard: None,
         })
         .collect();
+    if (req.shard.is_some() || req.collect) && cache.is_none() {
+        return Err(Error::Invalid(
+            "--shard and --collect work through the result cache: drop --no-cache".into(),
+        ));
+    }
+    // Results numbered in plan order (scene, arm, variant, then the scene's depth pass), for shards.
+    let mut number = 0usize;
+    let mut counts = ShardCounts::default();
+    let mut missing = 0usize;
     for name in &req.scenes {
         progress.status(&format!("loading {name}"));
         let t = Instant::now();
@@ -409,8 +479,43 @@ pub fn run_arms(
                 .collect();
             let cached: Vec<Option<Measured>> =
                 keys.iter().map(|k| cache.as_ref()?.get_run(k.as_ref()?)).collect();
+            let from_cache: Vec<bool> = cached.iter().map(Option::is_some).collect();
             let b = &mut built[i];
-            if b.workload.is_none() && (b.info.is_none() || cached.iter().any(Option::is_none)) {
+            // Which results (the variants', then the depth pass) this process computes.
+            let mut owned: Vec<bool> = (0..=cached.len())
+                .map(|_| {
+                    number += 1;
+                    req.shard.is_none_or(|s| (number - 1) % s.count == s.index)
+                })
+                .collect();
+            let info_known = b.info.is_some();
+            if req.shard.is_some() {
+                for (j, &own) in owned.iter().enumerate() {
+                    let have = if j < cached.len() { cached[j].is_some() } else { info_known };
+                    match (own, have) {
+                        (false, _) => counts.others += 1,
+                        (true, true) => counts.cached += 1,
+                        (true, false) => counts.computed += 1,
+                    }
+                }
+            }
+            if req.collect {
+                let absent = cached.iter().filter(|c| c.is_none()).count() + usize::from(!info_known);
+                if absent > 0 {
+                    missing += absent;
+                    continue;
+                }
+            }
+            if missing > 0 {
+                continue;
+            }
+            // A depth pass already known is not run again, whoever owns it.
+            owned[cached.len()] &= !info_known;
+            let needed = owned
+                .iter()
+                .zip(cached.iter().map(Option::is_none).chain([!info_known]))
+                .any(|(o, n)| *o && n);
+            if b.workload.is_none() && needed {
                 progress.status(&format!("building {name}"));
                 let t = Instant::now();
                 b.workload = Some(Workload::new(&scene, opts)?);
@@ -428,15 +533,27 @@ pub fn run_arms(
                 progress,
             };
             let info_key = scene_key.as_ref().map(|k| cache::scene_info_key(k, &opts));
-            let (outcomes, info) = run_scene(job, b.info.clone(), info_key.as_deref())?;
+            let (outcomes, info) = run_scene(job, b.info.clone(), info_key.as_deref(), &owned)?;
+            if req.shard.is_some() {
+                b.info = b.info.clone().or(info);
+                if !arm_opts[a + 1..].contains(&opts) {
+                    b.workload = None;
+                }
+                continue;
+            }
+            let outcomes: Vec<Measured> = outcomes.into_iter().flatten().collect();
+            let info = info.expect("the depth pass ran or its result was known");
             b.info = Some(info.clone());
-            sw.runs.extend(outcomes.into_iter().zip(&sw.variants).map(|((outcome, sample), v)| Run {
-                scene: name.clone(),
-                config: v.config.name(),
-                l1d_kb: v.l1d_kb,
-                outcome,
-                sample,
-            }));
+            sw.runs.extend(outcomes.into_iter().zip(&sw.variants).zip(from_cache).map(
+                |(((outcome, sample), v), from_cache)| Run {
+                    scene: name.clone(),
+                    config: v.config.name(),
+                    l1d_kb: v.l1d_kb,
+                    outcome,
+                    sample,
+                    from_cache,
+                },
+            ));
             sw.scenes.push(scene_result(&scene, opts, info, load_secs, b.secs));
             // Only one workload in memory at a time: dropped after the last arm that renders it.
             if !arm_opts[a + 1..].contains(&opts) {
@@ -445,6 +562,13 @@ pub fn run_arms(
         }
     }
     progress.finish();
+    if missing > 0 {
+        return Err(Error::Invalid(format!(
+            "--collect: {missing} result(s) are not in the cache {}: run the shards that compute them (the \
+             same arguments with --shard K/N) first",
+            req.cache.as_deref().map_or("?".into(), |d| d.display().to_string())
+        )));
+    }
     let wall = start.elapsed();
     let peak_rss = memory::peak_rss_bytes();
     let stats = cache.as_ref().map(cache::Cache::stats);
@@ -452,6 +576,7 @@ pub fn run_arms(
         sw.wall = wall;
         sw.peak_rss = peak_rss;
         sw.cache = stats.clone();
+        sw.shard = req.shard.map(|_| counts);
     }
     Ok(out)
 }
@@ -556,12 +681,15 @@ struct SceneJob<'a> {
 
 /// Every variant of one scene not in the cache on `req.jobs` threads, plus the depth pass unless
 /// the workload's statistics are `known`; outcomes in plan order. Fresh results are stored in the
-/// cache as each finishes, the statistics under `info_key`.
+/// cache as each finishes, the statistics under `info_key`. Only the `owned` results (by index,
+/// the depth pass last) are computed: the others are `None`, as is the statistics if neither
+/// known nor owned.
 fn run_scene(
     job: SceneJob,
     known: Option<SceneInfo>,
     info_key: Option<&str>,
-) -> Result<(Vec<Measured>, SceneInfo)> {
+    owned: &[bool],
+) -> Result<(Vec<Option<Measured>>, Option<SceneInfo>)> {
     let SceneJob { req, hw, workload, variants, cached, keys, cache, scene, progress } = job;
     let need = |what: &str| {
         workload.ok_or_else(|| Error::Invalid(format!("{scene} {what}: no workload built (internal)")))
@@ -571,6 +699,10 @@ fn run_scene(
     let results = pool::map_indexed(req.jobs, variants.len() + 1, |i| -> Result<Option<Measured>> {
         if i == variants.len() {
             let label = format!("{scene} depth");
+            if !owned[i] && known.is_none() {
+                progress.skipped(&format!("{label} (another shard's)"));
+                return Ok(None);
+            }
             if known.is_some() {
                 // Counted as a run of the progress total, with nothing to do.
                 progress.skipped(&format!("{label} (known)"));
@@ -598,6 +730,10 @@ fn run_scene(
             progress.skipped(&format!("{label} (cached)"));
             return Ok(Some(*m));
         }
+        if !owned[i] {
+            progress.skipped(&format!("{label} (another shard's)"));
+            return Ok(None);
+        }
         if let Some(c) = cache {
             c.check_stop()?;
         }
@@ -613,9 +749,9 @@ fn run_scene(
         }
         Ok(Some(m))
     });
-    let outcomes = results.into_iter().collect::<Result<Vec<_>>>()?.into_iter().flatten().collect();
-    let info = info.into_inner().expect("info lock").expect("the depth pass ran or the info was known");
-    Ok((outcomes, info))
+    let mut outcomes = results.into_iter().collect::<Result<Vec<_>>>()?;
+    outcomes.pop(); // the depth pass's place
+    Ok((outcomes, info.into_inner().expect("info lock")))
 }
 
 /// Geometric mean; `None` for no values or a value that is not positive.

@@ -1,0 +1,203 @@
+//! Guards against careless input, checked before any work: a workload too large for the machine
+//! (estimated rays, memory and time, refused above [`MEMORY_SHARE`] of the available memory or
+//! [`MAX_HOURS`] unless `--force`), and output paths inside the scene data folder, which `sms`
+//! never writes.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::bail;
+
+use crate::run::sim::Fidelity;
+use crate::workload::trace::WARP_SIZE;
+use crate::workload::WorkloadOpts;
+
+/// Bytes a recorded ray trace takes while its pixel warp is traced or simulated (measured on the
+/// built-in scenes: about 250).
+const BYTES_PER_RAY: f64 = 256.0;
+/// Pixel warps in memory per simulation at once: the one simulated and those traced ahead.
+const WARPS_IN_FLIGHT: f64 = 17.0;
+/// Memory of the process besides the traces (scene, BVH, the GPU model).
+const BASE_BYTES: f64 = 64e6;
+/// Seconds per ray: path tracing, and simulating it at each level (measured on one core of the
+/// 2-core development machine, built-in scenes; large scenes are slower).
+const TRACE_SECS_PER_RAY: f64 = 15e-6;
+const CYCLE_SECS_PER_RAY: f64 = 100e-6;
+const FUNCTIONAL_SECS_PER_RAY: f64 = 5e-6;
+
+/// A run is refused above this share of the available memory ...
+pub const MEMORY_SHARE: f64 = 0.5;
+/// ... or above this many hours.
+pub const MAX_HOURS: f64 = 24.0;
+
+/// What a workload will cost, at most: every path is counted at its full bounce limit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    pub rays: f64,
+    pub bytes: f64,
+    pub secs: f64,
+}
+
+impl Estimate {
+    /// The cost of tracing `opts` and simulating it `sims` times at `fidelity`, `parallel` at once.
+    pub fn new(opts: &WorkloadOpts, sims: usize, parallel: usize, fidelity: Fidelity) -> Self {
+        let per_path = f64::from(opts.spp) * (f64::from(opts.max_bounces) + 1.0);
+        let rays = f64::from(opts.width) * f64::from(opts.height) * per_path;
+        let warp_bytes = WARP_SIZE as f64 * per_path * BYTES_PER_RAY;
+        let parallel = parallel.clamp(1, sims.max(1)) as f64;
+        let bytes = BASE_BYTES + warp_bytes * (1.0 + parallel * WARPS_IN_FLIGHT);
+        let sim = match fidelity {
+            Fidelity::Cycle => CYCLE_SECS_PER_RAY,
+            Fidelity::Functional => FUNCTIONAL_SECS_PER_RAY,
+        };
+        let secs = rays * (TRACE_SECS_PER_RAY + sim * sims as f64 / parallel);
+        Estimate { rays, bytes, secs }
+    }
+
+    pub fn describe(&self) -> String {
+        let rays = if self.rays < 1e12 { format!("{:.0}", self.rays) } else { format!("{:.3e}", self.rays) };
+        format!("at most {rays} rays, {} of memory, {}", bytes(self.bytes), duration(self.secs))
+    }
+
+    /// An error naming the estimate and `--force` when it exceeds the limits of a machine with
+    /// `available` bytes of memory.
+    pub fn check(&self, available: Option<u64>, force: bool) -> anyhow::Result<()> {
+        if force {
+            return Ok(());
+        }
+        let limit = available.map(|a| a as f64 * MEMORY_SHARE);
+        let too_big = limit.is_some_and(|l| self.bytes > l);
+        if too_big || self.secs > MAX_HOURS * 3600.0 {
+            let limit = limit.map_or(String::new(), |l| format!("{} of memory or ", bytes(l)));
+            bail!(
+                "estimated {}: above the limit of {limit}{MAX_HOURS} h; lower --res, --spp or --bounces, or \
+                 pass --force to run anyway",
+                self.describe()
+            );
+        }
+        Ok(())
+    }
+}
+
+fn bytes(b: f64) -> String {
+    match b {
+        b if b >= 1e12 => format!("{:.3e} bytes", b),
+        b if b >= 1e9 => format!("{:.1} GB", b / 1e9),
+        b => format!("{:.0} MB", b / 1e6),
+    }
+}
+
+fn duration(s: f64) -> String {
+    match s {
+        s if s >= 3600.0 * 24.0 * 365.0 => format!("{:.1e} years", s / (3600.0 * 24.0 * 365.0)),
+        s if s >= 3600.0 => format!("{:.1} h", s / 3600.0),
+        s if s >= 60.0 => format!("{:.0} min", s / 60.0),
+        s => format!("{s:.0} s"),
+    }
+}
+
+/// The machine's available memory (`MemAvailable` of `/proc/meminfo`), where known.
+pub fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// `path` made absolute with its symbolic links resolved, as far as it exists (an output file
+/// usually does not yet).
+fn resolved(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut existing = abs.as_path();
+    let mut rest = Vec::new();
+    while !existing.exists() {
+        match (existing.parent(), existing.file_name()) {
+            (Some(p), Some(name)) => {
+                rest.push(name.to_os_string());
+                existing = p;
+            }
+            _ => return abs,
+        }
+    }
+    let mut out = existing.canonicalize().unwrap_or_else(|_| existing.to_path_buf());
+    out.extend(rest.iter().rev());
+    out
+}
+
+/// Refuses an output `path` (given as `flag`) inside the scene data folder `data`: the shared
+/// scenes are read-only input.
+pub fn outside_scene_data(flag: &str, path: &Path, data: &Path) -> anyhow::Result<()> {
+    if !data.is_dir() {
+        return Ok(());
+    }
+    let (p, d) = (resolved(path), resolved(data));
+    if p.starts_with(&d) {
+        bail!(
+            "{flag} {}: inside the scene data folder {}, which sms never writes; choose another path",
+            path.display(),
+            d.display()
+        );
+    }
+    Ok(())
+}
+
+/// On Ctrl-C (SIGINT, or SIGTERM as Slurm sends it), says how many results the cache `dir`
+/// holds and that running the same command again resumes from them, then exits with 130. The
+/// cache is never left half-written: each result is renamed into place once complete.
+pub fn on_interrupt(dir: Option<PathBuf>) {
+    let handler = move || {
+        let stored = crate::run::sweep::cache::STORED.load(std::sync::atomic::Ordering::Relaxed);
+        let line = match &dir {
+            Some(d) => {
+                let files = std::fs::read_dir(d).map_or(0, |e| {
+                    e.flatten().filter(|f| f.path().extension().is_some_and(|x| x == "json")).count()
+                });
+                format!(
+                    "interrupted: {stored} result(s) stored by this run, {files} file(s) in the cache {}; run the \
+                     same command again to resume from them",
+                    d.display()
+                )
+            }
+            None => "interrupted: --no-cache, so nothing was kept; a re-run starts over".to_string(),
+        };
+        eprintln!("\n{line}");
+        std::process::exit(130);
+    };
+    // A second handler (a test calling this twice) is refused; the first stays.
+    let _ = ctrlc::set_handler(handler);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_billion_samples_are_refused_with_the_estimate_and_force_overrides() {
+        let opts = WorkloadOpts {
+            width: 128,
+            height: 128,
+            spp: 1_000_000_000,
+            max_bounces: 15,
+            ..Default::default()
+        };
+        let e = Estimate::new(&opts, 3, 2, Fidelity::Cycle);
+        let err = e.check(Some(16 << 30), false).unwrap_err().to_string();
+        assert!(err.starts_with("estimated at most 2.621e14 rays") && err.contains("--force"), "{err}");
+        assert!(e.check(Some(16 << 30), true).is_ok());
+        let lumibench =
+            WorkloadOpts { width: 128, height: 128, spp: 2, max_bounces: 15, ..Default::default() };
+        let e = Estimate::new(&lumibench, 3, 2, Fidelity::Cycle);
+        assert!(e.check(Some(4 << 30), false).is_ok(), "{}", e.describe());
+        assert!(e.check(None, false).is_ok());
+    }
+
+    #[test]
+    fn outputs_inside_the_scene_data_are_refused() {
+        let data = std::env::temp_dir().join(format!("sms-guard-{}", std::process::id()));
+        std::fs::create_dir_all(data.join("sub")).unwrap();
+        let err = outside_scene_data("--vcd", &data.join("sub/new/x.vcd"), &data).unwrap_err().to_string();
+        assert!(err.starts_with("--vcd ") && err.contains("inside the scene data folder"), "{err}");
+        assert!(outside_scene_data("--vcd", &data.join("sub/../../x.vcd"), &data).is_ok());
+        assert!(outside_scene_data("--vcd", Path::new("waves/x.vcd"), &data).is_ok());
+        std::fs::remove_dir_all(&data).unwrap();
+    }
+}

@@ -1,0 +1,222 @@
+//! What produced a report: the workload (scenes, resolution, samples, bounces, seed, hierarchy,
+//! acceleration structure), the hardware (its name and a hash of its whole description) and the
+//! model (crate version, git commit, hash of the sources). Every report of `sms run`, `depth`,
+//! `cost`, `sweep` and `ablate` carries one: a `provenance` object in JSON, a line above the
+//! table in text and Markdown, `# ` comment lines on top of CSV (docs/reports.md).
+//!
+//! Nothing here varies between identical runs (no time, no host), so reports stay
+//! byte-identical whatever the thread count, sharding or cache.
+
+use serde::Serialize;
+
+use crate::hw::Hardware;
+use crate::workload::traverse::ChildOrder;
+use crate::workload::{Accel, BvhKind, PathEnd, WorkloadOpts};
+
+/// The model's version, as every report states it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct ModelId {
+    /// The crate version (`Cargo.toml`).
+    pub version: &'static str,
+    /// The git commit built from, `-dirty` when the model's sources differed from it; `null`
+    /// when built outside a git checkout (a source tarball).
+    pub commit: Option<&'static str>,
+    /// Hash of every source the results depend on (`tb/build.rs`): the result cache's key.
+    pub sources: &'static str,
+}
+
+impl ModelId {
+    pub fn current() -> Self {
+        let commit = env!("SMS_GIT_COMMIT");
+        ModelId {
+            version: env!("CARGO_PKG_VERSION"),
+            commit: (!commit.is_empty()).then_some(commit),
+            sources: crate::run::sweep::cache::MODEL_VERSION,
+        }
+    }
+
+    fn describe(&self) -> String {
+        let commit = self.commit.map_or("no git commit".to_string(), |c| format!("commit {}", short(c)));
+        format!("sms {} ({commit}, sources {})", self.version, &self.sources[..16.min(self.sources.len())])
+    }
+}
+
+/// `c` cut to 12 hex digits, a `-dirty` suffix kept.
+fn short(c: &str) -> String {
+    match c.split_once('-') {
+        Some((h, rest)) => format!("{}-{rest}", &h[..12.min(h.len())]),
+        None => c[..12.min(c.len())].to_string(),
+    }
+}
+
+/// The hardware as named on the command line, and a hash of the whole resolved description.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct HardwareId {
+    /// The preset or file given to `--hw` (`paper` by default), with the flags that changed it.
+    pub name: String,
+    /// FNV-1a (64 bits) of the resolved description's canonical text: equal hashes, equal
+    /// hardware, whatever the name.
+    pub hash: String,
+}
+
+impl HardwareId {
+    pub fn new(name: String, hw: &Hardware) -> Self {
+        HardwareId { name, hash: hardware_hash(hw) }
+    }
+}
+
+/// FNV-1a, 64 bits: stable across builds and platforms (unlike `std`'s randomised hasher).
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf29ce484222325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100000001b3))
+}
+
+/// The hash of `hw`'s canonical text: every parameter by name (its `Debug` form: fields in
+/// declaration order, integers in decimal, enums by variant name).
+pub fn hardware_hash(hw: &Hardware) -> String {
+    format!("{:016x}", fnv1a64(format!("{hw:?}").as_bytes()))
+}
+
+/// The workload side of a report. A value the scenes of a sweep do not share (each scene's own
+/// resolution, say) is `None`: the report's scene table gives each.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct WorkloadId {
+    pub scenes: Vec<String>,
+    /// `WIDTHxHEIGHT`.
+    pub resolution: Option<String>,
+    pub spp: Option<u32>,
+    /// Diffuse bounces after the primary ray.
+    pub bounces: Option<u32>,
+    pub seed: Option<u64>,
+    pub bvh: Option<BvhKind>,
+    pub accel: Option<Accel>,
+    pub order: Option<ChildOrder>,
+    pub path_end: Option<PathEnd>,
+}
+
+impl WorkloadId {
+    /// The workloads `opts` of `scenes`: a value when every scene has the same.
+    pub fn new(scenes: Vec<String>, opts: &[WorkloadOpts]) -> Self {
+        fn same<T: PartialEq + Copy>(opts: &[WorkloadOpts], f: impl Fn(&WorkloadOpts) -> T) -> Option<T> {
+            let first = f(opts.first()?);
+            opts.iter().all(|o| f(o) == first).then_some(first)
+        }
+        WorkloadId {
+            scenes,
+            resolution: same(opts, |o| (o.width, o.height)).map(|(w, h)| format!("{w}x{h}")),
+            spp: same(opts, |o| o.spp),
+            bounces: same(opts, |o| o.max_bounces),
+            seed: same(opts, |o| o.seed),
+            bvh: same(opts, |o| o.bvh),
+            accel: same(opts, |o| o.accel),
+            order: same(opts, |o| o.order),
+            path_end: same(opts, |o| o.path_end),
+        }
+    }
+
+    fn describe(&self) -> String {
+        let each = "each scene's own";
+        let or_each = |v: Option<String>| v.unwrap_or_else(|| each.to_string());
+        // Named as in JSON and on the command line (`two-level`, `bvh6`).
+        let name = |v: serde_json::Value| v.as_str().map_or_else(|| v.to_string(), str::to_string);
+        format!(
+            "scene {} · {} px · {} spp · {} bounce(s) · seed {} · {} {} ({} order, path end {})",
+            self.scenes.join(","),
+            or_each(self.resolution.clone()),
+            or_each(self.spp.map(|v| v.to_string())),
+            or_each(self.bounces.map(|v| v.to_string())),
+            or_each(self.seed.map(|v| v.to_string())),
+            or_each(self.accel.map(|v| name(serde_json::json!(v)))),
+            or_each(self.bvh.map(|v| name(serde_json::json!(v)))),
+            or_each(self.order.map(|v| name(serde_json::json!(v)))),
+            or_each(self.path_end.map(|v| name(serde_json::json!(v)))),
+        )
+    }
+}
+
+/// What produced a report.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct Provenance {
+    /// `None` for reports of no workload (`sms cost`).
+    #[serde(skip_serializing_if = "Option::is_none", flatten)]
+    pub workload: Option<WorkloadId>,
+    /// `None` for reports of no hardware (`sms depth`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hardware: Option<HardwareId>,
+    pub model: ModelId,
+}
+
+impl Provenance {
+    pub fn new(workload: Option<WorkloadId>, hardware: Option<HardwareId>) -> Self {
+        Provenance { workload, hardware, model: ModelId::current() }
+    }
+
+    /// One line: workload · hardware · model.
+    pub fn line(&self) -> String {
+        let mut parts = Vec::new();
+        if let Some(w) = &self.workload {
+            parts.push(w.describe());
+        }
+        if let Some(h) = &self.hardware {
+            parts.push(format!("hardware {} (hash {})", h.name, h.hash));
+        }
+        parts.push(self.model.describe());
+        parts.join(" · ")
+    }
+
+    /// The line for a text report.
+    pub fn text(&self) -> String {
+        format!("provenance: {}\n", self.line())
+    }
+
+    /// The line for a Markdown report, a paragraph of its own.
+    pub fn markdown(&self) -> String {
+        format!("Provenance: {}\n\n", self.line())
+    }
+
+    /// The lines on top of a CSV report, each a `#` comment (`pandas.read_csv(f, comment='#')`).
+    pub fn csv(&self) -> String {
+        format!("# provenance: {}\n", self.line())
+    }
+
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("provenance always serialises")
+    }
+}
+
+/// A JSON report object with a `provenance` field after its own, which keep their order.
+#[derive(Serialize)]
+pub struct WithProvenance<'a, T: Serialize> {
+    #[serde(flatten)]
+    pub report: T,
+    pub provenance: &'a Provenance,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_hardware_hash_is_fnv1a_of_the_description_and_tells_presets_apart() {
+        // FNV-1a's published test vectors.
+        assert_eq!(fnv1a64(b""), 0xcbf29ce484222325);
+        assert_eq!(fnv1a64(b"a"), 0xaf63dc4c8601ec8c);
+        let paper = crate::hw::preset("paper").unwrap();
+        let legacy = crate::hw::preset("legacy").unwrap();
+        assert_eq!(hardware_hash(&paper), hardware_hash(&Hardware::default()));
+        assert_ne!(hardware_hash(&paper), hardware_hash(&legacy));
+        assert_eq!(hardware_hash(&paper).len(), 16);
+    }
+
+    #[test]
+    fn values_the_scenes_do_not_share_are_left_open() {
+        let a = WorkloadOpts { width: 16, height: 16, spp: 1, ..WorkloadOpts::default() };
+        let b = WorkloadOpts { width: 32, ..a };
+        let w = WorkloadId::new(vec!["x".into(), "y".into()], &[a, b]);
+        assert_eq!((w.resolution, w.spp), (None, Some(1)));
+        let p = Provenance::new(Some(WorkloadId::new(vec!["x".into()], &[a])), None);
+        assert!(p.line().starts_with("scene x · 16x16 px · 1 spp"), "{}", p.line());
+        assert!(p.csv().starts_with("# provenance: ") && p.csv().lines().count() == 1);
+        assert_eq!(p.json()["resolution"], "16x16");
+        assert_eq!(p.json()["model"]["version"], env!("CARGO_PKG_VERSION"));
+    }
+}
