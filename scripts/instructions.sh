@@ -11,8 +11,8 @@
 #   target/release/deps/throughput-* before a change), counts both and prints the ratio.
 #   --cache also simulates the first-level caches and prints their misses and callgrind's
 #   estimated cycles (instructions + 10 x first-level misses + 100 x last-level misses): a change
-#   that moves few instructions can still move the cache misses a lot (the SM-by-SM loop halved
-#   the instruction-cache misses), and the ratio is then of estimated cycles.
+#   that moves few instructions can still move the cache misses a lot (how long one SM's code and
+#   data stay in the caches, say), and the ratio is then of estimated cycles.
 # Needs valgrind (Debian: apt-get install valgrind); about a minute per build, three with --cache.
 set -eu
 cd "$(dirname "$0")/.."

@@ -215,7 +215,8 @@ impl Gpu {
     ) -> Result<GpuReport, RunError> {
         #[cfg(feature = "mutants")]
         if let Some(bug) = self.order_bug {
-            return self.run_with(sim::Slipped(bug), jobs, sink, every, progress, residence);
+            let shared = std::sync::atomic::AtomicU64::new(0);
+            return self.run_with(sim::Slipped(bug, &shared), jobs, sink, every, progress, residence);
         }
         self.run_with(sim::Design, jobs, sink, every, progress, residence)
     }

@@ -290,8 +290,8 @@ impl RtStep {
         self.visits
     }
 
-    /// The planted bug of [`crate::sim::OrderBug::StaleStep`]: an earlier evaluation's visits
-    /// counted again.
+    /// The planted bugs of [`crate::sim::OrderBug::StaleStep`] and
+    /// [`crate::sim::OrderBug::SmsShareACounter`]: visits counted again.
     #[cfg(feature = "mutants")]
     pub fn count_visits_again(&mut self, earlier: u64) {
         self.visits += earlier;

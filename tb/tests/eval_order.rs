@@ -3,7 +3,9 @@
 //! each cycle, with every kernel evaluated twice per cycle and with every unit evaluated every
 //! cycle (the reference loop); each report equals the normal run's (by windows) bit for bit, and
 //! so does the reference loop's, on one thread and two. A planted slip of each kind (`OrderBug`,
-//! entering through the runners' `Steps`) is caught, each by the divergence it must cause.
+//! entering through the runners' `Steps`) is caught, each by the divergence it must cause; among
+//! them a mechanism that couples the SMs outside the L2's exchange, which the windowed run cannot
+//! run right and which only the comparison with the reference loop shows.
 
 use rtl::clock::EvalCheck;
 use rtl::config::Config;
@@ -270,5 +272,31 @@ fn a_windowed_run_that_can_never_finish_stops_as_stalled() {
             }
             other => panic!("expected a stall, got {other:?}"),
         }
+    }
+}
+
+/// The windowed run's coupling rule: the SMs meet only through the L2's grants and responses and
+/// the dispatch. A mechanism that couples them any other way breaks the windowed run silently,
+/// and comparing it with the reference loop catches that: planted, the RT units share one visit
+/// counter outside the L2 (`OrderBug::SmsShareACounter`: each evaluation reads it and adds to
+/// it, and counts its own visits twice when it finds it odd). The windowed run ends without an
+/// error, in the same cycles, with the same rays and pops checked, every count the same but the
+/// visits, which differ from the reference loop's run of the same mechanism: what an SM read
+/// depended on how far the other SMs had run through their windows.
+#[test]
+fn a_mechanism_coupling_sms_outside_the_l2_is_caught() {
+    let jobs = jobs("clutter", 16);
+    let hw = Hardware::default();
+    let bug = Some(OrderBug::SmsShareACounter);
+    for cfg in [Config::sms(), "RB_8".parse().unwrap()] {
+        let clean = windowed(cfg, &hw, &jobs, false, false, None).unwrap().unwrap();
+        let reference = windowed(cfg, &hw, &jobs, false, false, bug).unwrap().unwrap();
+        let by_windows = windowed(cfg, &hw, &jobs, true, false, bug)
+            .expect("no panic")
+            .expect("the coupling is silent: no error");
+        assert!(reference.visits > clean.visits, "{}: the mechanism counts visits again", cfg.name());
+        assert_ne!(by_windows.visits, reference.visits, "{}: the windowed run must diverge", cfg.name());
+        let but_visits = |r: &GpuReport| bits(&GpuReport { visits: 0, ..*r });
+        assert_eq!(but_visits(&by_windows), but_visits(&reference), "{}: only the visits differ", cfg.name());
     }
 }

@@ -89,7 +89,8 @@ pub(crate) trait Steps: Copy + Send + Sync {
         (start + k) % n
     }
 
-    /// The `pass`-th evaluation of RT unit `u` in its cycle ([`EvalCheck::passes`]).
+    /// The `pass`-th evaluation of RT unit `u` in its cycle ([`EvalCheck::passes`]; the windowed
+    /// run makes one). Both runners evaluate every RT unit through it.
     #[inline]
     fn eval_rt(self, u: &RtUnit, i: &RtIn, step: &mut RtStep, _pass: u32) -> Result<(), RunError> {
         u.eval(i, step)

@@ -7,6 +7,7 @@
 use super::{Design, Steps};
 use crate::mem::MemResp;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A slip planted in a runner (`Gpu::with_order_bug`). Test builds only.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,6 +37,13 @@ pub enum OrderBug {
     /// The windowed run's SMs drop the L2's responses: their rays wait for ever, and the run
     /// must end as stalled rather than go on.
     WindowLosesResponses,
+    /// A mechanism that couples the SMs outside the L2's grants and responses and the dispatch:
+    /// the RT units share one visit counter, each evaluation reading it and adding its visits to
+    /// it, and an evaluation that finds it odd counts its own visits twice. What an SM reads
+    /// depends on how far the others have run: in the reference loop their cycles before this
+    /// one (and this one's, for a lower SM), in the windowed run whatever part of a window they
+    /// have run, ahead or behind. Both runners run it; the windowed run's visits differ.
+    SmsShareACounter,
 }
 
 impl OrderBug {
@@ -48,15 +56,17 @@ impl OrderBug {
                 | OrderBug::WindowBackEndTooFar
                 | OrderBug::WindowWakesLate
                 | OrderBug::WindowLosesResponses
+                | OrderBug::SmsShareACounter
         )
     }
 }
 
-/// The design's runner steps with one slip.
+/// The design's runner steps with one slip; `.1` is the counter the SMs share under
+/// [`OrderBug::SmsShareACounter`] (one per run).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Slipped(pub OrderBug);
+pub(crate) struct Slipped<'a>(pub OrderBug, pub &'a AtomicU64);
 
-impl Steps for Slipped {
+impl Steps for Slipped<'_> {
     fn windows_allowed(self) -> bool {
         self.0.in_windows()
     }
@@ -73,6 +83,12 @@ impl Steps for Slipped {
         let r = u.eval(i, step);
         if let Some(v) = earlier {
             step.count_visits_again(v);
+        }
+        if self.0 == OrderBug::SmsShareACounter {
+            let shared = self.1.fetch_add(step.visits(), Ordering::Relaxed);
+            if shared % 2 == 1 {
+                step.count_visits_again(step.visits());
+            }
         }
         r
     }

@@ -214,7 +214,7 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
             req_fire: port_ready(l1, &lane.l1_step, req.is_some()) && req.is_some(),
             resp: l1.resp(),
         };
-        match rt_cycle(u, &mut lane.rt_step, &mut lane.job, rt_idle, &i) {
+        match rt_cycle(u, &mut lane.rt_step, &mut lane.job, rt_idle, &i, steps) {
             Ok(stepped) => {
                 if stepped && u.empty() {
                     lane.empty_since = c + 1;
@@ -239,20 +239,22 @@ fn idle(u: &RtUnit, req: Option<MemReq>, job: &Option<WarpJob>, now: u64) -> boo
     req.is_none() && job.is_none() && u.next_event().is_none_or(|e| e > now)
 }
 
-/// One RT unit's cycle: evaluated on `i` and committed with the job landing (`job`), unless it is
-/// idle and gets no response, when its step would change nothing. Returns whether it was stepped.
+/// One RT unit's cycle: evaluated on `i` (as `steps` evaluates it, like the reference loop) and
+/// committed with the job landing (`job`), unless it is idle and gets no response, when its step
+/// would change nothing. Returns whether it was stepped.
 #[inline]
-fn rt_cycle(
+fn rt_cycle<P: Steps>(
     u: &mut RtUnit,
     step: &mut RtStep,
     job: &mut Option<WarpJob>,
     rt_idle: bool,
     i: &RtIn,
+    steps: P,
 ) -> Result<bool, RunError> {
     if rt_idle && i.resp.is_empty() {
         return Ok(false);
     }
-    u.eval(i, step)?;
+    steps.eval_rt(u, i, step, 0)?;
     u.commit(step, job.take());
     Ok(true)
 }
