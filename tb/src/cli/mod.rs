@@ -61,11 +61,13 @@ pub enum Command {
     Cost(cost::Args),
     /// Simulate a scene under stack configurations: cycles, off-chip traffic, conflicts.
     Run(run::Args),
-    /// Exhaustive bounded model checking of stack consistency on small configurations (a grid,
-    /// or the ones named with -c, one warp of --warp-size threads).
+    /// Exhaustive model checking of stack consistency: a bounded grid, the configurations named
+    /// with -c, or --full: small configurations and the design's own sizes with few lanes active,
+    /// to the fixpoint.
     Check(check::Args),
-    /// SMT proofs (z3, cvc5) that the stack manager's decision logic, the code the simulator
-    /// runs, equals the specification of SPEC sections 3 and 5 at a named configuration.
+    /// SMT proofs (z3, boolector; cvc5 selectable) at a named configuration that the stack
+    /// manager's decision logic, the code the simulator runs, equals the specification of SPEC
+    /// sections 3 and 5 in one step, and that every cycle keeps the well-formedness invariant.
     Prove(prove::Args),
     /// Run the paper's experiments over a scene set and write the report.
     Sweep(sweep::Args),
