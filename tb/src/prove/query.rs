@@ -686,13 +686,7 @@ pub struct Query {
 /// Builds the one-step equivalence query of `cmds` (lanes of the warp at `base`, planned in
 /// that order in one cycle) for the design with `steps`.
 pub fn one_step<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind)]) -> Query {
-    let mut s = Sym::default();
-    let st = State::new(&mut s, cfg, base, cmds);
-    let lanes: Vec<(u32, Thread<Sym>, W, B)> =
-        st.lanes.iter().map(|x| (x.lane, x.th, x.rb_len, x.busy)).collect();
-    let inv = well_formed(&mut s, cfg, &st.regs, &st.done, &lanes);
-    let slots = 2 * cfg.sh_entries as usize + 4;
-    let d = side(&mut s, cfg, &st, &Side::Design(steps), slots);
+    let (mut s, st, inv, d, slots) = design_cycle(cfg, steps, base, cmds);
     let sp = side::<P>(&mut s, cfg, &st, &Side::Spec, slots);
     let parts = agreement(&mut s, &d, &sp, &st.lanes);
     finish(s, inv, parts)
@@ -703,13 +697,7 @@ pub fn one_step<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind
 /// lane's stack registers, and the commanding lanes' thread registers, RB lengths and
 /// sequencers (busy when the cycle loaded a program) as the cycle leaves them.
 pub fn preserves<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind)]) -> Query {
-    let mut s = Sym::default();
-    let st = State::new(&mut s, cfg, base, cmds);
-    let lanes: Vec<(u32, Thread<Sym>, W, B)> =
-        st.lanes.iter().map(|x| (x.lane, x.th, x.rb_len, x.busy)).collect();
-    let inv = well_formed(&mut s, cfg, &st.regs, &st.done, &lanes);
-    let slots = 2 * cfg.sh_entries as usize + 4;
-    let d = side(&mut s, cfg, &st, &Side::Design(steps), slots);
+    let (mut s, st, inv, d, _) = design_cycle(cfg, steps, base, cmds);
     let mut done = st.done.clone();
     let mut after = Vec::new();
     for (x, a) in st.lanes.iter().zip(&d.lanes) {
@@ -721,6 +709,24 @@ pub fn preserves<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kin
     }
     let kept = well_formed_parts(&mut s, cfg, &d.regs, &done, &after);
     finish(s, inv, kept.into_iter().map(|(n, b)| (format!("after the cycle, {n}"), b)).collect())
+}
+
+/// The start both queries share: fresh state variables for `cmds`, the invariant over them, and
+/// the design's cycle (with the program's slot count, for the specification's side).
+fn design_cycle<P: Steps>(
+    cfg: &Config,
+    steps: &P,
+    base: u32,
+    cmds: &[(u32, Kind)],
+) -> (Sym, State, B, Cycle, usize) {
+    let mut s = Sym::default();
+    let st = State::new(&mut s, cfg, base, cmds);
+    let lanes: Vec<(u32, Thread<Sym>, W, B)> =
+        st.lanes.iter().map(|x| (x.lane, x.th, x.rb_len, x.busy)).collect();
+    let inv = well_formed(&mut s, cfg, &st.regs, &st.done, &lanes);
+    let slots = 2 * cfg.sh_entries as usize + 4;
+    let d = side(&mut s, cfg, &st, &Side::Design(steps), slots);
+    (s, st, inv, d, slots)
 }
 
 /// The query asserting `assume` and that some part fails, with one `agree_k` variable per part
