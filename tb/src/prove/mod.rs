@@ -4,10 +4,12 @@
 //!
 //! - [`sym`]: the symbolic [`rtl::logic::Logic`] instance (SMT-LIB 2 terms);
 //! - [`spec`]: SPEC sections 3 and 5 as a second, independent description;
-//! - [`query`]: the well-formedness invariant and the one-step equivalence queries;
+//! - [`query`]: the well-formedness invariant, the one-step equivalence and induction queries;
+//! - [`conserve`]: conservation of the logical stack through one tracked entry;
 //! - [`solver`]: z3 and cvc5 as processes;
 //! - [`replay`]: a counterexample run on the simulator and dumped as a waveform.
 
+pub mod conserve;
 pub mod query;
 pub mod replay;
 pub mod solver;
@@ -42,6 +44,9 @@ pub enum What {
     /// The design's cycle leaves a state satisfying the invariant (an induction step; with the
     /// reset state satisfying it, the invariant holds in every reachable state).
     Invariant,
+    /// The entry at a symbolic position of the commanding thread's logical stack is at the
+    /// position the reference stack gives it after the cycle ([`conserve`]).
+    Conservation,
 }
 
 /// The one-step equivalence obligations at `cfg`: each command kind on one lane, and two
@@ -64,6 +69,10 @@ pub fn obligations(cfg: &Config) -> Vec<Obligation> {
         for (name, cmds) in &cycles {
             out.push(Obligation { name: format!("{prefix} {name}"), base, cmds: cmds.clone(), what });
         }
+    }
+    for k in [Kind::Push, Kind::Pop] {
+        let name = format!("conservation through {}", k.name());
+        out.push(Obligation { name, base, cmds: vec![(a, k)], what: What::Conservation });
     }
     out
 }
@@ -93,6 +102,7 @@ pub fn prove<P: Steps>(
     let q = match ob.what {
         What::Equivalence => query::one_step(cfg, steps, ob.base, &ob.cmds),
         What::Invariant => query::preserves(cfg, steps, ob.base, &ob.cmds),
+        What::Conservation => conserve::conserves(cfg, steps, ob.base, ob.cmds[0].0, ob.cmds[0].1),
     };
     let mut out = Vec::new();
     for &sv in solvers {

@@ -312,18 +312,23 @@ fn l_not<L: Logic>(l: &mut L, b: L::Bit) -> L::Bit {
     l.not(b)
 }
 
-fn implies<L: Logic>(l: &mut L, a: L::Bit, b: L::Bit) -> L::Bit {
+pub(super) fn implies<L: Logic>(l: &mut L, a: L::Bit, b: L::Bit) -> L::Bit {
     let na = l.not(a);
     l.or(na, b)
 }
 
-fn eq_bit<L: Logic>(l: &mut L, a: L::Bit, b: L::Bit) -> L::Bit {
+pub(super) fn eq_bit<L: Logic>(l: &mut L, a: L::Bit, b: L::Bit) -> L::Bit {
     let nb = l.not(b);
     l.mux_bit(a, b, nb)
 }
 
 /// Field `f` of the lane `lane` names (a multiplexer over the warp).
-fn select<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word, f: impl Fn(&Regs<L>) -> L::Word) -> L::Word {
+pub(super) fn select<L: Logic>(
+    l: &mut L,
+    regs: &[Regs<L>],
+    lane: L::Word,
+    f: impl Fn(&Regs<L>) -> L::Word,
+) -> L::Word {
     let mut v = f(&regs[regs.len() - 1]);
     for j in (0..regs.len() - 1).rev() {
         let hit = l.eq_k(lane, j as u32);
@@ -337,7 +342,7 @@ fn select_idle<L: Logic>(l: &mut L, regs: &[Regs<L>], lane: L::Word) -> L::Bit {
 }
 
 /// Bit `f` of the lane `lane` names (a multiplexer over the warp).
-fn select_flag<L: Logic>(
+pub(super) fn select_flag<L: Logic>(
     l: &mut L,
     regs: &[Regs<L>],
     lane: L::Word,
@@ -371,6 +376,8 @@ pub struct SymWarp<'a> {
     pub lane: LaneIn,
     pub prog: Vec<(B, UopL<Sym>)>,
     pub rb_len: W,
+    /// The plan's changes to the RB, in order (conservation follows an entry through them).
+    pub rb_log: Vec<RbOp<V>>,
 }
 
 impl SymWarp<'_> {
@@ -421,6 +428,7 @@ impl Regfile<Sym> for SymWarp<'_> {
         self.lane.rb_back
     }
     fn rb(&mut self, l: &mut Sym, op: RbOp<V>) {
+        self.rb_log.push(op);
         self.rb_len = match op {
             RbOp::PushBack(_) => l.add_k(self.rb_len, 1),
             RbOp::PopFront | RbOp::PopBack => l.sub_k(self.rb_len, 1),
@@ -434,12 +442,22 @@ impl Regfile<Sym> for SymWarp<'_> {
 /// A micro-op as words: kind (its waveform code), first field (stack or slot), entry, whether
 /// its data comes from the latch, and its immediate value.
 #[derive(Clone, Copy, Debug)]
-struct Enc {
-    kind: W,
-    a: W,
-    b: W,
-    latch: B,
-    value: V,
+pub(super) struct Enc {
+    pub kind: W,
+    pub a: W,
+    pub b: W,
+    pub latch: B,
+    pub value: V,
+}
+
+/// [`Enc::kind`] codes.
+pub(super) mod code {
+    pub const SH_LOAD: u32 = 1;
+    pub const SH_STORE: u32 = 2;
+    pub const GLOBAL_LOAD: u32 = 3;
+    pub const GLOBAL_STORE: u32 = 4;
+    pub const RB_BOTTOM: u32 = 5;
+    pub const RELEASE: u32 = 6;
 }
 
 fn encode(l: &mut Sym, u: &UopL<Sym>) -> Enc {
@@ -451,12 +469,12 @@ fn encode(l: &mut Sym, u: &UopL<Sym>) -> Enc {
         SrcOf::Latch => (l.bit(true), l.val(0)),
     };
     let (kind, a, b, (latch, value)) = match u {
-        UopOf::ShLoad { stack, entry } => (1, *stack, *entry, (no, zv)),
-        UopOf::ShStore { stack, entry, src: s } => (2, *stack, *entry, src(l, s)),
-        UopOf::GlobalLoad { slot } => (3, *slot, z, (no, zv)),
-        UopOf::GlobalStore { slot, src: s } => (4, *slot, z, src(l, s)),
-        UopOf::RbBottom => (5, z, z, (no, zv)),
-        UopOf::Release { stack } => (6, *stack, z, (no, zv)),
+        UopOf::ShLoad { stack, entry } => (code::SH_LOAD, *stack, *entry, (no, zv)),
+        UopOf::ShStore { stack, entry, src: s } => (code::SH_STORE, *stack, *entry, src(l, s)),
+        UopOf::GlobalLoad { slot } => (code::GLOBAL_LOAD, *slot, z, (no, zv)),
+        UopOf::GlobalStore { slot, src: s } => (code::GLOBAL_STORE, *slot, z, src(l, s)),
+        UopOf::RbBottom => (code::RB_BOTTOM, z, z, (no, zv)),
+        UopOf::Release { stack } => (code::RELEASE, *stack, z, (no, zv)),
     };
     let kind = l.word(kind);
     Enc { kind, a, b, latch, value }
@@ -499,23 +517,62 @@ fn compact(l: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> 
     out
 }
 
+/// What a plan did to the RB: which of its changes happened (each at most once per plan), and
+/// the entry pushed.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RbChange {
+    pub pop_back: B,
+    pub pop_front: B,
+    pub push_back: B,
+    pub pushed: V,
+}
+
+impl RbChange {
+    fn of(l: &mut Sym, log: &[RbOp<V>]) -> RbChange {
+        let has = |l: &mut Sym, f: &dyn Fn(&RbOp<V>) -> bool| l.bit(log.iter().any(f));
+        let pushed = log
+            .iter()
+            .find_map(|o| match o {
+                RbOp::PushBack(v) => Some(*v),
+                _ => None,
+            })
+            .unwrap_or_else(|| l.val(0));
+        RbChange {
+            pop_back: has(l, &|o| matches!(o, RbOp::PopBack)),
+            pop_front: has(l, &|o| matches!(o, RbOp::PopFront)),
+            push_back: has(l, &|o| matches!(o, RbOp::PushBack(_))),
+            pushed,
+        }
+    }
+
+    fn mux(l: &mut Sym, c: B, x: RbChange, y: RbChange) -> RbChange {
+        RbChange {
+            pop_back: l.mux_bit(c, x.pop_back, y.pop_back),
+            pop_front: l.mux_bit(c, x.pop_front, y.pop_front),
+            push_back: l.mux_bit(c, x.push_back, y.push_back),
+            pushed: l.mux_val(c, x.pushed, y.pushed),
+        }
+    }
+}
+
 /// One lane's answer in one cycle.
 #[derive(Clone, Debug)]
-struct Answer {
+pub(super) struct Answer {
     /// 0: accepted, nothing returned; 1: accepted, popped `value`; 2 + k: refused with the
     /// k-th kind of [`StackError`].
-    code: W,
-    value: V,
-    prog: Vec<(B, Enc)>,
-    th: Thread<Sym>,
-    rb_len: W,
+    pub code: W,
+    pub value: V,
+    pub prog: Vec<(B, Enc)>,
+    pub th: Thread<Sym>,
+    pub rb_len: W,
+    pub rb: RbChange,
 }
 
 /// A side's whole cycle: every lane's answer and every stack's registers after it.
 #[derive(Clone, Debug)]
-struct Cycle {
-    lanes: Vec<Answer>,
-    regs: Vec<Regs<Sym>>,
+pub(super) struct Cycle {
+    pub lanes: Vec<Answer>,
+    pub regs: Vec<Regs<Sym>>,
 }
 
 fn error_code(e: &StackError) -> u32 {
@@ -538,7 +595,7 @@ pub enum Side<'a, P: Steps> {
 /// Runs one side, lane by lane in the cycle's order: each lane's plan over every path, its
 /// paths' outputs and registers merged under their conditions before the next lane plans (so
 /// the paths of two lanes add, not multiply).
-fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots: usize) -> Cycle {
+pub(super) fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots: usize) -> Cycle {
     let mut now = st.regs.clone();
     let mut lanes = Vec::new();
     for lane in &st.lanes {
@@ -557,6 +614,7 @@ fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots:
                 lane: *lane,
                 prog: Vec::new(),
                 rb_len: lane.rb_len,
+                rb_log: Vec::new(),
             };
             let (r, th) = match which {
                 Side::Design(steps) => {
@@ -589,10 +647,12 @@ fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots:
             // A refused command changes nothing.
             if accepted {
                 let prog = compact(l, &rf.prog, slots);
-                (Answer { code, value, prog, th, rb_len: rf.rb_len }, rf.work)
+                let rb = RbChange::of(l, &rf.rb_log);
+                (Answer { code, value, prog, th, rb_len: rf.rb_len, rb }, rf.work)
             } else {
                 let prog = compact(l, &[], slots);
-                (Answer { code, value, prog, th: lane.th, rb_len: lane.rb_len }, now.clone())
+                let rb = RbChange::of(l, &[]);
+                (Answer { code, value, prog, th: lane.th, rb_len: lane.rb_len, rb }, now.clone())
             }
         });
         let mut it = paths.into_iter().rev();
@@ -606,6 +666,7 @@ fn side<P: Steps>(s: &mut Sym, cfg: &Config, st: &State, which: &Side<P>, slots:
             }
             a.th = ThreadRegsOf::mux(s, c, x.th, a.th);
             a.rb_len = s.mux(c, x.rb_len, a.rb_len);
+            a.rb = RbChange::mux(s, c, x.rb, a.rb);
             for (ra, rx) in regs.iter_mut().zip(&xr) {
                 *ra = StackRegsOf::mux(s, c, *rx, *ra);
             }
@@ -731,7 +792,7 @@ fn design_cycle<P: Steps>(
 
 /// The query asserting `assume` and that some part fails, with one `agree_k` variable per part
 /// (so a counterexample names the parts that failed).
-fn finish(mut s: Sym, assume: B, parts: Vec<(String, B)>) -> Query {
+pub(super) fn finish(mut s: Sym, assume: B, parts: Vec<(String, B)>) -> Query {
     let all = parts.iter().fold(s.bit(true), |acc, p| s.and(acc, p.1));
     let differ = s.not(all);
     let names: Vec<String> = parts.iter().map(|p| p.0.clone()).collect();
