@@ -93,10 +93,10 @@ fn layout(
             let bottom = select(s, regs, cur, |r| r.bottom);
             let empty = select_flag(s, regs, cur, |r| r.empty);
             let rank = select(s, regs, cur, |r| r.priority);
+            // M is a power of two (the configuration checks it): mod M keeps the low bits.
             let span = s.sub(top, bottom);
-            let span = s.add_k(span, m);
-            let mw = s.word(m);
-            let span = s.rem(span, mw);
+            let low = s.word(m - 1);
+            let span = s.mask(span, low);
             let full = s.add_k(span, 1);
             let zero = s.word(0);
             let count = s.mux(empty, zero, full);
@@ -137,10 +137,9 @@ fn locate(s: &mut Sym, cfg: &Config, lay: &Layout, q: W) -> Loc {
         let within = s.lt(d, x.count);
         let here = s.and(from, within);
         let here = s.and(here, x.on);
-        let up = s.add_k(x.top, m);
-        let e = s.sub(up, d);
-        let mw = s.word(m.max(1));
-        let e = s.rem(e, mw);
+        let e = s.sub(x.top, d);
+        let low = s.word(m.max(1) - 1);
+        let e = s.mask(e, low);
         stack = s.mux(here, x.stack, stack);
         entry = s.mux(here, e, entry);
     }
