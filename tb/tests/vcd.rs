@@ -314,14 +314,9 @@ fn save_file_formats_follow_the_declared_kinds() {
     }
 }
 
-fn have(tool: &str) -> bool {
-    Command::new(tool).arg("--help").output().is_ok()
-}
-
 #[test]
 fn gtkwave_round_trip_keeps_every_value() {
-    if !(have("vcd2fst") && have("fst2vcd")) {
-        println!("NOTICE: vcd2fst/fst2vcd not on PATH (apt-get install gtkwave); skipped");
+    if !tb::prereq::tools(&["vcd2fst", "fst2vcd"], "GTKWave (apt-get install gtkwave)") {
         return;
     }
     let ex = sms_small();

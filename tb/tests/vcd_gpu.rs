@@ -6,7 +6,6 @@
 mod common;
 use common::TmpDir;
 
-use std::io::Write;
 use std::ops::RangeInclusive;
 use std::path::Path;
 use std::process::Command;
@@ -66,9 +65,10 @@ fn ship_workload(scene: &tb::Scene, res: u32) -> Workload<'_> {
 }
 
 /// Runs ship through the GPU with a VCD sink writing `path` (and its save file) and a windowed
-/// recorder side by side; returns the dump's text.
-fn dump(path: &Path) -> (String, Recorder, Outcome) {
-    let ship = tb::load_scene("ship").unwrap();
+/// recorder side by side; returns the dump's text. `None` when ship's mesh is missing and the
+/// test is skipped.
+fn dump(path: &Path) -> Option<(String, Recorder, Outcome)> {
+    let ship = tb::prereq::scene("ship")?;
     let w = ship_workload(&ship, 16);
     let spec = spec();
     let opts = VcdOptions { path: path.to_path_buf(), select: selection() };
@@ -76,7 +76,7 @@ fn dump(path: &Path) -> (String, Recorder, Outcome) {
     let mut rec = Windowed { window: WINDOW, on: false, rec: Recorder::default() };
     let out = simulate(&spec, &w, None, &mut Tee(&mut vcd, &mut rec), |_| {}).unwrap();
     vcd.finish().unwrap();
-    (std::fs::read_to_string(path).unwrap(), rec.rec, out)
+    Some((std::fs::read_to_string(path).unwrap(), rec.rec, out))
 }
 
 fn selection() -> Selection {
@@ -110,7 +110,7 @@ fn strict(text: &str) -> Waves {
 #[test]
 fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
     let tmp = TmpDir::new("vcd-gpu", "dump");
-    let (text, rec, out) = dump(&tmp.join("gpu.vcd"));
+    let Some((text, rec, out)) = dump(&tmp.join("gpu.vcd")) else { return };
     let g = out.gpu.unwrap();
     assert!(g.cycles > *WINDOW.end() + 1_000, "window must lie inside the run ({} cycles)", g.cycles);
     assert_eq!(g.warp_jobs, 16);
@@ -208,22 +208,14 @@ fn gpu_dump_is_strictly_valid_and_replays_the_rtl_values() {
     assert!(err.contains("in the dump"), "{err}");
 }
 
-fn have(tool: &str) -> bool {
-    Command::new(tool).arg("--help").output().is_ok()
-}
-
 #[test]
 fn gtkwave_round_trip_keeps_the_gpu_values() {
-    if !(have("vcd2fst") && have("fst2vcd")) {
-        // Straight to stderr: the test harness would swallow println!/eprintln! of a passing test.
-        let note = "NOTICE: gtkwave_round_trip_keeps_the_gpu_values SKIPPED: vcd2fst/fst2vcd not on PATH \
-                    (apt-get install gtkwave; .ci/run does)";
-        let _ = writeln!(std::io::stderr(), "{note}");
+    if !tb::prereq::tools(&["vcd2fst", "fst2vcd"], "GTKWave (apt-get install gtkwave)") {
         return;
     }
     let tmp = TmpDir::new("vcd-gpu", "round");
     let (vcd, fst) = (tmp.join("gpu.vcd"), tmp.join("gpu.fst"));
-    let (text, rec, _) = dump(&vcd);
+    let Some((text, rec, _)) = dump(&vcd) else { return };
     let status = Command::new("vcd2fst").arg(&vcd).arg(&fst).output().unwrap();
     assert!(status.status.success(), "vcd2fst: {}", String::from_utf8_lossy(&status.stderr));
     let out = Command::new("fst2vcd").arg(&fst).output().unwrap();
@@ -259,7 +251,7 @@ fn bad_gpu_dump_requests_are_clear_errors() {
     // The SM count is the hardware's, not the configuration's: an unknown SM is found on the
     // first probe walk and reported when the dump is finished, as is a window after the end of
     // the run (a small one here).
-    let ship = tb::load_scene("ship").unwrap();
+    let Some(ship) = tb::prereq::scene("ship") else { return };
     let w = ship_workload(&ship, 8);
     let opts = VcdOptions {
         path: path.clone(),

@@ -15,7 +15,7 @@ fn dump(w: &Workload, spec: &RunSpec, select: Selection) -> (Waves, Outcome) {
 
 #[test]
 fn window_values_equal_the_full_dump_and_idle_cycles_outside_are_skipped() {
-    let scene = tb::load_scene("ship").unwrap();
+    let Some(scene) = tb::prereq::scene("ship") else { return };
     let w = Workload::new(&scene, WorkloadOpts::quick(&scene, 16)).unwrap();
     let spec = RunSpec { config: "SMS".parse().unwrap(), hw: Hardware::default(), fidelity: Fidelity::Cycle };
     let sm0 = Selection { sms: Some(vec![0]), lanes: Some(vec![0, 1, 2, 3]), ..Selection::default() };

@@ -46,7 +46,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64()
     ));
     let opts = args.workload.opts(&scene);
-    let estimate = guard::Estimate::new(&opts, 0, 1, crate::run::sim::Fidelity::Functional);
+    let estimate =
+        guard::Estimate::new(&opts, scene.primitives.len(), 0, 1, crate::run::sim::Fidelity::Functional);
     estimate.check(guard::available_memory(), args.force)?;
     note(format!("estimated {}", estimate.describe()));
 

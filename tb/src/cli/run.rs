@@ -193,7 +193,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let opts = args.workload.opts(&scene);
     let log = crate::cli::note;
     log(format!("loaded {} ({} primitives) in {:.2} s", scene.name, scene.primitives.len(), secs(start)));
-    let estimate = guard::Estimate::new(&opts, specs.len(), jobs, args.fidelity);
+    let estimate = guard::Estimate::new(&opts, scene.primitives.len(), specs.len(), jobs, args.fidelity);
     estimate.check(guard::available_memory(), args.force)?;
     log(format!("estimated {}", estimate.describe()));
     let start = Instant::now();

@@ -127,10 +127,12 @@ impl SweepArgs {
         }
         let hw_name = self.hardware.name();
         // The estimate of every scene at the settings asked for (LumiBench's where a scene's
-        // own are kept: the descriptions' settings are of that size).
+        // own are kept: the descriptions' settings are of that size). The scenes are not loaded
+        // yet, so their own memory (BYTES_PER_PRIMITIVE) is not in it.
         let opts = settings.apply(crate::workload::WorkloadOpts::default());
         let sims = scenes.len() * plan.variants(hw.mem.l1d_bytes / 1024)?.len();
-        let estimate = crate::cli::guard::Estimate::new(&opts, sims, jobs, crate::run::sim::Fidelity::Cycle);
+        let estimate =
+            crate::cli::guard::Estimate::new(&opts, 0, sims, jobs, crate::run::sim::Fidelity::Cycle);
         estimate.check(crate::cli::guard::available_memory(), self.force)?;
         let req = Request {
             scenes,

@@ -24,6 +24,16 @@ fn value_range(values: impl Iterator<Item = f64> + Clone, zoom: bool) -> (f64, f
     (if zoom { (lo - pad).max(0.0) } else { 0.0 }, hi + pad)
 }
 
+/// An axis description, saying where the axis starts when it does not start at zero (a zoomed
+/// axis is a broken one).
+fn axis_desc(desc: &str, start: f64) -> String {
+    if start > 0.0 {
+        format!("{desc} (axis broken: starts at {start:.2})")
+    } else {
+        desc.to_owned()
+    }
+}
+
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 type Chart2d<'a> = ChartContext<
     'a,
@@ -75,27 +85,33 @@ fn legend_and_present<'a, CT: plotters::coord::CoordTranslate>(
 }
 
 pub fn color(i: usize) -> RGBColor {
-    const COLORS: [RGBColor; 8] = [
-        RGBColor(31, 119, 180),
-        RGBColor(255, 127, 14),
-        RGBColor(44, 160, 44),
-        RGBColor(214, 39, 40),
-        RGBColor(148, 103, 189),
-        RGBColor(140, 86, 75),
-        RGBColor(227, 119, 194),
-        RGBColor(127, 127, 127),
-    ];
-    COLORS[i % COLORS.len()]
+    OKABE_ITO[i % OKABE_ITO.len()]
 }
 
-/// Colour of series `i` of `n`: the fixed palette, or beyond it (a line per scene, a bar per
-/// configuration) hues spread evenly instead of repeating.
+/// Okabe and Ito's eight colours, told apart under every common colour-vision deficiency; the
+/// yellow is darkened so thin lines stay visible on white.
+const OKABE_ITO: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),
+    RGBColor(230, 159, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(213, 94, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(204, 121, 167),
+    RGBColor(160, 150, 30),
+    RGBColor(0, 0, 0),
+];
+
+/// Colour of series `i` of `n`: the palette, and beyond its eight colours the same hues again in
+/// a lighter and then a muted shade, so neighbouring series always differ in hue.
 fn series_color(i: usize, n: usize) -> RGBColor {
-    if n <= 8 {
-        return color(i);
-    }
-    let (r, g, b) = HSLColor(i as f64 / n as f64, 0.75, 0.42).rgb();
-    RGBColor(r, g, b)
+    let RGBColor(r, g, b) = color(i);
+    let round = if n <= OKABE_ITO.len() { 0 } else { i / OKABE_ITO.len() % 3 };
+    let shade = |c: u8| match round {
+        1 => c + (255 - c) / 2,
+        2 => c / 2 + 60,
+        _ => c,
+    };
+    RGBColor(shade(r), shade(g), shade(b))
 }
 
 /// Label of the row at position `v` of a bar chart whose rows sit at integers.
@@ -143,7 +159,7 @@ pub fn hbars(
     let label = |v: &f64| row_label(labels, *v);
     chart
         .configure_mesh()
-        .x_desc(x_desc)
+        .x_desc(axis_desc(x_desc, left))
         .y_labels(4 * n)
         .y_label_formatter(&label)
         .disable_y_mesh()
@@ -191,6 +207,8 @@ pub fn grouped_bars(
 ) -> Result<()> {
     let values = series.iter().flat_map(|b| b.values.iter().flatten()).chain(rule.as_ref());
     let (bottom, top) = value_range(values.copied(), zoom);
+    // A zoomed axis says where it starts, beside the break mark drawn on it below.
+    let y_desc = axis_desc(y_desc, bottom);
     let n = groups.len().max(1);
     let k = series.len().max(1);
     // Every bar at least 6 pixels wide, so a sweep of many scenes and configurations stays legible.
@@ -202,7 +220,7 @@ pub fn grouped_bars(
     let label = |v: &f64| row_label(groups, *v);
     chart
         .configure_mesh()
-        .y_desc(y_desc)
+        .y_desc(&y_desc)
         .x_labels(4 * n)
         .x_label_formatter(&label)
         .x_label_style(("sans-serif", 13))
@@ -217,6 +235,13 @@ pub fn grouped_bars(
             v.map(|v| Rectangle::new([(x, bottom), (x + slot * 0.9, v)], style))
         });
         chart.draw_series(rects).map_err(|e| to_err(path, e))?;
+        // The last group (the geomean) carries each bar's value, written upwards from its top.
+        if let Some(Some(v)) = b.values.get(n - 1) {
+            let x = (n - 1) as f64 - 0.4 + slot * (s as f64 + 0.45);
+            let (px, py) = chart.backend_coord(&(x, *v));
+            let font = ("sans-serif", 11).into_font().transform(FontTransform::Rotate270).color(&BLACK);
+            plot.draw(&Text::new(format!("{v:.3}"), (px - 6, py - 4), font)).map_err(|e| to_err(path, e))?;
+        }
         // The legend beside the plot, in series order (the order of the bars in every group).
         let y = 50 + 18 * s as i32;
         legend.draw(&Rectangle::new([(8, y - 5), (22, y + 5)], style)).map_err(|e| to_err(path, e))?;
@@ -228,6 +253,15 @@ pub fn grouped_bars(
         chart
             .draw_series(LineSeries::new([(-0.5, r), (n as f64 - 0.5, r)], BLACK.stroke_width(1)))
             .map_err(|e| to_err(path, e))?;
+    }
+    if bottom > 0.0 {
+        // Two slanted strokes across the foot of the y axis: the axis does not start at zero.
+        let (x0, y0) = chart.backend_coord(&(-0.5, bottom));
+        for dy in [-10, -4] {
+            let stroke =
+                PathElement::new(vec![(x0 - 7, y0 + dy + 3), (x0 + 7, y0 + dy - 3)], BLACK.stroke_width(2));
+            plot.draw(&stroke).map_err(|e| to_err(path, e))?;
+        }
     }
     root.present().map_err(|e| to_err(path, e))
 }
@@ -329,7 +363,7 @@ pub fn lines(
     chart
         .configure_mesh()
         .x_desc(x_desc)
-        .y_desc(y_desc)
+        .y_desc(axis_desc(y_desc, y0))
         .x_labels(if log2_x { 4 * (x1 - x0 + 1.0) as usize } else { 12 })
         .x_label_formatter(&x_label)
         .draw()
@@ -554,6 +588,56 @@ impl Chart {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grouped_bars_mark_a_broken_axis_and_label_the_geomean() {
+        let dir = std::env::temp_dir().join(format!("sms-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let groups: Vec<String> = ["ship", "clutter", "geomean"].map(String::from).to_vec();
+        let series: Vec<Bars> = (0..17)
+            .map(|i| Bars {
+                name: format!("C{i}"),
+                values: vec![Some(1.0), Some(1.1), Some(1.0 + i as f64 / 1000.0)],
+            })
+            .collect();
+        let svg = |zoom: bool| {
+            let path = dir.join(format!("g{zoom}.svg"));
+            grouped_bars(&path, "t", "speed-up", &groups, &series, Some(1.0), zoom).unwrap();
+            std::fs::read_to_string(path).unwrap()
+        };
+        let (zoomed, full) = (svg(true), svg(false));
+        // The texts written upwards (the axis description is one of them).
+        let upwards: Vec<&str> = zoomed
+            .split("<text")
+            .skip(1)
+            .filter(|t| t.contains("rotate(270"))
+            .filter_map(|t| t.split_once('>')?.1.split("</text>").next().map(str::trim))
+            .collect();
+        for i in 0..17 {
+            let value = format!("{:.3}", 1.0 + i as f64 / 1000.0);
+            assert!(upwards.contains(&value.as_str()), "geomean label {value} not in {upwards:?}");
+        }
+        assert_eq!(upwards.len(), 17 + 1, "one label per geomean bar, and the axis description");
+        assert!(zoomed.contains("axis broken: starts at 0.9"), "a zoomed axis says where it starts");
+        assert!(!full.contains("axis broken"), "an axis from zero is not broken");
+        // The break: two strokes, the only lines two pixels wide in this chart.
+        let strokes = |svg: &str| svg.matches("stroke-width=\"2\"").count();
+        assert_eq!((strokes(&zoomed), strokes(&full)), (2, 0));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn neighbouring_series_differ_in_hue_and_the_first_eight_are_okabe_ito() {
+        for n in [3, 8, 17, 30] {
+            let colours: Vec<RGBColor> = (0..n).map(|i| series_color(i, n)).collect();
+            for w in colours.windows(2) {
+                assert_ne!(w[0], w[1], "{n} series");
+            }
+            let distinct: std::collections::HashSet<_> = colours.iter().map(|c| (c.0, c.1, c.2)).collect();
+            assert_eq!(distinct.len(), n.min(24), "{n} series");
+        }
+        assert_eq!((0..8).map(|i| series_color(i, 8)).collect::<Vec<_>>(), OKABE_ITO);
+    }
 
     #[test]
     fn labels_of_a_tight_cluster_do_not_collide() {

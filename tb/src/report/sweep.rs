@@ -20,7 +20,8 @@ use crate::run::sweep::Sweep;
 /// Creates `dir` and checks that files can be written there, before any simulation starts.
 pub fn prepare(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let probe = dir.join(".sms-sweep-write-test");
+    // One probe per process: shards started together prepare the same folder.
+    let probe = dir.join(format!(".sms-sweep-write-test-{}", std::process::id()));
     std::fs::write(&probe, b"").map_err(|e| Error::io(&probe, e))?;
     std::fs::remove_file(&probe).map_err(|e| Error::io(&probe, e))
 }

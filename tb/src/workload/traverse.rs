@@ -527,7 +527,7 @@ mod tests {
     }
 
     fn check_closest_hits(name: &str) {
-        let scene = load_scene(name).expect(name);
+        let Some(scene) = crate::prereq::scene(name) else { return };
         let prims = &scene.primitives;
         let rays = sample_rays(&scene);
         let oracle: Vec<_> = rays.iter().map(|r| prims.brute_force_hit(r, f32::INFINITY)).collect();
@@ -725,7 +725,7 @@ mod tests {
     /// Two-level closest hits equal the instance oracle exactly and the flat BVH6's within float
     /// rounding of the instance transforms (exactly when every instance is the identity).
     fn check_two_level(name: &str) {
-        let scene = load_scene(name).expect(name);
+        let Some(scene) = crate::prereq::scene(name) else { return };
         let tl = crate::workload::bvh::TwoLevel::build(&scene.primitives, &scene.objects).expect("two-level");
         let two = Bvh::TwoLevel(Box::new(tl.clone()));
         let flat = Bvh::build(&scene.primitives, BvhKind::Bvh6).expect("flat");
@@ -778,7 +778,7 @@ mod tests {
     #[test]
     fn two_level_closest_hits_match_brute_force_gltf_instances() {
         // 29 meshes placed by 67 nodes with their transforms.
-        let scene = load_scene("2cylinderengine").expect("2cylinderengine");
+        let Some(scene) = crate::prereq::scene("2cylinderengine") else { return };
         assert_eq!(scene.objects.instances.len(), 67);
         assert_eq!(scene.objects.meshes.len(), 29);
         check_two_level("2cylinderengine");
@@ -787,7 +787,7 @@ mod tests {
     #[test]
     fn two_level_walk_enters_each_blas_through_its_header_and_the_stack() {
         use crate::workload::trace::{RayTrace, TraceOp};
-        let scene = load_scene("bath-partial").expect("bath");
+        let Some(scene) = crate::prereq::scene("bath-partial") else { return };
         let tl = crate::workload::bvh::TwoLevel::build(&scene.primitives, &scene.objects).expect("two-level");
         let header = tl.header_addr(None);
         let two = Bvh::TwoLevel(Box::new(tl));

@@ -532,14 +532,7 @@ impl SceneLibrary {
             let file = base.join(&m.file);
             if let Some(scene) = shipped {
                 if !file.exists() {
-                    // Without a data folder, the joined path would be made up: name the file.
-                    let file =
-                        if self.origin == DataOrigin::NotFound { PathBuf::from(&m.file) } else { file };
-                    return Err(Error::MissingData {
-                        file,
-                        scene: scene.to_owned(),
-                        origin: self.describe_origin(),
-                    });
+                    return Err(self.missing_data(scene, &m.file));
                 }
             }
             mesh::load_mesh(&file, &xf, &mut sink)?;
@@ -555,6 +548,25 @@ impl SceneLibrary {
             camera,
             render: desc.render,
             dropped_degenerate,
+        })
+    }
+
+    /// The error for the mesh `file` of the shipped description `scene` missing from the data
+    /// folder.
+    fn missing_data(&self, scene: &str, file: &str) -> Error {
+        // Without a data folder, the joined path would be made up: name the file.
+        let file =
+            if self.origin == DataOrigin::NotFound { PathBuf::from(file) } else { self.data.join(file) };
+        Error::MissingData { file, scene: scene.to_owned(), origin: self.describe_origin() }
+    }
+
+    /// The first mesh a shipped description reads that is not in the data folder, as loading
+    /// that description reports it; `None` when every one is there.
+    pub fn first_missing_mesh(&self) -> Option<Error> {
+        SHIPPED.iter().find_map(|(name, text)| {
+            let desc: SceneDesc = toml::from_str(text).ok()?;
+            let file = desc.mesh.into_iter().find(|m| !self.data.join(&m.file).exists())?.file;
+            Some(self.missing_data(&format!("shipped description '{name}'"), &file))
         })
     }
 
