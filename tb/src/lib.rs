@@ -19,6 +19,8 @@ pub mod hw;
 pub mod prove;
 pub mod report;
 pub mod run;
+#[doc(hidden)]
+pub mod testing;
 pub mod vcd;
 pub mod workload;
 

@@ -10,7 +10,7 @@
 //!
 //! Each unit has register outputs (functions of its registers alone: the L1D's `ready`,
 //! `down_req` and `resp`, the L2's `resp` and `dram_req`, DRAM's `ready` and `resp`), a pure
-//! `eval(&self, &In, &mut Step)` that computes the cycle's combinational outputs (`Step::out`)
+//! `eval(&self, In, &mut Step)` ([`Unit`]) that computes the cycle's combinational outputs (`Step::out`)
 //! and next-state decisions from the registers and the inputs, and `commit(&mut self, &Step)`,
 //! the clock edge, which applies the step and nothing else. `eval` takes `&self`, so no unit's
 //! registers change before the edge and no value of this cycle can be read out of a unit's
