@@ -4,9 +4,9 @@
 use rtl::config::Config;
 use rtl::stack_manager::StackTiming;
 use rtl::stack_unit::StandaloneStack;
-use rtl::trace::NullSink;
-use tb::run::verify::harness::{run_cycle, CycleOpts, RunSummary};
+use tb::run::verify::harness::{CycleOpts, RunSummary};
 use tb::run::verify::streams::warps;
+use tb::testing::run_stack;
 
 fn run(cfg: Config, seed: u64, warp_count: u32, check_every_cycle: bool) -> RunSummary {
     run_timed(StandaloneStack::new(cfg, 40).unwrap(), seed, warp_count, check_every_cycle)
@@ -16,7 +16,7 @@ fn run_timed(mut unit: StandaloneStack, seed: u64, warp_count: u32, check_every_
     let cfg = *unit.manager().config();
     let work = warps(seed, warp_count, cfg.warp_size, 130);
     let opts = CycleOpts { max_gap: 6, seed, check_every_cycle, max_cycles: 50_000_000, lockstep: false };
-    run_cycle(&mut unit, work, opts, &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
+    run_stack(&mut unit, work, opts)
 }
 
 #[test]

@@ -9,6 +9,7 @@ use rtl::trace::NullSink;
 use tb::run::verify::harness::{run_cycle, run_functional_warps, CycleOpts, HarnessError, Op, WarpWork};
 use tb::run::verify::invariants::Property;
 use tb::run::verify::streams::{stream, warps};
+use tb::testing::run_stack;
 
 fn cfg(name: &str) -> Config {
     name.parse().unwrap()
@@ -54,7 +55,7 @@ fn without_sh_the_traffic_is_the_baseline_short_stack() {
             reloads += r;
         }
         let mut unit = StandaloneStack::new(c, 50).unwrap();
-        let st = run_cycle(&mut unit, work.clone(), opts(1), &mut NullSink).unwrap().stats.stack;
+        let st = run_stack(&mut unit, work.clone(), opts(1)).stats.stack;
         assert!(spills > 0);
         assert_eq!((st.rb_to_global, st.global_to_rb), (spills, reloads), "RB_{n}");
         assert_eq!(st.sh_loads() + st.sh_stores(), 0);
@@ -64,7 +65,7 @@ fn without_sh_the_traffic_is_the_baseline_short_stack() {
 #[test]
 fn full_rb_never_spills() {
     let mut unit = StandaloneStack::new(cfg("RB_FULL"), 50).unwrap();
-    let s = run_cycle(&mut unit, warps(4, 4, 32, 200), opts(2), &mut NullSink).unwrap();
+    let s = run_stack(&mut unit, warps(4, 4, 32, 200), opts(2));
     assert_eq!(s.stats.stack.global_accesses() + s.stats.stack.sh_loads() + s.stats.stack.sh_stores(), 0);
     assert!(s.pops_checked > 10_000);
 }
@@ -74,7 +75,7 @@ fn functional_level_counts_equal_the_cycle_level_without_reallocation() {
     let work = warps(5, 6, 32, 120);
     for c in Config::paper_set().into_iter().filter(|c| c.realloc.is_none()) {
         let mut unit = StandaloneStack::new(c, 50).unwrap();
-        let cycle = run_cycle(&mut unit, work.clone(), opts(3), &mut NullSink).unwrap().stats.stack;
+        let cycle = run_stack(&mut unit, work.clone(), opts(3)).stats.stack;
         let mut sm = StackManager::new(c, 0).unwrap();
         run_functional_warps(&mut sm, work.clone()).unwrap();
         assert_eq!(sm.stats, cycle, "{}", c.name());
@@ -88,7 +89,7 @@ fn lockstep_conflicts(c: Config) -> u64 {
     let work = vec![WarpWork { lanes: vec![Some(s); 32] }];
     let mut unit = StandaloneStack::new(Config { warps: 1, ..c }, 50).unwrap();
     let o = CycleOpts { max_gap: 0, lockstep: true, ..opts(4) };
-    run_cycle(&mut unit, work, o, &mut NullSink).unwrap().stats.conflict_cycles
+    run_stack(&mut unit, work, o).stats.conflict_cycles
 }
 
 #[test]
@@ -130,7 +131,7 @@ fn the_scoreboard_catches_planted_bugs() {
 fn the_unmutated_design_passes_the_same_runs() {
     for c in ["RB_4+SH_8", "RB_4+SH_4+SK+RA", "RB_4+SH_4"] {
         let mut unit = StandaloneStack::new(cfg(c), 30).unwrap();
-        run_cycle(&mut unit, warps(8, 4, 32, 90), opts(6), &mut NullSink).unwrap();
+        run_stack(&mut unit, warps(8, 4, 32, 90), opts(6));
     }
 }
 
@@ -142,7 +143,7 @@ fn lockstep_run(c: Config, m: Option<Mutant>) -> rtl::stack_unit::UnitStats {
     let mut unit = StandaloneStack::new(Config { warps: 1, ..c }, 50).unwrap();
     unit.unit.manager = unit.unit.manager.clone().with_mutant(m);
     let o = CycleOpts { max_gap: 0, lockstep: true, ..opts(4) };
-    run_cycle(&mut unit, work, o, &mut NullSink).unwrap().stats
+    run_stack(&mut unit, work, o).stats
 }
 
 /// The lockstep bank-conflict bound, for full 32-thread warps and every M from 1 to 32 (M = 2 is

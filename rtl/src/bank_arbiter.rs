@@ -12,7 +12,7 @@
 //! shared-memory pipeline and is reported in `done`. A cycle in which some word waits because its
 //! bank serves another word is a conflict delay cycle.
 //!
-//! Latency (`sh_latency`, [`BankArbiter::with_latency`]): the cycles from the stack manager issuing
+//! Latency (`sh_latency`, [`BankArbiter::new`]): the cycles from the stack manager issuing
 //! an unconflicted request to the cycle its sequencer sees it done (and issues its next micro-op);
 //! each conflict cycle adds one. The request reaches the banks the cycle after issue, so with
 //! `sh_latency = 2` it is reported in `done` right after its last word is served (the `legacy`
@@ -22,7 +22,8 @@
 //! access enters only after `shared_cycle` (~2261) has stalled it for its bank conflicts, so the
 //! latency comes after the serialization, as here.
 
-use crate::config::{rem32, Widths};
+use crate::clock::Unit;
+use crate::config::rem32;
 use crate::trace::{Kind, Sink};
 
 /// Most words one entry can span (8-byte entries over 1-byte banks).
@@ -72,6 +73,19 @@ pub struct BankArbiter {
     pub conflict_cycles: u64,
     /// Word-cycles spent waiting on a busy bank (sum over waiting words).
     pub conflict_word_waits: u64,
+    /// Width of the pending and pipeline counts in a waveform (`Widths::sh_requests`).
+    count_bits: u32,
+}
+
+/// This cycle's inputs.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ArbIn<'a> {
+    /// The cycle, as the stack unit numbers it (it may jump over cycles in which the arbiter is
+    /// idle or only holds requests in the pipeline).
+    pub now: u64,
+    /// The stack manager's new requests (its `sh_req` output this cycle); they wait from the next
+    /// cycle on.
+    pub new: &'a [ShReq],
 }
 
 /// The arbiter's decisions in one cycle ([`BankArbiter::eval`]), applied at the clock edge by
@@ -95,23 +109,18 @@ pub struct ArbStep {
 
 impl ArbStep {
     /// The cycle this step was evaluated in: the only part of an idle arbiter's step that changes
-    /// from cycle to cycle (see `StackUnit::eval`).
+    /// from cycle to cycle (the stack unit's quiet-step shortcut writes only this).
     pub(crate) fn set_now(&mut self, now: u64) {
         self.now = now;
     }
 }
 
 impl BankArbiter {
-    /// `sh_latency` = [`MIN_SH_LATENCY`]: done right after the banks.
-    pub fn new(banks: u32) -> Self {
-        BankArbiter { banks, ..Default::default() }
-    }
-
-    /// An unconflicted access takes `sh_latency` cycles from issue to completion (at least
-    /// [`MIN_SH_LATENCY`]; smaller values are treated as the minimum — `RtParams::validate`
-    /// rejects them first).
-    pub fn with_latency(banks: u32, sh_latency: u32) -> Self {
-        BankArbiter { banks, stages: sh_latency.saturating_sub(MIN_SH_LATENCY), ..Default::default() }
+    /// The arbiter of `banks` banks. An unconflicted access takes `sh_latency` cycles from issue
+    /// to completion (at least [`MIN_SH_LATENCY`]; smaller values are treated as the minimum —
+    /// `RtParams::validate` rejects them first). `count_bits` is `Widths::sh_requests`.
+    pub fn new(banks: u32, sh_latency: u32, count_bits: u32) -> Self {
+        BankArbiter { banks, stages: sh_latency.saturating_sub(MIN_SH_LATENCY), count_bits, ..Default::default() }
     }
 
     /// Threads whose request completed in the previous cycle (a registered output: the stack
@@ -141,12 +150,16 @@ impl BankArbiter {
     pub fn occupancy(&self) -> usize {
         self.pending.len()
     }
+}
 
-    /// Clock cycle `now`, combinational: requests leaving the pipeline, then each bank grants
-    /// its oldest pending word; `new` requests wait from the next cycle on. `now` numbers the
-    /// caller's cycles (it may jump over cycles in which the arbiter is idle or only holds
-    /// requests in the pipeline).
-    pub fn eval(&self, now: u64, new: &[ShReq], d: &mut ArbStep) {
+impl Unit for BankArbiter {
+    type In<'a> = ArbIn<'a>;
+    type Step = ArbStep;
+
+    /// Combinational: requests leaving the pipeline, then each bank grants its oldest pending
+    /// word; the new requests wait from the next cycle on.
+    fn eval(&self, i: ArbIn<'_>, d: &mut ArbStep) {
+        let (now, new) = (i.now, i.new);
         d.now = now;
         d.done.clear();
         d.pipe_out = 0;
@@ -193,7 +206,7 @@ impl BankArbiter {
     }
 
     /// The clock edge: takes the state [`BankArbiter::eval`] decided.
-    pub fn commit(&mut self, d: &ArbStep) {
+    fn commit(&mut self, d: &ArbStep) {
         self.done.clone_from(&d.done);
         self.pipe.drain(..d.pipe_out);
         let due = d.now + u64::from(self.stages);
@@ -213,17 +226,16 @@ impl BankArbiter {
         self.pending.extend(d.new.iter().map(|&req| Pending { req, served: 0 }));
     }
 
-    /// Registers and this cycle's grants (`d`, from [`BankArbiter::eval`]); `w` sizes the
-    /// counters.
-    pub fn probe<S: Sink>(&self, d: &ArbStep, w: &Widths, s: &mut S) {
+    /// Registers and this cycle's grants (`d`, from [`BankArbiter::eval`]).
+    fn probe<S: Sink>(&self, d: &ArbStep, s: &mut S) {
         if !s.enabled() {
             return;
         }
         s.push_scope("bank_arbiter");
         s.signal_kind("grant", self.banks, d.grant_mask, Kind::Mask);
         s.signal_kind("conflict", self.banks, d.conflict_mask, Kind::Mask);
-        s.signal("pending", w.sh_requests, self.pending.len() as u64);
-        s.signal("pipe", w.sh_requests, self.pipe.len() as u64);
+        s.signal("pending", self.count_bits, self.pending.len() as u64);
+        s.signal("pipe", self.count_bits, self.pipe.len() as u64);
         s.signal("delay_cycles", 64, self.conflict_cycles);
         s.pop_scope();
     }
@@ -236,7 +248,7 @@ mod tests {
     /// One cycle: evaluate, then the clock edge.
     fn step(a: &mut BankArbiter, now: u64, new: &[ShReq]) {
         let mut d = ArbStep::default();
-        a.eval(now, new, &mut d);
+        a.eval(ArbIn { now, new }, &mut d);
         a.commit(&d);
     }
 
@@ -248,7 +260,7 @@ mod tests {
 
     #[test]
     fn disjoint_banks_finish_in_one_cycle() {
-        let mut a = BankArbiter::new(32);
+        let mut a = BankArbiter::new(32, MIN_SH_LATENCY, 8);
         step(&mut a, 0, &[req(0, &[0, 1]), req(1, &[2, 3])]);
         step(&mut a, 0, &[]);
         assert_eq!(a.done(), &[0, 1]);
@@ -257,7 +269,7 @@ mod tests {
 
     #[test]
     fn same_bank_different_words_serialise() {
-        let mut a = BankArbiter::new(32);
+        let mut a = BankArbiter::new(32, MIN_SH_LATENCY, 8);
         // Words 0, 32, 64 all sit in bank 0: three cycles, two of them with a conflict.
         step(&mut a, 0, &[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
         let mut order = vec![];
@@ -274,7 +286,7 @@ mod tests {
 
     #[test]
     fn same_word_is_a_broadcast() {
-        let mut a = BankArbiter::new(32);
+        let mut a = BankArbiter::new(32, MIN_SH_LATENCY, 8);
         step(&mut a, 0, &[req(0, &[5]), req(1, &[5])]);
         step(&mut a, 0, &[]);
         assert_eq!(a.done(), &[0, 1]);
@@ -286,7 +298,7 @@ mod tests {
     /// sequencer the cycle after) in 19, 20, 21, i.e. completed 20, 21, 22 cycles after issue.
     #[test]
     fn latency_follows_bank_serialisation() {
-        let mut a = BankArbiter::with_latency(32, 20);
+        let mut a = BankArbiter::new(32, 20, 8);
         step(&mut a, 0, &[req(0, &[0]), req(1, &[32]), req(2, &[64])]);
         let mut done = vec![];
         for now in 1..=30 {
@@ -301,7 +313,7 @@ mod tests {
         assert_eq!(a.conflict_cycles, 2, "the pipeline adds no conflicts");
         assert!(a.is_idle());
         // The minimum latency is the arbiter without a pipeline.
-        let mut b = BankArbiter::with_latency(32, MIN_SH_LATENCY);
+        let mut b = BankArbiter::new(32, MIN_SH_LATENCY, 8);
         step(&mut b, 0, &[req(0, &[0])]);
         step(&mut b, 1, &[]);
         assert_eq!(b.done(), &[0]);

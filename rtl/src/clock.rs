@@ -6,7 +6,55 @@
 //! order in which they are evaluated cannot matter, and evaluating a unit twice in a cycle must
 //! give the same outputs and next state. [`EvalCheck`] makes a run evaluate siblings in a seeded
 //! random order each cycle, or every kernel twice, so tests can compare its report with the
-//! normal run's bit for bit.
+//! normal run's bit for bit. [`Unit`] is the shape every clocked unit has.
+
+use crate::trace::Sink;
+
+/// A clocked unit: its registers are `self`; [`Unit::eval`] is its combinational logic and
+/// [`Unit::commit`] its clock edge.
+///
+/// - `eval(&self, inputs, &mut step)` reads only the registers and this cycle's inputs and
+///   overwrites the step with the cycle's outputs and register writes. It is the pure
+///   `next(&Regs, &In) -> (Out, Regs')` of a hardware description, written into a buffer the
+///   caller reuses so that a cycle allocates nothing once warm ([`Unit::step`] is the same
+///   function returning a fresh step). Evaluating twice from the same registers gives the same
+///   step ([`EvalCheck::Twice`]).
+/// - `commit(&mut self, &step)` is the clock edge: it applies the step and decides nothing; it
+///   takes no other input. Nothing changes a unit's registers between `eval` and `commit`, so a
+///   value computed this cycle travels only as a step's output passed in another unit's `In`.
+/// - `probe(&self, &step, sink)` shows the registers and the cycle's signals from the step. A
+///   register file that a parent writes in its own commit (the warp buffer, the node fetch's
+///   queues), or a whole design that keeps its steps itself, implements
+///   [`crate::trace::Probe`] instead.
+/// - A unit that can act without an input also tells when (`next_event`, or `busy` and
+///   `pipe_due` for the bank arbiter, which does not count cycles): the runners' idle skip asks.
+///
+/// A parent holds its children by value in its registers, its `In` and `Step` hold theirs, its
+/// `eval` calls theirs in dataflow order wiring outputs to inputs by hand, its `commit` calls
+/// theirs, and its probe asks only its direct children.
+pub trait Unit {
+    /// This cycle's inputs: other units' register outputs, or the combinational outputs of units
+    /// evaluated before this one.
+    type In<'a>;
+    /// One cycle's outputs and register writes.
+    type Step: Default;
+
+    /// The cycle's combinational logic, written into `step` (see the trait's documentation).
+    fn eval(&self, i: Self::In<'_>, step: &mut Self::Step);
+
+    /// The clock edge: applies `step`, this cycle's evaluation.
+    fn commit(&mut self, step: &Self::Step);
+
+    /// The registers and the cycle's signals from `step`, to `sink`.
+    fn probe<S: Sink>(&self, step: &Self::Step, sink: &mut S);
+
+    /// [`Unit::eval`] into a fresh step: the pure form, for tests and one-off evaluations.
+    fn step(&self, i: Self::In<'_>) -> Self::Step {
+        let mut step = Self::Step::default();
+        self.eval(i, &mut step);
+        step
+    }
+}
 
 /// How a runner evaluates sibling units within a cycle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -279,6 +279,6 @@ impl Gpu {
 impl Probe for Gpu {
     fn probe<S: Sink>(&self, s: &mut S) {
         let idle = RtStep::default();
-        sim::probe(&self.units, |_| &idle, &self.mem, s);
+        sim::probe(&self.units, |_| &idle, &self.mem, &Default::default(), s);
     }
 }

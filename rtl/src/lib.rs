@@ -2,10 +2,10 @@
 //!
 //! Conventions (see `../shared/STYLE.md`):
 //! - one hardware unit per file, named after the unit;
-//! - a unit is a kernel: `eval(&self, inputs, &mut step)` reads only its registers and this
-//!   cycle's inputs (other units' outputs, in dataflow order) and writes its outputs and
-//!   decisions into `step`; `commit` applies them at the clock edge (`docs/clocking.md`, "One
-//!   cycle");
+//! - a unit is a kernel, [`clock::Unit`]: `eval(&self, inputs, &mut step)` reads only its
+//!   registers and this cycle's inputs (other units' outputs, in dataflow order) and writes its
+//!   outputs and decisions into `step`; `commit(&mut self, &step)` applies them at the clock edge
+//!   and takes nothing else (`docs/clocking.md`, "Units" and "One cycle");
 //! - every width comes from [`config::Widths`], used alike by the logic, the waveform dump and
 //!   the cost report;
 //! - signals are exposed to a [`trace::Sink`] through [`trace::Probe`]; the [`trace::NullSink`]

@@ -15,6 +15,11 @@
 //! of its node, so a lane's node is complete when it has counted all its pieces. The waiter table
 //! is a slab with a free list: slots are reused, nothing is allocated once it has grown to the
 //! largest number of pieces in flight.
+//!
+//! A register file of the RT unit, not a [`crate::clock::Unit`]: it decides nothing. The RT
+//! unit's eval reads it ([`NodeFetch::head`], [`NodeFetch::waiters`]) and decides what it takes;
+//! its write ports ([`NodeFetch::coalesce`], [`NodeFetch::taken`], [`NodeFetch::complete`]) are
+//! called only from the RT unit's commit. Its probe ([`Probe`]) shows the registers alone.
 
 use std::collections::VecDeque;
 

@@ -11,7 +11,7 @@
 //!
 //! A trace says *what* a ray does; the RT unit decides *when*. Keeping the popped address in the
 //! trace lets the unit check every pop of the stack design under test against the traversal
-//! that produced the trace.
+//! that produced the trace. Stimulus, not hardware: nothing here is clocked.
 
 /// Which operation unit a visited node goes to (SPEC section 7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

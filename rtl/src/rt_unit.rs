@@ -365,7 +365,7 @@ impl RtUnit {
             w: cfg.widths()?,
             stack_unit: StackUnit::new(cfg, id, rt.stack_timing, rt.sh_latency)?,
             fetch: NodeFetch::new(sector_bytes, cfg.threads()),
-            warp_buffer: WarpBuffer::new(&cfg),
+            warp_buffer: WarpBuffer::new(&cfg)?,
             scheduler: GtoScheduler::default(),
             residence: Vec::new(),
             store_seq: 0,
@@ -669,7 +669,7 @@ impl RtUnit {
             return;
         }
         s.push_scope("rt_unit");
-        self.warp_buffer.probe(&self.w, s);
+        self.warp_buffer.probe(s);
         self.scheduler.probe(d.issue, &self.w, self.cfg.warp_size, s);
         // The memory port's request handshake: which source the mux offers (`req_stack` wins) and
         // whether the L1D took it.

@@ -13,7 +13,8 @@
 //! stack manager evaluates first on them and this cycle's commands; its SH and global requests
 //! are then inputs of the arbiter and the scheduler. Nothing changes until [`StackUnit::commit`].
 
-use crate::bank_arbiter::{ArbStep, BankArbiter, MIN_SH_LATENCY};
+use crate::bank_arbiter::{ArbIn, ArbStep, BankArbiter, MIN_SH_LATENCY};
+use crate::clock::Unit;
 use crate::config::{Config, ConfigError, GM_POSTED_QUEUE_BITS};
 use crate::mem_sched::{FixedLatencyMem, FixedStep, GReq, MemSched, SchedStep};
 use crate::stack_manager::{
@@ -63,7 +64,7 @@ impl StackUnitStep {
 
 impl StackUnit {
     /// The stack subsystem of SM `sm`. With [`StackTiming::Blocking`] the sequencer waits for the
-    /// acknowledgement of each global store; `sh_latency` as in [`BankArbiter::with_latency`].
+    /// acknowledgement of each global store; `sh_latency` as in [`BankArbiter::new`].
     pub fn new(cfg: Config, sm: u32, timing: StackTiming, sh_latency: u32) -> Result<Self, ConfigError> {
         let queue_bits = match timing {
             StackTiming::Blocking => cfg.widths()?.gm_queue,
@@ -71,7 +72,7 @@ impl StackUnit {
         };
         Ok(StackUnit {
             manager: StackManager::new(cfg, sm)?.with_acked_stores(timing == StackTiming::Blocking),
-            arb: BankArbiter::with_latency(cfg.banks, sh_latency),
+            arb: BankArbiter::new(cfg.banks, sh_latency, cfg.widths()?.sh_requests),
             sched: MemSched::new(queue_bits),
         })
     }
@@ -105,7 +106,7 @@ impl StackUnit {
     fn eval_children(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
         let sm_in = StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() };
         self.manager.eval(&sm_in, &mut d.manager);
-        self.arb.eval(now, &d.manager.sh_req, &mut d.arb);
+        self.arb.eval(ArbIn { now, new: &d.manager.sh_req }, &mut d.arb);
         self.sched.eval(&d.manager.g_req, i.req_ready, i.completions, &mut d.sched);
     }
 
@@ -150,7 +151,7 @@ impl StackUnit {
         s.push_scope("stack_manager");
         self.manager.probe_cycle(cmds, &d.manager.pops, s);
         s.pop_scope();
-        self.arb.probe(&d.arb, w, s);
+        self.arb.probe(&d.arb, s);
         self.sched.probe(&d.sched, w, s);
     }
 }
@@ -187,7 +188,7 @@ impl StandaloneStack {
     }
 
     /// With `StackTiming::Blocking` the memory acknowledges stores and the sequencer waits for
-    /// the acknowledgement; `sh_latency` as in [`BankArbiter::with_latency`]. (A standalone unit
+    /// the acknowledgement; `sh_latency` as in [`BankArbiter::new`]. (A standalone unit
     /// has no node fetches, so the rest of `Blocking` does not apply.)
     pub fn with_timing(
         cfg: Config,

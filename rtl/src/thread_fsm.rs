@@ -13,6 +13,10 @@
 //! kind's latency (Busy). Push, Pop and the final Finish go to the stack manager one per cycle,
 //! each when the stack manager shows the thread `ready`. [`next`] is the combinational logic of
 //! one thread: its state and this cycle's inputs in, its next state and its command out.
+//!
+//! Combinational logic, not a [`crate::clock::Unit`]: a thread's registers ([`Thread`]) are an
+//! entry of the warp buffer, and the RT unit's eval calls [`next`] for each lane that acts and
+//! its commit writes the results there.
 
 use crate::node_fetch::pieces;
 use crate::ray_op::{NodeKind, RayOp};

@@ -13,10 +13,10 @@
 //! scheduled, or holding a stack command) instead of all of them. The age is a rank among the
 //! resident warps (what the GTO scheduler compares), so it is a warp index wide.
 
-use crate::config::{warp_lane, Config, Widths};
+use crate::config::{warp_lane, Config, ConfigError, Widths};
 use crate::ray_op::RayOp;
 use crate::thread_fsm::{Thread, ThreadState};
-use crate::trace::{Kind, Sink};
+use crate::trace::{Kind, Probe, Sink};
 
 /// Per warp, which lanes are in which state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -131,11 +131,13 @@ pub struct WarpBuffer {
     drained: u64,
     /// Warps loaded so far.
     loaded: u64,
+    /// The widths of the waveform's fields.
+    widths: Widths,
 }
 
 impl WarpBuffer {
-    pub fn new(cfg: &Config) -> Self {
-        WarpBuffer {
+    pub fn new(cfg: &Config) -> Result<Self, ConfigError> {
+        Ok(WarpBuffer {
             warp_size: cfg.warp_size,
             slots: vec![None; cfg.warps as usize],
             threads: vec![Thread::default(); cfg.threads() as usize],
@@ -148,7 +150,8 @@ impl WarpBuffer {
             busy_warps: 0,
             drained: 0,
             loaded: 0,
-        }
+            widths: cfg.widths()?,
+        })
     }
 
     pub fn warps(&self) -> u32 {
@@ -317,11 +320,16 @@ impl WarpBuffer {
             .min()
             .unwrap_or(u64::MAX);
     }
+}
 
-    pub fn probe<S: Sink>(&self, w: &Widths, s: &mut S) {
+/// The warp buffer is a register file the RT unit writes in its own commit (`load`, `apply`,
+/// `leave`): its probe shows the registers alone.
+impl Probe for WarpBuffer {
+    fn probe<S: Sink>(&self, s: &mut S) {
         if !s.enabled() {
             return;
         }
+        let w = &self.widths;
         let ws = self.warp_size;
         s.push_scope("warp_buffer");
         for wp in 0..self.warps() {
@@ -358,7 +366,7 @@ mod tests {
     fn warp_summaries_follow_the_lanes() {
         let cfg: Config = "RB_8".parse().unwrap();
         let cfg = Config { warps: 4, ..cfg };
-        let mut b = WarpBuffer::new(&cfg);
+        let mut b = WarpBuffer::new(&cfg).unwrap();
         let mut x = 0x9E37_79B9_7F4A_7C15u64;
         let mut next = |n: u64| {
             x ^= x << 13;
@@ -416,7 +424,7 @@ mod tests {
     #[test]
     fn ages_are_ranks_that_close_up_when_a_warp_leaves() {
         let cfg: Config = "RB_8".parse().unwrap();
-        let mut b = WarpBuffer::new(&Config { warps: 3, ..cfg });
+        let mut b = WarpBuffer::new(&Config { warps: 3, ..cfg }).unwrap();
         for w in 0..3 {
             assert_eq!(b.load(w, vec![None; 32], 0, 0, 0), u64::from(w));
         }

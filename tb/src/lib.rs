@@ -20,6 +20,8 @@ pub mod prereq;
 pub mod prove;
 pub mod report;
 pub mod run;
+#[doc(hidden)]
+pub mod testing;
 pub mod vcd;
 pub mod workload;
 

@@ -5,7 +5,7 @@
 use rtl::config::Config;
 use rtl::stack_manager::StackStats;
 use tb::run::sampling::{SampleMode, SamplePlan};
-use tb::run::sim::{simulate_all, simulate_sampled, Fidelity, Hardware, Metric, Outcome, RunSpec, Sampled};
+use tb::run::sim::{simulate_sampled, Fidelity, Hardware, Metric, Outcome, RunSpec, Sampled};
 use tb::workload::traverse::ChildOrder;
 use tb::workload::Workload;
 
@@ -13,8 +13,7 @@ mod common;
 use common::small_workload as workload;
 
 fn run(config: Config, fidelity: Fidelity, w: &Workload) -> Outcome {
-    let spec = RunSpec { config, hw: Hardware::default(), fidelity };
-    simulate_all(&spec, w).unwrap_or_else(|e| panic!("{} {fidelity:?}: {e}", config.name()))
+    common::simulate(config, Hardware::default(), fidelity, w)
 }
 
 /// Procedural spheres (wknd), generated triangles (clutter) and a real mesh (ship), each in both
@@ -163,7 +162,7 @@ fn trials(mode: SampleMode) -> Option<(Outcome, Vec<Sampled>, u32)> {
         hw: Hardware::default(),
         fidelity: Fidelity::Functional,
     };
-    let full = simulate_all(&spec, &w).unwrap();
+    let full = common::simulate(spec.config, spec.hw, spec.fidelity, &w);
     let runs = (0..SEEDS)
         .map(|seed| {
             let plan = SamplePlan { fraction: 0.25, mode, batches: BATCHES, seed };

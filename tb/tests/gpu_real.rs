@@ -5,17 +5,12 @@
 use std::collections::BTreeMap;
 
 use serde_json::Value;
-use tb::run::sim::{simulate_all, Fidelity, Hardware, Outcome, RunSpec};
+use tb::run::sim::{Fidelity, Outcome};
 use tb::workload::traverse::ChildOrder;
 use tb::workload::Workload;
 
 mod common;
-use common::small_workload as workload;
-
-fn run(name: &str, fidelity: Fidelity, w: &Workload) -> Outcome {
-    let spec = RunSpec { config: name.parse().unwrap(), hw: Hardware::default(), fidelity };
-    simulate_all(&spec, w).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
+use common::{simulate_named as run, small_workload as workload};
 
 fn deepest(w: &Workload) -> u32 {
     w.warp_jobs().flat_map(|j| j.lanes.into_iter().flatten()).map(|t| t.max_depth()).max().unwrap()

@@ -4,7 +4,7 @@
 //! say.
 
 use tb::hw::{preset, Hardware};
-use tb::run::sim::{simulate_all, Fidelity, Outcome, RunSpec};
+use tb::run::sim::{Fidelity, Outcome};
 use tb::workload::traverse::ChildOrder;
 use tb::workload::{Accel, PathEnd, Workload, WorkloadOpts};
 
@@ -22,9 +22,10 @@ fn old_workload(scene: &tb::Scene) -> Workload<'_> {
     Workload::new(scene, opts).unwrap()
 }
 
+mod common;
+
 fn run(name: &str, hw: Hardware, w: &Workload) -> Outcome {
-    let spec = RunSpec { config: name.parse().unwrap(), hw, fidelity: Fidelity::Cycle };
-    simulate_all(&spec, w).unwrap()
+    common::simulate(name.parse().unwrap(), hw, Fidelity::Cycle, w)
 }
 
 #[test]

@@ -3,9 +3,8 @@
 
 use rtl::config::Config;
 use rtl::stack_unit::StandaloneStack;
-use rtl::trace::NullSink;
 use tb::run::stack_tb::warp_work;
-use tb::run::verify::harness::{run_cycle, CycleOpts};
+use tb::run::verify::harness::CycleOpts;
 use tb::workload::traverse::ChildOrder;
 
 mod common;
@@ -19,8 +18,7 @@ fn check_scene(name: &str, res: u32, order: ChildOrder) {
     for cfg in Config::paper_set() {
         let mut unit = StandaloneStack::new(cfg, 100).unwrap();
         let o = CycleOpts { max_gap: 8, seed: 1, ..CycleOpts::default() };
-        let s = run_cycle(&mut unit, jobs.iter().map(warp_work), o, &mut NullSink)
-            .unwrap_or_else(|e| panic!("{name} {}: {e}", cfg.name()));
+        let s = common::run_stack(&mut unit, jobs.iter().map(warp_work), o);
         assert!(s.pops_checked > 500, "{name}: {} pops", s.pops_checked);
         traffic.push((cfg.name(), s.stats.stack.global_accesses()));
     }

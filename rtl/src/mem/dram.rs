@@ -17,6 +17,7 @@
 //! offered request fires, and [`Dram::commit`] applies that at the clock edge.
 
 use super::{Counters, MemParams, MemReq, MemResp, MemWidths, ADDR_BITS, FLAG_BITS, ID_BITS};
+use crate::clock::Unit;
 use crate::trace::{Kind, Sink};
 use std::collections::VecDeque;
 
@@ -97,15 +98,36 @@ impl Dram {
         &self.counters
     }
 
+    /// Next cycle whose commit changes something visible; `None` when idle.
+    pub fn next_event(&self) -> Option<u64> {
+        if !self.out.is_empty() {
+            return Some(self.now);
+        }
+        let response = self.in_flight.front().map(|&(v, _)| v - 1);
+        let start = self.waiting.front().map(|&s| s.max(self.now + 1) - 1);
+        response.into_iter().chain(start).min()
+    }
+
+    /// Moves the clock to `cycle` over cycles with no event.
+    pub fn skip_to(&mut self, cycle: u64) {
+        self.now = cycle;
+    }
+
+}
+
+impl Unit for Dram {
+    type In<'a> = DramIn;
+    type Step = DramStep;
+
     /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
     /// `d` (every field overwritten).
-    pub fn eval(&self, i: &DramIn, d: &mut DramStep) {
+    fn eval(&self, i: DramIn, d: &mut DramStep) {
         let req_fire = i.req.is_some() && self.ready();
         *d = DramStep { at: self.now, out: DramOut { req_fire }, req: i.req };
     }
 
     /// Clock edge: applies `d`, the step [`Dram::eval`] produced this cycle.
-    pub fn commit(&mut self, d: &DramStep) {
+    fn commit(&mut self, d: &DramStep) {
         assert_eq!(d.at, self.now, "DRAM committed a step evaluated in another cycle");
         let next = self.now + 1;
         if let (true, Some(req)) = (d.out.req_fire, d.req) {
@@ -133,22 +155,8 @@ impl Dram {
         self.now = next;
     }
 
-    /// Next cycle whose commit changes something visible; `None` when idle.
-    pub fn next_event(&self) -> Option<u64> {
-        if !self.out.is_empty() {
-            return Some(self.now);
-        }
-        let response = self.in_flight.front().map(|&(v, _)| v - 1);
-        let start = self.waiting.front().map(|&s| s.max(self.now + 1) - 1);
-        response.into_iter().chain(start).min()
-    }
-
-    pub(crate) fn skip_to(&mut self, cycle: u64) {
-        self.now = cycle;
-    }
-
     /// Shows the registers and `d`, this cycle's step, to `sink`.
-    pub fn probe<S: Sink>(&self, d: &DramStep, sink: &mut S) {
+    fn probe<S: Sink>(&self, d: &DramStep, sink: &mut S) {
         if !sink.enabled() {
             return;
         }
@@ -197,7 +205,7 @@ mod tests {
                 resps.push((r.id, cycle));
             }
             let mut d = DramStep::default();
-            dram.eval(&DramIn { req: pending.front().copied() }, &mut d);
+            dram.eval(DramIn { req: pending.front().copied() }, &mut d);
             if d.out.req_fire {
                 accepts.push((pending.pop_front().unwrap().id, cycle));
             }
@@ -272,13 +280,13 @@ mod tests {
         let mut d = DramStep::default();
         // Each request holds the bus for 32 cycles: the first starts at once, two more wait.
         for id in 0..3 {
-            dram.eval(&DramIn { req: r(id) }, &mut d);
+            dram.eval(DramIn { req: r(id) }, &mut d);
             assert!(d.out.req_fire);
             dram.commit(&d);
         }
         assert_eq!(dram.queue_depth(), 2);
         assert!(!dram.ready());
-        dram.eval(&DramIn { req: r(3) }, &mut d);
+        dram.eval(DramIn { req: r(3) }, &mut d);
         assert!(!d.out.req_fire);
         let mut snap = Snapshot::default();
         dram.probe(&d, &mut snap);

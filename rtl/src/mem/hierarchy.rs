@@ -10,13 +10,13 @@
 //!
 //! Each unit has register outputs (functions of its registers alone: the L1D's `ready`,
 //! `down_req` and `resp`, the L2's `resp` and `dram_req`, DRAM's `ready` and `resp`), a pure
-//! `eval(&self, &In, &mut Step)` that computes the cycle's combinational outputs (`Step::out`)
+//! `eval(&self, In, &mut Step)` ([`Unit`]) that computes the cycle's combinational outputs (`Step::out`)
 //! and next-state decisions from the registers and the inputs, and `commit(&mut self, &Step)`,
 //! the clock edge, which applies the step and nothing else. `eval` takes `&self`, so no unit's
 //! registers change before the edge and no value of this cycle can be read out of a unit's
 //! state: values of this cycle travel only as one unit's `Step::out` passed in another's `In`.
 //!
-//! Dataflow order, wired by hand in [`MemSystem::eval_step`]:
+//! Dataflow order, wired by hand in [`MemSystem::eval`]:
 //! 1. The L2: its inputs are register outputs only (each L1D's `down_req`, DRAM's `ready` and
 //!    `resp`).
 //! 2. The L1Ds and DRAM, siblings, in any order: an L1D's inputs are the SM's request, the L2's
@@ -37,9 +37,9 @@ use super::dram::{Dram, DramIn, DramStep};
 use super::l1d::{L1d, L1dIn, L1dStep};
 use super::l2::{L2In, L2Step, L2};
 use super::{Counters, MemParams, MemReq, MemResp};
-use crate::clock::EvalCheck;
+use crate::clock::{EvalCheck, Unit};
 use crate::config::ConfigError;
-use crate::trace::{Probe, Sink};
+use crate::trace::Sink;
 use std::fmt::Debug;
 
 /// What one SM sees in one cycle.
@@ -57,7 +57,7 @@ pub struct SmOut {
 /// buffer reused from cycle to cycle, so evaluating a cycle allocates nothing once warm.
 #[derive(Clone, Debug, Default)]
 pub struct MemStep {
-    /// The cycle this step was evaluated in ([`MemSystem::commit_step`] refuses a stale step).
+    /// The cycle this step was evaluated in ([`MemSystem::commit`] refuses a stale step).
     at: u64,
     out: Vec<SmOut>,
     l1d: Vec<L1dStep>,
@@ -79,13 +79,6 @@ impl MemStep {
     pub fn out(&self) -> &[SmOut] {
         &self.out
     }
-}
-
-/// Whether an L1D shows its SM `ready` this cycle: its `ready` register, and with a request
-/// offered (`offered`) whether its step took it.
-#[inline]
-pub(crate) fn port_ready(l1: &L1d, step: &L1dStep, offered: bool) -> bool {
-    l1.ready() && (!offered || step.out.req_fire)
 }
 
 /// Evaluates one kernel into `d`, or with two passes first into `first` and then into `d`,
@@ -115,10 +108,6 @@ pub struct MemSystem {
     dram: Dram,
     now: u64,
     check: EvalCheck,
-    /// The step of [`MemSystem::eval`] and [`MemSystem::commit`], kept for the probe. Boxed so
-    /// that taking it out to evaluate (`self` is read meanwhile) moves a pointer, not the step;
-    /// `None` only during those calls.
-    step: Option<Box<MemStep>>,
     #[cfg(test)]
     planted: tests::Planted,
 }
@@ -134,7 +123,6 @@ impl MemSystem {
             dram: Dram::new(&params),
             now: 0,
             check: EvalCheck::Dataflow,
-            step: Some(Box::default()),
             #[cfg(test)]
             planted: tests::Planted::None,
         })
@@ -146,12 +134,10 @@ impl MemSystem {
 
     /// How each cycle is evaluated: in dataflow order (the default), with the siblings (the L1Ds
     /// and DRAM) in a seeded random order, or every kernel twice (panicking if the two differ).
-    /// All three give the same results.
+    /// All three give the same results. A step buffer keeps the evaluation order of the mode it
+    /// was first evaluated in: take a fresh one after changing the mode.
     pub fn set_eval_check(&mut self, check: EvalCheck) {
         self.check = check;
-        if let Some(step) = self.step.as_mut() {
-            step.order.clear();
-        }
     }
 
     pub fn eval_check(&self) -> EvalCheck {
@@ -168,15 +154,6 @@ impl MemSystem {
         self.l1d[sm].ready()
     }
 
-    /// One cycle of combinational logic: `reqs[sm]` is SM `sm`'s request, if valid. Returns what
-    /// each SM sees. The step is kept for [`MemSystem::commit`] and the probe (the convenience
-    /// form of [`MemSystem::eval_step`]).
-    pub fn eval(&mut self, reqs: &[Option<MemReq>]) -> &[SmOut] {
-        let mut d = self.step.take().unwrap_or_default();
-        self.eval_step(reqs, &mut d);
-        &self.step.insert(d).out
-    }
-
     /// Starts the cycle's step `d`: its cycle, a slot per SM, and the L1Ds' down requests (with
     /// DRAM's register outputs, the L2's inputs).
     fn begin_step(&self, d: &mut MemStep) {
@@ -188,47 +165,6 @@ impl MemSystem {
         d.down.extend(self.l1d.iter().map(L1d::down_req));
     }
 
-    /// Clock edge for the step of the last [`MemSystem::eval`].
-    pub fn commit(&mut self) {
-        let d = self.step.take().unwrap_or_default();
-        self.commit_step(&d);
-        self.step = Some(d);
-    }
-
-    /// One cycle of combinational logic, a pure function of the registers and `reqs`, written
-    /// into `d` (see the module documentation for the dataflow order).
-    pub fn eval_step(&self, reqs: &[Option<MemReq>], d: &mut MemStep) {
-        let sms = self.l1d.len();
-        assert_eq!(reqs.len(), sms, "one request slot per SM");
-        let passes = self.check.passes();
-
-        // 1. The L2, from register outputs only.
-        self.begin_step(d);
-        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
-        let l2 = eval_kernel(passes, "L2", &mut d.l2, &mut d.first_l2, |s| self.l2.eval(&l2_in, s));
-        let granted = &l2.out.granted;
-
-        // 2. The siblings: the L1Ds (after the L2, whose grant they take) and DRAM.
-        self.check.order(self.now, sms + 1, &mut d.order);
-        for &k in &d.order {
-            if k == sms {
-                let dram_in = DramIn { req: self.l2.dram_req() };
-                eval_kernel(passes, "DRAM", &mut d.dram, &mut d.first_dram, |s| self.dram.eval(&dram_in, s));
-                continue;
-            }
-            let req = self.l1d_req(&d.l1d, k, reqs[k]);
-            let l1_in = L1dIn { req, down_ready: granted[k], fills: self.l2.resp(k) };
-            eval_kernel(passes, "L1D", &mut d.l1d[k], &mut d.first_l1d, |s| self.eval_l1d(k, &l1_in, s));
-        }
-
-        // What the SMs see: the L1Ds' register outputs (`ready` is `req_fire` when a request was
-        // offered: the same unless a test withholds a request from an L1D).
-        for (sm, (o, l1)) in d.out.iter_mut().zip(&self.l1d).enumerate() {
-            o.ready = port_ready(l1, &d.l1d[sm], reqs[sm].is_some());
-            o.resp.clear();
-            o.resp.extend_from_slice(l1.resp());
-        }
-    }
 
     /// L1D `sm`'s request input: SM `sm`'s request (a hook where tests plant wiring bugs).
     #[cfg(not(test))]
@@ -238,7 +174,7 @@ impl MemSystem {
 
     #[cfg(not(test))]
     fn eval_l1d(&self, sm: usize, i: &L1dIn, s: &mut L1dStep) {
-        self.l1d[sm].eval(i, s)
+        self.l1d[sm].eval(*i, s)
     }
 
     /// As the normal build, unless a test planted a wiring bug.
@@ -260,24 +196,7 @@ impl MemSystem {
             tests::Planted::OwnStep if s.out.req_fire => L1dIn { req: None, ..*i },
             _ => *i,
         };
-        self.l1d[sm].eval(&i, s)
-    }
-
-    /// Clock edge: every unit applies its part of `d`, the step [`MemSystem::eval_step`] produced
-    /// this cycle. Each commit writes only its own unit's registers, so their order does not
-    /// matter either (shuffled commits in the shuffled order).
-    pub fn commit_step(&mut self, d: &MemStep) {
-        assert_eq!(d.at, self.now, "memory system committed a step evaluated in another cycle");
-        let sms = self.l1d.len();
-        for &k in &d.order {
-            if k == sms {
-                self.dram.commit(&d.dram);
-            } else {
-                self.l1d[k].commit(&d.l1d[k]);
-            }
-        }
-        self.l2.commit(&d.l2);
-        self.now += 1;
+        self.l1d[sm].eval(i, s)
     }
 
     /// The first cycle, from now on, whose `eval`/`commit` does anything if no SM offers a
@@ -307,13 +226,18 @@ impl MemSystem {
         self.set_now(cycle);
     }
 
-    /// The units, for a runner that clocks them apart (the windowed run, [`crate::sim`]).
-    pub(crate) fn parts_mut(&mut self) -> (&mut [L1d], &mut L2, &mut Dram) {
+    /// The children, lent to a runner that clocks them apart instead of through
+    /// [`MemSystem::eval`] and [`MemSystem::commit`]: the windowed run ([`crate::sim`]) clocks
+    /// each L1D in its SM's window with its miss queue detached ([`L1d::detach_miss_queue`]) and
+    /// the L2 split ([`L2::split_front_end`]), and ends with [`MemSystem::set_now`].
+    pub fn parts_mut(&mut self) -> (&mut [L1d], &mut L2, &mut Dram) {
         (&mut self.l1d, &mut self.l2, &mut self.dram)
     }
 
-    /// Every unit's clock set to `cycle` (a runner that clocked them apart ends its run).
-    pub(crate) fn set_now(&mut self, cycle: u64) {
+    /// Every unit's clock set to `cycle`: a runner that clocked the children apart
+    /// ([`MemSystem::parts_mut`]) ends its run at the cycle the whole system has reached (the
+    /// units it let sleep, or ran ahead, take that cycle).
+    pub fn set_now(&mut self, cycle: u64) {
         for l1 in &mut self.l1d {
             l1.skip_to(cycle);
         }
@@ -343,9 +267,69 @@ impl MemSystem {
         total
     }
 
+}
+
+
+impl Unit for MemSystem {
+    type In<'a> = &'a [Option<MemReq>];
+    type Step = MemStep;
+
+    /// One cycle of combinational logic, a pure function of the registers and `reqs` (`reqs[sm]`
+    /// is SM `sm`'s request, if valid), written into `d`: what each SM sees is
+    /// [`MemStep::out`] (see the module documentation for the dataflow order).
+    fn eval(&self, reqs: &[Option<MemReq>], d: &mut MemStep) {
+        let sms = self.l1d.len();
+        assert_eq!(reqs.len(), sms, "one request slot per SM");
+        let passes = self.check.passes();
+
+        // 1. The L2, from register outputs only.
+        self.begin_step(d);
+        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
+        let l2 = eval_kernel(passes, "L2", &mut d.l2, &mut d.first_l2, |s| self.l2.eval(l2_in, s));
+        let granted = &l2.out.granted;
+
+        // 2. The siblings: the L1Ds (after the L2, whose grant they take) and DRAM.
+        self.check.order(self.now, sms + 1, &mut d.order);
+        for &k in &d.order {
+            if k == sms {
+                let dram_in = DramIn { req: self.l2.dram_req() };
+                eval_kernel(passes, "DRAM", &mut d.dram, &mut d.first_dram, |s| self.dram.eval(dram_in, s));
+                continue;
+            }
+            let req = self.l1d_req(&d.l1d, k, reqs[k]);
+            let l1_in = L1dIn { req, down_ready: granted[k], fills: self.l2.resp(k) };
+            eval_kernel(passes, "L1D", &mut d.l1d[k], &mut d.first_l1d, |s| self.eval_l1d(k, &l1_in, s));
+        }
+
+        // What the SMs see: the L1Ds' register outputs (`ready` is `req_fire` when a request was
+        // offered: the same unless a test withholds a request from an L1D).
+        for (sm, (o, l1)) in d.out.iter_mut().zip(&self.l1d).enumerate() {
+            o.ready = l1.sm_ready(&d.l1d[sm], reqs[sm].is_some());
+            o.resp.clear();
+            o.resp.extend_from_slice(l1.resp());
+        }
+    }
+
+    /// Clock edge: every unit applies its part of `d`, the step [`MemSystem::eval`] produced
+    /// this cycle. Each commit writes only its own unit's registers, so their order does not
+    /// matter either (shuffled commits in the shuffled order).
+    fn commit(&mut self, d: &MemStep) {
+        assert_eq!(d.at, self.now, "memory system committed a step evaluated in another cycle");
+        let sms = self.l1d.len();
+        for &k in &d.order {
+            if k == sms {
+                self.dram.commit(&d.dram);
+            } else {
+                self.l1d[k].commit(&d.l1d[k]);
+            }
+        }
+        self.l2.commit(&d.l2);
+        self.now += 1;
+    }
+
     /// Shows the registers and `d`, this cycle's step, to `sink` (sampled between eval and
     /// commit, a probe shows the cycle's inputs and decisions).
-    pub fn probe_step<S: Sink>(&self, d: &MemStep, sink: &mut S) {
+    fn probe<S: Sink>(&self, d: &MemStep, sink: &mut S) {
         if !sink.enabled() {
             return;
         }
@@ -364,15 +348,6 @@ impl MemSystem {
     }
 }
 
-impl Probe for MemSystem {
-    /// Probes with the step of the last [`MemSystem::eval`].
-    fn probe<S: Sink>(&self, sink: &mut S) {
-        if let Some(d) = &self.step {
-            self.probe_step(d, sink);
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -385,7 +360,7 @@ mod tests {
 
     type Log = Vec<(u64, usize, MemResp)>;
 
-    /// A wiring bug a test plants in [`MemSystem::eval_step`].
+    /// A wiring bug a test plants in [`MemSystem::eval`].
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
     pub(super) enum Planted {
         None,
@@ -423,19 +398,20 @@ mod tests {
     fn drive(sys: &mut MemSystem, mut traffic: Vec<VecDeque<(u64, MemReq)>>, skip: Skip) -> (Log, u64) {
         let mut log = Log::new();
         let mut evals = 0;
+        let mut d = MemStep::default();
         loop {
             evals += 1;
             let c = sys.cycle();
             let offers: Vec<Option<MemReq>> =
                 traffic.iter().map(|q| q.front().filter(|(t, _)| *t <= c).map(|x| x.1)).collect();
-            let out = sys.eval(&offers);
-            for (sm, o) in out.iter().enumerate() {
+            sys.eval(&offers, &mut d);
+            for (sm, o) in d.out().iter().enumerate() {
                 log.extend(o.resp.iter().map(|r| (c, sm, *r)));
                 if o.ready && offers[sm].is_some() {
                     traffic[sm].pop_front();
                 }
             }
-            sys.commit();
+            sys.commit(&d);
             let arrival = traffic.iter().filter_map(|q| q.front().map(|x| x.0)).min();
             let event = sys.next_event_cycle();
             if arrival.is_none() && event.is_none() {
@@ -649,8 +625,8 @@ mod tests {
         let mut sys = MemSystem::new(MemParams::default()).unwrap();
         let mut reqs = vec![None; 8];
         reqs[0] = Some(MemReq::read(1, 0, 8, ReqKind::NodeFetch));
-        sys.eval(&reqs);
-        sys.commit();
+        let d = sys.step(&reqs);
+        sys.commit(&d);
         let e = sys.next_event_cycle().unwrap();
         sys.skip_to(e + 1);
     }
@@ -793,10 +769,10 @@ mod tests {
 
     #[test]
     fn probe_names_every_unit() {
-        let mut sys = MemSystem::new(MemParams { sms: 2, ..MemParams::default() }).unwrap();
-        sys.eval(&[Some(MemReq::read(1, 0x40, 8, ReqKind::NodeFetch)), None]);
+        let sys = MemSystem::new(MemParams { sms: 2, ..MemParams::default() }).unwrap();
+        let d = sys.step(&[Some(MemReq::read(1, 0x40, 8, ReqKind::NodeFetch)), None]);
         let mut s = Snapshot::default();
-        sys.probe(&mut s);
+        sys.probe(&d, &mut s);
         assert_eq!(s.get("l1d0.req_valid"), Some(1));
         assert_eq!(s.get("l1d0.req_addr"), Some(0x40));
         assert_eq!(s.get("l1d1.req_valid"), Some(0));
@@ -849,7 +825,7 @@ mod tests {
     }
 
     #[test]
-    fn the_pure_step_api_matches_the_convenience_wrappers() {
+    fn a_reused_step_buffer_matches_a_fresh_step_every_cycle() {
         let mut a = MemSystem::new(small()).unwrap();
         let mut b = MemSystem::new(small()).unwrap();
         let mut d = MemStep::default();
@@ -858,23 +834,17 @@ mod tests {
             let c = a.cycle();
             let offers: Vec<Option<MemReq>> =
                 t.iter().map(|q| q.front().filter(|(at, _)| *at <= c).map(|x| x.1)).collect();
-            b.eval_step(&offers, &mut d);
+            b.eval(&offers, &mut d);
             // Evaluating again changes nothing: the kernel is a function of registers and inputs.
-            let again = {
-                let mut e = MemStep::default();
-                b.eval_step(&offers, &mut e);
-                e.out
-            };
-            assert_eq!(again, d.out);
-            let out = a.eval(&offers);
-            assert_eq!(out, d.out());
-            for (sm, o) in out.iter().enumerate() {
+            let fresh = a.step(&offers);
+            assert_eq!(fresh.out, d.out);
+            for (sm, o) in fresh.out().iter().enumerate() {
                 if o.ready && offers[sm].is_some() {
                     t[sm].pop_front();
                 }
             }
-            a.commit();
-            b.commit_step(&d);
+            a.commit(&fresh);
+            b.commit(&d);
         }
         assert_eq!(results(&a), results(&b));
         assert!(a.l2().counters().accesses > 0);
@@ -885,9 +855,9 @@ mod tests {
     fn committing_a_step_twice_is_refused() {
         let mut sys = MemSystem::new(small()).unwrap();
         let mut d = MemStep::default();
-        sys.eval_step(&[Some(MemReq::read(1, 0, 8, ReqKind::NodeFetch)), None, None, None], &mut d);
-        sys.commit_step(&d);
-        sys.commit_step(&d);
+        sys.eval(&[Some(MemReq::read(1, 0, 8, ReqKind::NodeFetch)), None, None, None], &mut d);
+        sys.commit(&d);
+        sys.commit(&d);
     }
 
     /// Runs random traffic with `check`, probing every cycle between eval and commit, until
@@ -895,22 +865,24 @@ mod tests {
     fn probe_each_cycle(check: EvalCheck, mut visit: impl FnMut(&Snapshot) -> bool) {
         let mut sys = system(small(), check);
         let mut t = traffic(2, 4, 300);
+        let mut d = MemStep::default();
         while t.iter().any(|q| !q.is_empty()) || sys.next_event_cycle().is_some() {
             assert!(sys.cycle() < 100_000, "runaway");
             let c = sys.cycle();
             let offers: Vec<Option<MemReq>> =
                 t.iter().map(|q| q.front().filter(|(at, _)| *at <= c).map(|x| x.1)).collect();
-            for (sm, o) in sys.eval(&offers).iter().enumerate() {
+            sys.eval(&offers, &mut d);
+            for (sm, o) in d.out().iter().enumerate() {
                 if o.ready && offers[sm].is_some() {
                     t[sm].pop_front();
                 }
             }
             let mut s = Snapshot::default();
-            sys.probe(&mut s);
+            sys.probe(&d, &mut s);
             if !visit(&s) {
                 return;
             }
-            sys.commit();
+            sys.commit(&d);
         }
     }
 
@@ -1002,15 +974,16 @@ mod tests {
         let mut sys = system(small(), check);
         let mut offers: Vec<Option<MemReq>> =
             (0..4).map(|sm| Some(MemReq::read(0, sm * 0x1000, 8, ReqKind::NodeFetch))).collect();
+        let mut d = MemStep::default();
         let mut run = |sys: &mut MemSystem, cycles: u64| {
             for _ in 0..cycles {
-                let out = sys.eval(&offers);
-                for (o, r) in out.iter().zip(&mut offers) {
+                sys.eval(&offers, &mut d);
+                for (o, r) in d.out().iter().zip(&mut offers) {
                     if let (true, Some(r)) = (o.ready, r) {
                         r.id += 1;
                     }
                 }
-                sys.commit();
+                sys.commit(&d);
             }
         };
         // Misses, fills, then hits that fill the buffers to their steady size. The misses

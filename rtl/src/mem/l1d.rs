@@ -26,14 +26,21 @@
 //! fill the tags at the clock edge and their waiters' responses are visible the next cycle. All
 //! responses visible in a cycle are delivered together.
 //!
-//! Detached miss queue (the windowed run's interface, `sim::window`): after
-//! `L1d::detach_miss_queue` a runner that grants the queue's head beside the L2's front end
-//! takes each request sent down (`L1d::take_sent`) and reports each that left
-//! (`L1d::left_queue`); the queue's length (`L1d::queue_len`) is then an upper bound.
+//! Two ways to connect the down port, both part of the unit's interface:
+//! - **attached** (the default): the L2's grant comes in as `down_ready` in the same cycle, and
+//!   the miss queue pops at the edge;
+//! - **detached** ([`L1d::detach_miss_queue`]): the L1D runs ahead of the L2 in its own window
+//!   (the windowed run, `sim::window`) and its miss queue is simulated again beside the L2's
+//!   front end ([`super::l2::L2::split_front_end`]). The L1D then lists each request it sends
+//!   down ([`L1d::take_sent`]), is told each that left ([`L1d::left_queue`]), and keeps the
+//!   requests not yet known to have left, so its queue's length ([`L1d::queue_len`]) is an
+//!   upper bound, exact once the front end has run the cycles before. An L1D with nothing to do
+//!   only has its clock moved ([`L1d::skip_to`]), which is all committing a quiet step does.
 
 use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, L1dWrite, MemParams, MemReq, MemResp, MemWidths, ReqKind, ADDR_BITS, FLAG_BITS};
+use crate::clock::Unit;
 use crate::trace::{Kind, Sink};
 use std::collections::VecDeque;
 
@@ -171,35 +178,43 @@ impl L1d {
         }
     }
 
-    /// Hands the miss queue to a runner that simulates it beside the L2 (the windowed run,
-    /// `sim::window`): from now on every request sent down is also listed with the cycle of
+    /// Detaches the miss queue (see the module documentation): from now on every request sent down is also listed with the cycle of
     /// the edge that queued it ([`L1d::take_sent`]), nothing pops the queue but
     /// [`L1d::left_queue`], and [`L1d::next_event`] leaves the queue out (the runner counts it).
     /// `eval` must then get `down_ready` false. The queue's length here is an upper bound on the
     /// real one: the requests the runner has not yet reported leaving are still counted.
-    pub(crate) fn detach_miss_queue(&mut self) {
+    pub fn detach_miss_queue(&mut self) {
         self.detached = true;
     }
 
     /// Detached: the requests sent down since the last call, with the cycle of the edge that
     /// queued each (they are the real queue's from the next cycle on).
-    pub(crate) fn take_sent(&mut self, into: &mut Vec<(u64, MemReq)>) {
+    pub fn take_sent(&mut self, into: &mut Vec<(u64, MemReq)>) {
         into.append(&mut self.sent);
     }
 
-    /// Detached: the head of the queue went to the L2 (the runner saw it granted).
-    pub(crate) fn left_queue(&mut self) {
+    /// Detached: the head of the queue went to the L2 (the front end granted it in a cycle
+    /// before this one).
+    pub fn left_queue(&mut self) {
         self.miss_queue.pop_front();
     }
 
     /// Detached: the queue's length bound ([`L1d::detach_miss_queue`]).
-    pub(crate) fn queue_len(&self) -> usize {
+    pub fn queue_len(&self) -> usize {
         self.miss_queue.len()
     }
 
     /// Register output: the L1D takes a request this cycle.
     pub fn ready(&self) -> bool {
         self.parked.is_none()
+    }
+
+    /// What the SM sees as `ready` in the cycle `d` was evaluated: the `ready` register, and with
+    /// a request offered (`offered`) whether the L1D took it (the same, unless a test withholds
+    /// the offered request from the L1D).
+    #[inline]
+    pub fn sm_ready(&self, d: &L1dStep, offered: bool) -> bool {
+        self.ready() && (!offered || d.out.req_fire)
     }
 
     /// Register output: the request offered to L2 this cycle.
@@ -222,24 +237,6 @@ impl L1d {
 
     pub fn tags(&self) -> &TagStore {
         &self.tags
-    }
-
-    /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
-    /// `d` (every field overwritten; the fills buffer is reused, so no allocation once warm).
-    ///
-    /// A quiet cycle ([`L1d::quiet`]: no request or fill comes in, nothing is parked, queued for
-    /// L2 or shown, and no hit becomes visible at the edge) evaluates to the same step every time
-    /// but for the cycle it carries; when `d` already holds one, only that is updated, and
-    /// [`L1d::commit`] only advances the cycle. Test:
-    /// `quiet_cycles_skip_work_with_identical_steps_and_state`.
-    pub fn eval(&self, i: &L1dIn, d: &mut L1dStep) {
-        let quiet = self.quiet(i);
-        if quiet && d.quiet {
-            d.at = self.now;
-            return;
-        }
-        self.eval_full(i, d);
-        d.quiet = quiet;
     }
 
     /// No request or fill comes in and the registers have no event this cycle
@@ -293,18 +290,6 @@ impl L1d {
             self.sent.push((self.now, MemReq { id, ..req }));
         }
         self.pending.insert(id, pending);
-    }
-
-    /// Clock edge: applies `d`, the step [`L1d::eval`] produced this cycle. The tag array, the
-    /// MSHR table and the queues are RAM-like: `d` holds the cycle's decisions and this writes
-    /// them, as a register file's write port does, without deciding anything new.
-    pub fn commit(&mut self, d: &L1dStep) {
-        assert_eq!(d.at, self.now, "L1D committed a step evaluated in another cycle");
-        if d.quiet {
-            self.now += 1;
-        } else {
-            self.commit_full(d);
-        }
     }
 
     fn commit_full(&mut self, d: &L1dStep) {
@@ -382,13 +367,51 @@ impl L1d {
         self.hit_pipe.front().map(|&(visible, _)| visible - 1)
     }
 
-    pub(crate) fn skip_to(&mut self, cycle: u64) {
+    /// Moves the clock to `cycle` over cycles in which nothing happens (a runner's idle skip):
+    /// all that committing a quiet step in each would do.
+    pub fn skip_to(&mut self, cycle: u64) {
         self.now = cycle;
+    }
+
+}
+
+impl Unit for L1d {
+    type In<'a> = L1dIn<'a>;
+    type Step = L1dStep;
+
+    /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
+    /// `d` (every field overwritten; the fills buffer is reused, so no allocation once warm).
+    ///
+    /// A quiet cycle ([`L1d::quiet`]: no request or fill comes in, nothing is parked, queued for
+    /// L2 or shown, and no hit becomes visible at the edge) evaluates to the same step every time
+    /// but for the cycle it carries; when `d` already holds one, only that is updated, and
+    /// [`L1d::commit`] only advances the cycle. Test:
+    /// `quiet_cycles_skip_work_with_identical_steps_and_state`.
+    fn eval(&self, i: L1dIn<'_>, d: &mut L1dStep) {
+        let quiet = self.quiet(&i);
+        if quiet && d.quiet {
+            d.at = self.now;
+            return;
+        }
+        self.eval_full(&i, d);
+        d.quiet = quiet;
+    }
+
+    /// Clock edge: applies `d`, the step [`L1d::eval`] produced this cycle. The tag array, the
+    /// MSHR table and the queues are RAM-like: `d` holds the cycle's decisions and this writes
+    /// them, as a register file's write port does, without deciding anything new.
+    fn commit(&mut self, d: &L1dStep) {
+        assert_eq!(d.at, self.now, "L1D committed a step evaluated in another cycle");
+        if d.quiet {
+            self.now += 1;
+        } else {
+            self.commit_full(d);
+        }
     }
 
     /// Shows the registers and `d`, this cycle's step, to `sink`; the decision flags (`hit`,
     /// `merge`, `park`) are derived here from the step, not computed by [`L1d::eval`].
-    pub fn probe<S: Sink>(&self, d: &L1dStep, sink: &mut S) {
+    fn probe<S: Sink>(&self, d: &L1dStep, sink: &mut S) {
         if !sink.enabled() {
             return;
         }
@@ -451,7 +474,7 @@ mod tests {
             let down = self.l1.down_req();
             let fills = std::mem::take(&mut self.l2_out);
             let mut d = L1dStep::default();
-            self.l1.eval(&L1dIn { req, down_ready: true, fills: &fills }, &mut d);
+            self.l1.eval(L1dIn { req, down_ready: true, fills: &fills }, &mut d);
             let fire = d.out.req_fire;
             self.l1.commit(&d);
             if let Some(d) = down {
@@ -502,7 +525,7 @@ mod tests {
             let down = fast.down_req();
             let i = L1dIn { req, down_ready: rng.below(3) != 0, fills: &fills };
             quiet += u64::from(fast.quiet(&i));
-            fast.eval(&i, &mut df);
+            fast.eval(i, &mut df);
             full.eval_full(&i, &mut dg);
             dg.quiet = df.quiet;
             assert_eq!(df, dg, "cycle {now}");
@@ -696,7 +719,7 @@ mod tests {
     fn probe_shows_the_cycle() {
         let mut l1 = L1d::new(&MemParams::default());
         let mut d = L1dStep::default();
-        l1.eval(&L1dIn { req: read(1, 0x80), down_ready: false, fills: &[] }, &mut d);
+        l1.eval(L1dIn { req: read(1, 0x80), down_ready: false, fills: &[] }, &mut d);
         let mut s = Snapshot::default();
         l1.probe(&d, &mut s);
         assert_eq!(s.get("req_valid"), Some(1));

@@ -27,15 +27,19 @@
 //! grants ([`L2Out::granted`], the L1Ds' `down_ready`) and the cycle's decisions into a step,
 //! which [`L2::commit`] applies at the clock edge.
 //!
-//! Split clocking (the windowed run's interface, `sim::window`): after `L2::split_front_end`
-//! the front end (the banks' arbiters and the pipelines' entrances: `L2::front_eval`,
-//! `L2::front_commit`) and the back end (the tag checks on: `eval` and `commit` with no request)
-//! keep clocks of their own, the back end up to the pipelines' delay ahead. The same results as
-//! the whole L2 (tested below).
+//! Two ways to clock it, both part of the unit's interface:
+//! - **whole** (the default): one [`Unit`], as above;
+//! - **split** ([`L2::split_front_end`]), for a runner whose SMs run ahead of each other (the
+//!   windowed run, `sim::window`): the front end (the banks' arbiters and the pipelines'
+//!   entrances: [`L2::front_eval`] into a [`FrontStep`], applied by [`L2::front_commit`]) and the
+//!   back end (the tag checks on: [`L2::eval`] and [`L2::commit`] with no request coming in)
+//!   keep clocks of their own, the back end up to the pipelines' delay ahead. The same results as
+//!   the whole L2 (tested below).
 
 use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
 use super::{Counters, MemParams, MemReq, MemResp, MemWidths, ADDR_BITS};
+use crate::clock::Unit;
 use crate::trace::{Kind, Sink};
 use std::collections::{HashMap, VecDeque};
 use std::hash::BuildHasherDefault;
@@ -126,9 +130,9 @@ pub struct L2 {
 /// One cycle of a split L2's front end ([`L2::front_eval`]): the cycle, the granted SMs (one
 /// bit each) and (bank, SM) of each grant.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct FrontStep {
+pub struct FrontStep {
     at: u64,
-    pub(crate) granted: u64,
+    pub granted: u64,
     accepted: Vec<(usize, u32)>,
 }
 
@@ -164,7 +168,7 @@ impl L2 {
     }
 
     /// The bank (memory sub-partition) of `addr`.
-    pub(crate) fn bank_of(&self, addr: u64) -> usize {
+    pub fn bank_of(&self, addr: u64) -> usize {
         self.tags.geometry().bank_of(addr, self.params.l2_banks) as usize
     }
 
@@ -190,9 +194,116 @@ impl L2 {
         self.dram_queue.len()
     }
 
+    /// Splits the L2 in two halves with clocks of their own, for a runner that runs the SMs
+    /// ahead of each other (the windowed run, `sim::window`): from now on the front end
+    /// ([`L2::front_eval`] and [`L2::front_commit`]: the grants and the bank pipelines' entrances) and the back end (the
+    /// tag checks onward: [`L2::eval`] and [`L2::commit`] with no request, which is all they then
+    /// do) keep clocks of their own, the back end ahead. A bank's length as the front end's
+    /// arbiter must see it in its cycle is then the requests it let in before that cycle less
+    /// those the back end checked out before it, so the back end logs each check-out's cycle.
+    pub fn split_front_end(&mut self) {
+        let banks = self.banks.len();
+        self.front = Some(FrontEnd {
+            let_in: vec![0; banks],
+            out_log: vec![VecDeque::new(); banks],
+            out_seen: vec![0; banks],
+        });
+    }
+
+    /// Split only ([`L2::split_front_end`]): the front end's cycle `x`, combinational. `want[b]`
+    /// has bit `sm` set when SM `sm`'s down request is for bank `b` ([`L2::bank_of`]). Each
+    /// requested bank with room grants one SM as [`L2::eval`]'s arbiter does (the first from the
+    /// SM after the one it granted last); writes the grants into `d`, which
+    /// [`L2::front_commit`] applies. The back end must have run every cycle before `x`.
+    pub fn front_eval(&self, x: u64, want: &[u64], d: &mut FrontStep) {
+        let f = self.front.as_ref().expect("split_front_end first");
+        d.at = x;
+        d.granted = 0;
+        d.accepted.clear();
+        for (b, &mask) in want.iter().enumerate() {
+            if mask == 0 {
+                continue;
+            }
+            // The bank's length in cycle `x`: let in less checked out before `x`.
+            let out = f.out_seen[b] + f.out_log[b].iter().take_while(|&&c| c < x).count() as u64;
+            if f.let_in[b] - out >= u64::from(self.params.l2_bank_queue) {
+                continue;
+            }
+            // The first requesting SM from `rr[b]` on, round the ring.
+            let from = mask & (u64::MAX << self.rr[b]);
+            let sm = if from != 0 { from.trailing_zeros() } else { mask.trailing_zeros() };
+            d.granted |= 1 << sm;
+            d.accepted.push((b, sm));
+        }
+    }
+
+    /// The front end's clock edge for the step of [`L2::front_eval`]: the granted requests
+    /// (`heads[sm]`, each SM's down request) enter their bank pipelines, due at their tag check
+    /// `l2_latency - 3` cycles later, and each granting bank's arbiter moves on. The back end
+    /// must not yet have reached the cycle a request let in now is due.
+    pub fn front_commit(&mut self, heads: &[MemReq], d: &FrontStep) {
+        let f = self.front.as_mut().expect("split_front_end first");
+        let delay = u64::from(self.params.l2_latency - 3);
+        debug_assert!(d.at + delay >= self.now, "the back end ran past a request's tag check");
+        for (b, log) in f.out_log.iter_mut().enumerate() {
+            while log.front().is_some_and(|&c| c < d.at) {
+                log.pop_front();
+                f.out_seen[b] += 1;
+            }
+        }
+        for &(b, sm) in &d.accepted {
+            self.enter_pipeline(b, sm, heads[sm as usize], d.at + delay);
+        }
+    }
+
+    /// Bank `b`'s arbiter granted SM `sm`'s request `req`: it enters the bank pipeline, due at its
+    /// tag check in cycle `due` (counted for the front end's bank length when split), and the
+    /// arbiter starts after `sm` next time. The clock edge's part of a grant, in [`L2::commit`]
+    /// and [`L2::front_commit`].
+    fn enter_pipeline(&mut self, b: usize, sm: u32, req: MemReq, due: u64) {
+        self.banks[b].push_back(Lane { due, sm, req });
+        if let Some(f) = self.front.as_mut() {
+            f.let_in[b] += 1;
+        }
+        self.rr[b] = if sm + 1 < self.params.sms { sm + 1 } else { 0 };
+    }
+
+    fn write_back(&mut self, victim: Option<Victim>) {
+        if let Some(v) = victim.filter(|v| v.dirty != 0) {
+            let bytes = v.dirty.count_ones() * self.params.sector_bytes;
+            self.dram_queue.push_back(MemReq::write(0, v.addr, bytes, v.dirty_kind));
+            self.counters.write_backs += 1;
+        }
+    }
+
+    /// Next cycle whose commit changes something, ignoring new requests and DRAM responses;
+    /// `None` when idle.
+    pub fn next_event(&self) -> Option<u64> {
+        if self.out.iter().any(|o| !o.is_empty()) || !self.dram_queue.is_empty() {
+            return Some(self.now);
+        }
+        self.banks.iter().filter_map(|b| b.front().map(|l| l.due.max(self.now))).min()
+    }
+
+    /// The cycle the L2 (the back end, when split) evaluates next.
+    pub fn cycle(&self) -> u64 {
+        self.now
+    }
+
+    /// Moves the clock (the back end's, when split) to `cycle` over cycles with no event.
+    pub fn skip_to(&mut self, cycle: u64) {
+        self.now = cycle;
+    }
+
+}
+
+impl Unit for L2 {
+    type In<'a> = L2In<'a>;
+    type Step = L2Step;
+
     /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
     /// `d` (every field overwritten; its buffers are reused, so no allocation once warm).
-    pub fn eval(&self, i: &L2In, d: &mut L2Step) {
+    fn eval(&self, i: L2In<'_>, d: &mut L2Step) {
         let sms = self.out.len();
         assert_eq!(i.reqs.len(), sms, "one down port per SM");
         d.at = self.now;
@@ -257,91 +368,10 @@ impl L2 {
         }
     }
 
-    /// The windowed run's split of the L2 (`sim::window`): from now on the front end
-    /// ([`L2::front_eval`] and [`L2::front_commit`]: the grants and the bank pipelines' entrances) and the back end (the
-    /// tag checks onward: [`L2::eval`] and [`L2::commit`] with no request, which is all they then
-    /// do) keep clocks of their own, the back end ahead. A bank's length as the front end's
-    /// arbiter must see it in its cycle is then the requests it let in before that cycle less
-    /// those the back end checked out before it, so the back end logs each check-out's cycle.
-    pub(crate) fn split_front_end(&mut self) {
-        let banks = self.banks.len();
-        self.front = Some(FrontEnd {
-            let_in: vec![0; banks],
-            out_log: vec![VecDeque::new(); banks],
-            out_seen: vec![0; banks],
-        });
-    }
-
-    /// Split only ([`L2::split_front_end`]): the front end's cycle `x`, combinational. `want[b]`
-    /// has bit `sm` set when SM `sm`'s down request is for bank `b` ([`L2::bank_of`]). Each
-    /// requested bank with room grants one SM as [`L2::eval`]'s arbiter does (the first from the
-    /// SM after the one it granted last); writes the grants into `d`, which
-    /// [`L2::front_commit`] applies. The back end must have run every cycle before `x`.
-    pub(crate) fn front_eval(&self, x: u64, want: &[u64], d: &mut FrontStep) {
-        let f = self.front.as_ref().expect("split_front_end first");
-        d.at = x;
-        d.granted = 0;
-        d.accepted.clear();
-        for (b, &mask) in want.iter().enumerate() {
-            if mask == 0 {
-                continue;
-            }
-            // The bank's length in cycle `x`: let in less checked out before `x`.
-            let out = f.out_seen[b] + f.out_log[b].iter().take_while(|&&c| c < x).count() as u64;
-            if f.let_in[b] - out >= u64::from(self.params.l2_bank_queue) {
-                continue;
-            }
-            // The first requesting SM from `rr[b]` on, round the ring.
-            let from = mask & (u64::MAX << self.rr[b]);
-            let sm = if from != 0 { from.trailing_zeros() } else { mask.trailing_zeros() };
-            d.granted |= 1 << sm;
-            d.accepted.push((b, sm));
-        }
-    }
-
-    /// The front end's clock edge for the step of [`L2::front_eval`]: the granted requests
-    /// (`heads[sm]`, each SM's down request) enter their bank pipelines, due at their tag check
-    /// `l2_latency - 3` cycles later, and each granting bank's arbiter moves on. The back end
-    /// must not yet have reached the cycle a request let in now is due.
-    pub(crate) fn front_commit(&mut self, heads: &[MemReq], d: &FrontStep) {
-        let f = self.front.as_mut().expect("split_front_end first");
-        let delay = u64::from(self.params.l2_latency - 3);
-        debug_assert!(d.at + delay >= self.now, "the back end ran past a request's tag check");
-        for (b, log) in f.out_log.iter_mut().enumerate() {
-            while log.front().is_some_and(|&c| c < d.at) {
-                log.pop_front();
-                f.out_seen[b] += 1;
-            }
-        }
-        for &(b, sm) in &d.accepted {
-            self.enter_pipeline(b, sm, heads[sm as usize], d.at + delay);
-        }
-    }
-
-    /// Bank `b`'s arbiter granted SM `sm`'s request `req`: it enters the bank pipeline, due at its
-    /// tag check in cycle `due` (counted for the front end's bank length when split), and the
-    /// arbiter starts after `sm` next time. The clock edge's part of a grant, in [`L2::commit`]
-    /// and [`L2::front_commit`].
-    fn enter_pipeline(&mut self, b: usize, sm: u32, req: MemReq, due: u64) {
-        self.banks[b].push_back(Lane { due, sm, req });
-        if let Some(f) = self.front.as_mut() {
-            f.let_in[b] += 1;
-        }
-        self.rr[b] = if sm + 1 < self.params.sms { sm + 1 } else { 0 };
-    }
-
-    fn write_back(&mut self, victim: Option<Victim>) {
-        if let Some(v) = victim.filter(|v| v.dirty != 0) {
-            let bytes = v.dirty.count_ones() * self.params.sector_bytes;
-            self.dram_queue.push_back(MemReq::write(0, v.addr, bytes, v.dirty_kind));
-            self.counters.write_backs += 1;
-        }
-    }
-
     /// Clock edge: applies `d`, the step [`L2::eval`] produced this cycle. The tag array, the
     /// MSHR table and the queues are RAM-like: `d` holds the cycle's decisions and this writes
     /// them, as a register file's write port does, without deciding anything new.
-    pub fn commit(&mut self, d: &L2Step) {
+    fn commit(&mut self, d: &L2Step) {
         assert_eq!(d.at, self.now, "L2 committed a step evaluated in another cycle");
         let delay = u64::from(self.params.l2_latency - 3);
         if d.out.dram_fire {
@@ -404,27 +434,9 @@ impl L2 {
         self.now += 1;
     }
 
-    /// Next cycle whose commit changes something, ignoring new requests and DRAM responses;
-    /// `None` when idle.
-    pub fn next_event(&self) -> Option<u64> {
-        if self.out.iter().any(|o| !o.is_empty()) || !self.dram_queue.is_empty() {
-            return Some(self.now);
-        }
-        self.banks.iter().filter_map(|b| b.front().map(|l| l.due.max(self.now))).min()
-    }
-
-    /// The cycle the L2 (the back end, when split) evaluates next.
-    pub(crate) fn cycle(&self) -> u64 {
-        self.now
-    }
-
-    pub(crate) fn skip_to(&mut self, cycle: u64) {
-        self.now = cycle;
-    }
-
     /// Shows the registers and `d`, this cycle's step, to `sink`; the counts are derived here
     /// from the step, not computed by [`L2::eval`].
-    pub fn probe<S: Sink>(&self, d: &L2Step, sink: &mut S) {
+    fn probe<S: Sink>(&self, d: &L2Step, sink: &mut S) {
         if !sink.enabled() {
             return;
         }
@@ -484,7 +496,7 @@ mod tests {
             let to_dram = self.l2.dram_req();
             let fills = std::mem::take(&mut self.dram_out);
             let mut d = L2Step::default();
-            self.l2.eval(&L2In { reqs, dram_ready: true, fills: &fills }, &mut d);
+            self.l2.eval(L2In { reqs, dram_ready: true, fills: &fills }, &mut d);
             let granted = d.out.granted.clone();
             self.l2.commit(&d);
             if let Some(r) = to_dram {

@@ -12,8 +12,8 @@
 //! [`hierarchy::MemSystem`].
 //!
 //! Clocking (see [`hierarchy`] for the wiring and docs/memory.md "One cycle"):
-//! every unit has register outputs (`ready`, `down_req`, `dram_req`, `resp`: functions of its
-//! registers alone), `eval(&self, &In, &mut Step)`, a pure function of its registers and this
+//! every unit is a [`crate::clock::Unit`] with register outputs (`ready`, `down_req`,
+//! `dram_req`, `resp`: functions of its registers alone), `eval(&self, In, &mut Step)`, a pure function of its registers and this
 //! cycle's inputs that writes the cycle's combinational outputs (`Step::out`) and next-state
 //! decisions into a step, and `commit(&mut self, &Step)`, the clock edge, which applies the step.
 //! The state here is RAM-like (tag arrays, MSHR tables, queues), so a step holds the cycle's

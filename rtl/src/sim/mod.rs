@@ -34,12 +34,12 @@ pub use slips::OrderBug;
 #[cfg(feature = "mutants")]
 pub(crate) use slips::Slipped;
 
-use crate::clock::EvalCheck;
-use crate::mem::hierarchy::MemSystem;
+use crate::clock::{EvalCheck, Unit};
+use crate::mem::hierarchy::{MemStep, MemSystem};
 use crate::mem::{Counters, MemResp};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
-use crate::trace::{Probe, Sink};
+use crate::trace::Sink;
 use std::iter::Peekable;
 
 /// Passed to the progress callback.
@@ -258,11 +258,13 @@ impl<I: Iterator<Item = WarpJob>> Dispatcher<I> {
     }
 }
 
-/// Every SM's RT unit (with its step of the cycle, `step(sm)`) and the memory system, to the sink.
+/// Every SM's RT unit (with its step of the cycle, `step(sm)`) and the memory system (with its
+/// step, `mem_step`), to the sink.
 pub(crate) fn probe<'a, S: Sink>(
     units: &[RtUnit],
     step: impl Fn(usize) -> &'a RtStep,
     mem: &MemSystem,
+    mem_step: &MemStep,
     s: &mut S,
 ) {
     if !s.enabled() {
@@ -274,6 +276,6 @@ pub(crate) fn probe<'a, S: Sink>(
         s.pop_scope();
     }
     s.push_scope("mem");
-    mem.probe(s);
+    mem.probe(mem_step, s);
     s.pop_scope();
 }

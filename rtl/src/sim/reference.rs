@@ -12,6 +12,8 @@
 //! unit's combinational signals).
 
 use super::{Dispatcher, Parts, Progress, Steps};
+use crate::clock::Unit;
+use crate::mem::hierarchy::MemStep;
 use crate::mem::MemReq;
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
@@ -42,6 +44,8 @@ struct Loop {
     /// The job landing in each RT unit at this cycle's edge.
     jobs_in: Vec<Option<WarpJob>>,
     steps: Vec<RtStep>,
+    /// The memory system's step.
+    mem_step: MemStep,
     /// Units not evaluated this cycle: nothing for them to do.
     quiet: Vec<bool>,
     /// Evaluation order of the RT units this cycle.
@@ -67,6 +71,7 @@ pub(super) fn run<S: Sink, P: Steps, I: Iterator<Item = WarpJob>>(
         req_ready: vec![false; n],
         jobs_in: vec![None; n],
         steps: vec![RtStep::default(); n],
+        mem_step: MemStep::default(),
         quiet: vec![false; n],
         order: Vec::with_capacity(n),
         status: Vec::with_capacity(n),
@@ -127,7 +132,8 @@ impl Loop {
             self.req_ready[sm] = parts.mem.ready(sm);
             self.reqs[sm] = u.req(self.req_ready[sm]);
         }
-        let out = parts.mem.eval(&self.reqs);
+        parts.mem.eval(&self.reqs, &mut self.mem_step);
+        let out = self.mem_step.out();
         self.evaluated += 1;
         let skip_quiet = !shown && parts.eval_check.skips_quiet_units();
         for (sm, u) in parts.units.iter().enumerate() {
@@ -169,11 +175,11 @@ impl Loop {
         #[cfg(not(feature = "untraced"))]
         if shown {
             sink.begin_cycle(now);
-            super::probe(parts.units, |sm| &self.steps[sm], parts.mem, sink);
+            super::probe(parts.units, |sm| &self.steps[sm], parts.mem, &self.mem_step, sink);
         }
         #[cfg(feature = "untraced")]
         let _ = (sink, now, shown);
-        parts.mem.commit();
+        parts.mem.commit(&self.mem_step);
         self.refresh_status(parts);
     }
 

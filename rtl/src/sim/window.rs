@@ -38,7 +38,8 @@
 use super::helper::Helper;
 use super::{Dispatcher, Progress, Steps};
 use crate::mem::dram::{Dram, DramIn, DramStep};
-use crate::mem::hierarchy::{port_ready, MemSystem};
+use crate::clock::Unit;
+use crate::mem::hierarchy::MemSystem;
 use crate::mem::l1d::{L1d, L1dIn, L1dStep};
 use crate::mem::l2::{FrontStep, L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp, ReqKind};
@@ -207,11 +208,11 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
         if rt_due || l1_due {
             lane.due.set(c);
         }
-        l1.eval(&L1dIn { req, down_ready: false, fills: &lane.now_fills }, &mut lane.l1_step);
+        l1.eval(L1dIn { req, down_ready: false, fills: &lane.now_fills }, &mut lane.l1_step);
         let i = RtIn {
             now: c,
             req_ready,
-            req_fire: port_ready(l1, &lane.l1_step, req.is_some()) && req.is_some(),
+            req_fire: l1.sm_ready(&lane.l1_step, req.is_some()) && req.is_some(),
             resp: l1.resp(),
         };
         match rt_cycle(u, &mut lane.rt_step, &mut lane.job, rt_idle, &i, steps) {
@@ -369,8 +370,8 @@ impl Back {
             }
             self.due.set(y);
             self.snapshots.push_back((y, *l2.counters(), *dram.counters()));
-            l2.eval(&L2In { reqs: &self.none, dram_ready: dram.ready(), fills: dram.resp() }, &mut self.step);
-            dram.eval(&DramIn { req: l2.dram_req() }, &mut self.dram_step);
+            l2.eval(L2In { reqs: &self.none, dram_ready: dram.ready(), fills: dram.resp() }, &mut self.step);
+            dram.eval(DramIn { req: l2.dram_req() }, &mut self.dram_step);
             dram.commit(&self.dram_step);
             l2.commit(&self.step);
             for (k, staged) in self.staged.iter_mut().enumerate() {

@@ -1,6 +1,10 @@
-//! Helpers shared by the integration tests (`mod common;` in each test file).
+//! Helpers shared by the integration tests (`mod common;` in each test file): the shared test
+//! support ([`tb::testing`]: building and running the model) and what needs the `sms` binary
+//! built for these tests.
 // Each test crate uses a different part of this module.
-#![allow(dead_code)]
+#![allow(dead_code, unused_imports)]
+
+pub use tb::testing::*;
 
 use std::path::PathBuf;
 
@@ -43,16 +47,6 @@ impl Drop for TmpDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
-}
-
-/// A small square workload of `scene`: `res × res` pixels, 1 spp, 1 bounce, child order `order`.
-pub fn small_workload(
-    scene: &tb::workload::scene::Scene,
-    res: u32,
-    order: tb::workload::traverse::ChildOrder,
-) -> tb::workload::Workload<'_> {
-    use tb::workload::{Workload, WorkloadOpts};
-    Workload::new(scene, WorkloadOpts { order, ..WorkloadOpts::quick(scene, res) }).unwrap()
 }
 
 /// Every file of a report folder (recursively, the cache excluded) with its bytes; the run's wall

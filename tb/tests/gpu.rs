@@ -8,82 +8,14 @@ use rtl::mem::MemParams;
 use rtl::ray_op::{NodeKind, RayOp, WarpJob};
 use rtl::rt_unit::{RtParams, RunError, StackTiming};
 use rtl::trace::{NullSink, Sink};
+use tb::hw::Hardware;
 
-/// Tiny deterministic generator (SplitMix64).
-struct Rng(u64);
+mod common;
+use common::{gpu, run_gpu, synthetic_jobs as jobs};
 
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut x = self.0;
-        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        x ^ (x >> 31)
-    }
-    fn chance(&mut self, percent: u64) -> bool {
-        self.next() % 100 < percent
-    }
-}
-
-const ARITY: u64 = 4;
-const DEPTH: u32 = 6;
-const NODES: u64 = 0x1000_0000;
-const LEAF_DESCS: u64 = 0x4000_0000;
-const TRIANGLES: u64 = 0x5000_0000;
-
-/// A random depth-first walk of a complete 4-ary tree of depth 6, as the RT unit would perform
-/// it: internal nodes hit each child with `hit` percent chance, the nearest hit child is visited
-/// next and the others pushed; a leaf fetches its descriptor and triangle; then the stack is
-/// popped until empty. Node `i` (heap order) lives at `NODES + 64 i`.
-fn ray(rng: &mut Rng, hit: u64) -> Vec<RayOp> {
-    let mut ops = Vec::new();
-    let mut stack = Vec::new();
-    let first_leaf = (ARITY.pow(DEPTH) - 1) / (ARITY - 1);
-    let mut cur = Some(0u64);
-    while let Some(i) = cur {
-        if i >= first_leaf {
-            ops.push(RayOp::Visit {
-                addr: LEAF_DESCS + (i - first_leaf) * 8,
-                kind: NodeKind::LeafDescriptor,
-                bytes: 8,
-            });
-            ops.push(RayOp::Visit {
-                addr: TRIANGLES + (i - first_leaf) * 64,
-                kind: NodeKind::Triangle,
-                bytes: 64,
-            });
-            cur = None;
-        } else {
-            ops.push(RayOp::Visit { addr: NODES + i * 64, kind: NodeKind::Internal, bytes: 64 });
-            let hits: Vec<u64> = (1..=ARITY).map(|c| ARITY * i + c).filter(|_| rng.chance(hit)).collect();
-            cur = hits.first().copied();
-            for &c in hits.iter().skip(1).rev() {
-                ops.push(RayOp::Push(NODES + c * 64));
-                stack.push(c);
-            }
-        }
-        if cur.is_none() {
-            cur = stack.pop();
-            if let Some(c) = cur {
-                ops.push(RayOp::Pop(NODES + c * 64));
-            }
-        }
-    }
-    ops
-}
-
-fn jobs(seed: u64, warps: usize, hit: u64) -> Vec<WarpJob> {
-    let mut rng = Rng(seed);
-    (0..warps)
-        .map(|w| WarpJob {
-            lanes: (0..32).map(|l| (w % 5 != 4 || l % 3 != 0).then(|| ray(&mut rng, hit))).collect(),
-        })
-        .collect()
-}
-
+/// A run of `cfg` on the RT unit `rt` and memory `mem` (the SH stacks carved out of its L1D).
 fn run_with(cfg: &str, mem: MemParams, rt: RtParams, work: Vec<WarpJob>) -> Result<GpuReport, RunError> {
-    let cfg: Config = cfg.parse().unwrap();
-    Gpu::new(cfg, rt, carve_out(&cfg, mem)).unwrap().run(work, &mut NullSink)
+    run_gpu(gpu(cfg.parse().unwrap(), &Hardware { rt, mem, shared_carveout: true }), work)
 }
 
 /// The paper's memory system with a small L2, so spilled lines do reach DRAM: 2 banks of 16 sets
@@ -366,7 +298,7 @@ fn idle_skipping_equals_stepping_every_cycle() {
     }
 }
 
-/// Release-build speed on ~1000 warps: `cargo test --release -p rtl --test gpu -- --ignored
+/// Release-build speed on ~1000 warps: `cargo test --release -p tb --test gpu -- --ignored
 /// --nocapture speed`.
 #[test]
 #[ignore]
@@ -418,7 +350,6 @@ fn probes_name_every_unit_and_progress_is_reported() {
 /// (a wrong pop, a refused command or a warp leaving entries behind), never pass or panic.
 /// (`FlushKeepsCount` is left out: it changes only the Flush counter, which no pop can see; the
 /// proofs crate's invariants catch it.)
-#[cfg(feature = "mutants")]
 #[test]
 fn planted_stack_bugs_stop_the_run() {
     use rtl::stack_manager::Mutant;
