@@ -9,8 +9,8 @@ use serde_json::Value;
 
 mod common;
 
-const FIGURES: [&str; 7] =
-    ["performance", "offchip", "bank_conflicts", "rb_sweep", "l1d_sweep", "depth", "cost"];
+const FIGURES: [&str; 8] =
+    ["performance", "offchip", "bank_conflicts", "skew", "rb_sweep", "l1d_sweep", "depth", "cost"];
 const SCENES: [&str; 2] = ["wknd", "clutter"];
 
 fn out_dir(name: &str) -> PathBuf {
