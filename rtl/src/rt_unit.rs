@@ -16,8 +16,8 @@
 //! ```
 //!
 //! Why one port: the SPEC lets at most one new request enter the memory system per cycle per
-//! SM, and spills and reloads are local-memory accesses through the same L1D. Priority goes to
-//! the stack's requests: each blocks one thread's next stack command (a reload also holds an RB
+//! SM, and spills and reloads are local-memory accesses through the same L1D. Priority goes by
+//! default ([`PortPriority::Stack`]; the paper does not say) to the stack's requests: each blocks one thread's next stack command (a reload also holds an RB
 //! slot empty), and there are few of them, while node fetches are the bulk of the traffic and
 //! simply wait one cycle more.
 //!
@@ -37,9 +37,16 @@
 //! inputs, so the order in which threads are visited does not matter. A warp that finished
 //! leaves at the edge of the cycle it is seen done; a new job lands in a slot at the same edge.
 //!
+//! Threads of a warp advance independently (no SIMT reconvergence), as in Vulkan-Sim's RT unit:
+//! each thread has its own access list (`abstract_hardware_model.cc` 925-941, 1025-1068), a
+//! response wakes every thread waiting on that node and each counts down its own operation
+//! latency (1087-1160); the scheduler merges whatever lanes of the picked warp wait to fetch.
+//!
+//! The choices the paper and Vulkan-Sim leave open or disagree on are keys of [`RtParams`]
+//! (`store_gating`, `store_queue`, `port_priority`, `warp_select`), each with its sources in
+//! docs/assumptions.md.
+//!
 //! Simplified, and why:
-//! - Threads of a warp advance independently (no SIMT reconvergence): the RT unit works per ray,
-//!   and the scheduler merges whatever lanes of the picked warp are waiting to fetch.
 //! - The fetch unit handles one warp at a time: the scheduler picks the next warp only when the
 //!   sector queue has drained. The port takes one request per cycle anyway, so a deeper queue
 //!   would only reorder requests.
