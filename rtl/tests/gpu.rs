@@ -672,14 +672,28 @@ fn push_spill_then_fetch(cfg: &str, rt: RtParams) -> u64 {
 /// `blocking_stores_wait_for_the_l2_ack`): pushes accepted in 5, 6, 7; the sequencer issues the
 /// store in 8, the port sends it in 9. Acknowledged (`acked`, and `sh-posted`, which posts only
 /// SH stores): the ack completes the store in 171, the lane is scheduled in 172 and its piece
-/// leaves in 173. Posted: the store completes when queued in 8, so the lane is scheduled in 9
-/// and its piece leaves in 10, behind the store.
+/// leaves in 173. Posted: the only work left in 8 is the store, which is posted, so the lane is
+/// scheduled in 8; the port sends the store in 9 (stack first) and the piece in 10.
 #[test]
 fn posted_global_stores_let_the_fetch_go_before_the_ack() {
     let at = |g: StoreGating| push_spill_then_fetch("RB_2", RtParams { store_gating: g, ..RtParams::default() });
     assert_eq!(at(StoreGating::Acked), 173);
     assert_eq!(at(StoreGating::ShPosted), 173, "a global store still waits for its ack");
     assert_eq!(at(StoreGating::Posted), 10);
+    // A posted store needs no acknowledgement: the next stack command (a fourth push, spilling
+    // again) is accepted in 9, where an acknowledged one waits for the ack until 172 (as in
+    // `blocking_stores_wait_for_the_l2_ack`).
+    let fourth_push = |g: StoreGating| {
+        let mut ops: Vec<RayOp> = [1, 2, 3, 4].map(RayOp::Push).into();
+        ops.extend([4, 3, 2, 1].map(RayOp::Pop));
+        let cfg: Config = "RB_2".parse().unwrap();
+        let mut watch = Watch { every: true, ..Watch::new(CMD) };
+        let rt = RtParams { store_gating: g, ..RtParams::default() };
+        Gpu::new(cfg, rt, one_sm()).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
+        watch.changes.iter().filter(|c| c.1 == 1).nth(3).unwrap().0
+    };
+    assert_eq!((fourth_push(StoreGating::Acked), fourth_push(StoreGating::ShPosted)), (172, 172));
+    assert_eq!(fourth_push(StoreGating::Posted), 9);
 }
 
 /// RB_2+SH_4: the third push spills 1 to SH (one SH store, `sh_latency` 20). Pushes accepted in
@@ -738,10 +752,11 @@ fn a_full_store_queue_holds_stack_commands() {
     let cfg: Config = "RB_1".parse().unwrap();
     let run = |store_queue: u32| {
         let rt = RtParams { store_gating: StoreGating::Posted, store_queue, ..RtParams::default() };
-        let mut gpu = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap();
+        let gpu = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap();
         let job = WarpJob { lanes: (0..32).map(|_| Some(ops.clone())).collect() };
-        let r = gpu.run(vec![job], &mut NullSink).unwrap();
-        (r, gpu.units()[0].stack_unit.sched.max_queue)
+        let mut watch = Watch::new("sm0.rt_unit.mem_sched.queue");
+        let r = gpu.run(vec![job], &mut watch).unwrap();
+        (r, watch.changes.iter().map(|c| c.1).max().unwrap())
     };
     let (free, free_queue) = run(0);
     let (held, held_queue) = run(1);
