@@ -36,6 +36,8 @@ pub struct MemSched {
     /// Thread whose response the FIFO delivered last cycle (the registered `deq` output).
     deq: Option<u32>,
     pub max_queue: usize,
+    /// Global stores in the request queue (what `[stack] store_queue` bounds).
+    stores: u32,
     /// Width of the request queue's occupancy: [`Widths::gm_queue`], or
     /// [`crate::config::GM_POSTED_QUEUE_BITS`] with posted stores.
     queue_bits: u32,
@@ -71,6 +73,12 @@ impl MemSched {
         self.queue.is_empty() && self.fifo.is_empty() && self.deq.is_none()
     }
 
+    /// Global stores waiting in the request queue (a register: counted at the edge).
+    #[inline]
+    pub fn queued_stores(&self) -> u32 {
+        self.stores
+    }
+
     /// The request offered to the port this cycle (`req_valid` and its data; from registers).
     #[inline]
     pub fn head(&self) -> Option<GReq> {
@@ -95,11 +103,13 @@ impl MemSched {
         if d.deq.is_some() {
             self.fifo.pop_front();
         }
-        if d.req.is_some() {
+        if let Some(r) = d.req {
             self.queue.pop_front();
+            self.stores -= u32::from(r.write);
         }
         self.fifo.extend(d.completions.iter().copied());
         self.queue.extend(d.new.iter().copied());
+        self.stores += d.new.iter().filter(|r| r.write).count() as u32;
         self.max_queue = self.max_queue.max(self.queue.len());
     }
 

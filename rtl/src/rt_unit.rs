@@ -16,8 +16,8 @@
 //! ```
 //!
 //! Why one port: the SPEC lets at most one new request enter the memory system per cycle per
-//! SM, and spills and reloads are local-memory accesses through the same L1D. Priority goes to
-//! the stack's requests: each blocks one thread's next stack command (a reload also holds an RB
+//! SM, and spills and reloads are local-memory accesses through the same L1D. Priority goes by
+//! default ([`PortPriority::Stack`]; the paper does not say) to the stack's requests: each blocks one thread's next stack command (a reload also holds an RB
 //! slot empty), and there are few of them, while node fetches are the bulk of the traffic and
 //! simply wait one cycle more.
 //!
@@ -37,9 +37,16 @@
 //! inputs, so the order in which threads are visited does not matter. A warp that finished
 //! leaves at the edge of the cycle it is seen done; a new job lands in a slot at the same edge.
 //!
+//! Threads of a warp advance independently (no SIMT reconvergence), as in Vulkan-Sim's RT unit:
+//! each thread has its own access list (`abstract_hardware_model.cc` 925-941, 1025-1068), a
+//! response wakes every thread waiting on that node and each counts down its own operation
+//! latency (1087-1160); the scheduler merges whatever lanes of the picked warp wait to fetch.
+//!
+//! The choices the paper and Vulkan-Sim leave open or disagree on are keys of [`RtParams`]
+//! (`store_gating`, `store_queue`, `port_priority`, `warp_select`), each with its sources in
+//! docs/assumptions.md.
+//!
 //! Simplified, and why:
-//! - Threads of a warp advance independently (no SIMT reconvergence): the RT unit works per ray,
-//!   and the scheduler merges whatever lanes of the picked warp are waiting to fetch.
 //! - The fetch unit handles one warp at a time: the scheduler picks the next warp only when the
 //!   sector queue has drained. The port takes one request per cycle anyway, so a deeper queue
 //!   would only reorder requests.
@@ -51,17 +58,53 @@
 //!   values, which is how every pop is checked).
 
 use crate::bank_arbiter::MIN_SH_LATENCY;
-use crate::config::{Config, ConfigError, Widths};
+use crate::config::{Config, ConfigError, Widths, GM_POSTED_QUEUE_BITS};
 use crate::mem::{MemReq, MemResp, ReqKind};
 use crate::node_fetch::NodeFetch;
 use crate::ray_op::{NodeKind, RayOp, WarpJob};
-use crate::scheduler::GtoScheduler;
+pub use crate::scheduler::WarpSelect;
+use crate::scheduler::WarpScheduler;
 pub use crate::stack_manager::StackTiming;
-use crate::stack_manager::{Cmd, StackError};
+use crate::stack_manager::{Cmd, StackError, Uop};
 use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
 use crate::thread_fsm::{self, Thread, ThreadIn, ThreadState};
 use crate::trace::{Probe, Sink};
 use crate::warp_buffer::{lanes_of, Bits, WarpBuffer};
+
+/// Which stack stores hold a thread's next node fetch with [`StackTiming::Blocking`]
+/// (`[stack] store_gating`; docs/assumptions.md). Loads always do: the paper's stack manager
+/// issues "a subsequent request ... only after the prior load request has returned" (§VI-A); it
+/// says nothing of stores holding the ray.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum StoreGating {
+    /// Every stack request holds the next fetch, a global store until the L2 acknowledges it
+    /// (the default: the paper's sequence read as "the stack is updated before the next node").
+    #[default]
+    Acked,
+    /// Only the thread's loads hold it: global stores are posted (done when queued, no
+    /// acknowledgement), and SH stores complete behind the fetch (Vulkan-Sim's stores go to a
+    /// store queue whose acknowledgements hold only the warp's retirement, `shader.cc:2982-2997`,
+    /// `3090`).
+    Posted,
+    /// SH stores complete behind the fetch; a global store holds it until its acknowledgement.
+    ShPosted,
+}
+
+named_enum!(StoreGating, StoreGating::Acked => "acked", StoreGating::Posted => "posted", StoreGating::ShPosted => "sh-posted");
+
+/// Which requests the RT unit's one memory port serves first (`[stack] port_priority`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PortPriority {
+    /// The stack's requests before node fetches (default; see the module comment for why).
+    #[default]
+    Stack,
+    /// Vulkan-Sim's order (`rt_unit::memory_cycle`, `shader.cc:3237-3254`, and `rt_unit::cycle`,
+    /// `3040-3061`): the pieces of the node fetch under way first, then queued stores, then a
+    /// new warp's fetch; no new warp is picked while a stack request waits.
+    Node,
+}
+
+named_enum!(PortPriority, PortPriority::Stack => "stack", PortPriority::Node => "node");
 
 /// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and run options.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -91,6 +134,20 @@ pub struct RtParams {
     /// `shader.cc` ~3646). 2 (issue, then one bank cycle) is the `legacy` preset's and the
     /// least allowed ([`MIN_SH_LATENCY`]).
     pub sh_latency: u32,
+    /// Which stores hold the next node fetch under [`StackTiming::Blocking`] (ignored with
+    /// `Overlapped`, where nothing does). Default [`StoreGating::Acked`].
+    pub store_gating: StoreGating,
+    /// Global stores that may wait in the memory scheduler's queue before the stack manager
+    /// takes no new command (back-pressure on the RT unit's stack commands); 0 = unbounded, the
+    /// default: Vulkan-Sim's RT store queue is a `std::deque` with no bound
+    /// (`src/gpgpu-sim/shader.h:1344`), pushed without a check (`abstract_hardware_model.cc`
+    /// `dec_thread_latency`, and `shader.cc:3516` on a reservation failure). At most
+    /// `2^GM_POSTED_QUEUE_BITS - 1`.
+    pub store_queue: u32,
+    /// Which requests the memory port serves first. Default [`PortPriority::Stack`].
+    pub port_priority: PortPriority,
+    /// How the scheduler picks a warp. Default [`WarpSelect::Gto`] (the paper's).
+    pub warp_select: WarpSelect,
 }
 
 impl Default for RtParams {
@@ -105,6 +162,10 @@ impl Default for RtParams {
             idle_skip: true,
             stack_timing: StackTiming::Blocking,
             sh_latency: 20,
+            store_gating: StoreGating::Acked,
+            store_queue: 0,
+            port_priority: PortPriority::Stack,
+            warp_select: WarpSelect::Gto,
         }
     }
 }
@@ -128,9 +189,22 @@ impl RtParams {
         RtParams { stack_timing: StackTiming::Overlapped, sh_latency: MIN_SH_LATENCY, ..self }
     }
 
+    /// Global stores wait for the L2's acknowledgement: with `Blocking`, unless posted.
+    pub fn acked_stores(&self) -> bool {
+        self.stack_timing == StackTiming::Blocking && self.store_gating != StoreGating::Posted
+    }
+
     /// Every latency must be at least one cycle (a thread is Busy for exactly that many cycles);
-    /// `sh_latency` at least [`MIN_SH_LATENCY`].
+    /// `sh_latency` at least [`MIN_SH_LATENCY`]; `store_queue` within the scheduler queue's width.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        let most = (1u32 << GM_POSTED_QUEUE_BITS) - 1;
+        if self.store_queue > most {
+            return Err(ConfigError {
+                parameter: "store_queue",
+                value: self.store_queue.to_string(),
+                reason: format!("the memory scheduler's queue holds at most {most} requests (0 = unbounded)"),
+            });
+        }
         if self.sh_latency < MIN_SH_LATENCY {
             return Err(ConfigError {
                 parameter: "sh_latency",
@@ -334,11 +408,11 @@ pub struct RtUnit {
     pub stack_unit: StackUnit,
     pub fetch: NodeFetch,
     warp_buffer: WarpBuffer,
-    scheduler: GtoScheduler,
+    scheduler: WarpScheduler,
     /// Cycles each warp job spent in the warp buffer, by load order (0 while resident): a
     /// per-job share of the run time, used to attribute cycles to sampled warps.
     pub residence: Vec<u64>,
-    /// Distinguishes posted stores in flight (Overlapped; with Blocking a store's id names its
+    /// Distinguishes posted stores in flight (with acknowledged stores a store's id names its
     /// thread, which has at most one store in flight, so the acknowledgement finds its sequencer).
     store_seq: u64,
     next_event: Option<u64>,
@@ -363,10 +437,10 @@ impl RtUnit {
             cfg,
             rt,
             w: cfg.widths()?,
-            stack_unit: StackUnit::new(cfg, id, rt.stack_timing, rt.sh_latency)?,
+            stack_unit: StackUnit::with_stores(cfg, id, rt.acked_stores(), rt.sh_latency)?,
             fetch: NodeFetch::new(sector_bytes, cfg.threads()),
             warp_buffer: WarpBuffer::new(&cfg)?,
-            scheduler: GtoScheduler::default(),
+            scheduler: WarpScheduler::default(),
             residence: Vec::new(),
             store_seq: 0,
             next_event: None,
@@ -390,25 +464,39 @@ impl RtUnit {
         self.next_event
     }
 
-    /// The request offered to the L1D this cycle (from registers): the stack's head request
-    /// first, else the node fetch queue's head; none unless `req_ready`.
+    /// Which source drives the port when it is ready (from registers): by `port_priority`, the
+    /// stack's head request or the node fetch queue's head.
+    fn port(&self) -> Port {
+        let (stack, node) = (self.stack_unit.req().is_some(), !self.fetch.queue_empty());
+        match self.rt.port_priority {
+            PortPriority::Stack if stack => Port::Stack,
+            PortPriority::Node if node => Port::Node,
+            _ if stack => Port::Stack,
+            _ if node => Port::Node,
+            _ => Port::Idle,
+        }
+    }
+
+    /// The request offered to the L1D this cycle (from registers), as [`RtUnit::port`] chooses;
+    /// none unless `req_ready`.
     pub fn req(&self, req_ready: bool) -> Option<MemReq> {
         if !req_ready {
             return None;
         }
         let bytes = self.cfg.entry_bytes;
-        if let Some(g) = self.stack_unit.req() {
-            return Some(if g.write {
-                let tag = match self.rt.stack_timing {
-                    StackTiming::Blocking => u64::from(g.thread),
-                    StackTiming::Overlapped => self.store_seq,
-                };
-                MemReq::write(tag << 2 | TAG_STORE, g.addr, bytes, ReqKind::StackSpill)
-            } else {
-                MemReq::read(u64::from(g.thread) << 2 | TAG_LOAD, g.addr, bytes, ReqKind::StackReload)
-            });
+        match self.port() {
+            Port::Stack => {
+                let g = self.stack_unit.req()?;
+                Some(if g.write {
+                    let tag = if self.rt.acked_stores() { u64::from(g.thread) } else { self.store_seq };
+                    MemReq::write(tag << 2 | TAG_STORE, g.addr, bytes, ReqKind::StackSpill)
+                } else {
+                    MemReq::read(u64::from(g.thread) << 2 | TAG_LOAD, g.addr, bytes, ReqKind::StackReload)
+                })
+            }
+            Port::Node => self.fetch.head(TAG_NODE),
+            Port::Idle => None,
         }
-        self.fetch.head(TAG_NODE)
     }
 
     /// One clock cycle, combinational: reads the registers and `i`, writes the outputs and the
@@ -420,12 +508,7 @@ impl RtUnit {
         d.clear(self.cfg.threads() as usize, warps as usize);
         d.now = now;
         d.load_slot = self.free_slot();
-        d.port = match (i.req_ready, self.stack_unit.req().is_some(), self.fetch.queue_empty()) {
-            (false, ..) => Port::Idle,
-            (true, true, _) => Port::Stack,
-            (true, false, false) => Port::Node,
-            (true, false, true) => Port::Idle,
-        };
+        d.port = if i.req_ready { self.port() } else { Port::Idle };
         d.node_taken = i.req_fire && d.port == Port::Node;
         d.took_stack = i.req_fire && d.port == Port::Stack;
         d.store_taken = d.took_stack && self.stack_unit.req().is_some_and(|g| g.write);
@@ -443,14 +526,17 @@ impl RtUnit {
         }
 
         // Scheduler: picks a warp in the cycle the fetch queue drains (the port taking the last
-        // piece is the queue's ready signal).
-        if self.fetch.queue_len() == usize::from(d.node_taken) {
+        // piece is the queue's ready signal); with the node-first port, not while a stack
+        // request waits (Vulkan-Sim schedules no new warp while stores are queued).
+        let stack_waits = self.rt.port_priority == PortPriority::Node && self.stack_unit.req().is_some();
+        if self.fetch.queue_len() == usize::from(d.node_taken) && !stack_waits {
             let leaving = &d.leaving;
             // The fetchable lanes of each warp with lanes waiting to fetch, computed once.
             let ready = Bits::of(self.warp_buffer.fetch_warps())
                 .filter(|&w| !leaving.contains(&w) && self.fetchable(w) != 0)
                 .fold(0u64, |m, w| m | 1 << w);
             if let Some(w) = self.scheduler.pick(
+                self.rt.warp_select,
                 |w| leaving.contains(&w),
                 warps,
                 |w| ready & (1 << w) != 0,
@@ -461,8 +547,8 @@ impl RtUnit {
         }
 
         // Responses: node pieces wake lanes; stack loads go to the response FIFO; store
-        // acknowledgements too with Blocking (their sequencer waits), and need nothing with
-        // Overlapped (stores are posted).
+        // acknowledgements too when stores are acknowledged (their sequencer waits), and need
+        // nothing when they are posted.
         for r in i.resp {
             match r.id & 3 {
                 TAG_NODE => {
@@ -481,7 +567,7 @@ impl RtUnit {
                 TAG_LOAD => d.completions.push((r.id >> 2) as u32),
                 _ => {
                     debug_assert_eq!(r.id & 3, TAG_STORE);
-                    if self.rt.stack_timing == StackTiming::Blocking {
+                    if self.rt.acked_stores() {
                         d.completions.push((r.id >> 2) as u32);
                     }
                 }
@@ -496,12 +582,14 @@ impl RtUnit {
         // summaries hold resident warps only.)
         let b = &self.warp_buffer;
         let issued = d.issue.map_or(0, |x| 1u64 << x.0);
+        let room = self.store_room();
         for w in Bits::of(d.woken_warps | issued | b.stack_warps() | b.busy_warps()) {
             let q = b.lanes(w);
             let due = now >= q.busy_until;
             let scheduled = d.issue.filter(|x| x.0 == w).map_or(0, |x| x.1);
-            // A Stack lane whose sequencer is busy stays as it is: not visited.
-            let stack_ready = if q.stack == 0 { 0 } else { q.stack & manager.ready_lanes(w) };
+            // A Stack lane whose sequencer is busy, or whose command the full store queue holds
+            // back, stays as it is: not visited.
+            let stack_ready = if q.stack == 0 || !room { 0 } else { q.stack & manager.ready_lanes(w) };
             let todo = stack_ready | d.woken[w as usize] | scheduled | if due { q.busy } else { 0 };
             for l in lanes_of(todo) {
                 let t = w * ws + l;
@@ -511,7 +599,7 @@ impl RtUnit {
                     scheduled: scheduled & (1 << l) != 0,
                     arrived: d.arrived[t as usize],
                     // Only a thread with a stack command asks (the sequencer's state is far away).
-                    stack_ready: q.state == ThreadState::Stack && manager.ready(t),
+                    stack_ready: q.state == ThreadState::Stack && room && manager.ready(t),
                     sector_bytes,
                 };
                 let (th, out) = thread_fsm::next(|k| self.rt.latency(k), q, b.ops(w, l), &ti);
@@ -618,14 +706,41 @@ impl RtUnit {
     }
 
     /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with
-    /// Blocking only those whose stack sequencer is idle.
+    /// Blocking only those whose stack sequencer is idle, or has only posted stores left
+    /// (`store_gating`).
     fn fetchable(&self, w: u32) -> u32 {
         let m = self.warp_buffer.lanes(w).fetch;
-        match self.rt.stack_timing {
-            StackTiming::Overlapped => m,
-            StackTiming::Blocking if m == 0 => 0,
-            StackTiming::Blocking => m & self.stack_unit.manager.ready_lanes(w),
+        let manager = &self.stack_unit.manager;
+        match (self.rt.stack_timing, self.rt.store_gating) {
+            (StackTiming::Overlapped, _) => m,
+            (StackTiming::Blocking, _) if m == 0 => 0,
+            (StackTiming::Blocking, StoreGating::Acked) => m & manager.ready_lanes(w),
+            (StackTiming::Blocking, gating) => {
+                let ready = m & manager.ready_lanes(w);
+                let ws = self.cfg.warp_size;
+                lanes_of(m & !ready)
+                    .filter(|&l| self.only_posted_stores_left(w * ws + l, gating))
+                    .fold(ready, |acc, l| acc | 1 << l)
+            }
         }
+    }
+
+    /// Everything thread `t`'s sequencer still has to do (in flight and queued) is a store the
+    /// fetch need not wait for under `gating`: an SH store, or with `Posted` a global store.
+    fn only_posted_stores_left(&self, t: u32, gating: StoreGating) -> bool {
+        let manager = &self.stack_unit.manager;
+        let posted = |u: &Uop| match u {
+            Uop::ShStore { .. } => true,
+            Uop::GlobalStore { .. } => gating == StoreGating::Posted,
+            _ => false,
+        };
+        manager.inflight_uop(t).iter().chain(manager.pending_uops(t)).all(posted)
+    }
+
+    /// The stack manager may take commands: fewer than `store_queue` global stores wait for
+    /// the port (always, when unbounded).
+    fn store_room(&self) -> bool {
+        self.rt.store_queue == 0 || self.stack_unit.sched.queued_stores() < self.rt.store_queue
     }
 
     /// Thread `t` holds no stack entry anywhere, and with reallocation its own SH stack is idle

@@ -1,15 +1,34 @@
-//! The RT unit's warp scheduler: greedy-then-oldest (GTO).
+//! The RT unit's warp scheduler: greedy-then-oldest (GTO), or oldest-first (`[rt] warp_select`).
 //!
 //! ```text
-//!  per warp: fetchable lanes ≠ 0 (ready), age rank ──► greedy warp if ready, else the oldest
-//!  ready warp ──► issue (warp, lanes) to node fetch; greedy ← issued warp (clock edge)
+//!  per warp: fetchable lanes ≠ 0 (ready), age rank ──► GTO: greedy warp if ready, else the
+//!  oldest ready warp; oldest: the oldest ready warp ──► issue (warp, lanes) to node fetch;
+//!  greedy ← issued warp (clock edge)
 //! ```
 //!
 //! It picks in the cycle the node-fetch queue drains (the port taking the last piece is the
 //! queue's ready signal). A warp that leaves stops being the greedy one.
+//!
+//! Why two policies: the paper names GTO for the RT unit (§II-B and its configuration table);
+//! Vulkan-Sim's public `rt_unit::schedule_next_warp` (`src/gpgpu-sim/shader.cc:3217-3230`)
+//! takes the first non-stalled warp of a map ordered by warp uid, i.e. the oldest, and
+//! `rt_unit::cycle` calls it again for every new access (`shader.cc:3058-3061`). Here both pick
+//! when the fetch queue drains, so `Oldest` differs from GTO only in dropping the greedy warp.
 
 use crate::config::Widths;
 use crate::trace::{Kind, Sink};
+
+/// How the scheduler picks among warps with lanes ready to fetch (`[rt] warp_select`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum WarpSelect {
+    /// Greedy-then-oldest: keep the warp issued last while it is ready (the paper's, default).
+    #[default]
+    Gto,
+    /// The oldest ready warp at every pick (Vulkan-Sim's public `schedule_next_warp`).
+    Oldest,
+}
+
+named_enum!(WarpSelect, WarpSelect::Gto => "gto", WarpSelect::Oldest => "oldest");
 
 /// Greedy-then-oldest: the warp issued last if it is `ready`, else the ready warp of lowest `age`.
 #[inline]
@@ -24,23 +43,28 @@ pub fn gto(
 
 /// Registers of the scheduler.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct GtoScheduler {
+pub struct WarpScheduler {
     /// The warp issued last.
     greedy: Option<u32>,
 }
 
-impl GtoScheduler {
-    /// The warp to issue this cycle among `warps`, combinational. `left`: a warp leaving this
-    /// cycle (no longer greedy).
+impl WarpScheduler {
+    /// The warp to issue this cycle among `warps` under `select`, combinational. `left`: a warp
+    /// leaving this cycle (no longer greedy).
     #[inline]
     pub fn pick(
         &self,
+        select: WarpSelect,
         left: impl Fn(u32) -> bool,
         warps: u32,
         ready: impl Fn(u32) -> bool,
         age: impl Fn(u32) -> u32,
     ) -> Option<u32> {
-        gto(self.greedy.filter(|&w| !left(w)), warps, ready, age)
+        let greedy = match select {
+            WarpSelect::Gto => self.greedy.filter(|&w| !left(w)),
+            WarpSelect::Oldest => None,
+        };
+        gto(greedy, warps, ready, age)
     }
 
     /// The clock edge: the issued warp becomes the greedy one; a leaving greedy warp is dropped.
@@ -77,10 +101,24 @@ mod tests {
         assert_eq!(gto(Some(2), 4, ready_mask(0b1011), age), Some(3), "stalled: oldest ready");
         assert_eq!(gto(None, 4, ready_mask(0b0011), age), Some(1));
         assert_eq!(gto(Some(0), 4, ready_mask(0), age), None);
-        let mut s = GtoScheduler::default();
+        let mut s = WarpScheduler::default();
         s.commit(Some(2), |_| false);
-        assert_eq!(s.pick(|w| w == 2, 4, ready_mask(0b1111), age), Some(3), "a leaving warp is not greedy");
+        let gto = WarpSelect::Gto;
+        assert_eq!(s.pick(gto, |w| w == 2, 4, ready_mask(0b1111), age), Some(3), "a leaving warp is not greedy");
         s.commit(None, |w| w == 2);
-        assert_eq!(s, GtoScheduler::default());
+        assert_eq!(s, WarpScheduler::default());
+    }
+
+    #[test]
+    fn oldest_first_drops_the_greedy_warp() {
+        let ages = [3, 1, 2, 0];
+        let age = |w: u32| ages[w as usize];
+        let all = |_: u32| true;
+        let mut s = WarpScheduler::default();
+        s.commit(Some(2), |_| false);
+        assert_eq!(s.pick(WarpSelect::Gto, |_| false, 4, all, age), Some(2), "GTO stays on warp 2");
+        assert_eq!(s.pick(WarpSelect::Oldest, |_| false, 4, all, age), Some(3), "oldest: warp 3 (age 0)");
+        let not_3 = |w: u32| w != 3;
+        assert_eq!(s.pick(WarpSelect::Oldest, |_| false, 4, not_3, age), Some(1), "the oldest ready one");
     }
 }

@@ -66,12 +66,15 @@ impl StackUnit {
     /// The stack subsystem of SM `sm`. With [`StackTiming::Blocking`] the sequencer waits for the
     /// acknowledgement of each global store; `sh_latency` as in [`BankArbiter::new`].
     pub fn new(cfg: Config, sm: u32, timing: StackTiming, sh_latency: u32) -> Result<Self, ConfigError> {
-        let queue_bits = match timing {
-            StackTiming::Blocking => cfg.widths()?.gm_queue,
-            StackTiming::Overlapped => GM_POSTED_QUEUE_BITS,
-        };
+        StackUnit::with_stores(cfg, sm, timing == StackTiming::Blocking, sh_latency)
+    }
+
+    /// As [`StackUnit::new`], saying only whether global stores wait for their acknowledgement
+    /// (`acked_stores`) or are posted.
+    pub fn with_stores(cfg: Config, sm: u32, acked_stores: bool, sh_latency: u32) -> Result<Self, ConfigError> {
+        let queue_bits = if acked_stores { cfg.widths()?.gm_queue } else { GM_POSTED_QUEUE_BITS };
         Ok(StackUnit {
-            manager: StackManager::new(cfg, sm)?.with_acked_stores(timing == StackTiming::Blocking),
+            manager: StackManager::new(cfg, sm)?.with_acked_stores(acked_stores),
             arb: BankArbiter::new(cfg.banks, sh_latency, cfg.widths()?.sh_requests),
             sched: MemSched::new(queue_bits),
         })

@@ -122,6 +122,14 @@ fn window_hardware() -> Vec<(&'static str, Hardware)> {
         ("l2 latency 13", with(&|h| h.mem.l2_latency = 13)),
         ("l2 latency 8", with(&|h| h.mem.l2_latency = 8)),
         ("overlapped", with(&|h| h.rt = h.rt.overlapped())),
+        ("vulkansim-mobile", tb::hw::preset("vulkansim-mobile").unwrap()),
+        (
+            "sh-posted, store queue 4",
+            with(&|h| {
+                h.rt.store_gating = rtl::rt_unit::StoreGating::ShPosted;
+                h.rt.store_queue = 4;
+            }),
+        ),
     ]
 }
 

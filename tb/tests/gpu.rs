@@ -6,7 +6,7 @@ use rtl::config::Config;
 use rtl::gpu::{carve_out, Gpu, GpuReport};
 use rtl::mem::MemParams;
 use rtl::ray_op::{NodeKind, RayOp, WarpJob};
-use rtl::rt_unit::{RtParams, RunError, StackTiming};
+use rtl::rt_unit::{PortPriority, RtParams, RunError, StackTiming, StoreGating, WarpSelect};
 use rtl::trace::{NullSink, Sink};
 use tb::hw::Hardware;
 
@@ -584,4 +584,117 @@ fn l2_requests_count_what_leaves_the_sm() {
     assert_eq!(r.l2_node, 5, "root and four triangles, each a distinct sector");
     let full = run_with("RB_FULL", one_sm(), RtParams::default(), vec![single_warp(deep)]).unwrap();
     assert_eq!((full.l2_stack, full.l2_node), (0, 5), "no spills, no stack requests");
+}
+
+/// Lane 0 alone on one SM: pushes 1, 2, 3 on `cfg` (the third spills 1), then visits a fresh
+/// 32-byte triangle, then pops 3, 2, 1. Returns the cycle the node piece leaves through the port.
+fn push_spill_then_fetch(cfg: &str, rt: RtParams) -> u64 {
+    let mut ops: Vec<RayOp> = [1, 2, 3].map(RayOp::Push).into();
+    ops.push(RayOp::Visit { addr: 0x9000, kind: NodeKind::Triangle, bytes: 32 });
+    ops.extend([3, 2, 1].map(RayOp::Pop));
+    let cfg: Config = cfg.parse().unwrap();
+    let mut watch = Watch::new(PORT_NODE);
+    let r = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
+    assert_eq!(r.pops_checked, 3);
+    watch.changes.iter().find(|c| c.1 == 1).unwrap().0
+}
+
+/// RB_2: the third push spills 1 to global memory (a global store). By hand (as
+/// `blocking_stores_wait_for_the_l2_ack`): pushes accepted in 5, 6, 7; the sequencer issues the
+/// store in 8, the port sends it in 9. Acknowledged (`acked`, and `sh-posted`, which posts only
+/// SH stores): the ack completes the store in 171, the lane is scheduled in 172 and its piece
+/// leaves in 173. Posted: the only work left in 8 is the store, which is posted, so the lane is
+/// scheduled in 8; the port sends the store in 9 (stack first) and the piece in 10.
+#[test]
+fn posted_global_stores_let_the_fetch_go_before_the_ack() {
+    let at = |g: StoreGating| push_spill_then_fetch("RB_2", RtParams { store_gating: g, ..RtParams::default() });
+    assert_eq!(at(StoreGating::Acked), 173);
+    assert_eq!(at(StoreGating::ShPosted), 173, "a global store still waits for its ack");
+    assert_eq!(at(StoreGating::Posted), 10);
+    // A posted store needs no acknowledgement: the next stack command (a fourth push, spilling
+    // again) is accepted in 9, where an acknowledged one waits for the ack until 172 (as in
+    // `blocking_stores_wait_for_the_l2_ack`).
+    let fourth_push = |g: StoreGating| {
+        let mut ops: Vec<RayOp> = [1, 2, 3, 4].map(RayOp::Push).into();
+        ops.extend([4, 3, 2, 1].map(RayOp::Pop));
+        let cfg: Config = "RB_2".parse().unwrap();
+        let mut watch = Watch { every: true, ..Watch::new(CMD) };
+        let rt = RtParams { store_gating: g, ..RtParams::default() };
+        Gpu::new(cfg, rt, one_sm()).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
+        watch.changes.iter().filter(|c| c.1 == 1).nth(3).unwrap().0
+    };
+    assert_eq!((fourth_push(StoreGating::Acked), fourth_push(StoreGating::ShPosted)), (172, 172));
+    assert_eq!(fourth_push(StoreGating::Posted), 9);
+}
+
+/// RB_2+SH_4: the third push spills 1 to SH (one SH store, `sh_latency` 20). Pushes accepted in
+/// 5, 6, 7; the sequencer issues the SH store in 8 and completes it 20 cycles later, idle after
+/// 28. Acked: the lane is scheduled in 29, its piece leaves in 30. Both posted gatings: the only
+/// work left is the SH store, so the lane is scheduled in 8 (the cycle the store issues) and its
+/// piece leaves in 9.
+#[test]
+fn posted_sh_stores_let_the_fetch_go_before_the_sh_store_completes() {
+    let at = |g: StoreGating| push_spill_then_fetch("RB_2+SH_4", RtParams { store_gating: g, ..RtParams::default() });
+    assert_eq!(at(StoreGating::Acked), 30);
+    assert_eq!(at(StoreGating::ShPosted), 9);
+    assert_eq!(at(StoreGating::Posted), 9);
+}
+
+/// `spill_then_fetch` with `Overlapped` timing: in 10 the warp is scheduled (its piece queued for
+/// 11) and the sequencer issues the reload (queued for 11). With the stack first the reload
+/// leaves in 11 and the piece in 12; with Vulkan-Sim's order the piece under way goes first, in
+/// 11, and the reload in 12.
+#[test]
+fn node_first_port_serves_the_fetch_under_way_before_the_stack() {
+    let rt = |p: PortPriority| RtParams { port_priority: p, ..RtParams::default().overlapped() };
+    let (_, stack) = spill_then_fetch(rt(PortPriority::Stack), &[PORT_STACK, PORT_NODE]);
+    let (_, node) = spill_then_fetch(rt(PortPriority::Node), &[PORT_STACK, PORT_NODE]);
+    assert_eq!(stack[0], [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)], "store, reload");
+    assert_eq!(stack[1], [(0, 0), (12, 1), (13, 0)]);
+    assert_eq!(node[0], [(0, 0), (9, 1), (10, 0), (12, 1), (13, 0)], "the reload waits for the piece");
+    assert_eq!(node[1], [(0, 0), (11, 1), (12, 0)]);
+}
+
+/// Many warps on one SM: GTO and oldest-first issue warps in different orders, and move the same
+/// stack traffic.
+#[test]
+fn oldest_first_changes_which_warp_fetches_next() {
+    let issues = |select: WarpSelect| {
+        let cfg: Config = "RB_4".parse().unwrap();
+        let mut watch = Watch { every: true, ..Watch::new("sm0.rt_unit.scheduler.issue_warp") };
+        let rt = RtParams { warp_select: select, ..RtParams::default() };
+        let r = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap().run(jobs(5, 8, 45), &mut watch).unwrap();
+        (r, watch.changes)
+    };
+    let (gto, gto_issues) = issues(WarpSelect::Gto);
+    let (oldest, oldest_issues) = issues(WarpSelect::Oldest);
+    assert_ne!(gto_issues, oldest_issues, "the issue order differs");
+    assert_eq!((gto.stack, gto.pops_checked), (oldest.stack, oldest.pops_checked), "same traffic");
+}
+
+/// RB_1, posted stores: every push after the first spills one global store. With
+/// `store_queue = 1` a push is taken only while no store waits for the port, so the run takes
+/// longer than unbounded and the scheduler's queue never holds more stores than one command
+/// adds after the bound.
+#[test]
+fn a_full_store_queue_holds_stack_commands() {
+    let mut ops: Vec<RayOp> = (1..=12).map(RayOp::Push).collect();
+    ops.extend((1..=12).rev().map(RayOp::Pop));
+    let cfg: Config = "RB_1".parse().unwrap();
+    let run = |store_queue: u32| {
+        let rt = RtParams { store_gating: StoreGating::Posted, store_queue, ..RtParams::default() };
+        let gpu = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap();
+        let job = WarpJob { lanes: (0..32).map(|_| Some(ops.clone())).collect() };
+        let mut watch = Watch::new("sm0.rt_unit.mem_sched.queue");
+        let r = gpu.run(vec![job], &mut watch).unwrap();
+        (r, watch.changes.iter().map(|c| c.1).max().unwrap())
+    };
+    let (free, free_queue) = run(0);
+    let (held, held_queue) = run(1);
+    assert!(held.cycles > free.cycles, "{} vs {}", held.cycles, free.cycles);
+    assert!(free_queue > 32, "unbounded: stores pile up ({free_queue})");
+    assert!(held_queue <= 32, "one store per lane past the bound at most ({held_queue})");
+    assert_eq!(held.stack, free.stack);
+    let e = RtParams { store_queue: 1 << 16, ..RtParams::default() }.validate().unwrap_err();
+    assert_eq!(e.parameter, "store_queue");
 }

@@ -346,6 +346,10 @@ impl StackManager {
     pub fn pending_uops(&self, t: u32) -> impl Iterator<Item = &Uop> + '_ {
         self.seq[t as usize].uops.iter()
     }
+    /// The micro-op thread `t` has issued and not yet completed.
+    pub fn inflight_uop(&self, t: u32) -> Option<Uop> {
+        self.seq[t as usize].inflight
+    }
     /// Stacks of thread `t`'s chain, in ring order starting at its dedicated stack.
     pub fn chain(&self, t: u32) -> Vec<u32> {
         let mut d = StackStep::default();

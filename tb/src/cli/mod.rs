@@ -302,8 +302,11 @@ pub struct HardwareArgs {
     /// MOBILE config), vulkansim-mobile (that config file as it is), rtx2060, legacy (this model
     /// before it adopted Vulkan-Sim's mechanisms) — or a TOML file applied to `paper`, with
     /// `[rt]` keys bvh_header, internal, instance_leaf, leaf_descriptor, triangle, procedural,
-    /// idle_skip; `[stack]` keys timing ("blocking" or "overlapped") and sh_latency (cycles of
-    /// an unconflicted shared-memory access, at least 2); `[mem]` keys sms, sector_bytes,
+    /// idle_skip, warp_select ("gto" or "oldest"); `[stack]` keys timing ("blocking" or
+    /// "overlapped"), sh_latency (cycles of an unconflicted shared-memory access, at least 2),
+    /// store_gating (which stores hold the next node fetch: "acked", "posted" or "sh-posted"),
+    /// store_queue (global stores that may wait for the port, 0 = unbounded), port_priority
+    /// ("stack" or "node" first; docs/assumptions.md has each choice's sources); `[mem]` keys sms, sector_bytes,
     /// line_bytes, l1d_bytes, shared_carveout (SH stacks carved out of the L1D array),
     /// l1d_ways (0 = fully associative), l1d_hit_latency, l1d_mshrs, l1d_mshr_merge,
     /// l1d_miss_queue, l1d_write ("evict" or "through"), l2_bytes, l2_ways, l2_latency,

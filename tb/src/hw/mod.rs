@@ -7,7 +7,7 @@
 //! naming the key. The default hardware is the `paper` preset.
 
 use rtl::mem::{Assoc, L1dWrite, LocalLayout, MemParams, SetIndex};
-use rtl::rt_unit::{RtParams, StackTiming};
+use rtl::rt_unit::{PortPriority, RtParams, StackTiming, StoreGating, WarpSelect};
 
 pub mod presets;
 
@@ -110,10 +110,18 @@ pub fn apply_toml(hw: &mut Hardware, text: &str) -> Result<(), String> {
                 ("rt", "triangle") => rt.triangle = uint()?,
                 ("rt", "procedural") => rt.procedural = uint()?,
                 ("rt", "idle_skip") => rt.idle_skip = boolean()?,
+                ("rt", "warp_select") => rt.warp_select = choice(&name, v, WarpSelect::NAMES, WarpSelect::from_name)?,
                 ("stack", "timing") => {
                     rt.stack_timing = choice(&name, v, StackTiming::NAMES, StackTiming::from_name)?
                 }
                 ("stack", "sh_latency") => rt.sh_latency = uint()?,
+                ("stack", "store_gating") => {
+                    rt.store_gating = choice(&name, v, StoreGating::NAMES, StoreGating::from_name)?
+                }
+                ("stack", "store_queue") => rt.store_queue = uint()?,
+                ("stack", "port_priority") => {
+                    rt.port_priority = choice(&name, v, PortPriority::NAMES, PortPriority::from_name)?
+                }
                 ("mem", "sms") => m.sms = uint()?,
                 ("mem", "sector_bytes") => m.sector_bytes = uint()?,
                 ("mem", "line_bytes") => m.line_bytes = uint()?,
@@ -172,6 +180,10 @@ mod tests {
                 idle_skip: r.idle_skip, // a run option, not hardware: no preset sets it
                 stack_timing: StackTiming::Overlapped,
                 sh_latency: r.sh_latency + 1,
+                store_gating: StoreGating::ShPosted,
+                store_queue: r.store_queue + 1,
+                port_priority: PortPriority::Node,
+                warp_select: WarpSelect::Oldest,
             },
             mem: MemParams {
                 sms: m.sms + 1,
@@ -206,6 +218,11 @@ mod tests {
             (StackTiming::Blocking, L1dWrite::WriteEvict, SetIndex::Ipoly, LocalLayout::Interleaved),
             "the two bases differ in the enums too"
         );
+        assert_eq!(
+            (a.rt.store_gating, a.rt.port_priority, a.rt.warp_select),
+            (StoreGating::Acked, PortPriority::Stack, WarpSelect::Gto),
+            "and in the open choices"
+        );
         for p in presets::PRESETS {
             let (mut on_a, mut on_b) = (a, b);
             apply_toml(&mut on_a, p.toml).unwrap();
@@ -229,6 +246,13 @@ mod tests {
         assert_eq!((hw.mem.sms, hw.mem.l1d_bytes, hw.mem.l2_bytes), (8, 64 << 10, 3 << 20));
         assert_eq!((hw.mem.l2_latency, hw.mem.dram_latency), (160, 100));
         assert_eq!(hw.rt.stack_timing, StackTiming::Blocking);
+        // The open choices as docs/assumptions.md settles them: the paper's text where it speaks
+        // (GTO), Vulkan-Sim's source where only it does (an unbounded store queue), and the
+        // model's reading of the paper's sequence otherwise.
+        assert_eq!(
+            (hw.rt.store_gating, hw.rt.store_queue, hw.rt.port_priority, hw.rt.warp_select),
+            (StoreGating::Acked, 0, PortPriority::Stack, WarpSelect::Gto)
+        );
         let mobile = preset("vulkansim-mobile").unwrap();
         assert_eq!(
             (mobile.mem.l1d_bytes, mobile.mem.l2_bytes, mobile.shared_carveout),
@@ -293,6 +317,25 @@ mod tests {
         assert!(err("[mem]\nl2_set_index = 1")
             .contains("mem.l2_set_index = 1: expected one of \"ipoly\", \"linear\""));
         assert!(err("[mem]\nlocal_layout = \"x\"").contains("expected one of \"interleaved\", \"linear\""));
+        assert_eq!(
+            err("[stack]\nstore_gating = \"none\""),
+            "stack.store_gating = \"none\": expected one of \"acked\", \"posted\", \"sh-posted\""
+        );
+        assert!(err("[stack]\nport_priority = 1").contains("expected one of \"stack\", \"node\""));
+        assert!(err("[rt]\nwarp_select = \"lrr\"").contains("expected one of \"gto\", \"oldest\""));
+        assert!(err("[stack]\nstore_queue = -1").contains("stack.store_queue = -1: expected a whole number"));
+        let mut hw = Hardware::default();
+        apply_toml(&mut hw, "[stack]\nstore_queue = 70000\n").unwrap();
+        assert!(hw.validate().unwrap_err().contains("store_queue"), "beyond the queue's width");
+        apply_toml(
+            &mut hw,
+            "[stack]\nstore_gating = \"sh-posted\"\nstore_queue = 16\nport_priority = \"node\"\n[rt]\nwarp_select = \"oldest\"\n",
+        )
+        .unwrap();
+        assert_eq!(
+            (hw.rt.store_gating, hw.rt.store_queue, hw.rt.port_priority, hw.rt.warp_select),
+            (StoreGating::ShPosted, 16, PortPriority::Node, WarpSelect::Oldest)
+        );
         assert!(err("[mem]\nshared_carveout = 1").contains("expected true or false"));
         assert!(err("mem = 3").contains("must be a table"));
         assert!(err("[mem\n").contains("not valid TOML"));

@@ -31,7 +31,16 @@ pub struct Figure {
 
 /// Every figure, in report order.
 pub fn all(s: &Sweep) -> Result<Vec<Figure>> {
-    Ok(vec![performance(s), offchip(s), bank_conflicts(s), rb_sweep(s), l1d_sweep(s), depth(s), cost(s)?])
+    Ok(vec![
+        performance(s),
+        offchip(s),
+        bank_conflicts(s),
+        skew(s),
+        rb_sweep(s),
+        l1d_sweep(s),
+        depth(s),
+        cost(s)?,
+    ])
 }
 
 fn f4(v: Option<f64>) -> String {
@@ -326,6 +335,89 @@ pub fn bank_conflicts(s: &Sweep) -> Figure {
             }],
             dots: per,
             rule: None,
+            zoom: false,
+        },
+    }
+}
+
+/// Shared-memory accesses of a run: each RB→SH spill and global→SH refill is one SH store, each
+/// SH→RB reload and SH→global spill one SH load (exact without reallocation, whose flushes move
+/// whole stacks).
+fn sh_accesses(o: &Outcome) -> u64 {
+    let st = &o.stack;
+    st.rb_to_sh + st.sh_to_rb + st.sh_to_global + st.global_to_sh
+}
+
+/// What decides whether skewed bank access can pay, per scene: how often the SH stacks are used
+/// (SH accesses per SM-cycle), the share of SM-cycles with a bank conflict, with and without
+/// skew, and skew's effect on the conflict cycles and on the speed-up over RB_8.
+pub fn skew(s: &Sweep) -> Figure {
+    let kb = s.base_kb();
+    let (plain, skewed) = ("RB_8+SH_8", "RB_8+SH_8+SK");
+    let sms = f64::from(s.hw.mem.sms);
+    let sm_cycles = |r: &crate::run::sweep::Run| r.outcome.gpu.map(|g| g.cycles as f64 * sms);
+    let share = |r: Option<&crate::run::sweep::Run>| {
+        let r = r?;
+        let c = sm_cycles(r)?;
+        (c > 0.0).then(|| conflicts(&r.outcome) as f64 / c * 100.0)
+    };
+    let mut table = Table::new([
+        "scene",
+        "SH accesses / SM-cycle",
+        "conflict cycles % (SH_8)",
+        "conflict cycles % (+SK)",
+        "skew: conflict cycles Δ %",
+        "skew: speed-up Δ PP",
+    ]);
+    let mut rows = Vec::new();
+    let mut pp_bars = Vec::new();
+    for sc in &s.scenes {
+        let (p, k) = (s.run(&sc.name, plain, kb), s.run(&sc.name, skewed, kb));
+        let rate = p.and_then(|r| Some(sh_accesses(&r.outcome) as f64 / sm_cycles(r)?));
+        let (cp, ck) = (share(p), share(k));
+        let dconf = match (p, k) {
+            (Some(p), Some(k)) if conflicts(&p.outcome) > 0 => {
+                Some((conflicts(&k.outcome) as f64 / conflicts(&p.outcome) as f64 - 1.0) * 100.0)
+            }
+            _ => None,
+        };
+        let dpp = match (s.speedup(&sc.name, skewed, kb), s.speedup(&sc.name, plain, kb)) {
+            (Some(k), Some(p)) => Some((k - p) * 100.0),
+            _ => None,
+        };
+        let f = |v: Option<f64>, d: usize| v.map_or(String::new(), |v| format!("{v:.d$}"));
+        table.row([sc.name.clone(), f(rate, 4), f(cp, 3), f(ck, 3), f(dconf, 1), f(dpp, 2)]);
+        rows.push(json!({
+            "scene": sc.name, "sh_accesses_per_sm_cycle": rate, "conflict_cycle_share_pct": cp,
+            "conflict_cycle_share_pct_skewed": ck, "skew_conflict_cycles_delta_pct": dconf,
+            "skew_speedup_delta_pp": dpp,
+        }));
+        pp_bars.push(dpp);
+    }
+    let geo = match (s.geomean_speedup(skewed, kb), s.geomean_speedup(plain, kb)) {
+        (Some(k), Some(p)) => Some((k - p) * 100.0),
+        _ => None,
+    };
+    let note = match geo {
+        Some(g) => format!(
+            "Skew ({skewed} against {plain}) moves the geomean speed-up over RB_8 by {g:+.2} PP. An SM-cycle is one \
+             cycle of one SM; a conflict cycle is one in which the bank arbiter serves a word late."
+        ),
+        None => format!("Needs {plain} and {skewed} in the sweep's plan."),
+    };
+    Figure {
+        name: "skew",
+        title: format!("Shared-memory traffic and skewed access ({kb} KB L1D)"),
+        note,
+        table,
+        per_scene: None,
+        json: json!({ "l1d_kb": kb, "geomean_skew_speedup_delta_pp": geo, "per_scene": rows }),
+        chart: Chart::HBars {
+            x_desc: "skew's effect on the speed-up over RB_8 (percentage points)".into(),
+            labels: s.scene_names(),
+            bars: vec![Bars { name: "skew Δ PP".into(), values: pp_bars }],
+            dots: Vec::new(),
+            rule: Some(0.0),
             zoom: false,
         },
     }
