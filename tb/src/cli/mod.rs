@@ -67,7 +67,8 @@ pub enum Command {
     Check(check::Args),
     /// SMT proofs (z3, boolector; cvc5 selectable) at a named configuration that the stack
     /// manager's decision logic, the code the simulator runs, equals the specification of SPEC
-    /// sections 3 and 5 in one step, and that every cycle keeps the well-formedness invariant.
+    /// sections 3 and 5 in one step, that every cycle keeps the well-formedness invariant, and that
+    /// a push or pop moves every entry of the logical stack where the reference stack puts it.
     Prove(prove::Args),
     /// Run the paper's experiments over a scene set and write the report.
     Sweep(sweep::Args),
