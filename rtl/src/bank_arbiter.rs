@@ -120,7 +120,12 @@ impl BankArbiter {
     /// to completion (at least [`MIN_SH_LATENCY`]; smaller values are treated as the minimum —
     /// `RtParams::validate` rejects them first). `count_bits` is `Widths::sh_requests`.
     pub fn new(banks: u32, sh_latency: u32, count_bits: u32) -> Self {
-        BankArbiter { banks, stages: sh_latency.saturating_sub(MIN_SH_LATENCY), count_bits, ..Default::default() }
+        BankArbiter {
+            banks,
+            stages: sh_latency.saturating_sub(MIN_SH_LATENCY),
+            count_bits,
+            ..Default::default()
+        }
     }
 
     /// Threads whose request completed in the previous cycle (a registered output: the stack

@@ -251,7 +251,7 @@ impl Gpu {
         // Every L2 access is a request an SM's L1D sent down (the L2 serves nothing else).
         let mut stack = StackStats::default();
         for u in &self.units {
-            stack.add(&u.stack_unit.manager.stats);
+            stack.add(u.counters().0);
         }
         let sum = |f: fn(&RtUnit) -> u64| self.units.iter().map(f).sum::<u64>();
         GpuReport {
@@ -260,7 +260,7 @@ impl Gpu {
             warps: sum(|u| u.stats.warps),
             rays: sum(|u| u.stats.rays),
             visits: sum(|u| u.stats.visits),
-            node_fetches: sum(|u| u.fetch.requests),
+            node_fetches: sum(|u| u.counters().1),
             dram_node: dram.kind(ReqKind::NodeFetch).accesses,
             dram_stack: dram.kind(ReqKind::StackSpill).accesses + dram.kind(ReqKind::StackReload).accesses,
             l2_node: l2.kind(ReqKind::NodeFetch).accesses,
@@ -268,7 +268,7 @@ impl Gpu {
             l1d_hit_rate: hit_rate(&self.mem.l1d_counters()),
             l2_hit_rate: hit_rate(&l2),
             stack,
-            bank_conflict_cycles: sum(|u| u.stack_unit.arb.conflict_cycles),
+            bank_conflict_cycles: sum(|u| u.counters().2),
             pops_checked: sum(|u| u.stats.pops_checked),
             last_dispatch: o.last_dispatch,
         }

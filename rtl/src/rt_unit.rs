@@ -62,10 +62,10 @@ use crate::config::{Config, ConfigError, Widths, GM_POSTED_QUEUE_BITS};
 use crate::mem::{MemReq, MemResp, ReqKind};
 use crate::node_fetch::NodeFetch;
 use crate::ray_op::{NodeKind, RayOp, WarpJob};
-pub use crate::scheduler::WarpSelect;
 use crate::scheduler::WarpScheduler;
+pub use crate::scheduler::WarpSelect;
 pub use crate::stack_manager::StackTiming;
-use crate::stack_manager::{Cmd, StackError, Uop};
+use crate::stack_manager::{Cmd, StackError, StackStats, Uop};
 use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
 use crate::thread_fsm::{self, Thread, ThreadIn, ThreadState};
 use crate::trace::{Probe, Sink};
@@ -420,6 +420,12 @@ pub struct RtUnit {
 }
 
 impl RtUnit {
+    /// What a report reads of this unit beyond [`RtUnit::stats`]: the stack manager's counters,
+    /// node fetches sent, and bank-conflict cycles.
+    pub fn counters(&self) -> (&StackStats, u64, u64) {
+        (self.stack_unit.stats(), self.fetch.requests, self.stack_unit.conflict_cycles())
+    }
+
     /// RT unit `id` (its SM) with stack configuration `cfg`; `sector_bytes` is the memory
     /// system's fetch granularity.
     pub fn new(id: u32, cfg: Config, rt: RtParams, sector_bytes: u32) -> Result<Self, ConfigError> {

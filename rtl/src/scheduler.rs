@@ -104,7 +104,11 @@ mod tests {
         let mut s = WarpScheduler::default();
         s.commit(Some(2), |_| false);
         let gto = WarpSelect::Gto;
-        assert_eq!(s.pick(gto, |w| w == 2, 4, ready_mask(0b1111), age), Some(3), "a leaving warp is not greedy");
+        assert_eq!(
+            s.pick(gto, |w| w == 2, 4, ready_mask(0b1111), age),
+            Some(3),
+            "a leaving warp is not greedy"
+        );
         s.commit(None, |w| w == 2);
         assert_eq!(s, WarpScheduler::default());
     }

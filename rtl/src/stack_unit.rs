@@ -71,13 +71,28 @@ impl StackUnit {
 
     /// As [`StackUnit::new`], saying only whether global stores wait for their acknowledgement
     /// (`acked_stores`) or are posted.
-    pub fn with_stores(cfg: Config, sm: u32, acked_stores: bool, sh_latency: u32) -> Result<Self, ConfigError> {
+    pub fn with_stores(
+        cfg: Config,
+        sm: u32,
+        acked_stores: bool,
+        sh_latency: u32,
+    ) -> Result<Self, ConfigError> {
         let queue_bits = if acked_stores { cfg.widths()?.gm_queue } else { GM_POSTED_QUEUE_BITS };
         Ok(StackUnit {
             manager: StackManager::new(cfg, sm)?.with_acked_stores(acked_stores),
             arb: BankArbiter::new(cfg.banks, sh_latency, cfg.widths()?.sh_requests),
             sched: MemSched::new(queue_bits),
         })
+    }
+
+    /// The stack manager's counters so far.
+    pub fn stats(&self) -> &StackStats {
+        &self.manager.stats
+    }
+
+    /// Cycles an SH access waited on a bank conflict so far.
+    pub fn conflict_cycles(&self) -> u64 {
+        self.arb.conflict_cycles
     }
 
     /// The request offered to the memory port this cycle (from registers).

@@ -115,7 +115,9 @@ pub fn synthetic_jobs(seed: u64, warps: usize, hit: u64) -> Vec<WarpJob> {
     let mut rng = Rng(seed);
     (0..warps)
         .map(|w| WarpJob {
-            lanes: (0..32).map(|l| (w % 5 != 4 || l % 3 != 0).then(|| synthetic_ray(&mut rng, hit))).collect(),
+            lanes: (0..32)
+                .map(|l| (w % 5 != 4 || l % 3 != 0).then(|| synthetic_ray(&mut rng, hit)))
+                .collect(),
         })
         .collect()
 }
@@ -160,7 +162,11 @@ pub fn simulate_named(name: &str, fidelity: Fidelity, w: &Workload) -> Outcome {
 
 /// The cycle-level stack testbench: `work` through `unit` with `opts`, scoreboard on; panics
 /// naming the configuration if a check fails.
-pub fn run_stack(unit: &mut StandaloneStack, work: impl IntoIterator<Item = WarpWork>, opts: CycleOpts) -> RunSummary {
+pub fn run_stack(
+    unit: &mut StandaloneStack,
+    work: impl IntoIterator<Item = WarpWork>,
+    opts: CycleOpts,
+) -> RunSummary {
     let cfg = *unit.manager().config();
     run_cycle(unit, work, opts, &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
 }

@@ -594,7 +594,10 @@ fn push_spill_then_fetch(cfg: &str, rt: RtParams) -> u64 {
     ops.extend([3, 2, 1].map(RayOp::Pop));
     let cfg: Config = cfg.parse().unwrap();
     let mut watch = Watch::new(PORT_NODE);
-    let r = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
+    let r = Gpu::new(cfg, rt, carve_out(&cfg, one_sm()))
+        .unwrap()
+        .run(vec![single_warp(ops)], &mut watch)
+        .unwrap();
     assert_eq!(r.pops_checked, 3);
     watch.changes.iter().find(|c| c.1 == 1).unwrap().0
 }
@@ -607,7 +610,8 @@ fn push_spill_then_fetch(cfg: &str, rt: RtParams) -> u64 {
 /// scheduled in 8; the port sends the store in 9 (stack first) and the piece in 10.
 #[test]
 fn posted_global_stores_let_the_fetch_go_before_the_ack() {
-    let at = |g: StoreGating| push_spill_then_fetch("RB_2", RtParams { store_gating: g, ..RtParams::default() });
+    let at =
+        |g: StoreGating| push_spill_then_fetch("RB_2", RtParams { store_gating: g, ..RtParams::default() });
     assert_eq!(at(StoreGating::Acked), 173);
     assert_eq!(at(StoreGating::ShPosted), 173, "a global store still waits for its ack");
     assert_eq!(at(StoreGating::Posted), 10);
@@ -634,7 +638,9 @@ fn posted_global_stores_let_the_fetch_go_before_the_ack() {
 /// piece leaves in 9.
 #[test]
 fn posted_sh_stores_let_the_fetch_go_before_the_sh_store_completes() {
-    let at = |g: StoreGating| push_spill_then_fetch("RB_2+SH_4", RtParams { store_gating: g, ..RtParams::default() });
+    let at = |g: StoreGating| {
+        push_spill_then_fetch("RB_2+SH_4", RtParams { store_gating: g, ..RtParams::default() })
+    };
     assert_eq!(at(StoreGating::Acked), 30);
     assert_eq!(at(StoreGating::ShPosted), 9);
     assert_eq!(at(StoreGating::Posted), 9);
@@ -663,7 +669,8 @@ fn oldest_first_changes_which_warp_fetches_next() {
         let cfg: Config = "RB_4".parse().unwrap();
         let mut watch = Watch { every: true, ..Watch::new("sm0.rt_unit.scheduler.issue_warp") };
         let rt = RtParams { warp_select: select, ..RtParams::default() };
-        let r = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap().run(jobs(5, 8, 45), &mut watch).unwrap();
+        let r =
+            Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap().run(jobs(5, 8, 45), &mut watch).unwrap();
         (r, watch.changes)
     };
     let (gto, gto_issues) = issues(WarpSelect::Gto);

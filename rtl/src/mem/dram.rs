@@ -112,7 +112,6 @@ impl Dram {
     pub fn skip_to(&mut self, cycle: u64) {
         self.now = cycle;
     }
-
 }
 
 impl Unit for Dram {

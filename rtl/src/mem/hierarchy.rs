@@ -165,7 +165,6 @@ impl MemSystem {
         d.down.extend(self.l1d.iter().map(L1d::down_req));
     }
 
-
     /// L1D `sm`'s request input: SM `sm`'s request (a hook where tests plant wiring bugs).
     #[cfg(not(test))]
     fn l1d_req(&self, _steps: &[L1dStep], _sm: usize, req: Option<MemReq>) -> Option<MemReq> {
@@ -266,9 +265,7 @@ impl MemSystem {
         }
         total
     }
-
 }
-
 
 impl Unit for MemSystem {
     type In<'a> = &'a [Option<MemReq>];

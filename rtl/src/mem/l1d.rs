@@ -372,7 +372,6 @@ impl L1d {
     pub fn skip_to(&mut self, cycle: u64) {
         self.now = cycle;
     }
-
 }
 
 impl Unit for L1d {

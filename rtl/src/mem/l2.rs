@@ -294,7 +294,6 @@ impl L2 {
     pub fn skip_to(&mut self, cycle: u64) {
         self.now = cycle;
     }
-
 }
 
 impl Unit for L2 {

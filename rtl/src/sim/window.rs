@@ -37,8 +37,8 @@
 
 use super::helper::Helper;
 use super::{Dispatcher, Progress, Steps};
-use crate::mem::dram::{Dram, DramIn, DramStep};
 use crate::clock::Unit;
+use crate::mem::dram::{Dram, DramIn, DramStep};
 use crate::mem::hierarchy::MemSystem;
 use crate::mem::l1d::{L1d, L1dIn, L1dStep};
 use crate::mem::l2::{FrontStep, L2In, L2Step, L2};

@@ -110,7 +110,9 @@ pub fn apply_toml(hw: &mut Hardware, text: &str) -> Result<(), String> {
                 ("rt", "triangle") => rt.triangle = uint()?,
                 ("rt", "procedural") => rt.procedural = uint()?,
                 ("rt", "idle_skip") => rt.idle_skip = boolean()?,
-                ("rt", "warp_select") => rt.warp_select = choice(&name, v, WarpSelect::NAMES, WarpSelect::from_name)?,
+                ("rt", "warp_select") => {
+                    rt.warp_select = choice(&name, v, WarpSelect::NAMES, WarpSelect::from_name)?
+                }
                 ("stack", "timing") => {
                     rt.stack_timing = choice(&name, v, StackTiming::NAMES, StackTiming::from_name)?
                 }
