@@ -42,6 +42,14 @@ fn solvers() -> Vec<Solver> {
     s
 }
 
+/// Proves `ob` for the design at `c` with each of `sv`, asserting every verdict is "proved".
+fn assert_proved(c: &Config, ob: &tb::prove::Obligation, sv: &[Solver]) {
+    for o in prove(c, &Design, ob, sv, LIMIT).unwrap() {
+        println!("{:44} {:24} {:10} {:6.1} s", o.property, c.name(), o.solver.name(), o.seconds);
+        assert_eq!(o.verdict, Verdict::Proved, "{} at {} by {}", o.property, c.name(), o.solver.name());
+    }
+}
+
 #[test]
 fn the_policy_equals_the_specification_with_two_solvers() {
     let sv = solvers();
@@ -62,17 +70,7 @@ fn the_policy_equals_the_specification_with_two_solvers() {
             .filter(|o| o.what != What::Conservation)
             .filter(|o| only.is_empty() || only.contains(&o.name.as_str()));
         for ob in chosen {
-            for o in prove(&c, &Design, &ob, &sv, LIMIT).unwrap() {
-                println!("{:44} {:24} {:10} {:6.1} s", o.property, c.name(), o.solver.name(), o.seconds);
-                assert_eq!(
-                    o.verdict,
-                    Verdict::Proved,
-                    "{} at {} by {}",
-                    o.property,
-                    c.name(),
-                    o.solver.name()
-                );
-            }
+            assert_proved(&c, &ob, &sv);
         }
     }
 }
@@ -87,17 +85,7 @@ fn the_logical_stack_is_conserved_through_push_and_pop_with_two_solvers() {
             obligations(&c).into_iter().filter(|o| o.what == What::Conservation).collect::<Vec<_>>();
         assert_eq!(conservation.len(), 2, "push and pop");
         for ob in conservation {
-            for o in prove(&c, &Design, &ob, &sv, LIMIT).unwrap() {
-                println!("{:44} {:24} {:10} {:6.1} s", o.property, c.name(), o.solver.name(), o.seconds);
-                assert_eq!(
-                    o.verdict,
-                    Verdict::Proved,
-                    "{} at {} by {}",
-                    o.property,
-                    c.name(),
-                    o.solver.name()
-                );
-            }
+            assert_proved(&c, &ob, &sv);
         }
     }
 }

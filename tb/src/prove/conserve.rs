@@ -223,21 +223,21 @@ pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: 
     let mut off = at.rb_off;
     let mut len = x.rb_len;
     {
-        let top = s.eq_k(off, 0);
-        let gone = s.and(a.rb.pop_back, top);
-        let keep = s.not(gone);
-        in_rb = s.and(in_rb, keep);
+        // An entry leaving from back-offset `at` (when `happened`): the tracked one (at `off`)
+        // leaves if it sits there, and the RB is one shorter.
+        let leave = |s: &mut Sym, in_rb: B, off: W, len: W, at: W, happened: B| {
+            let here = s.eq(off, at);
+            let gone = s.and(happened, here);
+            let keep = s.not(gone);
+            let shorter = s.sub_k(len, 1);
+            (s.and(in_rb, keep), s.mux(happened, shorter, len))
+        };
+        let top = s.word(0);
+        (in_rb, len) = leave(&mut s, in_rb, off, len, top, a.rb.pop_back);
         let down = s.sub_k(off, 1);
         off = s.mux(a.rb.pop_back, down, off);
-        let shorter = s.sub_k(len, 1);
-        len = s.mux(a.rb.pop_back, shorter, len);
         let front = s.sub_k(len, 1);
-        let oldest = s.eq(off, front);
-        let gone = s.and(a.rb.pop_front, oldest);
-        let keep = s.not(gone);
-        in_rb = s.and(in_rb, keep);
-        let shorter = s.sub_k(len, 1);
-        len = s.mux(a.rb.pop_front, shorter, len);
+        (in_rb, len) = leave(&mut s, in_rb, off, len, front, a.rb.pop_front);
         let up = s.add_k(off, 1);
         off = s.mux(a.rb.push_back, up, off);
         let longer = s.add_k(len, 1);
