@@ -49,10 +49,11 @@ for c in ["RB_8"] + HEAD + ["RB_4+SH_8+SK+RA", "RB_16+SH_8+SK+RA"]:
     )
 
 print()
-print("| mechanism off | " + " | ".join(cols) + " |")
-print("|---|" + "---:|" * len(cols))
+ARMS = HEAD + ["RB_2+SH_8+SK+RA"]
+print("| mechanism off | " + " | ".join(cols) + " | RB_2+SMS |")
+print("|---|" + "---:|" * len(ARMS))
 for name, r in arms.items():
     geo = {g["config"]: g["geomean"] for g in r["geomean"]}
     ref = {g["config"]: g["geomean"] for g in arms["all on"]["geomean"]}
-    cells = [f"{geo[c]:.3f}" + ("" if name == "all on" else f" ({geo[c] - ref[c]:+.3f})") for c in HEAD]
+    cells = [f"{geo[c]:.3f}" + ("" if name == "all on" else f" ({geo[c] - ref[c]:+.3f})") for c in ARMS]
     print(f"| {name.removesuffix(' off')} | " + " | ".join(cells) + " |")
