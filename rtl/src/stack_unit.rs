@@ -11,12 +11,13 @@
 //!
 //! Dataflow within a cycle: the arbiter's `done` and the FIFO's `deq` are registers, so the
 //! stack manager evaluates first on them and this cycle's commands; its SH and global requests
-//! are then inputs of the arbiter and the scheduler. Nothing changes until [`StackUnit::commit`].
+//! are then inputs of the arbiter and the scheduler. Nothing changes until the commit. The
+//! stack unit and its three children are [`Unit`]s.
 
 use crate::bank_arbiter::{ArbIn, ArbStep, BankArbiter, MIN_SH_LATENCY};
 use crate::clock::Unit;
 use crate::config::{Config, ConfigError, GM_POSTED_QUEUE_BITS};
-use crate::mem_sched::{FixedLatencyMem, FixedStep, GReq, MemSched, SchedStep};
+use crate::mem_sched::{FixedLatencyMem, FixedStep, GReq, MemSched, SchedIn, SchedStep};
 use crate::stack_manager::{
     Cmd, Entry, StackError, StackIn, StackManager, StackStats, StackStep, StackTiming,
 };
@@ -36,6 +37,8 @@ pub struct StackUnit {
 /// This cycle's inputs of the stack subsystem.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct StackUnitIn<'a> {
+    /// The cycle (the arbiter's pipeline counts in it).
+    pub now: u64,
     /// Commands, at most one per thread, from threads the manager shows `ready`.
     pub cmds: &'a [(u32, Cmd)],
     /// The memory port takes the request [`StackUnit::req`] offers.
@@ -50,7 +53,7 @@ pub struct StackUnitStep {
     pub manager: StackStep,
     pub arb: ArbStep,
     pub sched: SchedStep,
-    /// Evaluated on a quiet cycle ([`StackUnit::eval`]): every child's step is its value for no
+    /// Evaluated on a quiet cycle (see the eval): every child's step is its value for no
     /// input on idle registers, and committing it changes nothing.
     quiet: bool,
 }
@@ -81,7 +84,7 @@ impl StackUnit {
         Ok(StackUnit {
             manager: StackManager::new(cfg, sm)?.with_acked_stores(acked_stores),
             arb: BankArbiter::new(cfg.banks, sh_latency, cfg.widths()?.sh_requests),
-            sched: MemSched::new(queue_bits),
+            sched: MemSched::new(queue_bits, &cfg.widths()?),
         })
     }
 
@@ -101,31 +104,11 @@ impl StackUnit {
         self.sched.head()
     }
 
-    /// Cycle `now`, combinational, in dataflow order; `d` receives every output and decision.
-    ///
-    /// A quiet cycle (no command, completion or port handshake comes in, and no register holds
-    /// work: [`StackUnit::quiet`]) evaluates every child to its value for no input, which is the
-    /// same in every quiet cycle but for the cycle number the arbiter's step carries. So when `d`
-    /// already holds a quiet cycle's step, only that number is updated; the children are not
-    /// evaluated again, and [`StackUnit::commit`] skips the step (committing it changes nothing).
-    /// Test: `quiet_cycles_skip_work_with_identical_steps_and_state` compares every step and
-    /// state with the children evaluated and committed every cycle.
-    #[inline]
-    pub fn eval(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
-        let quiet = self.quiet(i);
-        if quiet && d.quiet {
-            d.arb.set_now(now);
-            return;
-        }
-        self.eval_children(now, i, d);
-        d.quiet = quiet;
-    }
-
-    fn eval_children(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
-        let sm_in = StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() };
-        self.manager.eval(&sm_in, &mut d.manager);
-        self.arb.eval(ArbIn { now, new: &d.manager.sh_req }, &mut d.arb);
-        self.sched.eval(&d.manager.g_req, i.req_ready, i.completions, &mut d.sched);
+    fn eval_children(&self, i: &StackUnitIn, d: &mut StackUnitStep) {
+        self.manager.eval(StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() }, &mut d.manager);
+        self.arb.eval(ArbIn { now: i.now, new: &d.manager.sh_req }, &mut d.arb);
+        let sched_in = SchedIn { new: &d.manager.g_req, req_ready: i.req_ready, completions: i.completions };
+        self.sched.eval(sched_in, &mut d.sched);
     }
 
     /// Nothing comes in (no command, completion or port handshake) and nothing is held: no
@@ -141,14 +124,6 @@ impl StackUnit {
             && self.sched.is_idle()
     }
 
-    /// The clock edge.
-    #[inline]
-    pub fn commit(&mut self, d: &StackUnitStep) {
-        if !d.quiet {
-            self.commit_children(d);
-        }
-    }
-
     fn commit_children(&mut self, d: &StackUnitStep) {
         self.manager.commit(&d.manager);
         self.arb.commit(&d.arb);
@@ -159,20 +134,51 @@ impl StackUnit {
     pub fn idle(&self) -> bool {
         self.manager.quiescent() && self.arb.is_idle() && self.sched.is_idle()
     }
+}
 
-    /// Registers, and the cycle `d` that `cmds` drove.
-    pub fn probe<S: Sink>(&self, cmds: &[(u32, Cmd)], d: &StackUnitStep, s: &mut S) {
+impl Unit for StackUnit {
+    type In<'a> = StackUnitIn<'a>;
+    type Step = StackUnitStep;
+
+    /// Cycle `i.now`, combinational, in dataflow order; `d` receives every output and decision.
+    ///
+    /// A quiet cycle (no command, completion or port handshake comes in, and no register holds
+    /// work: [`StackUnit::quiet`]) evaluates every child to its value for no input, which is the
+    /// same in every quiet cycle but for the cycle number the arbiter's step carries. So when `d`
+    /// already holds a quiet cycle's step, only that number is updated; the children are not
+    /// evaluated again, and the commit skips the step (committing it changes nothing).
+    /// Test: `quiet_cycles_skip_work_with_identical_steps_and_state` compares every step and
+    /// state with the children evaluated and committed every cycle.
+    #[inline]
+    fn eval(&self, i: StackUnitIn<'_>, d: &mut StackUnitStep) {
+        let quiet = self.quiet(&i);
+        if quiet && d.quiet {
+            d.arb.set_now(i.now);
+            return;
+        }
+        self.eval_children(&i, d);
+        d.quiet = quiet;
+    }
+
+    /// The clock edge.
+    #[inline]
+    fn commit(&mut self, d: &StackUnitStep) {
+        if !d.quiet {
+            self.commit_children(d);
+        }
+    }
+
+    /// Registers, and the cycle `d`: each child's probe.
+    fn probe<S: Sink>(&self, d: &StackUnitStep, s: &mut S) {
         if !s.enabled() {
             return;
         }
-        let w = self.manager.widths();
-        s.push_scope("stack_manager");
-        self.manager.probe_cycle(cmds, &d.manager.pops, s);
-        s.pop_scope();
+        Unit::probe(&self.manager, &d.manager, s);
         self.arb.probe(&d.arb, s);
-        self.sched.probe(&d.sched, w, s);
+        self.sched.probe(&d.sched, s);
     }
 }
+
 
 /// The stack subsystem standing alone: a [`StackUnit`] whose global requests go to a
 /// fixed-latency memory. Drives proofs and testbenches that exercise the stack without node
@@ -182,9 +188,7 @@ pub struct StandaloneStack {
     pub unit: StackUnit,
     pub mem: FixedLatencyMem,
     pub cycle: u64,
-    /// The last cycle's commands and decisions (what [`StandaloneStack::answer`] and the probe
-    /// show).
-    cmds: Vec<(u32, Cmd)>,
+    /// The last cycle's step (what [`StandaloneStack::answer`] and the probe show).
     d: StackUnitStep,
     mem_d: FixedStep,
 }
@@ -218,7 +222,6 @@ impl StandaloneStack {
             unit: StackUnit::new(cfg, 0, timing, sh_latency)?,
             mem: FixedLatencyMem::with_acks(global_latency, timing == StackTiming::Blocking),
             cycle: 0,
-            cmds: Vec::new(),
             d: StackUnitStep::default(),
             mem_d: FixedStep::default(),
         })
@@ -235,13 +238,11 @@ impl StandaloneStack {
     /// One clock cycle: evaluate the stack unit and the memory (the port is always ready), then
     /// commit both. The answers to `cmds` are in [`StandaloneStack::answer`].
     pub fn step(&mut self, cmds: &[(u32, Cmd)]) {
-        let i = StackUnitIn { cmds, req_ready: true, completions: self.mem.completions() };
-        self.unit.eval(self.cycle, &i, &mut self.d);
+        let i = StackUnitIn { now: self.cycle, cmds, req_ready: true, completions: self.mem.completions() };
+        self.unit.eval(i, &mut self.d);
         self.mem.eval(self.d.sched.req, &mut self.mem_d);
         self.unit.commit(&self.d);
         self.mem.commit(&self.mem_d);
-        self.cmds.clear();
-        self.cmds.extend_from_slice(cmds);
         self.cycle += 1;
     }
 
@@ -286,7 +287,7 @@ impl Probe for StandaloneStack {
             return;
         }
         s.push_scope("rt_unit");
-        self.unit.probe(&self.cmds, &self.d, s);
+        self.unit.probe(&self.d, s);
         s.pop_scope();
     }
 }
@@ -353,11 +354,10 @@ mod tests {
                     }
                 }
             }
-            let i =
-                StackUnitIn { cmds: &cmds, req_ready: fast.req().is_some(), completions: mem.completions() };
+            let i = StackUnitIn { now, cmds: &cmds, req_ready: fast.req().is_some(), completions: mem.completions() };
             quiet += u64::from(fast.quiet(&i));
-            fast.eval(now, &i, &mut df);
-            full.eval_children(now, &i, &mut dg);
+            fast.eval(i, &mut df);
+            full.eval_children(&i, &mut dg);
             let steps = (&df.manager, &df.arb, &df.sched) == (&dg.manager, &dg.arb, &dg.sched);
             assert!(steps, "cycle {now}: steps differ\n{df:?}\n{dg:?}");
             mem.eval(df.sched.req, &mut dm);

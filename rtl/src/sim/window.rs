@@ -214,9 +214,12 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
             req_ready,
             req_fire: l1.sm_ready(&lane.l1_step, req.is_some()) && req.is_some(),
             resp: l1.resp(),
+            job: lane.job.as_ref(),
         };
-        match rt_cycle(u, &mut lane.rt_step, &mut lane.job, rt_idle, &i, steps) {
+        match rt_cycle(u, &mut lane.rt_step, rt_idle, i, steps) {
             Ok(stepped) => {
+                // The job (if one came) landed: an idle unit gets none.
+                lane.job = None;
                 if stepped && u.empty() {
                     lane.empty_since = c + 1;
                 }
@@ -241,22 +244,15 @@ fn idle(u: &RtUnit, req: Option<MemReq>, job: &Option<WarpJob>, now: u64) -> boo
 }
 
 /// One RT unit's cycle: evaluated on `i` (as `steps` evaluates it, like the reference loop) and
-/// committed with the job landing (`job`), unless it is idle and gets no response, when its step
-/// would change nothing. Returns whether it was stepped.
+/// committed, unless it is idle and gets no response, when its step would change nothing.
+/// Returns whether it was stepped.
 #[inline]
-fn rt_cycle<P: Steps>(
-    u: &mut RtUnit,
-    step: &mut RtStep,
-    job: &mut Option<WarpJob>,
-    rt_idle: bool,
-    i: &RtIn,
-    steps: P,
-) -> Result<bool, RunError> {
+fn rt_cycle<P: Steps>(u: &mut RtUnit, step: &mut RtStep, rt_idle: bool, i: RtIn, steps: P) -> Result<bool, RunError> {
     if rt_idle && i.resp.is_empty() {
         return Ok(false);
     }
     steps.eval_rt(u, i, step, 0)?;
-    u.commit(step, job.take());
+    u.commit(step);
     Ok(true)
 }
 
