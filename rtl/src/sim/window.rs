@@ -41,7 +41,7 @@ use crate::clock::Unit;
 use crate::mem::dram::{Dram, DramIn, DramStep};
 use crate::mem::hierarchy::MemSystem;
 use crate::mem::l1d::{L1d, L1dIn, L1dStep};
-use crate::mem::l2::{FrontStep, L2In, L2Step, L2};
+use crate::mem::l2::{FrontIn, FrontStep, L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp, ReqKind};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
@@ -313,8 +313,8 @@ impl Front {
                 continue;
             }
             self.due.set(x);
-            l2.front_eval(x, &self.want, &mut self.step);
-            l2.front_commit(&self.heads, &self.step);
+            l2.front_eval(FrontIn { at: x, want: &self.want, heads: &self.heads }, &mut self.step);
+            l2.front_commit(&self.step);
             for k in Bits::of(self.step.granted).map(|k| k as usize) {
                 self.queues[k].pop_front();
                 if self.queues[k].is_empty() {
