@@ -645,7 +645,8 @@ impl RtUnit {
         }
 
         // Stack subsystem.
-        let stack_in = StackUnitIn { now, cmds: &d.cmds, req_ready: d.took_stack, completions: &d.completions };
+        let stack_in =
+            StackUnitIn { now, cmds: &d.cmds, req_ready: d.took_stack, completions: &d.completions };
         self.stack_unit.eval(stack_in, &mut d.stack);
         if let Some(&error) = d.stack.manager.errors.first() {
             return Err(RunError::Stack { cycle: now, sm: self.id, error });

@@ -105,7 +105,8 @@ impl StackUnit {
     }
 
     fn eval_children(&self, i: &StackUnitIn, d: &mut StackUnitStep) {
-        self.manager.eval(StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() }, &mut d.manager);
+        self.manager
+            .eval(StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() }, &mut d.manager);
         self.arb.eval(ArbIn { now: i.now, new: &d.manager.sh_req }, &mut d.arb);
         let sched_in = SchedIn { new: &d.manager.g_req, req_ready: i.req_ready, completions: i.completions };
         self.sched.eval(sched_in, &mut d.sched);
@@ -178,7 +179,6 @@ impl Unit for StackUnit {
         self.sched.probe(&d.sched, s);
     }
 }
-
 
 /// The stack subsystem standing alone: a [`StackUnit`] whose global requests go to a
 /// fixed-latency memory. Drives proofs and testbenches that exercise the stack without node
@@ -296,8 +296,8 @@ impl Probe for StandaloneStack {
 mod tests {
     use super::*;
 
-    /// Runs random pushes and pops on two copies of one stack unit: one through
-    /// [`StackUnit::eval`] and [`StackUnit::commit`] (quiet cycles skipped), one with every child
+    /// Runs random pushes and pops on two copies of one stack unit: one through its eval and
+    /// commit (quiet cycles skipped), one with every child
     /// evaluated and committed every cycle. Every step and every state must agree; returns how
     /// many quiet cycles the run had.
     fn quiet_run(config: &str, timing: StackTiming, sh_latency: u32, seed: u64) -> u64 {
@@ -323,7 +323,12 @@ mod tests {
                     }
                 }
             }
-            let i = StackUnitIn { now, cmds: &cmds, req_ready: fast.req().is_some(), completions: mem.completions() };
+            let i = StackUnitIn {
+                now,
+                cmds: &cmds,
+                req_ready: fast.req().is_some(),
+                completions: mem.completions(),
+            };
             quiet += u64::from(fast.quiet(&i));
             fast.eval(i, &mut df);
             full.eval_children(&i, &mut dg);

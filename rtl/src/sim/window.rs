@@ -247,7 +247,13 @@ fn idle(u: &RtUnit, req: Option<MemReq>, job: &Option<WarpJob>, now: u64) -> boo
 /// committed, unless it is idle and gets no response, when its step would change nothing.
 /// Returns whether it was stepped.
 #[inline]
-fn rt_cycle<P: Steps>(u: &mut RtUnit, step: &mut RtStep, rt_idle: bool, i: RtIn, steps: P) -> Result<bool, RunError> {
+fn rt_cycle<P: Steps>(
+    u: &mut RtUnit,
+    step: &mut RtStep,
+    rt_idle: bool,
+    i: RtIn,
+    steps: P,
+) -> Result<bool, RunError> {
     if rt_idle && i.resp.is_empty() {
         return Ok(false);
     }
