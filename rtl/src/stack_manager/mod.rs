@@ -76,9 +76,13 @@ impl Clone for Sequencer {
     }
 }
 
-/// One register or memory write the cycle decided, applied in order at the clock edge.
+/// One entry of the cycle's journal: a register or memory write the cycle decided, applied in
+/// order at the clock edge, or a command the cycle took.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum Write {
+    /// A thread's command as it came in: the edge writes nothing for it (its plan's writes
+    /// follow); kept so that the probe shows the cycle's commands.
+    Cmd(u32, Cmd),
     Thread(u32, ThreadRegs),
     RbPushBack(u32, Entry),
     RbPopBack(u32),
@@ -117,8 +121,6 @@ pub struct StackIn<'a> {
 /// grown.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct StackStep {
-    /// The cycle's commands (the input, kept for the probe).
-    cmds: Vec<(u32, Cmd)>,
     writes: Vec<Write>,
     /// Stack registers the cycle changed, as it leaves them (one entry per stack).
     stacks: Vec<(u32, StackRegs)>,
@@ -139,7 +141,6 @@ pub struct StackStep {
 
 impl StackStep {
     fn clear(&mut self) {
-        self.cmds.clear();
         self.writes.clear();
         self.stacks.clear();
         self.completed.clear();
@@ -158,6 +159,15 @@ impl StackStep {
             return Err(*e);
         }
         Ok(self.pops.iter().find(|p| p.0 == t).map(|p| p.1))
+    }
+
+    /// Thread `t`'s command this cycle ([`Cmd::None`] if it sent none).
+    fn cmd(&self, t: u32) -> Cmd {
+        let taken = self.writes.iter().find_map(|w| match *w {
+            Write::Cmd(u, c) if u == t => Some(c),
+            _ => None,
+        });
+        taken.unwrap_or(Cmd::None)
     }
 
     fn stack_now(&self, q: &[StackRegs], s: u32) -> StackRegs {
@@ -821,7 +831,6 @@ impl Unit for StackManager {
     /// `d` receives the outputs and the register writes; nothing in `self` changes.
     fn eval(&self, i: StackIn<'_>, d: &mut StackStep) {
         d.clear();
-        d.cmds.extend_from_slice(i.cmds);
         for &t in i.done.iter().chain(i.deq.iter()) {
             let (inflight, latch) = match d.completed.iter().find(|c| c.0 == t) {
                 Some(c) => (c.1, c.2),
@@ -858,6 +867,7 @@ impl Unit for StackManager {
             let (thread, inflight, latch) = d.completed[k];
             d.writes.push(Write::Seq { thread, issued: false, inflight, latch });
         }
+        d.writes.extend(i.cmds.iter().filter(|c| c.1 != Cmd::None).map(|&(t, c)| Write::Cmd(t, c)));
         self.plan(i.cmds, d);
     }
 
@@ -868,6 +878,7 @@ impl Unit for StackManager {
         }
         for &w in &d.writes {
             match w {
+                Write::Cmd(..) => {}
                 Write::Thread(t, r) => self.threads[t as usize] = r,
                 Write::RbPushBack(t, v) => self.rb[t as usize].push_back(v),
                 Write::RbPopBack(t) => {
@@ -909,7 +920,7 @@ impl Unit for StackManager {
             return;
         }
         s.push_scope("stack_manager");
-        self.probe_cycle(&d.cmds, &d.pops, s);
+        self.probe_signals(|t| d.cmd(t), &d.pops, s);
         s.pop_scope();
     }
 }
