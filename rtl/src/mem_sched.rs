@@ -16,6 +16,7 @@
 
 use std::collections::VecDeque;
 
+use crate::clock::Unit;
 use crate::config::Widths;
 use crate::trace::{Kind, Sink};
 
@@ -41,10 +42,27 @@ pub struct MemSched {
     /// Width of the request queue's occupancy: [`Widths::gm_queue`], or
     /// [`crate::config::GM_POSTED_QUEUE_BITS`] with posted stores.
     queue_bits: u32,
+    /// Widths of a thread number and of the FIFO's occupancy ([`Widths::thread`],
+    /// [`Widths::gm_responses`]), for the probe.
+    thread_bits: u32,
+    fifo_bits: u32,
 }
 
-/// The scheduler's decisions in one cycle ([`MemSched::eval`]), applied by
-/// [`MemSched::commit`]. A reusable buffer.
+/// This cycle's inputs of the scheduler.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SchedIn<'a> {
+    /// The stack manager's new global requests (its `g_req` output this cycle); they join the
+    /// queue at the edge.
+    pub new: &'a [GReq],
+    /// The memory port takes the head request (`req_ready`).
+    pub req_ready: bool,
+    /// Threads whose load (or acknowledged store) the memory completed; they enter the FIFO at
+    /// the edge.
+    pub completions: &'a [u32],
+}
+
+/// The scheduler's decisions in one cycle ([`Unit::eval`]), applied by [`Unit::commit`]. A
+/// reusable buffer.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct SchedStep {
     /// The request the port took this cycle (the `req` handshake fired).
@@ -57,9 +75,9 @@ pub struct SchedStep {
 
 impl MemSched {
     /// A scheduler whose request queue holds at most `2^queue_bits - 1` requests (the width its
-    /// probe declares).
-    pub fn new(queue_bits: u32) -> Self {
-        MemSched { queue_bits, ..MemSched::default() }
+    /// probe declares); `w` gives the widths of its other signals.
+    pub fn new(queue_bits: u32, w: &Widths) -> Self {
+        MemSched { queue_bits, thread_bits: w.thread, fifo_bits: w.gm_responses, ..MemSched::default() }
     }
 
     /// Thread whose response the FIFO delivered in the previous cycle (registered output).
@@ -84,21 +102,25 @@ impl MemSched {
     pub fn head(&self) -> Option<GReq> {
         self.queue.front().copied()
     }
+}
+
+impl Unit for MemSched {
+    type In<'a> = SchedIn<'a>;
+    type Step = SchedStep;
 
     /// One cycle, combinational: the FIFO delivers one response, the port takes the head request
-    /// if `req_ready`; `completions` (from the port) enter the FIFO and `new` requests the queue
-    /// at the edge.
-    pub fn eval(&self, new: &[GReq], req_ready: bool, completions: &[u32], d: &mut SchedStep) {
+    /// if `req_ready`; the completions enter the FIFO and the new requests the queue at the edge.
+    fn eval(&self, i: SchedIn<'_>, d: &mut SchedStep) {
         d.deq = self.fifo.front().copied();
-        d.req = if req_ready { self.head() } else { None };
+        d.req = if i.req_ready { self.head() } else { None };
         d.completions.clear();
-        d.completions.extend_from_slice(completions);
+        d.completions.extend_from_slice(i.completions);
         d.new.clear();
-        d.new.extend_from_slice(new);
+        d.new.extend_from_slice(i.new);
     }
 
     /// The clock edge.
-    pub fn commit(&mut self, d: &SchedStep) {
+    fn commit(&mut self, d: &SchedStep) {
         self.deq = d.deq;
         if d.deq.is_some() {
             self.fifo.pop_front();
@@ -113,8 +135,8 @@ impl MemSched {
         self.max_queue = self.max_queue.max(self.queue.len());
     }
 
-    /// Registers and this cycle's port handshake (`d`, from [`MemSched::eval`]).
-    pub fn probe<S: Sink>(&self, d: &SchedStep, w: &Widths, s: &mut S) {
+    /// Registers and this cycle's port handshake (from `d`).
+    fn probe<S: Sink>(&self, d: &SchedStep, s: &mut S) {
         if !s.enabled() {
             return;
         }
@@ -122,13 +144,13 @@ impl MemSched {
         s.signal("req_valid", 1, u64::from(d.req.is_some()));
         s.signal("req_write", 1, d.req.map_or(0, |r| u64::from(r.write)));
         s.signal_kind("req_addr", 64, d.req.map_or(0, |r| r.addr), Kind::Address);
-        s.signal("req_thread", w.thread, d.req.map_or(0, |r| r.thread as u64));
+        s.signal("req_thread", self.thread_bits, d.req.map_or(0, |r| r.thread as u64));
         s.signal("queue", self.queue_bits, self.queue.len() as u64);
         s.pop_scope();
         s.push_scope("response_fifo");
-        s.signal("occupancy", w.gm_responses, self.fifo.len() as u64);
+        s.signal("occupancy", self.fifo_bits, self.fifo.len() as u64);
         s.signal("deq_valid", 1, u64::from(self.deq.is_some()));
-        s.signal("deq_thread", w.thread, self.deq.unwrap_or(0) as u64);
+        s.signal("deq_thread", self.thread_bits, self.deq.unwrap_or(0) as u64);
         s.pop_scope();
     }
 }
@@ -204,10 +226,16 @@ impl FixedLatencyMem {
 mod tests {
     use super::*;
 
+    /// A scheduler with a queue of 4 bits, RB_8's widths otherwise.
+    fn sched() -> MemSched {
+        let cfg: crate::config::Config = "RB_8".parse().unwrap();
+        MemSched::new(4, &cfg.widths().unwrap())
+    }
+
     /// One cycle of the scheduler and the memory behind it; returns the request the port took.
     fn step(s: &mut MemSched, m: &mut FixedLatencyMem, new: &[GReq], ready: bool) -> Option<GReq> {
         let (mut ds, mut dm) = (SchedStep::default(), FixedStep::default());
-        s.eval(new, ready, m.completions(), &mut ds);
+        s.eval(SchedIn { new, req_ready: ready, completions: m.completions() }, &mut ds);
         m.eval(ds.req, &mut dm);
         s.commit(&ds);
         m.commit(&dm);
@@ -216,7 +244,7 @@ mod tests {
 
     #[test]
     fn load_round_trip_takes_latency_plus_fifo() {
-        let mut s = MemSched::new(4);
+        let mut s = sched();
         let mut m = FixedLatencyMem::new(10);
         let load = GReq { thread: 3, write: false, addr: 0 };
         let mut arrived = None;
@@ -234,7 +262,7 @@ mod tests {
 
     #[test]
     fn one_request_per_cycle_and_stores_need_no_response() {
-        let mut s = MemSched::new(4);
+        let mut s = sched();
         let mut m = FixedLatencyMem::new(10);
         let reqs = [GReq { thread: 0, write: true, addr: 0 }, GReq { thread: 1, write: false, addr: 8 }];
         assert_eq!(step(&mut s, &mut m, &reqs, true), None);

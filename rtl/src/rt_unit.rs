@@ -30,10 +30,10 @@
 //! refill overlaps the fetch. A ray spends the BVH-header latency once, when its warp is loaded
 //! (Vulkan-Sim reads the acceleration structure's header before the root).
 //!
-//! Clocking: [`RtUnit::eval`] reads registers only (thread states, lane masks, the fetch queue,
-//! `ready` of the stack manager, the arbiter's and FIFO's registered outputs) and this cycle's
-//! inputs (the L1D's `ready` and responses), and writes an [`RtStep`]; [`RtUnit::commit`]
-//! applies it. Each thread's next state is [`thread_fsm::next`] of its own state and those
+//! Clocking: the RT unit is a [`Unit`]. Its eval reads registers only (thread states, lane
+//! masks, the fetch queue, `ready` of the stack manager, the arbiter's and FIFO's registered
+//! outputs) and this cycle's inputs ([`RtIn`]: the L1D's `ready` and responses, the job the
+//! dispatcher sends), and writes an [`RtStep`]; its commit applies it. Each thread's next state is [`thread_fsm::next`] of its own state and those
 //! inputs, so the order in which threads are visited does not matter. A warp that finished
 //! leaves at the edge of the cycle it is seen done; a new job lands in a slot at the same edge.
 //!
@@ -58,6 +58,7 @@
 //!   values, which is how every pop is checked).
 
 use crate::bank_arbiter::MIN_SH_LATENCY;
+use crate::clock::Unit;
 use crate::config::{Config, ConfigError, Widths, GM_POSTED_QUEUE_BITS};
 use crate::mem::{MemReq, MemResp, ReqKind};
 use crate::node_fetch::NodeFetch;
@@ -309,7 +310,8 @@ pub struct RtStats {
     pub pops_checked: u64,
 }
 
-/// This cycle's inputs of an RT unit: the memory system's registered outputs for its SM.
+/// This cycle's inputs of an RT unit: the memory system's registered outputs for its SM, and
+/// the dispatcher's job.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RtIn<'a> {
     pub now: u64,
@@ -319,20 +321,28 @@ pub struct RtIn<'a> {
     pub req_fire: bool,
     /// Responses the L1D shows this cycle.
     pub resp: &'a [MemResp],
+    /// A warp job the dispatcher sends this cycle (checked), for the slot
+    /// [`RtUnit::free_slot`] names; it lands there at the edge.
+    pub job: Option<&'a WarpJob>,
 }
 
 /// An RT unit's cycle: its outputs and every decision its registers take at the clock edge
-/// ([`RtUnit::eval`], [`RtUnit::commit`]). A reusable buffer: a cycle allocates nothing once it
-/// has grown.
+/// ([`Unit::eval`], [`Unit::commit`]). A reusable buffer: a cycle allocates nothing once it has
+/// grown (a job's traces are copied into vectors it keeps).
 #[derive(Clone, Debug, Default)]
 pub struct RtStep {
     now: u64,
+    /// The cycle's failed check, if any: a step that holds one is not committed (the run stops).
+    error: Option<RunError>,
     port: Port,
     node_taken: bool,
     took_stack: bool,
     store_taken: bool,
     /// The slot a job dispatched this cycle lands in (free before the cycle).
     load_slot: Option<u32>,
+    /// A job lands: `job` holds a copy of it.
+    job_lands: bool,
+    job: WarpJob,
     /// Warps that leave.
     leaving: Vec<u32>,
     /// The scheduler's issue: (warp, lanes).
@@ -358,6 +368,12 @@ pub struct RtStep {
 }
 
 impl RtStep {
+    /// The cycle's failed check: a refused stack command, a pop that disagrees with the trace,
+    /// a warp leaving stack entries behind.
+    pub fn check(&self) -> Result<(), RunError> {
+        self.error.clone().map_or(Ok(()), Err)
+    }
+
     /// Visits this cycle started (for [`crate::sim::OrderBug::StaleStep`]).
     #[cfg(feature = "mutants")]
     pub fn visits(&self) -> u64 {
@@ -372,6 +388,8 @@ impl RtStep {
     }
 
     fn clear(&mut self, threads: usize, warps: usize) {
+        self.error = None;
+        self.job_lands = false;
         for &t in &self.arrived_at {
             self.arrived[t as usize] = 0;
         }
@@ -505,15 +523,16 @@ impl RtUnit {
         }
     }
 
-    /// One clock cycle, combinational: reads the registers and `i`, writes the outputs and the
-    /// next state into `d`; nothing in `self` changes ([`RtUnit::commit`] applies `d`). The first
-    /// problem (a refused stack command, a pop that disagrees with the trace, a warp leaving
-    /// stack entries behind) is an error.
-    pub fn eval(&self, i: &RtIn, d: &mut RtStep) -> Result<(), RunError> {
+    /// The cycle's decisions into `d` (cleared), for [`Unit::eval`]; the first problem is the
+    /// error, and leaves the rest of `d` unfinished.
+    fn decide(&self, i: &RtIn, d: &mut RtStep) -> Result<(), RunError> {
         let (ws, warps, now) = (self.cfg.warp_size, self.cfg.warps, i.now);
-        d.clear(self.cfg.threads() as usize, warps as usize);
         d.now = now;
         d.load_slot = self.free_slot();
+        if let Some(job) = i.job {
+            d.job.lanes.clone_from(&job.lanes);
+            d.job_lands = true;
+        }
         d.port = if i.req_ready { self.port() } else { Port::Idle };
         d.node_taken = i.req_fire && d.port == Port::Node;
         d.took_stack = i.req_fire && d.port == Port::Stack;
@@ -626,8 +645,9 @@ impl RtUnit {
         }
 
         // Stack subsystem.
-        let stack_in = StackUnitIn { cmds: &d.cmds, req_ready: d.took_stack, completions: &d.completions };
-        self.stack_unit.eval(now, &stack_in, &mut d.stack);
+        let stack_in =
+            StackUnitIn { now, cmds: &d.cmds, req_ready: d.took_stack, completions: &d.completions };
+        self.stack_unit.eval(stack_in, &mut d.stack);
         if let Some(&error) = d.stack.manager.errors.first() {
             return Err(RunError::Stack { cycle: now, sm: self.id, error });
         }
@@ -645,10 +665,27 @@ impl RtUnit {
         }
         Ok(())
     }
+}
 
-    /// The clock edge: applies `d` (from [`RtUnit::eval`]); `job` (a warp job the dispatcher
-    /// sent this cycle, checked, for the slot [`RtUnit::free_slot`] named) lands in its slot.
-    pub fn commit(&mut self, d: &RtStep, job: Option<WarpJob>) {
+impl Unit for RtUnit {
+    type In<'a> = RtIn<'a>;
+    type Step = RtStep;
+
+    /// One clock cycle, combinational: reads the registers and `i`, writes the outputs and the
+    /// next state into `d`; nothing in `self` changes. The first problem (a refused stack
+    /// command, a pop that disagrees with the trace, a warp leaving stack entries behind) is the
+    /// step's error ([`RtStep::check`]).
+    fn eval(&self, i: RtIn<'_>, d: &mut RtStep) {
+        d.clear(self.cfg.threads() as usize, self.cfg.warps as usize);
+        if let Err(e) = self.decide(&i, d) {
+            d.error = Some(e);
+        }
+    }
+
+    /// The clock edge: applies `d`; the job sent this cycle lands in its slot. A step with a
+    /// failed check is not committed.
+    fn commit(&mut self, d: &RtStep) {
+        debug_assert!(d.error.is_none(), "a failed step committed");
         let ws = self.cfg.warp_size;
         if d.node_taken {
             self.fetch.taken();
@@ -679,12 +716,34 @@ impl RtUnit {
         self.stats.visits += d.visits;
         self.stats.pops_checked += d.expected_pops.len() as u64;
         self.stack_unit.commit(&d.stack);
-        if let (Some(job), Some(w)) = (job, d.load_slot) {
-            self.load(w, job, d.now);
+        if let (true, Some(w)) = (d.job_lands, d.load_slot) {
+            self.load(w, &d.job, d.now);
         }
         self.next_event = self.next_event_after(d.now);
     }
 
+    /// Registers, and the cycle `d`.
+    fn probe<S: Sink>(&self, d: &RtStep, s: &mut S) {
+        if !s.enabled() {
+            return;
+        }
+        s.push_scope("rt_unit");
+        self.warp_buffer.probe(s);
+        self.scheduler.probe(d.issue, &self.w, self.cfg.warp_size, s);
+        // The memory port's request handshake: which source the mux offers (`req_stack` wins) and
+        // whether the L1D took it.
+        s.push_scope("port");
+        s.signal("req_node", 1, u64::from(d.port == Port::Node));
+        s.signal("req_stack", 1, u64::from(d.port == Port::Stack));
+        s.signal("req_fire", 1, u64::from(d.node_taken || d.took_stack));
+        s.pop_scope();
+        self.fetch.probe(s);
+        self.stack_unit.probe(&d.stack, s);
+        s.pop_scope();
+    }
+}
+
+impl RtUnit {
     /// Next event after cycle `now` (registers after the edge): anything that acts next cycle
     /// without a memory response, else the first operation unit to finish.
     fn next_event_after(&self, now: u64) -> Option<u64> {
@@ -768,7 +827,7 @@ impl RtUnit {
     }
 
     /// Puts `job` in slot `w` (clock edge): its rays start with the BVH-header latency.
-    fn load(&mut self, w: u32, job: WarpJob, now: u64) {
+    fn load(&mut self, w: u32, job: &WarpJob, now: u64) {
         let active = job.active_mask();
         self.stack_unit.manager.load_warp(w, active);
         // A two-level trace fetches the acceleration structure's header as its first visit and
@@ -778,30 +837,10 @@ impl RtUnit {
                 matches!(ops.first(), Some(RayOp::Visit { kind: NodeKind::BvhHeader, .. }))
             });
         let start = now + if header_fetched { 0 } else { u64::from(self.rt.bvh_header) };
-        self.warp_buffer.load(w, job.lanes, active, start, now);
+        self.warp_buffer.load(w, &job.lanes, active, start, now);
         self.residence.push(0);
         self.stats.warps += 1;
         self.stats.rays += u64::from(active.count_ones());
-    }
-
-    /// Registers, and the cycle `d` (from [`RtUnit::eval`]).
-    pub fn probe<S: Sink>(&self, d: &RtStep, s: &mut S) {
-        if !s.enabled() {
-            return;
-        }
-        s.push_scope("rt_unit");
-        self.warp_buffer.probe(s);
-        self.scheduler.probe(d.issue, &self.w, self.cfg.warp_size, s);
-        // The memory port's request handshake: which source the mux offers (`req_stack` wins) and
-        // whether the L1D took it.
-        s.push_scope("port");
-        s.signal("req_node", 1, u64::from(d.port == Port::Node));
-        s.signal("req_stack", 1, u64::from(d.port == Port::Stack));
-        s.signal("req_fire", 1, u64::from(d.node_taken || d.took_stack));
-        s.pop_scope();
-        self.fetch.probe(s);
-        self.stack_unit.probe(&d.cmds, &d.stack, s);
-        s.pop_scope();
     }
 }
 

@@ -11,12 +11,13 @@
 //!
 //! Dataflow within a cycle: the arbiter's `done` and the FIFO's `deq` are registers, so the
 //! stack manager evaluates first on them and this cycle's commands; its SH and global requests
-//! are then inputs of the arbiter and the scheduler. Nothing changes until [`StackUnit::commit`].
+//! are then inputs of the arbiter and the scheduler. Nothing changes until the commit. The
+//! stack unit and its three children are [`Unit`]s.
 
 use crate::bank_arbiter::{ArbIn, ArbStep, BankArbiter, MIN_SH_LATENCY};
 use crate::clock::Unit;
 use crate::config::{Config, ConfigError, GM_POSTED_QUEUE_BITS};
-use crate::mem_sched::{FixedLatencyMem, FixedStep, GReq, MemSched, SchedStep};
+use crate::mem_sched::{FixedLatencyMem, FixedStep, GReq, MemSched, SchedIn, SchedStep};
 use crate::stack_manager::{
     Cmd, Entry, StackError, StackIn, StackManager, StackStats, StackStep, StackTiming,
 };
@@ -36,6 +37,8 @@ pub struct StackUnit {
 /// This cycle's inputs of the stack subsystem.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct StackUnitIn<'a> {
+    /// The cycle (the arbiter's pipeline counts in it).
+    pub now: u64,
     /// Commands, at most one per thread, from threads the manager shows `ready`.
     pub cmds: &'a [(u32, Cmd)],
     /// The memory port takes the request [`StackUnit::req`] offers.
@@ -50,7 +53,7 @@ pub struct StackUnitStep {
     pub manager: StackStep,
     pub arb: ArbStep,
     pub sched: SchedStep,
-    /// Evaluated on a quiet cycle ([`StackUnit::eval`]): every child's step is its value for no
+    /// Evaluated on a quiet cycle (see the eval): every child's step is its value for no
     /// input on idle registers, and committing it changes nothing.
     quiet: bool,
 }
@@ -81,7 +84,7 @@ impl StackUnit {
         Ok(StackUnit {
             manager: StackManager::new(cfg, sm)?.with_acked_stores(acked_stores),
             arb: BankArbiter::new(cfg.banks, sh_latency, cfg.widths()?.sh_requests),
-            sched: MemSched::new(queue_bits),
+            sched: MemSched::new(queue_bits, &cfg.widths()?),
         })
     }
 
@@ -101,31 +104,12 @@ impl StackUnit {
         self.sched.head()
     }
 
-    /// Cycle `now`, combinational, in dataflow order; `d` receives every output and decision.
-    ///
-    /// A quiet cycle (no command, completion or port handshake comes in, and no register holds
-    /// work: [`StackUnit::quiet`]) evaluates every child to its value for no input, which is the
-    /// same in every quiet cycle but for the cycle number the arbiter's step carries. So when `d`
-    /// already holds a quiet cycle's step, only that number is updated; the children are not
-    /// evaluated again, and [`StackUnit::commit`] skips the step (committing it changes nothing).
-    /// Test: `quiet_cycles_skip_work_with_identical_steps_and_state` compares every step and
-    /// state with the children evaluated and committed every cycle.
-    #[inline]
-    pub fn eval(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
-        let quiet = self.quiet(i);
-        if quiet && d.quiet {
-            d.arb.set_now(now);
-            return;
-        }
-        self.eval_children(now, i, d);
-        d.quiet = quiet;
-    }
-
-    fn eval_children(&self, now: u64, i: &StackUnitIn, d: &mut StackUnitStep) {
-        let sm_in = StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() };
-        self.manager.eval(&sm_in, &mut d.manager);
-        self.arb.eval(ArbIn { now, new: &d.manager.sh_req }, &mut d.arb);
-        self.sched.eval(&d.manager.g_req, i.req_ready, i.completions, &mut d.sched);
+    fn eval_children(&self, i: &StackUnitIn, d: &mut StackUnitStep) {
+        self.manager
+            .eval(StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq() }, &mut d.manager);
+        self.arb.eval(ArbIn { now: i.now, new: &d.manager.sh_req }, &mut d.arb);
+        let sched_in = SchedIn { new: &d.manager.g_req, req_ready: i.req_ready, completions: i.completions };
+        self.sched.eval(sched_in, &mut d.sched);
     }
 
     /// Nothing comes in (no command, completion or port handshake) and nothing is held: no
@@ -141,14 +125,6 @@ impl StackUnit {
             && self.sched.is_idle()
     }
 
-    /// The clock edge.
-    #[inline]
-    pub fn commit(&mut self, d: &StackUnitStep) {
-        if !d.quiet {
-            self.commit_children(d);
-        }
-    }
-
     fn commit_children(&mut self, d: &StackUnitStep) {
         self.manager.commit(&d.manager);
         self.arb.commit(&d.arb);
@@ -159,18 +135,48 @@ impl StackUnit {
     pub fn idle(&self) -> bool {
         self.manager.quiescent() && self.arb.is_idle() && self.sched.is_idle()
     }
+}
 
-    /// Registers, and the cycle `d` that `cmds` drove.
-    pub fn probe<S: Sink>(&self, cmds: &[(u32, Cmd)], d: &StackUnitStep, s: &mut S) {
+impl Unit for StackUnit {
+    type In<'a> = StackUnitIn<'a>;
+    type Step = StackUnitStep;
+
+    /// Cycle `i.now`, combinational, in dataflow order; `d` receives every output and decision.
+    ///
+    /// A quiet cycle (no command, completion or port handshake comes in, and no register holds
+    /// work: [`StackUnit::quiet`]) evaluates every child to its value for no input, which is the
+    /// same in every quiet cycle but for the cycle number the arbiter's step carries. So when `d`
+    /// already holds a quiet cycle's step, only that number is updated; the children are not
+    /// evaluated again, and the commit skips the step (committing it changes nothing).
+    /// Test: `quiet_cycles_skip_work_with_identical_steps_and_state` compares every step and
+    /// state with the children evaluated and committed every cycle.
+    #[inline]
+    fn eval(&self, i: StackUnitIn<'_>, d: &mut StackUnitStep) {
+        let quiet = self.quiet(&i);
+        if quiet && d.quiet {
+            d.arb.set_now(i.now);
+            return;
+        }
+        self.eval_children(&i, d);
+        d.quiet = quiet;
+    }
+
+    /// The clock edge.
+    #[inline]
+    fn commit(&mut self, d: &StackUnitStep) {
+        if !d.quiet {
+            self.commit_children(d);
+        }
+    }
+
+    /// Registers, and the cycle `d`: each child's probe.
+    fn probe<S: Sink>(&self, d: &StackUnitStep, s: &mut S) {
         if !s.enabled() {
             return;
         }
-        let w = self.manager.widths();
-        s.push_scope("stack_manager");
-        self.manager.probe_cycle(cmds, &d.manager.pops, s);
-        s.pop_scope();
+        Unit::probe(&self.manager, &d.manager, s);
         self.arb.probe(&d.arb, s);
-        self.sched.probe(&d.sched, w, s);
+        self.sched.probe(&d.sched, s);
     }
 }
 
@@ -182,9 +188,7 @@ pub struct StandaloneStack {
     pub unit: StackUnit,
     pub mem: FixedLatencyMem,
     pub cycle: u64,
-    /// The last cycle's commands and decisions (what [`StandaloneStack::answer`] and the probe
-    /// show).
-    cmds: Vec<(u32, Cmd)>,
+    /// The last cycle's step (what [`StandaloneStack::answer`] and the probe show).
     d: StackUnitStep,
     mem_d: FixedStep,
 }
@@ -218,7 +222,6 @@ impl StandaloneStack {
             unit: StackUnit::new(cfg, 0, timing, sh_latency)?,
             mem: FixedLatencyMem::with_acks(global_latency, timing == StackTiming::Blocking),
             cycle: 0,
-            cmds: Vec::new(),
             d: StackUnitStep::default(),
             mem_d: FixedStep::default(),
         })
@@ -235,13 +238,11 @@ impl StandaloneStack {
     /// One clock cycle: evaluate the stack unit and the memory (the port is always ready), then
     /// commit both. The answers to `cmds` are in [`StandaloneStack::answer`].
     pub fn step(&mut self, cmds: &[(u32, Cmd)]) {
-        let i = StackUnitIn { cmds, req_ready: true, completions: self.mem.completions() };
-        self.unit.eval(self.cycle, &i, &mut self.d);
+        let i = StackUnitIn { now: self.cycle, cmds, req_ready: true, completions: self.mem.completions() };
+        self.unit.eval(i, &mut self.d);
         self.mem.eval(self.d.sched.req, &mut self.mem_d);
         self.unit.commit(&self.d);
         self.mem.commit(&self.mem_d);
-        self.cmds.clear();
-        self.cmds.extend_from_slice(cmds);
         self.cycle += 1;
     }
 
@@ -286,7 +287,7 @@ impl Probe for StandaloneStack {
             return;
         }
         s.push_scope("rt_unit");
-        self.unit.probe(&self.cmds, &self.d, s);
+        self.unit.probe(&self.d, s);
         s.pop_scope();
     }
 }
@@ -295,39 +296,8 @@ impl Probe for StandaloneStack {
 mod tests {
     use super::*;
 
-    /// RB_2, no SH, global latency 10: pushes 1, 2, 3 (the third spills 1 to global memory),
-    /// then pops 3, 2, 1. Returns the cycle the first pop is accepted. By hand: pushes in cycles
-    /// 0, 1, 2; the sequencer issues the store in 3. Posted (Overlapped): it is idle after that,
-    /// so the pop goes in 4. Acknowledged (Blocking): the scheduler sends the store in 4, the
-    /// memory reports the ack in 4 + 10 = 14, the FIFO takes it in 15 and delivers it in 16, the
-    /// sequencer completes the store in 17, the pop goes in 18.
-    fn pop_cycle(timing: StackTiming) -> u64 {
-        let cfg: Config = "RB_2".parse().unwrap();
-        let mut u = StandaloneStack::with_timing(cfg, 10, timing, 2).unwrap();
-        for v in [1, 2, 3] {
-            u.step(&[(0, Cmd::Push(v))]);
-        }
-        while !u.manager().ready(0) {
-            u.step(&[]);
-        }
-        let at = u.cycle;
-        u.step(&[(0, Cmd::Pop)]);
-        assert_eq!(u.answer(0), Ok(Some(3)));
-        for want in [2, 1] {
-            while !u.manager().ready(0) {
-                u.step(&[]);
-            }
-            u.step(&[(0, Cmd::Pop)]);
-            assert_eq!(u.answer(0), Ok(Some(want)), "the spilled entry comes back");
-        }
-        while !u.idle() {
-            u.step(&[]);
-        }
-        at
-    }
-
-    /// Runs random pushes and pops on two copies of one stack unit: one through
-    /// [`StackUnit::eval`] and [`StackUnit::commit`] (quiet cycles skipped), one with every child
+    /// Runs random pushes and pops on two copies of one stack unit: one through its eval and
+    /// commit (quiet cycles skipped), one with every child
     /// evaluated and committed every cycle. Every step and every state must agree; returns how
     /// many quiet cycles the run had.
     fn quiet_run(config: &str, timing: StackTiming, sh_latency: u32, seed: u64) -> u64 {
@@ -353,11 +323,15 @@ mod tests {
                     }
                 }
             }
-            let i =
-                StackUnitIn { cmds: &cmds, req_ready: fast.req().is_some(), completions: mem.completions() };
+            let i = StackUnitIn {
+                now,
+                cmds: &cmds,
+                req_ready: fast.req().is_some(),
+                completions: mem.completions(),
+            };
             quiet += u64::from(fast.quiet(&i));
-            fast.eval(now, &i, &mut df);
-            full.eval_children(now, &i, &mut dg);
+            fast.eval(i, &mut df);
+            full.eval_children(&i, &mut dg);
             let steps = (&df.manager, &df.arb, &df.sched) == (&dg.manager, &dg.arb, &dg.sched);
             assert!(steps, "cycle {now}: steps differ\n{df:?}\n{dg:?}");
             mem.eval(df.sched.req, &mut dm);
@@ -381,40 +355,5 @@ mod tests {
             let quiet = quiet_run(config, timing, latency, seed as u64 + 1);
             assert!(quiet > 1000, "{config}: the run has quiet cycles to skip ({quiet})");
         }
-    }
-
-    #[test]
-    fn acknowledged_stores_hold_the_sequencer_until_the_ack() {
-        assert_eq!(pop_cycle(StackTiming::Overlapped), 4);
-        assert_eq!(pop_cycle(StackTiming::Blocking), 18);
-    }
-
-    /// Every thread of RB_1 pushes whenever it is ready, so every push after the first spills.
-    /// Returns the most requests the memory scheduler's queue held.
-    fn fullest_queue(timing: StackTiming) -> usize {
-        let cfg: Config = "RB_1".parse().unwrap();
-        let threads = cfg.threads();
-        let mut u = StandaloneStack::with_timing(cfg, 50, timing, 2).unwrap();
-        let mut cmds = Vec::new();
-        for cycle in 0..2000u64 {
-            cmds.clear();
-            cmds.extend((0..threads).filter(|&t| u.manager().ready(t)).map(|t| (t, Cmd::Push(cycle))));
-            u.step(&cmds);
-        }
-        u.unit.sched.max_queue
-    }
-
-    /// The scheduler's queue holds one request per thread when each waits for its response
-    /// (`Widths::gm_queue`); posted stores pile up past that, which is why their queue is given
-    /// `GM_POSTED_QUEUE_BITS`.
-    #[test]
-    fn acknowledged_requests_bound_the_scheduler_queue_by_the_threads() {
-        let cfg: Config = "RB_1".parse().unwrap();
-        let (threads, bits) = (cfg.threads() as usize, cfg.widths().unwrap().gm_queue);
-        let blocking = fullest_queue(StackTiming::Blocking);
-        assert!(blocking <= threads && blocking < 1 << bits, "{blocking} queued, {threads} threads");
-        assert!(blocking > threads / 2, "the run does fill the queue ({blocking})");
-        let posted = fullest_queue(StackTiming::Overlapped);
-        assert!(posted > threads, "posted stores: {posted} queued, {threads} threads");
     }
 }

@@ -261,7 +261,7 @@ impl WarpBuffer {
 
     /// Clock edge: `lanes` (the job's rays; `active` the lanes that have one) land in slot `w`
     /// and start Busy until `start`. Returns the job's load order.
-    pub fn load(&mut self, w: u32, lanes: Vec<Option<Vec<RayOp>>>, active: u32, start: u64, now: u64) -> u64 {
+    pub fn load(&mut self, w: u32, lanes: &[Option<Vec<RayOp>>], active: u32, start: u64, now: u64) -> u64 {
         let ws = self.warp_size;
         for l in 0..ws {
             self.threads[(w * ws + l) as usize] = Thread {
@@ -275,8 +275,12 @@ impl WarpBuffer {
         }
         debug_assert_eq!(lanes.len(), ws as usize, "a job has one lane per thread of the warp");
         let first = (w * ws) as usize;
+        // Copied into the vectors the slots keep: a landing allocates nothing once they have grown.
         for (slot, ops) in self.ops[first..first + ws as usize].iter_mut().zip(lanes) {
-            *slot = ops.unwrap_or_default();
+            match ops {
+                Some(ops) => slot.clone_from(ops),
+                None => slot.clear(),
+            }
         }
         self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
         let age = self.occupied.count_ones();
@@ -398,7 +402,7 @@ mod tests {
             let w = next(4) as u32;
             match next(8) {
                 0 if !b.occupied(w) => {
-                    b.load(w, vec![None; 32], next(16) as u32, step, step);
+                    b.load(w, &vec![None; 32], next(16) as u32, step, step);
                 }
                 1 if b.occupied(w) && b.lanes(w).live() == 0 => {
                     b.leave(w);
@@ -426,12 +430,12 @@ mod tests {
         let cfg: Config = "RB_8".parse().unwrap();
         let mut b = WarpBuffer::new(&Config { warps: 3, ..cfg }).unwrap();
         for w in 0..3 {
-            assert_eq!(b.load(w, vec![None; 32], 0, 0, 0), u64::from(w));
+            assert_eq!(b.load(w, &vec![None; 32], 0, 0, 0), u64::from(w));
         }
         assert_eq!((0..3).map(|w| b.age(w)).collect::<Vec<_>>(), [0, 1, 2]);
         assert_eq!(b.leave(1), Some(Left { job: 1, landed: 0 }));
         assert_eq!((b.age(0), b.age(1), b.age(2)), (0, u32::MAX, 1));
-        assert_eq!(b.load(1, vec![None; 32], 0, 0, 5), 3);
+        assert_eq!(b.load(1, &vec![None; 32], 0, 0, 5), 3);
         assert_eq!(b.age(1), 2, "the newest is the youngest");
         assert!(b.age(1) < 1 << Config { warps: 3, ..cfg }.widths().unwrap().warp, "fits its width");
     }

@@ -15,11 +15,13 @@ use rtl::config::Config;
 use rtl::gpu::{Gpu, GpuReport};
 use rtl::ray_op::{NodeKind, RayOp, WarpJob};
 use rtl::rt_unit::RunError;
-use rtl::stack_unit::StandaloneStack;
+use rtl::stack_unit::{StandaloneStack, UnitStats};
 use rtl::trace::NullSink;
 
 use crate::run::sim::{rtl_job, simulate_all, Fidelity, Hardware, Outcome, RunSpec};
-use crate::run::verify::harness::{run_cycle, CycleOpts, RunSummary, WarpWork};
+use crate::run::verify::harness::{run_cycle, CycleOpts, HarnessError, RunSummary, WarpWork};
+use crate::run::verify::invariants::Property;
+use crate::run::verify::streams::stream;
 use crate::workload::scene::Scene;
 use crate::workload::traverse::ChildOrder;
 use crate::workload::{Workload, WorkloadOpts};
@@ -169,4 +171,32 @@ pub fn run_stack(
 ) -> RunSummary {
     let cfg = *unit.manager().config();
     run_cycle(unit, work, opts, &mut NullSink).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
+}
+
+/// The stack testbench's options for random streams: gaps of up to 6 idle cycles between a
+/// lane's commands, drawn from `seed`; the scoreboard checks every pop, not every cycle.
+pub fn stack_opts(seed: u64) -> CycleOpts {
+    CycleOpts { max_gap: 6, seed, check_every_cycle: false, max_cycles: 20_000_000, lockstep: false }
+}
+
+/// One warp of `cfg` (a single warp of its size) whose lanes all run the same random stream in
+/// lockstep, global latency 50: every SH access of a round hits the same entry index in every
+/// thread's queue. `plant` may plant a bug in the stack unit first. The run's costs.
+pub fn run_lockstep(cfg: Config, plant: impl FnOnce(&mut StandaloneStack)) -> UnitStats {
+    let lanes = cfg.warp_size as usize;
+    let work = vec![WarpWork { lanes: vec![Some(stream(9, 40)); lanes] }];
+    let mut unit = StandaloneStack::new(Config { warps: 1, ..cfg }, 50).unwrap();
+    plant(&mut unit);
+    let o = CycleOpts { max_gap: 0, lockstep: true, ..stack_opts(4) };
+    run_stack(&mut unit, work, o).stats
+}
+
+/// The property the scoreboard finds violated when `work` runs through `unit` (which carries a
+/// planted bug); panics if the run ends clean or stops for another reason.
+pub fn violated(unit: &mut StandaloneStack, work: Vec<WarpWork>, opts: CycleOpts) -> Property {
+    let name = unit.manager().config().name();
+    match run_cycle(unit, work, opts, &mut NullSink) {
+        Err(HarnessError::Violation { violation, .. }) => violation.property,
+        other => panic!("{name}: the planted bug escaped the scoreboard: {other:?}"),
+    }
 }

@@ -108,9 +108,29 @@ pub struct MemSystem {
     dram: Dram,
     now: u64,
     check: EvalCheck,
-    #[cfg(test)]
-    planted: tests::Planted,
 }
+
+/// How [`MemSystem::eval`] wires an L1D's inputs: the design's ([`Direct`]) passes them as they
+/// are. It is the interface through which the tests plant wiring bugs (an input read back out of
+/// a step buffer), so that the product's code has no trace of them.
+trait Wiring {
+    /// L1D `sm`'s request input, from SM `sm`'s request (`steps`: the L1Ds' step buffers).
+    #[inline]
+    fn l1d_req(&self, _steps: &[L1dStep], _sm: usize, req: Option<MemReq>) -> Option<MemReq> {
+        req
+    }
+
+    /// An L1D's input, about to be evaluated into `own`.
+    #[inline]
+    fn l1d_in<'a>(&self, _own: &L1dStep, i: L1dIn<'a>) -> L1dIn<'a> {
+        i
+    }
+}
+
+/// The design's wiring.
+struct Direct;
+
+impl Wiring for Direct {}
 
 impl MemSystem {
     pub fn new(params: MemParams) -> Result<MemSystem, ConfigError> {
@@ -123,8 +143,6 @@ impl MemSystem {
             dram: Dram::new(&params),
             now: 0,
             check: EvalCheck::Dataflow,
-            #[cfg(test)]
-            planted: tests::Planted::None,
         })
     }
 
@@ -165,37 +183,39 @@ impl MemSystem {
         d.down.extend(self.l1d.iter().map(L1d::down_req));
     }
 
-    /// L1D `sm`'s request input: SM `sm`'s request (a hook where tests plant wiring bugs).
-    #[cfg(not(test))]
-    fn l1d_req(&self, _steps: &[L1dStep], _sm: usize, req: Option<MemReq>) -> Option<MemReq> {
-        req
-    }
+    /// [`Unit::eval`] with the L1Ds' inputs wired by `w`.
+    fn eval_wired<W: Wiring>(&self, w: &W, reqs: &[Option<MemReq>], d: &mut MemStep) {
+        let sms = self.l1d.len();
+        assert_eq!(reqs.len(), sms, "one request slot per SM");
+        let passes = self.check.passes();
 
-    #[cfg(not(test))]
-    fn eval_l1d(&self, sm: usize, i: &L1dIn, s: &mut L1dStep) {
-        self.l1d[sm].eval(*i, s)
-    }
+        // 1. The L2, from register outputs only.
+        self.begin_step(d);
+        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
+        let l2 = eval_kernel(passes, "L2", &mut d.l2, &mut d.first_l2, |s| self.l2.eval(l2_in, s));
+        let granted = &l2.out.granted;
 
-    /// As the normal build, unless a test planted a wiring bug.
-    #[cfg(test)]
-    fn l1d_req(&self, steps: &[L1dStep], sm: usize, req: Option<MemReq>) -> Option<MemReq> {
-        match self.planted {
-            // Holds the request back while the next SM's step shows its request taken: this
-            // cycle's step or last cycle's, depending on which L1D was evaluated first.
-            tests::Planted::SiblingStep if steps[(sm + 1) % steps.len()].out.req_fire => None,
-            _ => req,
+        // 2. The siblings: the L1Ds (after the L2, whose grant they take) and DRAM.
+        self.check.order(self.now, sms + 1, &mut d.order);
+        for &k in &d.order {
+            if k == sms {
+                let dram_in = DramIn { req: self.l2.dram_req() };
+                eval_kernel(passes, "DRAM", &mut d.dram, &mut d.first_dram, |s| self.dram.eval(dram_in, s));
+                continue;
+            }
+            let req = w.l1d_req(&d.l1d, k, reqs[k]);
+            let l1_in = L1dIn { req, down_ready: granted[k], fills: self.l2.resp(k) };
+            let l1d = &self.l1d[k];
+            eval_kernel(passes, "L1D", &mut d.l1d[k], &mut d.first_l1d, |s| l1d.eval(w.l1d_in(s, l1_in), s));
         }
-    }
 
-    #[cfg(test)]
-    fn eval_l1d(&self, sm: usize, i: &L1dIn, s: &mut L1dStep) {
-        let i = match self.planted {
-            // Holds the request back while its own step shows a request taken: reads its output
-            // back (a combinational loop through the step buffer).
-            tests::Planted::OwnStep if s.out.req_fire => L1dIn { req: None, ..*i },
-            _ => *i,
-        };
-        self.l1d[sm].eval(i, s)
+        // What the SMs see: the L1Ds' register outputs (`ready` is `req_fire` when a request was
+        // offered: the same unless a test withholds a request from an L1D).
+        for (sm, (o, l1)) in d.out.iter_mut().zip(&self.l1d).enumerate() {
+            o.ready = l1.sm_ready(&d.l1d[sm], reqs[sm].is_some());
+            o.resp.clear();
+            o.resp.extend_from_slice(l1.resp());
+        }
     }
 
     /// The first cycle, from now on, whose `eval`/`commit` does anything if no SM offers a
@@ -275,36 +295,7 @@ impl Unit for MemSystem {
     /// is SM `sm`'s request, if valid), written into `d`: what each SM sees is
     /// [`MemStep::out`] (see the module documentation for the dataflow order).
     fn eval(&self, reqs: &[Option<MemReq>], d: &mut MemStep) {
-        let sms = self.l1d.len();
-        assert_eq!(reqs.len(), sms, "one request slot per SM");
-        let passes = self.check.passes();
-
-        // 1. The L2, from register outputs only.
-        self.begin_step(d);
-        let l2_in = L2In { reqs: &d.down, dram_ready: self.dram.ready(), fills: self.dram.resp() };
-        let l2 = eval_kernel(passes, "L2", &mut d.l2, &mut d.first_l2, |s| self.l2.eval(l2_in, s));
-        let granted = &l2.out.granted;
-
-        // 2. The siblings: the L1Ds (after the L2, whose grant they take) and DRAM.
-        self.check.order(self.now, sms + 1, &mut d.order);
-        for &k in &d.order {
-            if k == sms {
-                let dram_in = DramIn { req: self.l2.dram_req() };
-                eval_kernel(passes, "DRAM", &mut d.dram, &mut d.first_dram, |s| self.dram.eval(dram_in, s));
-                continue;
-            }
-            let req = self.l1d_req(&d.l1d, k, reqs[k]);
-            let l1_in = L1dIn { req, down_ready: granted[k], fills: self.l2.resp(k) };
-            eval_kernel(passes, "L1D", &mut d.l1d[k], &mut d.first_l1d, |s| self.eval_l1d(k, &l1_in, s));
-        }
-
-        // What the SMs see: the L1Ds' register outputs (`ready` is `req_fire` when a request was
-        // offered: the same unless a test withholds a request from an L1D).
-        for (sm, (o, l1)) in d.out.iter_mut().zip(&self.l1d).enumerate() {
-            o.ready = l1.sm_ready(&d.l1d[sm], reqs[sm].is_some());
-            o.resp.clear();
-            o.resp.extend_from_slice(l1.resp());
-        }
+        self.eval_wired(&Direct, reqs, d);
     }
 
     /// Clock edge: every unit applies its part of `d`, the step [`MemSystem::eval`] produced
@@ -359,12 +350,32 @@ mod tests {
 
     /// A wiring bug a test plants in [`MemSystem::eval`].
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-    pub(super) enum Planted {
+    enum Planted {
         None,
         /// An L1D's input depends on a sibling's step: order-dependent.
         SiblingStep,
         /// An L1D's input depends on its own step: not the same when evaluated twice.
         OwnStep,
+    }
+
+    impl Wiring for Planted {
+        fn l1d_req(&self, steps: &[L1dStep], sm: usize, req: Option<MemReq>) -> Option<MemReq> {
+            match self {
+                // Holds the request back while the next SM's step shows its request taken: this
+                // cycle's step or last cycle's, depending on which L1D was evaluated first.
+                Planted::SiblingStep if steps[(sm + 1) % steps.len()].out.req_fire => None,
+                _ => req,
+            }
+        }
+
+        fn l1d_in<'a>(&self, own: &L1dStep, i: L1dIn<'a>) -> L1dIn<'a> {
+            match self {
+                // Holds the request back while its own step shows a request taken: reads its
+                // output back (a combinational loop through the step buffer).
+                Planted::OwnStep if own.out.req_fire => L1dIn { req: None, ..i },
+                _ => i,
+            }
+        }
     }
 
     /// Every way of evaluating a cycle; all must give the same results.
@@ -392,7 +403,17 @@ mod tests {
 
     /// Offers each SM's requests in order, each no earlier than its cycle, until all are answered.
     /// Returns the responses and the number of cycles evaluated.
-    fn drive(sys: &mut MemSystem, mut traffic: Vec<VecDeque<(u64, MemReq)>>, skip: Skip) -> (Log, u64) {
+    fn drive(sys: &mut MemSystem, traffic: Vec<VecDeque<(u64, MemReq)>>, skip: Skip) -> (Log, u64) {
+        drive_wired(sys, traffic, skip, Planted::None)
+    }
+
+    /// [`drive`] with the L1Ds' inputs wired as `planted` says (the design's for `Planted::None`).
+    fn drive_wired(
+        sys: &mut MemSystem,
+        mut traffic: Vec<VecDeque<(u64, MemReq)>>,
+        skip: Skip,
+        planted: Planted,
+    ) -> (Log, u64) {
         let mut log = Log::new();
         let mut evals = 0;
         let mut d = MemStep::default();
@@ -401,7 +422,10 @@ mod tests {
             let c = sys.cycle();
             let offers: Vec<Option<MemReq>> =
                 traffic.iter().map(|q| q.front().filter(|(t, _)| *t <= c).map(|x| x.1)).collect();
-            sys.eval(&offers, &mut d);
+            match planted {
+                Planted::None => sys.eval(&offers, &mut d),
+                _ => sys.eval_wired(&planted, &offers, &mut d),
+            }
             for (sm, o) in d.out().iter().enumerate() {
                 log.extend(o.resp.iter().map(|r| (c, sm, *r)));
                 if o.ready && offers[sm].is_some() {
@@ -791,8 +815,7 @@ mod tests {
     /// Drives random traffic through `small()` with `planted` wiring.
     fn planted_run(check: EvalCheck, planted: Planted) -> (Log, u64) {
         let mut sys = system(small(), check);
-        sys.planted = planted;
-        let (log, _) = drive(&mut sys, traffic(5, 4, 300), Skip::Never);
+        let (log, _) = drive_wired(&mut sys, traffic(5, 4, 300), Skip::Never, planted);
         (log, sys.cycle())
     }
 

@@ -127,13 +127,24 @@ pub struct L2 {
     front: Option<FrontEnd>,
 }
 
-/// One cycle of a split L2's front end ([`L2::front_eval`]): the cycle, the granted SMs (one
-/// bit each) and (bank, SM) of each grant.
+/// One cycle's inputs of a split L2's front end ([`L2::front_eval`]).
+#[derive(Clone, Copy, Debug)]
+pub struct FrontIn<'a> {
+    /// The front end's cycle.
+    pub at: u64,
+    /// Per bank: bit `sm` set when SM `sm`'s down request is for that bank ([`L2::bank_of`]).
+    pub want: &'a [u64],
+    /// Per SM: its down request (read only where `want` has the SM's bit).
+    pub heads: &'a [MemReq],
+}
+
+/// One cycle of a split L2's front end ([`L2::front_eval`]), applied by [`L2::front_commit`]:
+/// the cycle, the granted SMs (one bit each) and (bank, SM, request) of each grant.
 #[derive(Clone, Debug, Default)]
 pub struct FrontStep {
     at: u64,
     pub granted: u64,
-    accepted: Vec<(usize, u32)>,
+    accepted: Vec<(usize, u32, MemReq)>,
 }
 
 /// What the front end of a split L2 keeps per bank to know the bank's length in its own cycle.
@@ -210,17 +221,18 @@ impl L2 {
         });
     }
 
-    /// Split only ([`L2::split_front_end`]): the front end's cycle `x`, combinational. `want[b]`
-    /// has bit `sm` set when SM `sm`'s down request is for bank `b` ([`L2::bank_of`]). Each
+    /// Split only ([`L2::split_front_end`]): the front end's cycle `i.at`, combinational. Each
     /// requested bank with room grants one SM as [`L2::eval`]'s arbiter does (the first from the
-    /// SM after the one it granted last); writes the grants into `d`, which
-    /// [`L2::front_commit`] applies. The back end must have run every cycle before `x`.
-    pub fn front_eval(&self, x: u64, want: &[u64], d: &mut FrontStep) {
+    /// SM after the one it granted last); writes the grants, with the requests they take, into
+    /// `d`, which [`L2::front_commit`] applies. The back end must have run every cycle before
+    /// `i.at`.
+    pub fn front_eval(&self, i: FrontIn, d: &mut FrontStep) {
         let f = self.front.as_ref().expect("split_front_end first");
+        let x = i.at;
         d.at = x;
         d.granted = 0;
         d.accepted.clear();
-        for (b, &mask) in want.iter().enumerate() {
+        for (b, &mask) in i.want.iter().enumerate() {
             if mask == 0 {
                 continue;
             }
@@ -233,15 +245,15 @@ impl L2 {
             let from = mask & (u64::MAX << self.rr[b]);
             let sm = if from != 0 { from.trailing_zeros() } else { mask.trailing_zeros() };
             d.granted |= 1 << sm;
-            d.accepted.push((b, sm));
+            d.accepted.push((b, sm, i.heads[sm as usize]));
         }
     }
 
     /// The front end's clock edge for the step of [`L2::front_eval`]: the granted requests
-    /// (`heads[sm]`, each SM's down request) enter their bank pipelines, due at their tag check
-    /// `l2_latency - 3` cycles later, and each granting bank's arbiter moves on. The back end
-    /// must not yet have reached the cycle a request let in now is due.
-    pub fn front_commit(&mut self, heads: &[MemReq], d: &FrontStep) {
+    /// enter their bank pipelines, due at their tag check `l2_latency - 3` cycles later, and each
+    /// granting bank's arbiter moves on. The back end must not yet have reached the cycle a
+    /// request let in now is due.
+    pub fn front_commit(&mut self, d: &FrontStep) {
         let f = self.front.as_mut().expect("split_front_end first");
         let delay = u64::from(self.params.l2_latency - 3);
         debug_assert!(d.at + delay >= self.now, "the back end ran past a request's tag check");
@@ -251,8 +263,8 @@ impl L2 {
                 f.out_seen[b] += 1;
             }
         }
-        for &(b, sm) in &d.accepted {
-            self.enter_pipeline(b, sm, heads[sm as usize], d.at + delay);
+        for &(b, sm, req) in &d.accepted {
+            self.enter_pipeline(b, sm, req, d.at + delay);
         }
     }
 
@@ -575,8 +587,8 @@ mod tests {
                         heads[k] = *r;
                     }
                 }
-                b.l2.front_eval(x, &want, &mut fs);
-                b.l2.front_commit(&heads, &fs);
+                b.l2.front_eval(FrontIn { at: x, want: &want, heads: &heads }, &mut fs);
+                b.l2.front_commit(&fs);
                 // The back end runs on to `ahead` cycles in front of the front end.
                 while b.cycle < x + 1 + ahead as u64 {
                     b.step(&none);

@@ -92,8 +92,9 @@ pub(crate) trait Steps: Copy + Send + Sync {
     /// The `pass`-th evaluation of RT unit `u` in its cycle ([`EvalCheck::passes`]; the windowed
     /// run makes one). Both runners evaluate every RT unit through it.
     #[inline]
-    fn eval_rt(self, u: &RtUnit, i: &RtIn, step: &mut RtStep, _pass: u32) -> Result<(), RunError> {
-        u.eval(i, step)
+    fn eval_rt(self, u: &RtUnit, i: RtIn, step: &mut RtStep, _pass: u32) -> Result<(), RunError> {
+        u.eval(i, step);
+        step.check()
     }
 
     /// Whether responses `resp` wake an RT unit that has nothing else to do.

@@ -153,9 +153,10 @@ impl Loop {
                 req_ready: self.req_ready[sm],
                 req_fire: out[sm].ready && self.reqs[sm].is_some(),
                 resp: &out[sm].resp,
+                job: self.jobs_in[sm].as_ref(),
             };
             for pass in 0..parts.eval_check.passes() {
-                if let Err(e) = steps.eval_rt(&parts.units[sm], &i, &mut self.steps[sm], pass) {
+                if let Err(e) = steps.eval_rt(&parts.units[sm], i, &mut self.steps[sm], pass) {
                     if first_error.as_ref().is_none_or(|f| sm < f.0) {
                         first_error = Some((sm, e));
                     }
@@ -169,7 +170,8 @@ impl Loop {
     fn commit<S: Sink>(&mut self, parts: &mut Parts, sink: &mut S, now: u64, shown: bool) {
         for &sm in &self.order {
             if !self.quiet[sm] {
-                parts.units[sm].commit(&self.steps[sm], self.jobs_in[sm].take());
+                parts.units[sm].commit(&self.steps[sm]);
+                self.jobs_in[sm] = None;
             }
         }
         #[cfg(not(feature = "untraced"))]

@@ -5,6 +5,7 @@
 //! `mutants` feature; the product's runners have no trace of it.
 
 use super::{Design, Steps};
+use crate::clock::Unit;
 use crate::mem::MemResp;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -78,9 +79,10 @@ impl Steps for Slipped<'_> {
         }
     }
 
-    fn eval_rt(self, u: &RtUnit, i: &RtIn, step: &mut RtStep, pass: u32) -> Result<(), RunError> {
+    fn eval_rt(self, u: &RtUnit, i: RtIn, step: &mut RtStep, pass: u32) -> Result<(), RunError> {
         let earlier = (self.0 == OrderBug::StaleStep && pass > 0).then(|| step.visits());
-        let r = u.eval(i, step);
+        u.eval(i, step);
+        let r = step.check();
         if let Some(v) = earlier {
             step.count_visits_again(v);
         }

@@ -41,7 +41,7 @@ use crate::clock::Unit;
 use crate::mem::dram::{Dram, DramIn, DramStep};
 use crate::mem::hierarchy::MemSystem;
 use crate::mem::l1d::{L1d, L1dIn, L1dStep};
-use crate::mem::l2::{FrontStep, L2In, L2Step, L2};
+use crate::mem::l2::{FrontIn, FrontStep, L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp, ReqKind};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
@@ -214,9 +214,12 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
             req_ready,
             req_fire: l1.sm_ready(&lane.l1_step, req.is_some()) && req.is_some(),
             resp: l1.resp(),
+            job: lane.job.as_ref(),
         };
-        match rt_cycle(u, &mut lane.rt_step, &mut lane.job, rt_idle, &i, steps) {
+        match rt_cycle(u, &mut lane.rt_step, rt_idle, i, steps) {
             Ok(stepped) => {
+                // The job (if one came) landed: an idle unit gets none.
+                lane.job = None;
                 if stepped && u.empty() {
                     lane.empty_since = c + 1;
                 }
@@ -241,22 +244,21 @@ fn idle(u: &RtUnit, req: Option<MemReq>, job: &Option<WarpJob>, now: u64) -> boo
 }
 
 /// One RT unit's cycle: evaluated on `i` (as `steps` evaluates it, like the reference loop) and
-/// committed with the job landing (`job`), unless it is idle and gets no response, when its step
-/// would change nothing. Returns whether it was stepped.
+/// committed, unless it is idle and gets no response, when its step would change nothing.
+/// Returns whether it was stepped.
 #[inline]
 fn rt_cycle<P: Steps>(
     u: &mut RtUnit,
     step: &mut RtStep,
-    job: &mut Option<WarpJob>,
     rt_idle: bool,
-    i: &RtIn,
+    i: RtIn,
     steps: P,
 ) -> Result<bool, RunError> {
     if rt_idle && i.resp.is_empty() {
         return Ok(false);
     }
     steps.eval_rt(u, i, step, 0)?;
-    u.commit(step, job.take());
+    u.commit(step);
     Ok(true)
 }
 
@@ -317,8 +319,8 @@ impl Front {
                 continue;
             }
             self.due.set(x);
-            l2.front_eval(x, &self.want, &mut self.step);
-            l2.front_commit(&self.heads, &self.step);
+            l2.front_eval(FrontIn { at: x, want: &self.want, heads: &self.heads }, &mut self.step);
+            l2.front_commit(&self.step);
             for k in Bits::of(self.step.granted).map(|k| k as usize) {
                 self.queues[k].pop_front();
                 if self.queues[k].is_empty() {

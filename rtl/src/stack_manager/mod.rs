@@ -16,10 +16,11 @@
 //! waits for it in the thread's data latch. Data moves when a request completes, so the SH array
 //! and the global spill regions hold real values and every pop is checked against a reference.
 //!
-//! Clocking: [`StackManager::eval`] is the cycle's combinational logic. It reads only the
-//! registers and this cycle's inputs and writes a [`StackStep`]: the outputs (SH and global
-//! requests, pops, refusals) and the ordered register writes (the next state as a journal, so a
-//! cycle copies no register array); [`StackManager::commit`] applies them at the clock edge.
+//! Clocking: the manager is a [`Unit`]. Its eval is the cycle's combinational logic: it reads
+//! only the registers and this cycle's inputs ([`StackIn`]) and writes a [`StackStep`]: the
+//! outputs (SH and global requests, pops, refusals) and the ordered register writes (the next
+//! state as a journal, so a cycle copies no register array); its commit applies them at the
+//! clock edge.
 //! Planning a command ([`policy::Plan`], written once over [`crate::logic::Logic`] so that the
 //! same code simulates and is proved) is pure in the same way: it reads the stack registers as
 //! the cycle's earlier writes leave them (two threads of a warp may both touch idle stacks in
@@ -38,10 +39,12 @@
 use std::collections::VecDeque;
 
 use crate::bank_arbiter::{ShReq, MAX_WORDS};
+use crate::clock::Unit;
 use crate::config::{warp_lane, Config, ConfigError, Widths};
 use crate::logic::Int;
 use crate::mem::addr::{LocalLayout, LocalMap};
 use crate::mem_sched::GReq;
+use crate::trace::Sink;
 
 pub mod mutants;
 pub mod policy;
@@ -73,9 +76,13 @@ impl Clone for Sequencer {
     }
 }
 
-/// One register or memory write the cycle decided, applied in order at the clock edge.
+/// One entry of the cycle's journal: a register or memory write the cycle decided, applied in
+/// order at the clock edge, or a command the cycle took.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum Write {
+    /// A thread's command as it came in: the edge writes nothing for it (its plan's writes
+    /// follow); kept so that the probe shows the cycle's commands.
+    Cmd(u32, Cmd),
     Thread(u32, ThreadRegs),
     RbPushBack(u32, Entry),
     RbPopBack(u32),
@@ -110,8 +117,8 @@ pub struct StackIn<'a> {
 }
 
 /// The stack manager's cycle: its outputs and the writes its registers take at the clock edge
-/// ([`StackManager::eval`], [`StackManager::commit`]). A reusable buffer: a cycle allocates
-/// nothing once it has grown.
+/// ([`Unit::eval`], [`Unit::commit`]). A reusable buffer: a cycle allocates nothing once it has
+/// grown.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct StackStep {
     writes: Vec<Write>,
@@ -152,6 +159,15 @@ impl StackStep {
             return Err(*e);
         }
         Ok(self.pops.iter().find(|p| p.0 == t).map(|p| p.1))
+    }
+
+    /// Thread `t`'s command this cycle ([`Cmd::None`] if it sent none).
+    fn cmd(&self, t: u32) -> Cmd {
+        let taken = self.writes.iter().find_map(|w| match *w {
+            Write::Cmd(u, c) if u == t => Some(c),
+            _ => None,
+        });
+        taken.unwrap_or(Cmd::None)
     }
 
     fn stack_now(&self, q: &[StackRegs], s: u32) -> StackRegs {
@@ -598,7 +614,7 @@ impl StackManager {
     }
 
     /// Accepts several threads' commands in one cycle, planned in order (a plan sees the stack
-    /// registers earlier ones changed), as [`StackManager::eval`] plans a cycle's commands.
+    /// registers earlier ones changed), as the eval plans a cycle's commands.
     /// Returns each command's answer, in order; a thread that is not ready is refused (Busy).
     pub fn accept_all(&mut self, cmds: &[(u32, Cmd)]) -> Vec<Result<Option<Entry>, StackError>> {
         let mut d = std::mem::take(&mut self.scratch);
@@ -676,51 +692,6 @@ impl StackManager {
             }
         }
         d.writes.push(Write::Seq { thread: t, issued: head.is_some(), inflight, latch });
-    }
-
-    /// One clock cycle at the cycle level, combinational: completions (`done`, `deq`) land
-    /// in their sequencers, every sequencer with nothing in flight issues its next micro-op, and
-    /// each command is planned (in order: a plan sees the stack registers earlier ones changed).
-    /// `d` receives the outputs and the register writes; nothing in `self` changes.
-    pub fn eval(&self, i: &StackIn, d: &mut StackStep) {
-        d.clear();
-        for &t in i.done.iter().chain(i.deq.iter()) {
-            let (inflight, latch) = match d.completed.iter().find(|c| c.0 == t) {
-                Some(c) => (c.1, c.2),
-                None => (self.seq[t as usize].inflight, self.seq[t as usize].latch),
-            };
-            let (mut inflight, mut latch) = (inflight, latch);
-            if let Some(u) = inflight.take() {
-                self.complete_into(t, u, &mut latch, d);
-            }
-            match d.completed.iter_mut().find(|c| c.0 == t) {
-                Some(c) => (c.1, c.2) = (inflight, latch),
-                None => d.completed.push((t, inflight, latch)),
-            }
-        }
-        for word in 0..self.queued.len() {
-            let mut bits = self.queued[word];
-            while bits != 0 {
-                let t = word as u32 * 64 + bits.trailing_zeros();
-                bits &= bits - 1;
-                let (inflight, latch) = match d.completed.iter().position(|c| c.0 == t) {
-                    Some(k) => {
-                        let c = d.completed.swap_remove(k);
-                        (c.1, c.2)
-                    }
-                    // Still waiting for its completion: nothing changes.
-                    None if self.seq[t as usize].inflight.is_some() => continue,
-                    None => (None, self.seq[t as usize].latch),
-                };
-                self.issue(t, inflight, latch, d);
-            }
-        }
-        // Completions of threads with nothing queued.
-        for k in 0..d.completed.len() {
-            let (thread, inflight, latch) = d.completed[k];
-            d.writes.push(Write::Seq { thread, issued: false, inflight, latch });
-        }
-        self.plan(i.cmds, d);
     }
 
     /// Plans `cmds` in order into `d`: a plan sees the stack registers earlier ones changed.
@@ -827,13 +798,87 @@ impl StackManager {
         Ok(())
     }
 
-    /// The clock edge: applies the writes [`StackManager::eval`] decided, in order.
-    pub fn commit(&mut self, d: &StackStep) {
+    /// Threads with work in flight or queued.
+    pub fn busy_threads(&self) -> usize {
+        self.busy.iter().map(|w| w.count_ones() as usize).sum()
+    }
+
+    /// Sets a mutant (test builds).
+    #[cfg(feature = "mutants")]
+    pub fn with_mutant(mut self, m: Option<Mutant>) -> Self {
+        self.mutant = m;
+        self
+    }
+
+    /// Brings thread `t`'s bits of `queued` and `busy` in line with its sequencer (after any
+    /// change to it).
+    fn sync_queued(&mut self, t: u32) {
+        let (word, bit) = ((t / 64) as usize, 1u64 << (t % 64));
+        let q = &self.seq[t as usize];
+        let (queued, busy) = (!q.uops.is_empty(), !q.uops.is_empty() || q.inflight.is_some());
+        self.queued[word] = self.queued[word] & !bit | if queued { bit } else { 0 };
+        self.busy[word] = self.busy[word] & !bit | if busy { bit } else { 0 };
+    }
+}
+
+impl Unit for StackManager {
+    type In<'a> = StackIn<'a>;
+    type Step = StackStep;
+
+    /// One clock cycle at the cycle level, combinational: completions (`done`, `deq`) land
+    /// in their sequencers, every sequencer with nothing in flight issues its next micro-op, and
+    /// each command is planned (in order: a plan sees the stack registers earlier ones changed).
+    /// `d` receives the outputs and the register writes; nothing in `self` changes.
+    fn eval(&self, i: StackIn<'_>, d: &mut StackStep) {
+        d.clear();
+        for &t in i.done.iter().chain(i.deq.iter()) {
+            let (inflight, latch) = match d.completed.iter().find(|c| c.0 == t) {
+                Some(c) => (c.1, c.2),
+                None => (self.seq[t as usize].inflight, self.seq[t as usize].latch),
+            };
+            let (mut inflight, mut latch) = (inflight, latch);
+            if let Some(u) = inflight.take() {
+                self.complete_into(t, u, &mut latch, d);
+            }
+            match d.completed.iter_mut().find(|c| c.0 == t) {
+                Some(c) => (c.1, c.2) = (inflight, latch),
+                None => d.completed.push((t, inflight, latch)),
+            }
+        }
+        for word in 0..self.queued.len() {
+            let mut bits = self.queued[word];
+            while bits != 0 {
+                let t = word as u32 * 64 + bits.trailing_zeros();
+                bits &= bits - 1;
+                let (inflight, latch) = match d.completed.iter().position(|c| c.0 == t) {
+                    Some(k) => {
+                        let c = d.completed.swap_remove(k);
+                        (c.1, c.2)
+                    }
+                    // Still waiting for its completion: nothing changes.
+                    None if self.seq[t as usize].inflight.is_some() => continue,
+                    None => (None, self.seq[t as usize].latch),
+                };
+                self.issue(t, inflight, latch, d);
+            }
+        }
+        // Completions of threads with nothing queued.
+        for k in 0..d.completed.len() {
+            let (thread, inflight, latch) = d.completed[k];
+            d.writes.push(Write::Seq { thread, issued: false, inflight, latch });
+        }
+        d.writes.extend(i.cmds.iter().filter(|c| c.1 != Cmd::None).map(|&(t, c)| Write::Cmd(t, c)));
+        self.plan(i.cmds, d);
+    }
+
+    /// The clock edge: applies the writes the eval decided, in order.
+    fn commit(&mut self, d: &StackStep) {
         for &(s, r) in &d.stacks {
             self.stacks[s as usize] = r;
         }
         for &w in &d.writes {
             match w {
+                Write::Cmd(..) => {}
                 Write::Thread(t, r) => self.threads[t as usize] = r,
                 Write::RbPushBack(t, v) => self.rb[t as usize].push_back(v),
                 Write::RbPopBack(t) => {
@@ -868,26 +913,15 @@ impl StackManager {
         self.stats.add(&d.stats);
     }
 
-    /// Threads with work in flight or queued.
-    pub fn busy_threads(&self) -> usize {
-        self.busy.iter().map(|w| w.count_ones() as usize).sum()
-    }
-
-    /// Sets a mutant (test builds).
-    #[cfg(feature = "mutants")]
-    pub fn with_mutant(mut self, m: Option<Mutant>) -> Self {
-        self.mutant = m;
-        self
-    }
-
-    /// Brings thread `t`'s bits of `queued` and `busy` in line with its sequencer (after any
-    /// change to it).
-    fn sync_queued(&mut self, t: u32) {
-        let (word, bit) = ((t / 64) as usize, 1u64 << (t % 64));
-        let q = &self.seq[t as usize];
-        let (queued, busy) = (!q.uops.is_empty(), !q.uops.is_empty() || q.inflight.is_some());
-        self.queued[word] = self.queued[word] & !bit | if queued { bit } else { 0 };
-        self.busy[word] = self.busy[word] & !bit | if busy { bit } else { 0 };
+    /// The registers, and the cycle's commands with the pops that answered them, under
+    /// `stack_manager`.
+    fn probe<S: Sink>(&self, d: &StackStep, s: &mut S) {
+        if !s.enabled() {
+            return;
+        }
+        s.push_scope("stack_manager");
+        self.probe_signals(|t| d.cmd(t), &d.pops, s);
+        s.pop_scope();
     }
 }
 
@@ -943,28 +977,5 @@ impl Regfile<Int> for Overlay<'_> {
         if valid {
             self.d.writes.push(Write::Emit(self.t, u));
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// RB_FULL has no hardware bound; its count register is [`crate::config::RB_FULL_COUNT_BITS`]
-    /// wide, and a push past what it holds is refused, not silently counted in a wider integer.
-    #[test]
-    fn a_value_that_does_not_fit_its_register_is_an_error() {
-        let mut m = StackManager::new("RB_FULL".parse().unwrap(), 0).unwrap();
-        let bits = m.widths().rb_count;
-        for v in 0..(1u64 << bits) - 1 {
-            m.apply(0, Cmd::Push(v)).unwrap();
-        }
-        let value = 1 << bits;
-        assert_eq!(
-            m.apply(0, Cmd::Push(7)),
-            Err(StackError::Overflow { thread: 0, field: "rb_count", value, bits })
-        );
-        assert_eq!(m.rb(0).len() as u64, value - 1, "the refused push changed nothing");
-        assert_eq!(m.apply(0, Cmd::Pop), Ok(Some(value - 2)));
     }
 }

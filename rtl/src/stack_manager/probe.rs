@@ -12,8 +12,13 @@ impl Probe for StackManager {
 
 impl StackManager {
     /// The registers, and the cycle's commands `cmds` (the input) with the pops that answered
-    /// them (`pops`, from [`StackStep::pops`]).
+    /// them (`pops`, from [`super::StackStep::pops`]).
     pub fn probe_cycle<S: Sink>(&self, cmds: &[(u32, Cmd)], pops: &[(u32, Entry)], s: &mut S) {
+        self.probe_signals(|t| cmds.iter().find(|c| c.0 == t).map_or(Cmd::None, |c| c.1), pops, s);
+    }
+
+    /// The registers, each thread's command `cmd(t)` and the pops that answered them.
+    pub(super) fn probe_signals<S: Sink>(&self, cmd: impl Fn(u32) -> Cmd, pops: &[(u32, Entry)], s: &mut S) {
         if !s.enabled() {
             return;
         }
@@ -23,7 +28,7 @@ impl StackManager {
             for t in self.warp_threads(wp) {
                 let lane = t % self.cfg.warp_size;
                 s.push_scope(&format!("thread[{lane}]"));
-                let cmd = cmds.iter().find(|c| c.0 == t).map_or(Cmd::None, |c| c.1);
+                let cmd = cmd(t);
                 let data = match cmd {
                     Cmd::Push(v) => v,
                     Cmd::Pop => pops.iter().find(|p| p.0 == t).map_or(0, |p| p.1),
