@@ -67,6 +67,7 @@ pub use crate::scheduler::WarpSelect;
 pub use crate::stack_manager::StackTiming;
 use crate::stack_manager::{Cmd, StackError, StackStats, Uop};
 use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
+use crate::thread_cycles::ThreadCycles;
 use crate::thread_fsm::{self, Thread, ThreadIn, ThreadState};
 use crate::trace::{Probe, Sink};
 use crate::warp_buffer::{lanes_of, Bits, WarpBuffer};
@@ -307,6 +308,8 @@ pub struct RtStats {
     /// Visit operations (lanes), before merging.
     pub visits: u64,
     pub pops_checked: u64,
+    /// Thread-cycles by category up to the last edge ([`RtUnit::thread_cycles`] adds the rest).
+    pub thread_cycles: ThreadCycles,
 }
 
 /// This cycle's inputs of an RT unit: the memory system's registered outputs for its SM.
@@ -355,6 +358,9 @@ pub struct RtStep {
     cmds: Vec<(u32, Cmd)>,
     expected_pops: Vec<(u32, u64)>,
     stack: StackUnitStep,
+    /// The registers' thread census, held since the last edge for `census_cycles` cycles.
+    census: ThreadCycles,
+    census_cycles: u64,
 }
 
 impl RtStep {
@@ -416,6 +422,8 @@ pub struct RtUnit {
     /// thread, which has at most one store in flight, so the acknowledgement finds its sequencer).
     store_seq: u64,
     next_event: Option<u64>,
+    /// Cycles before this one are in `stats.thread_cycles` (the cycle after the last edge).
+    counted_to: u64,
     pub stats: RtStats,
 }
 
@@ -450,6 +458,7 @@ impl RtUnit {
             residence: Vec::new(),
             store_seq: 0,
             next_event: None,
+            counted_to: 0,
             stats: RtStats::default(),
         })
     }
@@ -518,6 +527,9 @@ impl RtUnit {
         d.node_taken = i.req_fire && d.port == Port::Node;
         d.took_stack = i.req_fire && d.port == Port::Stack;
         d.store_taken = d.took_stack && self.stack_unit.req().is_some_and(|g| g.write);
+        // The registers have held since the last edge: this cycle and any skipped before it.
+        d.census = self.census();
+        d.census_cycles = now + 1 - self.counted_to;
         let manager = &self.stack_unit.manager;
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
@@ -678,6 +690,8 @@ impl RtUnit {
         self.warp_buffer.apply(&d.threads, &d.due);
         self.stats.visits += d.visits;
         self.stats.pops_checked += d.expected_pops.len() as u64;
+        self.stats.thread_cycles.add_held(&d.census, d.census_cycles);
+        self.counted_to = d.now + 1;
         self.stack_unit.commit(&d.stack);
         if let (Some(job), Some(w)) = (job, d.load_slot) {
             self.load(w, job, d.now);
@@ -709,6 +723,34 @@ impl RtUnit {
             .min()
             .unwrap_or(u64::MAX);
         (event != u64::MAX).then_some(event)
+    }
+
+    /// Thread-cycles by category over the run's first `cycles` cycles (the last edge at most at
+    /// cycle `cycles - 1`): those counted at the edges, and the registers' census for the cycles
+    /// since. They sum to `cycles` × thread slots.
+    pub fn thread_cycles(&self, cycles: u64) -> ThreadCycles {
+        let mut t = self.stats.thread_cycles;
+        t.add_held(&self.census(), cycles.checked_sub(self.counted_to).expect("a report covers every edge"));
+        t
+    }
+
+    /// Thread slots by category in a cycle these registers hold ([`ThreadCycles`]).
+    fn census(&self) -> ThreadCycles {
+        let b = &self.warp_buffer;
+        let mut c = ThreadCycles::default();
+        for w in b.resident() {
+            let q = b.lanes(w);
+            c.node_data += u64::from(q.wait.count_ones());
+            c.latency += u64::from(q.busy.count_ones());
+            c.stack += u64::from(q.stack.count_ones());
+        }
+        for w in Bits::of(b.fetch_warps()) {
+            let (waiting, fetchable) = (b.lanes(w).fetch, self.fetchable(w));
+            c.fetch_queue += u64::from(fetchable.count_ones());
+            c.stack += u64::from((waiting & !fetchable).count_ones());
+        }
+        c.idle = u64::from(self.cfg.threads()) - (c.node_data + c.fetch_queue + c.stack + c.latency);
+        c
     }
 
     /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with
