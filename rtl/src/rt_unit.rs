@@ -734,23 +734,29 @@ impl RtUnit {
         t
     }
 
-    /// Thread slots by category in a cycle these registers hold ([`ThreadCycles`]).
+    /// Thread slots by category in a cycle these registers hold ([`ThreadCycles`]): the warp
+    /// buffer's counts by state, with the lanes waiting to fetch that are not fetchable (their
+    /// sequencer holds them back) moved from the fetch queue to the stack.
     fn census(&self) -> ThreadCycles {
         let b = &self.warp_buffer;
-        let mut c = ThreadCycles::default();
-        for w in b.resident() {
-            let q = b.lanes(w);
-            c.node_data += u64::from(q.wait.count_ones());
-            c.latency += u64::from(q.busy.count_ones());
-            c.stack += u64::from(q.stack.count_ones());
-        }
-        for w in Bits::of(b.fetch_warps()) {
-            let (waiting, fetchable) = (b.lanes(w).fetch, self.fetchable(w));
-            c.fetch_queue += u64::from(fetchable.count_ones());
-            c.stack += u64::from((waiting & !fetchable).count_ones());
-        }
-        c.idle = u64::from(self.cfg.threads()) - (c.node_data + c.fetch_queue + c.stack + c.latency);
-        c
+        let fetch = b.lanes_in(ThreadState::FETCH);
+        let held = match self.rt.stack_timing {
+            StackTiming::Overlapped => 0,
+            StackTiming::Blocking => Bits::of(b.fetch_warps())
+                .map(|w| match b.lanes(w).fetch & !self.fetchable(w) {
+                    0 => 0,
+                    m => m.count_ones(),
+                })
+                .sum(),
+        };
+        let c = ThreadCycles {
+            node_data: u64::from(b.lanes_in(ThreadState::WAIT_MEM)),
+            fetch_queue: u64::from(fetch - held),
+            stack: u64::from(b.lanes_in(ThreadState::STACK) + held),
+            latency: u64::from(b.lanes_in(ThreadState::BUSY)),
+            idle: 0,
+        };
+        ThreadCycles { idle: u64::from(self.cfg.threads()) - c.total(), ..c }
     }
 
     /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with

@@ -129,6 +129,9 @@ pub struct WarpBuffer {
     stack_warps: u64,
     busy_warps: u64,
     drained: u64,
+    /// Lanes of all warps in each state, by [`ThreadState::code`] (derived like the summaries):
+    /// the RT unit's thread-cycle census reads them instead of counting mask bits every cycle.
+    in_state: [u32; ThreadState::STATES as usize],
     /// Warps loaded so far.
     loaded: u64,
     /// The widths of the waveform's fields.
@@ -149,6 +152,7 @@ impl WarpBuffer {
             stack_warps: 0,
             busy_warps: 0,
             drained: 0,
+            in_state: [0; ThreadState::STATES as usize],
             loaded: 0,
             widths: cfg.widths()?,
         })
@@ -205,6 +209,13 @@ impl WarpBuffer {
     #[inline]
     pub fn drained(&self) -> u64 {
         self.drained
+    }
+
+    /// Lanes of all resident warps in the state whose [`ThreadState::code`] is `code` (an empty
+    /// slot's lanes are Done but not counted).
+    #[inline]
+    pub fn lanes_in(&self, code: u64) -> u32 {
+        self.in_state[code as usize]
     }
 
     /// Brings warp `w`'s bits of the summaries in line with its lanes (after any change).
@@ -279,6 +290,8 @@ impl WarpBuffer {
             *slot = ops.unwrap_or_default();
         }
         self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
+        // The slot's lanes were Done (a warp leaves with none live).
+        self.in_state[ThreadState::BUSY as usize] += active.count_ones();
         let age = self.occupied.count_ones();
         let job = self.loaded;
         self.slots[w as usize] = Some(Slot { age, job, landed: now });
@@ -295,7 +308,10 @@ impl WarpBuffer {
         let mut touched = 0u64;
         for &(t, d) in threads {
             let (w, l) = warp_lane(t, self.warp_size);
-            self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
+            let old = self.threads[t as usize].state;
+            self.lanes[w as usize].set(l, old, d.state);
+            self.in_state[old.code() as usize] -= 1;
+            self.in_state[d.state.code() as usize] += 1;
             self.threads[t as usize] = d;
             touched |= 1 << w;
         }
@@ -382,6 +398,14 @@ mod tests {
             assert_eq!(b.stack_warps(), want(&|m| m.stack != 0));
             assert_eq!(b.busy_warps(), want(&|m| m.busy != 0));
             assert_eq!(b.drained(), want(&|m| m.live() == 0));
+            // The counts by state are the masks' bits over the resident warps.
+            let bits = |f: &dyn Fn(Lanes) -> u32| {
+                (0..4).filter(|&w| b.occupied(w)).map(|w| f(b.lanes(w)).count_ones()).sum::<u32>()
+            };
+            assert_eq!(b.lanes_in(ThreadState::FETCH), bits(&|m| m.fetch));
+            assert_eq!(b.lanes_in(ThreadState::WAIT_MEM), bits(&|m| m.wait));
+            assert_eq!(b.lanes_in(ThreadState::BUSY), bits(&|m| m.busy));
+            assert_eq!(b.lanes_in(ThreadState::STACK), bits(&|m| m.stack));
             // Each lane mask is exactly the lanes in its state.
             for w in (0..4).filter(|&w| b.occupied(w)) {
                 let of = |f: &dyn Fn(ThreadState) -> bool| {

@@ -1,5 +1,5 @@
 //! Where the RT units' thread-cycles go ([`rtl::thread_cycles`]): the shares `sms run` prints and
-//! the sweep's stacked-bar figure, one bar per configuration whose height is its thread-cycles
+//! the sweep's stacked-bar figure, one bar per configuration whose length is its thread-cycles
 //! relative to RB_8's (run time relative to RB_8: every configuration has the same thread slots)
 //! and whose segments are the categories.
 
@@ -18,7 +18,7 @@ use crate::run::sweep::{Sweep, BASELINE};
 /// How the reports name the categories, in [`ThreadCycles::NAMES`] order.
 pub const LABELS: [&str; 5] = ["node data", "fetch queue", "stack", "latency", "idle"];
 
-/// The categories' colours, from the bottom of a bar up: Okabe and Ito's blue, darkened yellow,
+/// The categories' colours, from the axis out: Okabe and Ito's blue, darkened yellow,
 /// vermillion and bluish green, idle in light grey (neighbours differ in hue and lightness).
 fn colors() -> [RGBColor; 5] {
     [color(0), color(6), color(3), color(2), RGBColor(200, 200, 200)]
@@ -132,14 +132,14 @@ pub fn figure(s: &Sweep) -> Figure {
              allowed to: for the scheduler or the memory port), stack (a stack command waiting for its \
              sequencer, or a fetch the busy sequencer holds back), latency (in an operation unit) and \
              idle (empty slot, inactive or finished lane). Sums over the scenes in units of {BASELINE}'s \
-             total thread-cycles, so a bar's height is the run time relative to {BASELINE}'s. The \
+             total thread-cycles, so a bar's length is the run time relative to {BASELINE}'s. The \
              per-scene table has each run's counts and shares. None at the functional level."
         ),
         table,
         per_scene: Some(per_scene),
         json: json!({ "baseline": BASELINE, "l1d_kb": kb, "categories": ThreadCycles::NAMES, "rows": rows }),
         chart: Chart::Stacked {
-            y_desc: format!("thread-cycles relative to {BASELINE}'s total"),
+            x_desc: format!("thread-cycles relative to {BASELINE}'s total"),
             labels: configs,
             segments: LABELS
                 .iter()

@@ -295,14 +295,14 @@ pub fn grouped_bars(
     root.present().map_err(|e| to_err(path, e))
 }
 
-/// Vertical stacked bars, one per label along the x axis, each made of `segments` from the
-/// bottom up (segment `j`'s value in bar `i` is `segments[j].values[i]`), coloured by `colors`,
-/// named in the legend from the top down as they stack; `rule` is a horizontal line (e.g. the
-/// baseline's total). The axis starts at zero.
+/// Stacked horizontal bars, one row per label, each made of `segments` from the axis out
+/// (segment `j`'s value in row `i` is `segments[j].values[i]`), coloured by `colors` and named in
+/// a legend beside the plot in stacking order; `rule` is a vertical line (e.g. the baseline's
+/// total). The axis starts at zero.
 pub fn stacked_bars(
     path: &Path,
     title: &str,
-    y_desc: &str,
+    x_desc: &str,
     labels: &[String],
     segments: &[Bars],
     colors: &[RGBColor],
@@ -311,41 +311,35 @@ pub fn stacked_bars(
     let n = labels.len().max(1);
     let totals: Vec<f64> =
         (0..n).map(|i| segments.iter().filter_map(|b| b.values.get(i).copied().flatten()).sum()).collect();
-    let (bottom, top) = value_range(totals.iter().copied().chain(rule), false);
-    const LEGEND_W: u32 = 150;
-    let width = SIZE.0.max(LEGEND_W + 90 + 40 * n as u32);
-    let root = canvas(path, (width, SIZE.1 + 60))?;
-    let (plot, legend) = root.split_horizontally(width - LEGEND_W);
-    let mut chart = ChartBuilder::on(&plot)
-        .caption(title, ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(100)
-        .y_label_area_size(70)
-        .build_cartesian_2d(-0.5..n as f64 - 0.5, bottom..top)
-        .map_err(|e| to_err(path, e))?;
+    let (left, right) = value_range(totals.iter().copied().chain(rule), false);
+    const LEGEND_W: u32 = 130;
+    let height = (SIZE.1).max(90 + 28 * n as u32);
+    let root = canvas(path, (SIZE.0 + LEGEND_W, height))?;
+    let (plot, legend) = root.split_horizontally(SIZE.0);
+    let mut chart = chart_on(&plot, path, title, 170, left..right, -0.5..n as f64 - 0.5)?;
     let label = |v: &f64| row_label(labels, *v);
     chart
         .configure_mesh()
-        .y_desc(y_desc)
-        .x_labels(4 * n)
-        .x_label_formatter(&label)
-        .x_label_style(("sans-serif", 12).into_font().transform(FontTransform::Rotate90))
-        .disable_x_mesh()
+        .x_desc(x_desc)
+        .y_labels(4 * n)
+        .y_label_formatter(&label)
+        .disable_y_mesh()
         .draw()
         .map_err(|e| to_err(path, e))?;
-    let mut base = vec![0.0; n];
+    let mut start = vec![0.0; n];
     for (j, b) in segments.iter().enumerate() {
         let style = colors.get(j).copied().unwrap_or_else(|| color(j)).filled();
         let rects: Vec<_> = (0..n)
             .filter_map(|i| {
                 let v = b.values.get(i).copied().flatten()?;
-                let r = Rectangle::new([(i as f64 - 0.35, base[i]), (i as f64 + 0.35, base[i] + v)], style);
-                base[i] += v;
+                let y = i as f64;
+                let r = Rectangle::new([(start[i], y - 0.35), (start[i] + v, y + 0.35)], style);
+                start[i] += v;
                 Some(r)
             })
             .collect();
         chart.draw_series(rects).map_err(|e| to_err(path, e))?;
-        let y = 50 + 18 * (segments.len() - 1 - j) as i32;
+        let y = 50 + 18 * j as i32;
         legend.draw(&Rectangle::new([(8, y - 5), (22, y + 5)], style)).map_err(|e| to_err(path, e))?;
         legend
             .draw(&Text::new(b.name.clone(), (28, y - 7), ("sans-serif", 12)))
@@ -353,7 +347,7 @@ pub fn stacked_bars(
     }
     if let Some(r) = rule {
         chart
-            .draw_series(LineSeries::new([(-0.5, r), (n as f64 - 0.5, r)], BLACK.stroke_width(1)))
+            .draw_series(LineSeries::new([(r, -0.5), (r, n as f64 - 0.5)], BLACK.stroke_width(1)))
             .map_err(|e| to_err(path, e))?;
     }
     root.present().map_err(|e| to_err(path, e))
@@ -662,9 +656,9 @@ pub enum Chart {
         zoom: bool,
     },
     Stacked {
-        y_desc: String,
+        x_desc: String,
         labels: Vec<String>,
-        /// From the bottom of each bar up.
+        /// From the axis out.
         segments: Vec<Bars>,
         /// One per segment.
         colors: Vec<RGBColor>,
@@ -685,8 +679,8 @@ impl Chart {
             Chart::Grouped { y_desc, groups, series, colors, rule, zoom } => {
                 grouped_bars(path, title, y_desc, groups, series, colors, *rule, *zoom)
             }
-            Chart::Stacked { y_desc, labels, segments, colors, rule } => {
-                stacked_bars(path, title, y_desc, labels, segments, colors, *rule)
+            Chart::Stacked { x_desc, labels, segments, colors, rule } => {
+                stacked_bars(path, title, x_desc, labels, segments, colors, *rule)
             }
         }
     }
