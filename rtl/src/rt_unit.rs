@@ -308,8 +308,9 @@ pub struct RtStats {
     /// Visit operations (lanes), before merging.
     pub visits: u64,
     pub pops_checked: u64,
-    /// Thread-cycles by category up to the last edge ([`RtUnit::thread_cycles`] adds the rest).
-    pub thread_cycles: ThreadCycles,
+    /// Thread-cycles waiting to fetch while the stack sequencer holds the fetch back, up to the
+    /// last edge ([`RtUnit::thread_cycles`]).
+    pub held_fetch_cycles: u64,
 }
 
 /// This cycle's inputs of an RT unit: the memory system's registered outputs for its SM.
@@ -358,9 +359,10 @@ pub struct RtStep {
     cmds: Vec<(u32, Cmd)>,
     expected_pops: Vec<(u32, u64)>,
     stack: StackUnitStep,
-    /// The registers' thread census, held since the last edge for `census_cycles` cycles.
-    census: ThreadCycles,
-    census_cycles: u64,
+    /// Lanes waiting to fetch that their sequencer holds back, so since the last edge for
+    /// `held_cycles` cycles.
+    held: u32,
+    held_cycles: u64,
 }
 
 impl RtStep {
@@ -528,8 +530,8 @@ impl RtUnit {
         d.took_stack = i.req_fire && d.port == Port::Stack;
         d.store_taken = d.took_stack && self.stack_unit.req().is_some_and(|g| g.write);
         // The registers have held since the last edge: this cycle and any skipped before it.
-        d.census = self.census();
-        d.census_cycles = now + 1 - self.counted_to;
+        d.held = self.held_fetches();
+        d.held_cycles = now + 1 - self.counted_to;
         let manager = &self.stack_unit.manager;
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
@@ -687,10 +689,10 @@ impl RtUnit {
         for &id in &d.node_resp {
             self.fetch.complete(id);
         }
-        self.warp_buffer.apply(&d.threads, &d.due);
+        self.warp_buffer.apply(&d.threads, &d.due, d.now);
         self.stats.visits += d.visits;
         self.stats.pops_checked += d.expected_pops.len() as u64;
-        self.stats.thread_cycles.add_held(&d.census, d.census_cycles);
+        self.stats.held_fetch_cycles += u64::from(d.held) * d.held_cycles;
         self.counted_to = d.now + 1;
         self.stack_unit.commit(&d.stack);
         if let (Some(job), Some(w)) = (job, d.load_slot) {
@@ -726,21 +728,28 @@ impl RtUnit {
     }
 
     /// Thread-cycles by category over the run's first `cycles` cycles (the last edge at most at
-    /// cycle `cycles - 1`): those counted at the edges, and the registers' census for the cycles
-    /// since. They sum to `cycles` × thread slots.
+    /// cycle `cycles - 1`): the warp buffer's lane-cycles by state, with the lanes waiting to
+    /// fetch that their sequencer held back moved from the fetch queue to the stack. They sum to
+    /// `cycles` × thread slots.
     pub fn thread_cycles(&self, cycles: u64) -> ThreadCycles {
-        let mut t = self.stats.thread_cycles;
-        t.add_held(&self.census(), cycles.checked_sub(self.counted_to).expect("a report covers every edge"));
-        t
+        let b = &self.warp_buffer;
+        let since = cycles.checked_sub(self.counted_to).expect("a report covers every edge");
+        let held = self.stats.held_fetch_cycles + u64::from(self.held_fetches()) * since;
+        let t = ThreadCycles {
+            node_data: b.lane_cycles(ThreadState::WAIT_MEM, cycles),
+            fetch_queue: b.lane_cycles(ThreadState::FETCH, cycles) - held,
+            stack: b.lane_cycles(ThreadState::STACK, cycles) + held,
+            latency: b.lane_cycles(ThreadState::BUSY, cycles),
+            idle: 0,
+        };
+        ThreadCycles { idle: cycles * u64::from(self.cfg.threads()) - t.total(), ..t }
     }
 
-    /// Thread slots by category in a cycle these registers hold ([`ThreadCycles`]): the warp
-    /// buffer's counts by state, with the lanes waiting to fetch that are not fetchable (their
-    /// sequencer holds them back) moved from the fetch queue to the stack.
-    fn census(&self) -> ThreadCycles {
+    /// Lanes waiting to fetch that are not fetchable: with Blocking timing, those whose stack
+    /// sequencer holds the fetch back.
+    fn held_fetches(&self) -> u32 {
         let b = &self.warp_buffer;
-        let fetch = b.lanes_in(ThreadState::FETCH);
-        let held = match self.rt.stack_timing {
+        match self.rt.stack_timing {
             StackTiming::Overlapped => 0,
             StackTiming::Blocking => Bits::of(b.fetch_warps())
                 .map(|w| match b.lanes(w).fetch & !self.fetchable(w) {
@@ -748,15 +757,7 @@ impl RtUnit {
                     m => m.count_ones(),
                 })
                 .sum(),
-        };
-        let c = ThreadCycles {
-            node_data: u64::from(b.lanes_in(ThreadState::WAIT_MEM)),
-            fetch_queue: u64::from(fetch - held),
-            stack: u64::from(b.lanes_in(ThreadState::STACK) + held),
-            latency: u64::from(b.lanes_in(ThreadState::BUSY)),
-            idle: 0,
-        };
-        ThreadCycles { idle: u64::from(self.cfg.threads()) - c.total(), ..c }
+        }
     }
 
     /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with

@@ -129,9 +129,12 @@ pub struct WarpBuffer {
     stack_warps: u64,
     busy_warps: u64,
     drained: u64,
-    /// Lanes of all warps in each state, by [`ThreadState::code`] (derived like the summaries):
-    /// the RT unit's thread-cycle census reads them instead of counting mask bits every cycle.
-    in_state: [u32; ThreadState::STATES as usize],
+    /// Lane-cycles in each state, by [`ThreadState::code`], as an integral kept at the edges: a
+    /// lane entering a state in cycle `c` subtracts `c`, leaving it in cycle `c` adds `c`, so the
+    /// lane-cycles over cycles `0..end` are this plus the lanes in the state now × `end`
+    /// (wrapping arithmetic; [`WarpBuffer::lane_cycles`]). The RT unit's thread-cycle breakdown
+    /// then costs nothing in the cycles no lane moves.
+    state_cycles: [u64; ThreadState::STATES as usize],
     /// Warps loaded so far.
     loaded: u64,
     /// The widths of the waveform's fields.
@@ -152,7 +155,7 @@ impl WarpBuffer {
             stack_warps: 0,
             busy_warps: 0,
             drained: 0,
-            in_state: [0; ThreadState::STATES as usize],
+            state_cycles: [0; ThreadState::STATES as usize],
             loaded: 0,
             widths: cfg.widths()?,
         })
@@ -211,11 +214,18 @@ impl WarpBuffer {
         self.drained
     }
 
-    /// Lanes of all resident warps in the state whose [`ThreadState::code`] is `code` (an empty
-    /// slot's lanes are Done but not counted).
-    #[inline]
-    pub fn lanes_in(&self, code: u64) -> u32 {
-        self.in_state[code as usize]
+    /// Lane-cycles of the resident warps' lanes in the state whose [`ThreadState::code`] is
+    /// `code` (not Done) over cycles `0..end`, `end` after the last edge.
+    pub fn lane_cycles(&self, code: u64, end: u64) -> u64 {
+        let mask = |m: Lanes| match code {
+            ThreadState::FETCH => m.fetch,
+            ThreadState::WAIT_MEM => m.wait,
+            ThreadState::BUSY => m.busy,
+            ThreadState::STACK => m.stack,
+            _ => unreachable!("Done lanes are not counted"),
+        };
+        let now: u64 = self.resident().map(|w| u64::from(mask(self.lanes(w)).count_ones())).sum();
+        self.state_cycles[code as usize].wrapping_add(now.wrapping_mul(end))
     }
 
     /// Brings warp `w`'s bits of the summaries in line with its lanes (after any change).
@@ -290,8 +300,9 @@ impl WarpBuffer {
             *slot = ops.unwrap_or_default();
         }
         self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
-        // The slot's lanes were Done (a warp leaves with none live).
-        self.in_state[ThreadState::BUSY as usize] += active.count_ones();
+        // The slot's lanes were Done (a warp leaves with none live) and are Busy from the next cycle.
+        let busy = &mut self.state_cycles[ThreadState::BUSY as usize];
+        *busy = busy.wrapping_sub(u64::from(active.count_ones()) * (now + 1));
         let age = self.occupied.count_ones();
         let job = self.loaded;
         self.slots[w as usize] = Some(Slot { age, job, landed: now });
@@ -301,17 +312,19 @@ impl WarpBuffer {
         job
     }
 
-    /// Clock edge: each thread of `threads` takes its state; then each warp of `due` (whose due
-    /// Busy lanes moved on) recomputes its earliest Busy deadline; then the summaries of the
-    /// warps touched follow their lanes (once per warp, not per thread).
-    pub fn apply(&mut self, threads: &[(u32, Thread)], due: &[u32]) {
+    /// Clock edge of cycle `now`: each thread of `threads` takes its state; then each warp of
+    /// `due` (whose due Busy lanes moved on) recomputes its earliest Busy deadline; then the
+    /// summaries of the warps touched follow their lanes (once per warp, not per thread).
+    pub fn apply(&mut self, threads: &[(u32, Thread)], due: &[u32], now: u64) {
         let mut touched = 0u64;
+        let from = now + 1;
         for &(t, d) in threads {
             let (w, l) = warp_lane(t, self.warp_size);
             let old = self.threads[t as usize].state;
             self.lanes[w as usize].set(l, old, d.state);
-            self.in_state[old.code() as usize] -= 1;
-            self.in_state[d.state.code() as usize] += 1;
+            let acc = &mut self.state_cycles;
+            acc[old.code() as usize] = acc[old.code() as usize].wrapping_add(from);
+            acc[d.state.code() as usize] = acc[d.state.code() as usize].wrapping_sub(from);
             self.threads[t as usize] = d;
             touched |= 1 << w;
         }
@@ -398,14 +411,6 @@ mod tests {
             assert_eq!(b.stack_warps(), want(&|m| m.stack != 0));
             assert_eq!(b.busy_warps(), want(&|m| m.busy != 0));
             assert_eq!(b.drained(), want(&|m| m.live() == 0));
-            // The counts by state are the masks' bits over the resident warps.
-            let bits = |f: &dyn Fn(Lanes) -> u32| {
-                (0..4).filter(|&w| b.occupied(w)).map(|w| f(b.lanes(w)).count_ones()).sum::<u32>()
-            };
-            assert_eq!(b.lanes_in(ThreadState::FETCH), bits(&|m| m.fetch));
-            assert_eq!(b.lanes_in(ThreadState::WAIT_MEM), bits(&|m| m.wait));
-            assert_eq!(b.lanes_in(ThreadState::BUSY), bits(&|m| m.busy));
-            assert_eq!(b.lanes_in(ThreadState::STACK), bits(&|m| m.stack));
             // Each lane mask is exactly the lanes in its state.
             for w in (0..4).filter(|&w| b.occupied(w)) {
                 let of = |f: &dyn Fn(ThreadState) -> bool| {
@@ -418,11 +423,14 @@ mod tests {
                 assert_eq!(m.stack, of(&|s| s == ThreadState::Stack));
             }
         };
+        // Lane-cycles by state, counted cycle by cycle: the registers after the edge of `step`
+        // hold in cycle `step + 1`.
+        let mut counted = [0u64; ThreadState::STATES as usize];
         for step in 0..20_000u64 {
             let w = next(4) as u32;
             match next(8) {
                 0 if !b.occupied(w) => {
-                    b.load(w, vec![None; 32], next(16) as u32, step, step);
+                    b.load(w, vec![None; 32], next(16) as u32, step + 1, step);
                 }
                 1 if b.occupied(w) && b.lanes(w).live() == 0 => {
                     b.leave(w);
@@ -436,11 +444,19 @@ mod tests {
                         3 => ThreadState::Busy { until: step + next(9) },
                         _ => ThreadState::Stack,
                     };
-                    b.apply(&[(t, Thread { state, pos: 0 })], &[]);
+                    b.apply(&[(t, Thread { state, pos: 0 })], &[], step);
                 }
                 _ => {}
             }
             check(&b);
+            for w in (0..4).filter(|&w| b.occupied(w)) {
+                for l in 0..32 {
+                    counted[b.thread(w * 32 + l).state.code() as usize] += 1;
+                }
+            }
+            for code in [ThreadState::FETCH, ThreadState::WAIT_MEM, ThreadState::BUSY, ThreadState::STACK] {
+                assert_eq!(b.lane_cycles(code, step + 2), counted[code as usize], "state {code}");
+            }
         }
         assert!(b.loaded > 4, "warps came and went");
     }
