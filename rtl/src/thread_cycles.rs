@@ -10,13 +10,18 @@
 //! ```
 //!
 //! The categories are a function of the registers alone, and the registers change only at an
-//! edge, so an RT unit counts once per evaluated cycle: the census of its registers times the
-//! cycles they have held since its last count (skipped idle cycles and cycles the runner left it
-//! quiet included). The census is taken in `eval` (it reads registers) and added in `commit`; a
-//! report adds the cycles after the last edge ([`crate::rt_unit::RtUnit::thread_cycles`]), so the
-//! five sum to cycles × slots exactly.
+//! edge, so nothing is counted per cycle or per thread, and skipped idle cycles and cycles a
+//! runner leaves a unit quiet cost nothing:
+//! - the lane-cycles of each thread state are an integral the warp buffer keeps at its edges
+//!   (a lane entering a state in cycle `c` subtracts `c`, leaving it adds `c`; the lanes in the
+//!   state at the end count up to the end: [`crate::warp_buffer::WarpBuffer::lane_cycles`]);
+//! - the lanes waiting to fetch that their sequencer holds back (Blocking timing) depend on the
+//!   stack manager's registers too: an evaluated RT unit's `eval` counts them with the cycles
+//!   its registers have held since its last edge, and its `commit` adds the product;
+//! - a report ([`crate::rt_unit::RtUnit::thread_cycles`]) adds the cycles after the last edge and
+//!   takes idle as the rest, so the five sum to cycles × slots exactly.
 
-/// Thread-cycles by category (or, as a census, thread slots by category in one cycle).
+/// Thread-cycles by category.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct ThreadCycles {
     /// Waiting for node data: state WaitMem.
@@ -47,19 +52,13 @@ impl ThreadCycles {
         self.values().iter().sum()
     }
 
-    /// Adds `census` (thread slots by category) held for `cycles` cycles.
-    #[inline]
-    pub fn add_held(&mut self, census: &ThreadCycles, cycles: u64) {
-        self.node_data += census.node_data * cycles;
-        self.fetch_queue += census.fetch_queue * cycles;
-        self.stack += census.stack * cycles;
-        self.latency += census.latency * cycles;
-        self.idle += census.idle * cycles;
-    }
-
     /// Adds another count (another RT unit's).
     pub fn add(&mut self, other: &ThreadCycles) {
-        self.add_held(other, 1);
+        self.node_data += other.node_data;
+        self.fetch_queue += other.fetch_queue;
+        self.stack += other.stack;
+        self.latency += other.latency;
+        self.idle += other.idle;
     }
 }
 
@@ -68,12 +67,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_census_held_for_cycles_scales_every_category() {
-        let census = ThreadCycles { node_data: 1, fetch_queue: 2, stack: 3, latency: 4, idle: 6 };
-        let mut t = ThreadCycles::default();
-        t.add_held(&census, 10);
-        t.add(&census);
-        assert_eq!(t.values(), [11, 22, 33, 44, 66]);
-        assert_eq!(t.total(), 11 * 16);
+    fn counts_add_by_category() {
+        let a = ThreadCycles { node_data: 1, fetch_queue: 2, stack: 3, latency: 4, idle: 6 };
+        let mut t = a;
+        t.add(&a);
+        assert_eq!(t.values(), [2, 4, 6, 8, 12]);
+        assert_eq!(t.total(), 32);
     }
 }
