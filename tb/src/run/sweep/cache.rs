@@ -567,7 +567,7 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    /// A result stored before the GPU counts had the thread-cycle breakdown (five words fewer)
+    /// A result stored in the layout without the thread-cycle breakdown (five GPU words fewer)
     /// is recomputed, not read with the breakdown missing; under the previous format's key it
     /// is stale besides.
     #[test]
