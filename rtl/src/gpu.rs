@@ -26,6 +26,7 @@ use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtParams, RtStep, RtUnit, RunError};
 use crate::sim::{self, Parts};
 use crate::stack_manager::StackStats;
+use crate::thread_cycles::ThreadCycles;
 use crate::trace::{Probe, Sink};
 
 pub use crate::sim::Progress;
@@ -73,6 +74,9 @@ pub struct GpuReport {
     /// Bank-conflict delay cycles summed over SMs.
     pub bank_conflict_cycles: u64,
     pub pops_checked: u64,
+    /// The RT units' thread-cycles by category, summed over SMs: `cycles` × SMs × thread slots
+    /// in all ([`crate::thread_cycles`]).
+    pub thread_cycles: ThreadCycles,
     /// Cycle in which the last job was dispatched: after it the GPU only drains (sampling
     /// scales the part before it and keeps the drain).
     pub last_dispatch: u64,
@@ -254,8 +258,17 @@ impl Gpu {
             stack.add(u.counters().0);
         }
         let sum = |f: fn(&RtUnit) -> u64| self.units.iter().map(f).sum::<u64>();
+        let cycles = self.mem.cycle();
+        let mut thread_cycles = ThreadCycles::default();
+        let slots = u64::from(self.cfg.threads());
+        for u in &self.units {
+            let t = u.thread_cycles(cycles);
+            // Every slot in every cycle in exactly one category: a model bug otherwise.
+            assert_eq!(t.total(), cycles * slots, "thread-cycles of an RT unit: {t:?}");
+            thread_cycles.add(&t);
+        }
         GpuReport {
-            cycles: self.mem.cycle(),
+            cycles,
             evaluated_cycles: o.evaluated,
             warps: sum(|u| u.stats.warps),
             rays: sum(|u| u.stats.rays),
@@ -270,6 +283,7 @@ impl Gpu {
             stack,
             bank_conflict_cycles: sum(|u| u.counters().2),
             pops_checked: sum(|u| u.stats.pops_checked),
+            thread_cycles,
             last_dispatch: o.last_dispatch,
         }
     }

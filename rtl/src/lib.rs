@@ -52,6 +52,7 @@ pub mod scheduler;
 pub mod sim;
 pub mod stack_manager;
 pub mod stack_unit;
+pub mod thread_cycles;
 pub mod thread_fsm;
 pub mod trace;
 pub mod warp_buffer;

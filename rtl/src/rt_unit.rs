@@ -68,6 +68,7 @@ pub use crate::scheduler::WarpSelect;
 pub use crate::stack_manager::StackTiming;
 use crate::stack_manager::{Cmd, StackError, StackStats, Uop};
 use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
+use crate::thread_cycles::ThreadCycles;
 use crate::thread_fsm::{self, Thread, ThreadIn, ThreadState};
 use crate::trace::{Probe, Sink};
 use crate::warp_buffer::{lanes_of, Bits, WarpBuffer};
@@ -308,6 +309,9 @@ pub struct RtStats {
     /// Visit operations (lanes), before merging.
     pub visits: u64,
     pub pops_checked: u64,
+    /// Thread-cycles waiting to fetch while the stack sequencer holds the fetch back, up to the
+    /// last edge ([`RtUnit::thread_cycles`]).
+    pub held_fetch_cycles: u64,
 }
 
 /// This cycle's inputs of an RT unit: the memory system's registered outputs for its SM, and
@@ -365,6 +369,10 @@ pub struct RtStep {
     cmds: Vec<(u32, Cmd)>,
     expected_pops: Vec<(u32, u64)>,
     stack: StackUnitStep,
+    /// Lanes waiting to fetch that their sequencer holds back, so since the last edge for
+    /// `held_cycles` cycles.
+    held: u32,
+    held_cycles: u64,
 }
 
 impl RtStep {
@@ -434,6 +442,8 @@ pub struct RtUnit {
     /// thread, which has at most one store in flight, so the acknowledgement finds its sequencer).
     store_seq: u64,
     next_event: Option<u64>,
+    /// Cycles before this one are in `stats.thread_cycles` (the cycle after the last edge).
+    counted_to: u64,
     pub stats: RtStats,
 }
 
@@ -468,6 +478,7 @@ impl RtUnit {
             residence: Vec::new(),
             store_seq: 0,
             next_event: None,
+            counted_to: 0,
             stats: RtStats::default(),
         })
     }
@@ -537,6 +548,9 @@ impl RtUnit {
         d.node_taken = i.req_fire && d.port == Port::Node;
         d.took_stack = i.req_fire && d.port == Port::Stack;
         d.store_taken = d.took_stack && self.stack_unit.req().is_some_and(|g| g.write);
+        // The registers have held since the last edge: this cycle and any skipped before it.
+        d.held = self.held_fetches();
+        d.held_cycles = now + 1 - self.counted_to;
         let manager = &self.stack_unit.manager;
 
         // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
@@ -712,9 +726,11 @@ impl Unit for RtUnit {
         for &id in &d.node_resp {
             self.fetch.complete(id);
         }
-        self.warp_buffer.apply(&d.threads, &d.due);
+        self.warp_buffer.apply(&d.threads, &d.due, d.now);
         self.stats.visits += d.visits;
         self.stats.pops_checked += d.expected_pops.len() as u64;
+        self.stats.held_fetch_cycles += u64::from(d.held) * d.held_cycles;
+        self.counted_to = d.now + 1;
         self.stack_unit.commit(&d.stack);
         if let (true, Some(w)) = (d.job_lands, d.load_slot) {
             self.load(w, &d.job, d.now);
@@ -768,6 +784,39 @@ impl RtUnit {
             .min()
             .unwrap_or(u64::MAX);
         (event != u64::MAX).then_some(event)
+    }
+
+    /// Thread-cycles by category over the run's first `cycles` cycles (the last edge at most at
+    /// cycle `cycles - 1`): the warp buffer's lane-cycles by state, with the lanes waiting to
+    /// fetch that their sequencer held back moved from the fetch queue to the stack. They sum to
+    /// `cycles` × thread slots.
+    pub fn thread_cycles(&self, cycles: u64) -> ThreadCycles {
+        let b = &self.warp_buffer;
+        let since = cycles.checked_sub(self.counted_to).expect("a report covers every edge");
+        let held = self.stats.held_fetch_cycles + u64::from(self.held_fetches()) * since;
+        let t = ThreadCycles {
+            node_data: b.lane_cycles(ThreadState::WAIT_MEM, cycles),
+            fetch_queue: b.lane_cycles(ThreadState::FETCH, cycles) - held,
+            stack: b.lane_cycles(ThreadState::STACK, cycles) + held,
+            latency: b.lane_cycles(ThreadState::BUSY, cycles),
+            idle: 0,
+        };
+        ThreadCycles { idle: cycles * u64::from(self.cfg.threads()) - t.total(), ..t }
+    }
+
+    /// Lanes waiting to fetch that are not fetchable: with Blocking timing, those whose stack
+    /// sequencer holds the fetch back.
+    fn held_fetches(&self) -> u32 {
+        let b = &self.warp_buffer;
+        match self.rt.stack_timing {
+            StackTiming::Overlapped => 0,
+            StackTiming::Blocking => Bits::of(b.fetch_warps())
+                .map(|w| match b.lanes(w).fetch & !self.fetchable(w) {
+                    0 => 0,
+                    m => m.count_ones(),
+                })
+                .sum(),
+        }
     }
 
     /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with

@@ -129,6 +129,12 @@ pub struct WarpBuffer {
     stack_warps: u64,
     busy_warps: u64,
     drained: u64,
+    /// Lane-cycles in each state, by [`ThreadState::code`], as an integral kept at the edges: a
+    /// lane entering a state in cycle `c` subtracts `c`, leaving it in cycle `c` adds `c`, so the
+    /// lane-cycles over cycles `0..end` are this plus the lanes in the state now × `end`
+    /// (wrapping arithmetic; [`WarpBuffer::lane_cycles`]). The RT unit's thread-cycle breakdown
+    /// then costs nothing in the cycles no lane moves.
+    state_cycles: [u64; ThreadState::STATES as usize],
     /// Warps loaded so far.
     loaded: u64,
     /// The widths of the waveform's fields.
@@ -149,6 +155,7 @@ impl WarpBuffer {
             stack_warps: 0,
             busy_warps: 0,
             drained: 0,
+            state_cycles: [0; ThreadState::STATES as usize],
             loaded: 0,
             widths: cfg.widths()?,
         })
@@ -205,6 +212,20 @@ impl WarpBuffer {
     #[inline]
     pub fn drained(&self) -> u64 {
         self.drained
+    }
+
+    /// Lane-cycles of the resident warps' lanes in the state whose [`ThreadState::code`] is
+    /// `code` (not Done) over cycles `0..end`, `end` after the last edge.
+    pub fn lane_cycles(&self, code: u64, end: u64) -> u64 {
+        let mask = |m: Lanes| match code {
+            ThreadState::FETCH => m.fetch,
+            ThreadState::WAIT_MEM => m.wait,
+            ThreadState::BUSY => m.busy,
+            ThreadState::STACK => m.stack,
+            _ => unreachable!("Done lanes are not counted"),
+        };
+        let now: u64 = self.resident().map(|w| u64::from(mask(self.lanes(w)).count_ones())).sum();
+        self.state_cycles[code as usize].wrapping_add(now.wrapping_mul(end))
     }
 
     /// Brings warp `w`'s bits of the summaries in line with its lanes (after any change).
@@ -283,6 +304,9 @@ impl WarpBuffer {
             }
         }
         self.lanes[w as usize] = Lanes { busy: active, busy_until: start, ..Lanes::EMPTY };
+        // The slot's lanes were Done (a warp leaves with none live) and are Busy from the next cycle.
+        let busy = &mut self.state_cycles[ThreadState::BUSY as usize];
+        *busy = busy.wrapping_sub(u64::from(active.count_ones()) * (now + 1));
         let age = self.occupied.count_ones();
         let job = self.loaded;
         self.slots[w as usize] = Some(Slot { age, job, landed: now });
@@ -292,14 +316,19 @@ impl WarpBuffer {
         job
     }
 
-    /// Clock edge: each thread of `threads` takes its state; then each warp of `due` (whose due
-    /// Busy lanes moved on) recomputes its earliest Busy deadline; then the summaries of the
-    /// warps touched follow their lanes (once per warp, not per thread).
-    pub fn apply(&mut self, threads: &[(u32, Thread)], due: &[u32]) {
+    /// Clock edge of cycle `now`: each thread of `threads` takes its state; then each warp of
+    /// `due` (whose due Busy lanes moved on) recomputes its earliest Busy deadline; then the
+    /// summaries of the warps touched follow their lanes (once per warp, not per thread).
+    pub fn apply(&mut self, threads: &[(u32, Thread)], due: &[u32], now: u64) {
         let mut touched = 0u64;
+        let from = now + 1;
         for &(t, d) in threads {
             let (w, l) = warp_lane(t, self.warp_size);
-            self.lanes[w as usize].set(l, self.threads[t as usize].state, d.state);
+            let old = self.threads[t as usize].state;
+            self.lanes[w as usize].set(l, old, d.state);
+            let acc = &mut self.state_cycles;
+            acc[old.code() as usize] = acc[old.code() as usize].wrapping_add(from);
+            acc[d.state.code() as usize] = acc[d.state.code() as usize].wrapping_sub(from);
             self.threads[t as usize] = d;
             touched |= 1 << w;
         }
@@ -398,11 +427,14 @@ mod tests {
                 assert_eq!(m.stack, of(&|s| s == ThreadState::Stack));
             }
         };
+        // Lane-cycles by state, counted cycle by cycle: the registers after the edge of `step`
+        // hold in cycle `step + 1`.
+        let mut counted = [0u64; ThreadState::STATES as usize];
         for step in 0..20_000u64 {
             let w = next(4) as u32;
             match next(8) {
                 0 if !b.occupied(w) => {
-                    b.load(w, &vec![None; 32], next(16) as u32, step, step);
+                    b.load(w, &vec![None; 32], next(16) as u32, step + 1, step);
                 }
                 1 if b.occupied(w) && b.lanes(w).live() == 0 => {
                     b.leave(w);
@@ -416,11 +448,19 @@ mod tests {
                         3 => ThreadState::Busy { until: step + next(9) },
                         _ => ThreadState::Stack,
                     };
-                    b.apply(&[(t, Thread { state, pos: 0 })], &[]);
+                    b.apply(&[(t, Thread { state, pos: 0 })], &[], step);
                 }
                 _ => {}
             }
             check(&b);
+            for w in (0..4).filter(|&w| b.occupied(w)) {
+                for l in 0..32 {
+                    counted[b.thread(w * 32 + l).state.code() as usize] += 1;
+                }
+            }
+            for code in [ThreadState::FETCH, ThreadState::WAIT_MEM, ThreadState::BUSY, ThreadState::STACK] {
+                assert_eq!(b.lane_cycles(code, step + 2), counted[code as usize], "state {code}");
+            }
         }
         assert!(b.loaded > 4, "warps came and went");
     }

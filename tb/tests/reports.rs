@@ -108,6 +108,36 @@ fn the_run_table_has_per_ray_rows_sms_global_traffic_and_no_self_comparison() {
     assert!(md.starts_with("Provenance: scene clutter"), "{md}");
 }
 
+/// `sms run` shows where the thread-cycles went: a row per category in the table, shares
+/// summing to 1 in the JSON (the raw counts in the GPU counts, summing to the thread slots ×
+/// cycles), the sampled warps' shares for a sampled run, and n/a at the functional level.
+#[test]
+fn the_run_reports_the_thread_cycle_breakdown() {
+    const NAMES: [&str; 5] = ["node_data", "fetch_queue", "stack", "latency", "idle"];
+    let text = stdout(&sms(&[&["run", "-q"], &TINY[..], &["-c", "RB_2,SMS"]].concat()));
+    for label in ["node data", "fetch queue", "stack", "latency", "idle"] {
+        assert!(text.lines().any(|l| l.starts_with(&format!("thread-cycles: {label} "))), "{label}:\n{text}");
+    }
+    let full = run_json(&["-c", "RB_2,SMS"]);
+    for r in full["results"].as_array().unwrap() {
+        let shares: f64 = NAMES.iter().map(|n| r["thread_cycles"][n].as_f64().unwrap()).sum();
+        assert!((shares - 1.0).abs() < 1e-9, "{r}");
+        let gpu = &r["full"]["gpu"];
+        let counts: u64 = NAMES.iter().map(|n| gpu[format!("thread_cycles_{n}")].as_u64().unwrap()).sum();
+        // The paper's GPU: 8 SMs, 4 warp slots of 32 lanes each.
+        assert_eq!(counts, gpu["cycles"].as_u64().unwrap() * 8 * 4 * 32, "{r}");
+        let stack = r["thread_cycles"]["stack"].as_f64().unwrap();
+        assert!(stack > 0.0, "{r}");
+    }
+    let functional = run_json(&["-c", "SMS", "--fidelity", "functional"]);
+    assert!(functional["results"][0]["thread_cycles"].is_null());
+    let text =
+        stdout(&sms(&[&["run", "-q"], &TINY[..], &["-c", "SMS", "--fidelity", "functional"]].concat()));
+    assert!(text.lines().any(|l| l.starts_with("thread-cycles ") && l.contains("n/a")), "{text}");
+    let sampled = stdout(&sms(&[&["run", "-q"], &TINY[..], &["-c", "SMS", "--sample", "0.5"]].concat()));
+    assert!(sampled.contains("thread-cycles: stack (sampled warps)"), "{sampled}");
+}
+
 #[test]
 fn cost_and_depth_reports_state_their_provenance() {
     let cost: Value = serde_json::from_str(&stdout(&sms(&["cost", "-c", "SMS,RB_8", "--json"]))).unwrap();

@@ -9,8 +9,17 @@ use serde_json::Value;
 
 mod common;
 
-const FIGURES: [&str; 8] =
-    ["performance", "offchip", "bank_conflicts", "skew", "rb_sweep", "l1d_sweep", "depth", "cost"];
+const FIGURES: [&str; 9] = [
+    "performance",
+    "offchip",
+    "bank_conflicts",
+    "skew",
+    "rb_sweep",
+    "l1d_sweep",
+    "depth",
+    "cost",
+    "thread_cycles",
+];
 const SCENES: [&str; 2] = ["wknd", "clutter"];
 
 fn out_dir(name: &str) -> PathBuf {
@@ -115,6 +124,7 @@ fn a_sweep_writes_every_file_and_does_not_depend_on_thread_count() {
     }
 
     check_performance(&one, &report);
+    check_thread_cycles(&one, &report);
     check_pareto(&one);
     let _ = std::fs::remove_dir_all(&one);
     let _ = std::fs::remove_dir_all(&two);
@@ -155,6 +165,63 @@ fn check_performance(dir: &Path, report: &Value) {
     assert!(csv.starts_with("# provenance: scene wknd,clutter · 16x16 px"), "{csv}");
     let mut rows = csv.lines().filter(|l| !l.starts_with('#'));
     assert!(rows.nth(1).unwrap().starts_with("RB_8,1.0000,1.0000,1.0000"), "{csv}");
+}
+
+/// The thread-cycle figure has every configuration of the base L1D, each category summed over
+/// the scenes from the raw runs in units of RB_8's total (RB_8's bar is exactly 1), and the
+/// per-scene CSV a row of counts for every scene and configuration.
+fn check_thread_cycles(dir: &Path, report: &Value) {
+    const NAMES: [&str; 5] = ["node_data", "fetch_queue", "stack", "latency", "idle"];
+    let base_runs: Vec<&Value> =
+        report["runs"].as_array().unwrap().iter().filter(|r| r["l1d_kb"] == 64).collect();
+    let counts = |scene: &str, config: &str| -> Vec<u64> {
+        let run = base_runs.iter().find(|r| r["scene"] == scene && r["config"] == config).unwrap();
+        NAMES.map(|n| run["outcome"]["gpu"][format!("thread_cycles_{n}")].as_u64().unwrap()).to_vec()
+    };
+    let total = |config: &str| -> f64 { SCENES.iter().flat_map(|s| counts(s, config)).sum::<u64>() as f64 };
+    let performance = json(&dir.join("performance.json"));
+    let configs: Vec<&str> = performance["data"]["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["config"].as_str().unwrap())
+        .collect();
+    assert_eq!(configs.len() * SCENES.len(), base_runs.len(), "every configuration of the base L1D");
+    let figure = json(&dir.join("thread_cycles.json"));
+    let rows = figure["data"]["rows"].as_array().unwrap();
+    let drawn: Vec<&str> = rows.iter().map(|r| r["config"].as_str().unwrap()).collect();
+    assert_eq!(drawn, configs, "every configuration, in plan order");
+    for row in rows {
+        let c = row["config"].as_str().unwrap();
+        let rel: Vec<f64> =
+            row["relative_to_baseline"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        for (i, r) in rel.iter().enumerate() {
+            let hand = SCENES.iter().map(|s| counts(s, c)[i]).sum::<u64>() as f64 / total("RB_8");
+            assert!((r - hand).abs() <= 1e-12, "{c} {}: {r} vs {hand}", NAMES[i]);
+        }
+        assert!(rel[2] > 0.0 && rel[0] > 0.0, "{c}: stack and node data thread-cycles");
+        let height: f64 = rel.iter().sum();
+        if c == "RB_8" {
+            assert!((height - 1.0).abs() < 1e-12, "RB_8's bar is 1: {height}");
+        }
+    }
+    let csv = std::fs::read_to_string(dir.join("thread_cycles_per_scene.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(lines.len(), 1 + SCENES.len() * configs.len(), "{csv}");
+    for scene in SCENES {
+        for c in &configs {
+            let want = counts(scene, c).iter().map(u64::to_string).collect::<Vec<_>>().join(",");
+            let row = format!("{scene},{c},{want},");
+            assert!(lines.iter().any(|l| l.starts_with(&row)), "no row {row} in {csv}");
+        }
+    }
+    let svg = std::fs::read_to_string(dir.join("thread_cycles.svg")).unwrap();
+    for label in ["node data", "fetch queue", "stack", "latency", "idle"] {
+        assert!(svg.contains(label), "the legend names {label}");
+    }
+    for c in &configs {
+        assert!(svg.contains(c), "the figure labels {c}");
+    }
 }
 
 /// Every design marked Pareto-optimal is undominated, every other one is dominated.

@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{guard, Format, HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
+use crate::report::breakdown::{self, Shares};
 use crate::report::provenance::{Provenance, WorkloadId};
 use crate::report::table::Table;
 use crate::run::sampling::SamplePlan;
@@ -106,6 +107,9 @@ struct ConfigResult {
     sampled: Option<Sampled>,
     /// Averages per ray of what was simulated.
     per_ray: PerRay,
+    /// Shares of the RT units' thread-cycles of what was simulated (a sample: its warps'
+    /// launch); `null` at the functional level.
+    thread_cycles: Option<Shares>,
     /// Seconds from the start of the simulations to this configuration's end (its `wall` is
     /// how long it took).
     #[serde(serialize_with = "crate::run::sim::serialize_secs")]
@@ -226,7 +230,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         r.map(|(full, sampled)| {
             let simulated = full.or(sampled.as_ref().and_then(|s| s.launch));
             let per_ray = simulated.map_or(PerRay::default(), |o| PerRay::of(&o, rays));
-            ConfigResult { config: specs[i].config.name(), full, sampled, per_ray, finished_at }
+            let thread_cycles = simulated.as_ref().and_then(breakdown::of).as_ref().and_then(Shares::of);
+            ConfigResult {
+                config: specs[i].config.name(),
+                full,
+                sampled,
+                per_ray,
+                thread_cycles,
+                finished_at,
+            }
         })
     })
     .into_iter()
@@ -331,6 +343,19 @@ fn table(report: &RunReport) -> Table {
             "warp jobs (traceRay calls) simulated",
             full(&|o| o.gpu.map_or("-".into(), |g| g.warp_jobs.to_string())),
         );
+    }
+    // Where the thread-cycles went, as shares; a sample's are those of its warps' launch.
+    let sampled = rs.iter().any(|r| r.full.is_none() && r.sampled.is_some());
+    let of = if sampled { " (sampled warps)" } else { "" };
+    if rs.iter().any(|r| r.thread_cycles.is_some()) {
+        for (i, label) in breakdown::LABELS.iter().enumerate() {
+            let share = |r: &ConfigResult| {
+                r.thread_cycles.map_or("-".into(), |s| format!("{:.1} %", 100.0 * s.values()[i]))
+            };
+            row(&format!("thread-cycles: {label}{of}"), rs.iter().map(share).collect());
+        }
+    } else {
+        row("thread-cycles", rs.iter().map(|_| "n/a (functional)".to_string()).collect());
     }
     /// A per-ray figure of a result.
     type PerRayField<'f> = &'f dyn Fn(&PerRay) -> Option<f64>;

@@ -7,7 +7,7 @@
 
 use serde_json::{json, Value};
 
-use super::plot::{Bars, Chart, Line, Point};
+use super::plot::{family_shades, Bars, Chart, Line, Point};
 use crate::error::{Error, Result};
 use crate::report::cost::CostReport;
 use crate::report::table::Table;
@@ -40,6 +40,7 @@ pub fn all(s: &Sweep) -> Result<Vec<Figure>> {
         l1d_sweep(s),
         depth(s),
         cost(s)?,
+        super::breakdown::figure(s),
     ])
 }
 
@@ -163,11 +164,23 @@ fn ratio(a: Option<u64>, b: Option<u64>) -> Option<f64> {
     (b > 0.0).then(|| a / b)
 }
 
+/// The family a configuration's bar belongs to in the performance figure: RB sizes (no SH
+/// stack), SH sizes (SH stacks, no skew or reallocation), the SMS steps (skew, reallocation, and
+/// SMS at other RB sizes).
+fn family(c: &rtl::config::Config) -> usize {
+    match (c.sh_entries, c.skew || c.realloc.is_some()) {
+        (0, _) => 0,
+        (_, false) => 1,
+        (_, true) => 2,
+    }
+}
+
 /// Figure 1: Performance normalised to RB_8, per scene and as the geometric mean.
 pub fn performance(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let scenes = s.scene_names();
-    let configs: Vec<String> = s.base_variants().iter().map(|v| v.config.name()).collect();
+    let variants = s.base_variants();
+    let configs: Vec<String> = variants.iter().map(|v| v.config.name()).collect();
     let mut table =
         Table::new(std::iter::once("config".to_string()).chain(scenes.clone()).chain(["geomean".into()]));
     let mut rows = Vec::new();
@@ -181,6 +194,10 @@ pub fn performance(s: &Sweep) -> Figure {
             scenes.iter().zip(&per).map(|(sc, v)| json!({ "scene": sc, "speedup": v })).collect();
         rows.push(json!({ "config": c, "per_scene": per_scene, "geomean": g }));
     }
+    // The bars of a family side by side (in plan order within it), a hue per family.
+    let mut families: Vec<(usize, Bars)> = variants.iter().map(|v| family(&v.config)).zip(series).collect();
+    families.sort_by_key(|f| f.0);
+    let (families, series): (Vec<usize>, Vec<Bars>) = families.into_iter().unzip();
     Figure {
         name: "performance",
         title: format!("Performance normalised to {BASELINE} ({kb} KB L1D)"),
@@ -195,6 +212,7 @@ pub fn performance(s: &Sweep) -> Figure {
             y_desc: format!("speed-up over {BASELINE}"),
             groups: scenes.iter().cloned().chain(["geomean".into()]).collect(),
             series,
+            colors: family_shades(&families),
             rule: Some(1.0),
             zoom: true,
         },

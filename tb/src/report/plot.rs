@@ -114,6 +114,32 @@ fn series_color(i: usize, n: usize) -> RGBColor {
     RGBColor(shade(r), shade(g), shade(b))
 }
 
+/// The hue of each family of series ([`family_shades`]): Okabe and Ito's blue, orange, bluish
+/// green, vermillion, sky blue, reddish purple, then again.
+const FAMILY_HUES: [usize; 6] = [0, 1, 2, 3, 4, 5];
+
+/// Colours for series that come in families (`family[i]`: series `i`'s, from 0): a hue per
+/// family, and within a family shades from dark to light in series order, so a family reads as
+/// one colour and neighbours always differ (in hue across families, in shade within one).
+pub fn family_shades(family: &[usize]) -> Vec<RGBColor> {
+    let size = |f: usize| family.iter().filter(|&&g| g == f).count();
+    family
+        .iter()
+        .enumerate()
+        .map(|(i, &f)| {
+            let RGBColor(r, g, b) = color(FAMILY_HUES[f % FAMILY_HUES.len()]);
+            let (rank, m) = (family[..i].iter().filter(|&&g| g == f).count(), size(f));
+            // From 35 % darker to halfway to white.
+            let t = if m < 2 { 0.0 } else { -0.35 + 0.85 * rank as f64 / (m - 1) as f64 };
+            let shade = |c: u8| {
+                let c = f64::from(c);
+                (if t < 0.0 { c * (1.0 + t) } else { c + (255.0 - c) * t }).round() as u8
+            };
+            RGBColor(shade(r), shade(g), shade(b))
+        })
+        .collect()
+}
+
 /// Label of the row at position `v` of a bar chart whose rows sit at integers.
 fn row_label(labels: &[String], v: f64) -> String {
     let i = v.round();
@@ -194,14 +220,17 @@ pub fn hbars(
 
 /// Vertical bars grouped as the paper's figures are: one group per label along the x axis (e.g.
 /// each scene, then the geomean), one bar per series in every group (e.g. each configuration),
-/// the series in the legend. `rule` is a horizontal line (e.g. the baseline's 1.0); with `zoom`
-/// the axis spans only the values, otherwise it starts at zero.
+/// the series in the legend, coloured by `colors` (one per series; empty: the palette in order).
+/// `rule` is a horizontal line (e.g. the baseline's 1.0); with `zoom` the axis spans only the
+/// values, otherwise it starts at zero.
+#[allow(clippy::too_many_arguments)]
 pub fn grouped_bars(
     path: &Path,
     title: &str,
     y_desc: &str,
     groups: &[String],
     series: &[Bars],
+    colors: &[RGBColor],
     rule: Option<f64>,
     zoom: bool,
 ) -> Result<()> {
@@ -229,7 +258,7 @@ pub fn grouped_bars(
         .map_err(|e| to_err(path, e))?;
     let slot = 0.8 / k as f64;
     for (s, b) in series.iter().enumerate() {
-        let style = series_color(s, k).filled();
+        let style = colors.get(s).copied().unwrap_or_else(|| series_color(s, k)).filled();
         let rects = b.values.iter().enumerate().filter_map(|(g, v)| {
             let x = g as f64 - 0.4 + slot * s as f64;
             v.map(|v| Rectangle::new([(x, bottom), (x + slot * 0.9, v)], style))
@@ -262,6 +291,64 @@ pub fn grouped_bars(
                 PathElement::new(vec![(x0 - 7, y0 + dy + 3), (x0 + 7, y0 + dy - 3)], BLACK.stroke_width(2));
             plot.draw(&stroke).map_err(|e| to_err(path, e))?;
         }
+    }
+    root.present().map_err(|e| to_err(path, e))
+}
+
+/// Stacked horizontal bars, one row per label, each made of `segments` from the axis out
+/// (segment `j`'s value in row `i` is `segments[j].values[i]`), coloured by `colors` and named in
+/// a legend beside the plot in stacking order; `rule` is a vertical line (e.g. the baseline's
+/// total). The axis starts at zero.
+pub fn stacked_bars(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    labels: &[String],
+    segments: &[Bars],
+    colors: &[RGBColor],
+    rule: Option<f64>,
+) -> Result<()> {
+    let n = labels.len().max(1);
+    let totals: Vec<f64> =
+        (0..n).map(|i| segments.iter().filter_map(|b| b.values.get(i).copied().flatten()).sum()).collect();
+    let (left, right) = value_range(totals.iter().copied().chain(rule), false);
+    const LEGEND_W: u32 = 130;
+    let height = (SIZE.1).max(90 + 28 * n as u32);
+    let root = canvas(path, (SIZE.0 + LEGEND_W, height))?;
+    let (plot, legend) = root.split_horizontally(SIZE.0);
+    let mut chart = chart_on(&plot, path, title, 170, left..right, -0.5..n as f64 - 0.5)?;
+    let label = |v: &f64| row_label(labels, *v);
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_labels(4 * n)
+        .y_label_formatter(&label)
+        .disable_y_mesh()
+        .draw()
+        .map_err(|e| to_err(path, e))?;
+    let mut start = vec![0.0; n];
+    for (j, b) in segments.iter().enumerate() {
+        let style = colors.get(j).copied().unwrap_or_else(|| color(j)).filled();
+        let rects: Vec<_> = (0..n)
+            .filter_map(|i| {
+                let v = b.values.get(i).copied().flatten()?;
+                let y = i as f64;
+                let r = Rectangle::new([(start[i], y - 0.35), (start[i] + v, y + 0.35)], style);
+                start[i] += v;
+                Some(r)
+            })
+            .collect();
+        chart.draw_series(rects).map_err(|e| to_err(path, e))?;
+        let y = 50 + 18 * j as i32;
+        legend.draw(&Rectangle::new([(8, y - 5), (22, y + 5)], style)).map_err(|e| to_err(path, e))?;
+        legend
+            .draw(&Text::new(b.name.clone(), (28, y - 7), ("sans-serif", 12)))
+            .map_err(|e| to_err(path, e))?;
+    }
+    if let Some(r) = rule {
+        chart
+            .draw_series(LineSeries::new([(r, -0.5), (r, n as f64 - 0.5)], BLACK.stroke_width(1)))
+            .map_err(|e| to_err(path, e))?;
     }
     root.present().map_err(|e| to_err(path, e))
 }
@@ -563,8 +650,19 @@ pub enum Chart {
         y_desc: String,
         groups: Vec<String>,
         series: Vec<Bars>,
+        /// One per series; empty: the palette in order.
+        colors: Vec<RGBColor>,
         rule: Option<f64>,
         zoom: bool,
+    },
+    Stacked {
+        x_desc: String,
+        labels: Vec<String>,
+        /// From the axis out.
+        segments: Vec<Bars>,
+        /// One per segment.
+        colors: Vec<RGBColor>,
+        rule: Option<f64>,
     },
 }
 
@@ -578,8 +676,11 @@ impl Chart {
                 lines(path, title, x_desc, y_desc, *log2_x, *zoom, series)
             }
             Chart::Scatter { x_desc, y_desc, points } => scatter(path, title, x_desc, y_desc, points),
-            Chart::Grouped { y_desc, groups, series, rule, zoom } => {
-                grouped_bars(path, title, y_desc, groups, series, *rule, *zoom)
+            Chart::Grouped { y_desc, groups, series, colors, rule, zoom } => {
+                grouped_bars(path, title, y_desc, groups, series, colors, *rule, *zoom)
+            }
+            Chart::Stacked { x_desc, labels, segments, colors, rule } => {
+                stacked_bars(path, title, x_desc, labels, segments, colors, *rule)
             }
         }
     }
@@ -602,7 +703,7 @@ mod tests {
             .collect();
         let svg = |zoom: bool| {
             let path = dir.join(format!("g{zoom}.svg"));
-            grouped_bars(&path, "t", "speed-up", &groups, &series, Some(1.0), zoom).unwrap();
+            grouped_bars(&path, "t", "speed-up", &groups, &series, &[], Some(1.0), zoom).unwrap();
             std::fs::read_to_string(path).unwrap()
         };
         let (zoomed, full) = (svg(true), svg(false));
@@ -637,6 +738,52 @@ mod tests {
             assert_eq!(distinct.len(), n.min(24), "{n} series");
         }
         assert_eq!((0..8).map(|i| series_color(i, 8)).collect::<Vec<_>>(), OKABE_ITO);
+    }
+
+    #[test]
+    fn a_family_shares_a_hue_in_distinct_shades_and_neighbours_differ() {
+        // The paper set's families: six RB sizes, three SH sizes, five SMS steps and RB sizes.
+        let family = [0, 0, 0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2, 2];
+        let c = family_shades(&family);
+        for w in c.windows(2) {
+            assert_ne!(w[0], w[1]);
+        }
+        let distinct: std::collections::HashSet<_> = c.iter().map(|c| (c.0, c.1, c.2)).collect();
+        assert_eq!(distinct.len(), family.len(), "every bar its own colour");
+        // A shade keeps its hue: the channels keep their order, so blue stays blue.
+        let order = |c: &RGBColor| {
+            let mut i = [(c.0, 0), (c.1, 1), (c.2, 2)];
+            i.sort();
+            i.map(|x| x.1)
+        };
+        for (f, hue) in [(0, 0), (1, 1), (2, 2)] {
+            for (col, _) in c.iter().zip(&family).filter(|x| *x.1 == f) {
+                assert_eq!(order(col), order(&color(hue)), "family {f}: {col:?}");
+            }
+        }
+        assert_eq!(family_shades(&[0, 1, 2]), vec![color(0), color(1), color(2)], "one member: the hue");
+    }
+
+    #[test]
+    fn stacked_bars_draw_every_segment_of_every_bar() {
+        let dir = std::env::temp_dir().join(format!("sms-plot-stacked-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let labels: Vec<String> = ["RB_8", "SMS"].map(String::from).to_vec();
+        let segments: Vec<Bars> = (0..3)
+            .map(|j| Bars { name: format!("part{j}"), values: vec![Some(0.25 + j as f64 * 0.1), Some(0.2)] })
+            .collect();
+        let path = dir.join("s.svg");
+        stacked_bars(&path, "t", "share", &labels, &segments, &[], Some(1.0)).unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        for j in 0..3 {
+            assert!(svg.contains(&format!("part{j}")), "legend names segment {j}");
+        }
+        let filled =
+            |c: RGBColor| svg.matches(&format!("fill=\"#{:02X}{:02X}{:02X}\"", c.0, c.1, c.2)).count();
+        for j in 0..3 {
+            assert_eq!(filled(color(j)), 2 + 1, "two bars and a legend key of segment {j}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -27,6 +27,7 @@ use rtl::config::Config;
 use rtl::gpu::{Gpu, GpuReport, Progress};
 use rtl::ray_op::{self, NodeKind as RtlKind, RayOp};
 use rtl::stack_manager::StackStats;
+use rtl::thread_cycles::ThreadCycles;
 use rtl::trace::{NullSink, Sink};
 use serde::Serialize;
 
@@ -137,7 +138,7 @@ pub fn stack_counts<S: serde::Serializer>(c: &StackStats, s: S) -> std::result::
 /// scales with the share of the frame simulated, a `rate` does not, and `last_dispatch` (a cycle
 /// number, kept for the drain) neither.
 macro_rules! gpu_counts {
-    ($($(#[$doc:meta])* $kind:ident $f:ident = $from:ident),+ $(,)?) => {
+    ($($(#[$doc:meta])* $kind:ident $f:ident = $($from:ident).+),+ $(,)?) => {
         /// The cycle level's GPU-wide measurements.
         #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
         pub struct GpuCounts {
@@ -169,7 +170,7 @@ macro_rules! gpu_counts {
 
         impl From<&GpuReport> for GpuCounts {
             fn from(r: &GpuReport) -> Self {
-                GpuCounts { $($f: r.$from),+ }
+                GpuCounts { $($f: r.$($from).+),+ }
             }
         }
     };
@@ -204,6 +205,30 @@ gpu_counts! {
     count bank_conflict_cycles = bank_conflict_cycles,
     /// Cycle of the last job's dispatch; the rest of the run is the drain.
     cycle last_dispatch = last_dispatch,
+    /// The RT units' thread-cycles by category (`rtl::thread_cycles::ThreadCycles`): together
+    /// `cycles` × SMs × warp-buffer slots × warp size. Waiting for node data (WaitMem).
+    count thread_cycles_node_data = thread_cycles.node_data,
+    /// Waiting to fetch and allowed to (for the scheduler or the memory port).
+    count thread_cycles_fetch_queue = thread_cycles.fetch_queue,
+    /// Waiting on the stack sequencer (a stack command, or a fetch it holds back).
+    count thread_cycles_stack = thread_cycles.stack,
+    /// In an operation unit (operation latency, BVH header).
+    count thread_cycles_latency = thread_cycles.latency,
+    /// Empty slot, inactive or finished lane.
+    count thread_cycles_idle = thread_cycles.idle,
+}
+
+impl GpuCounts {
+    /// The thread-cycle breakdown as `rtl`'s [`ThreadCycles`].
+    pub fn thread_cycles(&self) -> ThreadCycles {
+        ThreadCycles {
+            node_data: self.thread_cycles_node_data,
+            fetch_queue: self.thread_cycles_fetch_queue,
+            stack: self.thread_cycles_stack,
+            latency: self.thread_cycles_latency,
+            idle: self.thread_cycles_idle,
+        }
+    }
 }
 
 /// The headline metrics every fidelity and sample reports, by name.
@@ -745,6 +770,11 @@ mod tests {
             l2_hit_rate: 0.25,
             bank_conflict_cycles: 110,
             last_dispatch: 120,
+            thread_cycles_node_data: 130,
+            thread_cycles_fetch_queue: 140,
+            thread_cycles_stack: 150,
+            thread_cycles_latency: 160,
+            thread_cycles_idle: 170,
         };
         let o = Outcome {
             fidelity: Fidelity::Cycle,

@@ -54,8 +54,10 @@ pub const MODEL_VERSION: &str = env!("SMS_MODEL_VERSION");
 /// The environment variable of the testing hook (see the module documentation).
 pub const STOP_AFTER_ENV: &str = "SMS_SWEEP_STOP_AFTER";
 
-/// Bumped when the file layout changes without a source change the model version would see.
-const FORMAT: &str = "sms-sweep-cache 1";
+/// Bumped when the file layout changes, so that files of another layout are stale (and a
+/// result lacking a field a figure needs is never read as one with it). 2: the GPU counts end
+/// with the thread-cycle breakdown.
+const FORMAT: &str = "sms-sweep-cache 2";
 
 /// FNV-1a, 128 bits: the scene content hash and the file names.
 struct Fnv(u128);
@@ -459,12 +461,14 @@ impl Cache {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rtl::thread_cycles::ThreadCycles;
 
     fn measured() -> Measured {
         let gpu = GpuCounts {
             cycles: 12345,
             l1d_hit_rate: 0.1 + 0.2,
             l2_hit_rate: 1.0 / 3.0,
+            thread_cycles_stack: 77,
             ..Default::default()
         };
         let outcome = Outcome {
@@ -560,6 +564,28 @@ mod tests {
         assert!(!c.path(&old_key).exists() && !old_temp.exists() && dir.join(".tmp-1-1").exists());
         assert_eq!(pruned.get_run(&key), Some(measured()), "the current result stays usable");
         assert_eq!(Cache::open(&dir).unwrap().stats().stale, 0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A result stored in the layout without the thread-cycle breakdown (five GPU words fewer)
+    /// is recomputed, not read with the breakdown missing; under the previous format's key it
+    /// is stale besides.
+    #[test]
+    fn a_result_without_the_thread_cycle_breakdown_is_recomputed() {
+        let dir = temp("breakdown");
+        let c = Cache::open(&dir).unwrap();
+        let key = run_key("scene", &WorkloadOpts::default(), None, &Config::default(), &Hardware::default());
+        c.put_run(&key, &measured()).unwrap();
+        let mut r: serde_json::Value = serde_json::from_slice(&std::fs::read(c.path(&key)).unwrap()).unwrap();
+        let words = r["gpu"].as_array_mut().unwrap();
+        words.truncate(words.len() - ThreadCycles::NAMES.len());
+        std::fs::write(c.path(&key), serde_json::to_vec(&r).unwrap()).unwrap();
+        assert_eq!(c.get_run(&key), None, "a record without the breakdown is no result");
+        assert_eq!(c.stats().ignored, 1);
+        let old_key = key.replacen(FORMAT, "sms-sweep-cache 1", 1);
+        assert_ne!(old_key, key);
+        c.put_run(&old_key, &measured()).unwrap();
+        assert_eq!(Cache::open(&dir).unwrap().stats().stale, 1, "the previous format's file is stale");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
