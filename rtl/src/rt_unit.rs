@@ -548,8 +548,11 @@ impl RtUnit {
         d.node_taken = i.req_fire && d.port == Port::Node;
         d.took_stack = i.req_fire && d.port == Port::Stack;
         d.store_taken = d.took_stack && self.stack_unit.req().is_some_and(|g| g.write);
-        // The registers have held since the last edge: this cycle and any skipped before it.
-        d.held = self.held_fetches();
+        // The lanes waiting to fetch, sorted once: the warps the scheduler may pick, and the lanes
+        // the sequencer holds back, whose registers have held since the last edge (this cycle and
+        // any skipped before it).
+        let (fetch_ready, held) = self.fetch_census();
+        d.held = held;
         d.held_cycles = now + 1 - self.counted_to;
         let manager = &self.stack_unit.manager;
 
@@ -570,10 +573,7 @@ impl RtUnit {
         let stack_waits = self.rt.port_priority == PortPriority::Node && self.stack_unit.req().is_some();
         if self.fetch.queue_len() == usize::from(d.node_taken) && !stack_waits {
             let leaving = &d.leaving;
-            // The fetchable lanes of each warp with lanes waiting to fetch, computed once.
-            let ready = Bits::of(self.warp_buffer.fetch_warps())
-                .filter(|&w| !leaving.contains(&w) && self.fetchable(w) != 0)
-                .fold(0u64, |m, w| m | 1 << w);
+            let ready = leaving.iter().fold(fetch_ready, |m, &w| m & !(1 << w));
             if let Some(w) = self.scheduler.pick(
                 self.rt.warp_select,
                 |w| leaving.contains(&w),
@@ -793,7 +793,7 @@ impl RtUnit {
     pub fn thread_cycles(&self, cycles: u64) -> ThreadCycles {
         let b = &self.warp_buffer;
         let since = cycles.checked_sub(self.counted_to).expect("a report covers every edge");
-        let held = self.stats.held_fetch_cycles + u64::from(self.held_fetches()) * since;
+        let held = self.stats.held_fetch_cycles + u64::from(self.fetch_census().1) * since;
         let t = ThreadCycles {
             node_data: b.lane_cycles(ThreadState::WAIT_MEM, cycles),
             fetch_queue: b.lane_cycles(ThreadState::FETCH, cycles) - held,
@@ -804,19 +804,14 @@ impl RtUnit {
         ThreadCycles { idle: cycles * u64::from(self.cfg.threads()) - t.total(), ..t }
     }
 
-    /// Lanes waiting to fetch that are not fetchable: with Blocking timing, those whose stack
-    /// sequencer holds the fetch back.
-    fn held_fetches(&self) -> u32 {
+    /// The warps with a fetchable lane (a mask), and the lanes waiting to fetch that are not
+    /// fetchable: with Blocking timing, those whose stack sequencer holds the fetch back.
+    fn fetch_census(&self) -> (u64, u32) {
         let b = &self.warp_buffer;
-        match self.rt.stack_timing {
-            StackTiming::Overlapped => 0,
-            StackTiming::Blocking => Bits::of(b.fetch_warps())
-                .map(|w| match b.lanes(w).fetch & !self.fetchable(w) {
-                    0 => 0,
-                    m => m.count_ones(),
-                })
-                .sum(),
-        }
+        Bits::of(b.fetch_warps()).fold((0, 0), |(ready, held), w| {
+            let f = self.fetchable(w);
+            (if f != 0 { ready | 1 << w } else { ready }, held + (b.lanes(w).fetch & !f).count_ones())
+        })
     }
 
     /// Lanes of warp `w` the scheduler may start fetching: those waiting to fetch, and with

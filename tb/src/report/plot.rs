@@ -140,6 +140,13 @@ pub fn family_shades(family: &[usize]) -> Vec<RGBColor> {
         .collect()
 }
 
+/// Entry `k` of a legend drawn beside a plot: a swatch in `style` and `name`.
+fn legend_entry(legend: &Area<'_>, path: &Path, k: usize, name: &str, style: ShapeStyle) -> Result<()> {
+    let y = 50 + 18 * k as i32;
+    legend.draw(&Rectangle::new([(8, y - 5), (22, y + 5)], style)).map_err(|e| to_err(path, e))?;
+    legend.draw(&Text::new(name.to_string(), (28, y - 7), ("sans-serif", 12))).map_err(|e| to_err(path, e))
+}
+
 /// Label of the row at position `v` of a bar chart whose rows sit at integers.
 fn row_label(labels: &[String], v: f64) -> String {
     let i = v.round();
@@ -272,11 +279,7 @@ pub fn grouped_bars(
             plot.draw(&Text::new(format!("{v:.3}"), (px - 6, py - 4), font)).map_err(|e| to_err(path, e))?;
         }
         // The legend beside the plot, in series order (the order of the bars in every group).
-        let y = 50 + 18 * s as i32;
-        legend.draw(&Rectangle::new([(8, y - 5), (22, y + 5)], style)).map_err(|e| to_err(path, e))?;
-        legend
-            .draw(&Text::new(b.name.clone(), (28, y - 7), ("sans-serif", 12)))
-            .map_err(|e| to_err(path, e))?;
+        legend_entry(&legend, path, s, &b.name, style)?;
     }
     if let Some(r) = rule {
         chart
@@ -339,11 +342,7 @@ pub fn stacked_bars(
             })
             .collect();
         chart.draw_series(rects).map_err(|e| to_err(path, e))?;
-        let y = 50 + 18 * j as i32;
-        legend.draw(&Rectangle::new([(8, y - 5), (22, y + 5)], style)).map_err(|e| to_err(path, e))?;
-        legend
-            .draw(&Text::new(b.name.clone(), (28, y - 7), ("sans-serif", 12)))
-            .map_err(|e| to_err(path, e))?;
+        legend_entry(&legend, path, j, &b.name, style)?;
     }
     if let Some(r) = rule {
         chart
