@@ -794,14 +794,18 @@ impl RtUnit {
         let b = &self.warp_buffer;
         let since = cycles.checked_sub(self.counted_to).expect("a report covers every edge");
         let held = self.stats.held_fetch_cycles + u64::from(self.fetch_census().1) * since;
+        // A held fetch is a lane waiting to fetch, and the states' lanes fit in the slots: a model
+        // bug otherwise, never a count that wraps.
+        let fetch = b.lane_cycles(ThreadState::FETCH, cycles);
         let t = ThreadCycles {
             node_data: b.lane_cycles(ThreadState::WAIT_MEM, cycles),
-            fetch_queue: b.lane_cycles(ThreadState::FETCH, cycles) - held,
+            fetch_queue: fetch.checked_sub(held).expect("held fetches outnumber the lanes waiting to fetch"),
             stack: b.lane_cycles(ThreadState::STACK, cycles) + held,
             latency: b.lane_cycles(ThreadState::BUSY, cycles),
             idle: 0,
         };
-        ThreadCycles { idle: cycles * u64::from(self.cfg.threads()) - t.total(), ..t }
+        let slots = cycles * u64::from(self.cfg.threads());
+        ThreadCycles { idle: slots.checked_sub(t.total()).expect("more lane-cycles than slots"), ..t }
     }
 
     /// The warps with a fetchable lane (a mask), and the lanes waiting to fetch that are not

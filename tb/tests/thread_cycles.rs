@@ -32,7 +32,7 @@ fn share(t: &ThreadCycles, part: u64) -> f64 {
 }
 
 /// Every slot in every cycle in exactly one category: the categories add up to cycles × slots
-/// (each RT unit's own sum is checked when the report is made), and none is empty on a real
+/// (idle is the rest; a report fails if the other four overfill an RT unit's slots), and none is empty on a real
 /// scene where rays wait for memory, for the port, on their stacks and in operation units.
 #[test]
 fn the_categories_fill_every_slot_in_every_cycle() {
