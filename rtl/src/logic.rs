@@ -58,6 +58,14 @@ pub trait Logic {
     /// False only if `c` is certainly false (work guarded by `c` may then be skipped).
     fn maybe(&mut self, c: Self::Bit) -> bool;
 
+    /// `a` and `b` are certainly the same word (a write to one may replace a write to the
+    /// other); false when unknown.
+    fn same(&self, a: Self::Word, b: Self::Word) -> bool;
+    /// Every word is a known value: [`Logic::same`] is equality.
+    fn exact(&self) -> bool;
+    /// The word's value where it is known, else 0 (for messages only, never for decisions).
+    fn concrete(&self, w: Self::Word) -> u32;
+
     // ---- derived operators ------------------------------------------------------------------
 
     fn ne(&mut self, a: Self::Word, b: Self::Word) -> Self::Bit {
@@ -180,6 +188,18 @@ impl Logic for Int {
         } else {
             b
         }
+    }
+    #[inline(always)]
+    fn same(&self, a: u32, b: u32) -> bool {
+        a == b
+    }
+    #[inline(always)]
+    fn exact(&self) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn concrete(&self, w: u32) -> u32 {
+        w
     }
     #[inline(always)]
     fn decide(&mut self, c: bool) -> bool {

@@ -662,12 +662,12 @@ impl RtUnit {
         let stack_in =
             StackUnitIn { now, cmds: &d.cmds, req_ready: d.took_stack, completions: &d.completions };
         self.stack_unit.eval(stack_in, &mut d.stack);
-        if let Some(&error) = d.stack.manager.errors.first() {
+        if let Some(&error) = d.stack.manager.errors().first() {
             return Err(RunError::Stack { cycle: now, sm: self.id, error });
         }
         // Each pop the traces expect is matched by thread: a pop the manager did not answer is an
         // error too, not a check skipped.
-        let pops = &d.stack.manager.pops;
+        let pops = d.stack.manager.pops();
         for &(thread, expected) in &d.expected_pops {
             match pops.iter().find(|p| p.0 == thread) {
                 Some(&(_, got)) if got == expected => {}

@@ -46,13 +46,15 @@ use crate::mem::addr::{LocalLayout, LocalMap};
 use crate::mem_sched::GReq;
 use crate::trace::Sink;
 
+pub mod cycle;
 pub mod mutants;
 pub mod policy;
 mod probe;
 pub mod regs;
 
+use cycle::{CycleIn, CycleSteps, Journal, Overlay, Registers, Store, WriteOf};
 pub use mutants::Mutant;
-use policy::{Design, Plan, RbOp, Regfile, Steps, UopL};
+use policy::{Design, Plan, RbOp, Regs, Thread};
 pub use regs::*;
 
 #[derive(Debug, Default, PartialEq, Eq, Hash)]
@@ -76,109 +78,58 @@ impl Clone for Sequencer {
     }
 }
 
-/// One entry of the cycle's journal: a register or memory write the cycle decided, applied in
-/// order at the clock edge, or a command the cycle took.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-enum Write {
-    /// A thread's command as it came in: the edge writes nothing for it (its plan's writes
-    /// follow); kept so that the probe shows the cycle's commands.
-    Cmd(u32, Cmd),
-    Thread(u32, ThreadRegs),
-    RbPushBack(u32, Entry),
-    RbPopBack(u32),
-    RbPopFront(u32),
-    RbPushFront(u32, Entry),
-    Sh(usize, Entry),
-    Global {
-        thread: u32,
-        slot: u32,
-        value: Entry,
-    },
-    /// A sequencer's next state; `issued`: its queue's head left.
-    Seq {
-        thread: u32,
-        issued: bool,
-        inflight: Option<Uop>,
-        latch: Option<Entry>,
-    },
-    Emit(u32, Uop),
-}
-
-/// This cycle's inputs of the stack manager.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct StackIn<'a> {
-    /// Commands, at most one per thread, each from a thread that is [`StackManager::ready`].
-    pub cmds: &'a [(u32, Cmd)],
-    /// Threads whose SH request the bank arbiter completed (its registered `done`).
-    pub done: &'a [u32],
-    /// Thread whose load data (or, with acknowledged stores, store acknowledgement) the response
-    /// FIFO delivered (its registered `deq`).
-    pub deq: Option<u32>,
-}
+/// This cycle's inputs of the stack manager: commands, at most one per thread, each from a
+/// thread that is [`StackManager::ready`]; the threads whose SH request the bank arbiter
+/// completed (its registered `done`); the thread whose load data (or, with acknowledged stores,
+/// store acknowledgement) the response FIFO delivered (its registered `deq`).
+pub type StackIn<'a> = CycleIn<'a, Entry>;
 
 /// The stack manager's cycle: its outputs and the writes its registers take at the clock edge
-/// ([`Unit::eval`], [`Unit::commit`]). A reusable buffer: a cycle allocates nothing once it has
-/// grown.
+/// ([`Unit::eval`], [`Unit::commit`]): the journal of [`cycle::eval`] and its requests in the
+/// address maps of the bank arbiter and the memory scheduler. A reusable buffer: a cycle
+/// allocates nothing once it has grown.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct StackStep {
-    writes: Vec<Write>,
-    /// Stack registers the cycle changed, as it leaves them (one entry per stack).
-    stacks: Vec<(u32, StackRegs)>,
-    /// Sequencers the cycle's completions changed: (thread, inflight, latch).
-    completed: Vec<(u32, Option<Uop>, Option<Entry>)>,
-    stats: StackStats,
-    /// Scratch of one plan: the stack registers it changed, and where its writes start.
-    plan_stacks: Vec<(u32, StackRegs)>,
+    j: Journal<Int>,
     /// SH requests to the bank arbiter.
     pub sh_req: Vec<ShReq>,
     /// Global requests to the memory scheduler.
     pub g_req: Vec<GReq>,
-    /// Pops answered: (thread, entry).
-    pub pops: Vec<(u32, Entry)>,
-    /// Commands refused (the per-thread error signals).
-    pub errors: Vec<StackError>,
 }
 
 impl StackStep {
     fn clear(&mut self) {
-        self.writes.clear();
-        self.stacks.clear();
-        self.completed.clear();
-        self.stats = StackStats::default();
-        self.plan_stacks.clear();
+        self.j.clear();
         self.sh_req.clear();
         self.g_req.clear();
-        self.pops.clear();
-        self.errors.clear();
+    }
+
+    /// Pops answered: (thread, entry).
+    pub fn pops(&self) -> &[(u32, Entry)] {
+        &self.j.pops
+    }
+
+    /// Commands refused (the per-thread error signals).
+    pub fn errors(&self) -> &[StackError] {
+        &self.j.errors
     }
 
     /// What the cycle answered to thread `t`'s command: the popped entry, nothing, or the
     /// refusal.
     pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
-        if let Some(e) = self.errors.iter().find(|e| e.thread() == t) {
+        if let Some(e) = self.j.errors.iter().find(|e| e.thread() == t) {
             return Err(*e);
         }
-        Ok(self.pops.iter().find(|p| p.0 == t).map(|p| p.1))
+        Ok(self.j.pops.iter().find(|p| p.0 == t).map(|p| p.1))
     }
 
     /// Thread `t`'s command this cycle ([`Cmd::None`] if it sent none).
     fn cmd(&self, t: u32) -> Cmd {
-        let taken = self.writes.iter().find_map(|w| match *w {
-            Write::Cmd(u, c) if u == t => Some(c),
+        let taken = self.j.writes.iter().find_map(|w| match *w {
+            WriteOf::Cmd(u, c) if u == t => Some(c),
             _ => None,
         });
         taken.unwrap_or(Cmd::None)
-    }
-
-    fn stack_now(&self, q: &[StackRegs], s: u32) -> StackRegs {
-        self.stacks.iter().find(|x| x.0 == s).map_or(q[s as usize], |x| x.1)
-    }
-
-    fn set_stack(&mut self, s: u32, r: StackRegs) {
-        match self.stacks.iter_mut().find(|x| x.0 == s) {
-            Some(x) => x.1 = r,
-            None => self.stacks.push((s, r)),
-        }
     }
 }
 
@@ -368,8 +319,8 @@ impl StackManager {
     }
     /// Stacks of thread `t`'s chain, in ring order starting at its dedicated stack.
     pub fn chain(&self, t: u32) -> Vec<u32> {
-        let mut d = StackStep::default();
-        let mut rf = Overlay { m: self, d: &mut d, t };
+        let mut d = Journal::<Int>::default();
+        let mut rf = Overlay { q: self, d: &mut d, t };
         let th = self.threads[t as usize];
         let base = t - warp_lane(t, self.cfg.warp_size).1;
         let mut p = Plan {
@@ -511,9 +462,9 @@ impl StackManager {
         self.base_with(&Design, lane)
     }
 
-    fn base_with<P: Steps>(&self, steps: &P, lane: u32) -> u32 {
-        let mut d = StackStep::default();
-        let mut rf = Overlay { m: self, d: &mut d, t: 0 };
+    fn base_with<P: CycleSteps>(&self, steps: &P, lane: u32) -> u32 {
+        let mut d = Journal::<Int>::default();
+        let mut rf = Overlay { q: self, d: &mut d, t: 0 };
         let th = self.threads[0];
         let mut p = Plan {
             l: &mut Int,
@@ -534,45 +485,47 @@ impl StackManager {
         (stack * self.cfg.sh_entries + entry) as usize
     }
 
-    /// The data effect of completing micro-op `u` of thread `t`, whose data latch is `latch`.
-    fn complete_into(&self, t: u32, u: Uop, latch: &mut Option<Entry>, d: &mut StackStep) {
-        let mut take = |src: Src| match src {
-            Src::Value(v) => v,
-            Src::Latch => latch.take().unwrap_or(POISON),
-        };
-        match u {
-            Uop::ShLoad { stack, entry } => *latch = Some(self.sh_data[self.sh_index(stack, entry)]),
-            Uop::ShStore { stack, entry, src } => {
-                let v = take(src);
-                d.writes.push(Write::Sh(self.sh_index(stack, entry), v));
-            }
-            Uop::GlobalLoad { slot } => {
-                *latch = Some(self.global[t as usize].get(slot as usize).copied().unwrap_or(POISON));
-            }
-            Uop::GlobalStore { slot, src } => {
-                let value = take(src);
-                d.writes.push(Write::Global { thread: t, slot, value });
-            }
-            Uop::RbBottom => {
-                let v = take(Src::Latch);
-                d.writes.push(Write::RbPushFront(t, v));
-            }
-            Uop::Release { stack } => {
-                let r = StackRegs { idle: true, ..d.stack_now(&self.stacks, stack) };
-                d.set_stack(stack, r);
-            }
+    /// One cycle of the whole description ([`cycle::eval`]) with the design's steps (or, in a
+    /// test build, a planted bug's), into `d`.
+    fn cycle(&self, i: &CycleIn<'_, Entry>, d: &mut StackStep) {
+        #[cfg(feature = "mutants")]
+        if let Some(m) = self.mutant {
+            return self.cycle_with(&mutants::Mutated(m), i, d);
+        }
+        self.cycle_with(&Design, i, d)
+    }
+
+    fn cycle_with<P: CycleSteps>(&self, steps: &P, i: &CycleIn<'_, Entry>, d: &mut StackStep) {
+        cycle::eval(&mut Int, steps, &self.cfg, &self.w, self, i, &mut d.j);
+        d.sh_req.clear();
+        d.g_req.clear();
+        for r in &d.j.sh_req {
+            d.sh_req.push(self.sh_request(r.thread, r.stack, r.entry, r.write));
+        }
+        for r in &d.j.g_req {
+            d.g_req.push(GReq { thread: r.thread, write: r.write, addr: self.spill_addr(r.thread, r.slot) });
         }
     }
 
-    /// Completes `u` of thread `t` at once (the functional level).
+    /// Completes `u` of thread `t` at once (the functional level): the data effect the cycle
+    /// gives a completion ([`cycle::complete`]), committed.
     fn complete(&mut self, t: u32, u: Uop) {
         let mut d = std::mem::take(&mut self.scratch);
+        d.clear();
         let mut latch = self.seq[t as usize].latch;
-        self.complete_into(t, u, &mut latch, &mut d);
+        self.complete_with(t, u, &mut latch, &mut d);
         self.seq[t as usize].latch = latch;
         self.commit(&d);
         d.clear();
         self.scratch = d;
+    }
+
+    fn complete_with(&self, t: u32, u: Uop, latch: &mut Option<Entry>, d: &mut StackStep) {
+        #[cfg(feature = "mutants")]
+        if let Some(m) = self.mutant {
+            return cycle::complete(&mut Int, &mutants::Mutated(m), &self.cfg, self, t, u, latch, &mut d.j);
+        }
+        cycle::complete(&mut Int, &Design, &self.cfg, self, t, u, latch, &mut d.j)
     }
 
     /// Completes thread `t`'s next micro-op at once (for exploring every interleaving of
@@ -653,149 +606,21 @@ impl StackManager {
         ShReq { thread: t, write, words, len: wpe as u8 }
     }
 
-    /// Thread `t`'s sequencer this cycle: it may have completed its micro-op in flight
-    /// (`inflight`, `latch` after the completion), then issues its next one if none is in flight.
-    fn issue(&self, t: u32, mut inflight: Option<Uop>, mut latch: Option<Entry>, d: &mut StackStep) {
-        let head = if inflight.is_none() { self.seq[t as usize].uops.front().copied() } else { None };
-        if let Some(u) = head {
-            let mut take = |src: Src| match src {
-                Src::Value(v) => v,
-                Src::Latch => latch.take().unwrap_or(POISON),
-            };
-            match u {
-                Uop::ShLoad { stack, entry } => {
-                    d.sh_req.push(self.sh_request(t, stack, entry, false));
-                    inflight = Some(u);
-                }
-                Uop::ShStore { stack, entry, src } => {
-                    // Capture the latch now: the store carries its data to the bank.
-                    let v = take(src);
-                    d.sh_req.push(self.sh_request(t, stack, entry, true));
-                    inflight = Some(Uop::ShStore { stack, entry, src: Src::Value(v) });
-                }
-                Uop::GlobalLoad { slot } => {
-                    d.g_req.push(GReq { thread: t, write: false, addr: self.spill_addr(t, slot) });
-                    inflight = Some(u);
-                }
-                Uop::GlobalStore { slot, src } if self.acked_stores => {
-                    // Capture the latch now (the store carries its data); the data lands, and
-                    // the sequencer moves on, when the acknowledgement comes back.
-                    let v = take(src);
-                    d.g_req.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
-                    inflight = Some(Uop::GlobalStore { slot, src: Src::Value(v) });
-                }
-                Uop::GlobalStore { slot, .. } => {
-                    d.g_req.push(GReq { thread: t, write: true, addr: self.spill_addr(t, slot) });
-                    self.complete_into(t, u, &mut latch, d);
-                }
-                Uop::RbBottom | Uop::Release { .. } => self.complete_into(t, u, &mut latch, d),
-            }
-        }
-        d.writes.push(Write::Seq { thread: t, issued: head.is_some(), inflight, latch });
-    }
-
-    /// Plans `cmds` in order into `d`: a plan sees the stack registers earlier ones changed.
+    /// Plans `cmds` in order into `d` ([`cycle::plan`]): a plan sees the stack registers earlier
+    /// ones changed.
     fn plan(&self, cmds: &[(u32, Cmd)], d: &mut StackStep) {
         for (k, &(t, cmd)) in cmds.iter().enumerate() {
-            if cmd == Cmd::None {
-                continue;
-            }
             // A thread's command port takes one command per cycle (the callers send at most one).
             debug_assert!(
-                !cmds[..k].iter().any(|c| c.0 == t && c.1 != Cmd::None),
+                cmd == Cmd::None || !cmds[..k].iter().any(|c| c.0 == t && c.1 != Cmd::None),
                 "two commands of thread {t}"
             );
-            let r = self.plan_one(d, t, cmd);
-            match r {
-                Ok(Some(v)) => d.pops.push((t, v)),
-                Ok(None) => {}
-                Err(e) => d.errors.push(e),
-            }
         }
-    }
-
-    /// Plans thread `t`'s command into `d` with the design's policy (or, in a test build, a
-    /// planted bug's).
-    fn plan_one(&self, d: &mut StackStep, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
         #[cfg(feature = "mutants")]
         if let Some(m) = self.mutant {
-            return self.plan_with(&mutants::Mutated(m), d, t, cmd);
+            return cycle::plan(&mut Int, &mutants::Mutated(m), &self.cfg, &self.w, self, cmds, &mut d.j);
         }
-        self.plan_with(&Design, d, t, cmd)
-    }
-
-    /// Plans with `steps`: its stack-register changes stay in `plan_stacks` until the plan
-    /// succeeds, so a refused command changes nothing.
-    fn plan_with<P: Steps>(
-        &self,
-        steps: &P,
-        d: &mut StackStep,
-        t: u32,
-        cmd: Cmd,
-    ) -> Result<Option<Entry>, StackError> {
-        d.plan_stacks.clear();
-        let first_write = d.writes.len();
-        let th = self.threads[t as usize];
-        let base = t - warp_lane(t, self.cfg.warp_size).1;
-        let busy = !self.ready(t);
-        let mut rf = Overlay { m: self, d, t };
-        let mut p = Plan {
-            l: &mut Int,
-            steps,
-            rf: &mut rf,
-            cfg: &self.cfg,
-            t,
-            base,
-            th,
-            stats: StackStats::default(),
-        };
-        let r = p.run(cmd, busy);
-        let (th, stats) = (p.th, p.stats);
-        let r = r.and_then(|v| self.check_widths(d, t, first_write).map(|_| v));
-        match r {
-            Ok(_) => {
-                d.writes.push(Write::Thread(t, th));
-                for k in 0..d.plan_stacks.len() {
-                    let (s, regs) = d.plan_stacks[k];
-                    d.set_stack(s, regs);
-                }
-                d.stats.add(&stats);
-            }
-            Err(_) => {
-                // A refused push still counts as a push (the counters count commands seen).
-                d.writes.truncate(first_write);
-                d.stats.pushes += stats.pushes;
-            }
-        }
-        r
-    }
-
-    /// The registers a plan fills must hold their values: the RB count (unbounded for RB_FULL
-    /// in the model, [`crate::config::RB_FULL_COUNT_BITS`] wide) and the sequencer step (the
-    /// program's length).
-    fn check_widths(&self, d: &StackStep, t: u32, first_write: usize) -> Result<(), StackError> {
-        let w = &self.w;
-        let (mut rb, mut steps) = (self.rb[t as usize].len() as u64, 0u64);
-        for x in &d.writes[first_write..] {
-            match x {
-                Write::RbPushBack(..) => rb += 1,
-                Write::RbPopBack(_) | Write::RbPopFront(_) => rb -= 1,
-                Write::Emit(..) => steps += 1,
-                _ => {}
-            }
-        }
-        if rb >= 1 << w.rb_count {
-            return Err(StackError::Overflow { thread: t, field: "rb_count", value: rb, bits: w.rb_count });
-        }
-        if steps >= 1 << w.seq_step {
-            return Err(StackError::Overflow {
-                thread: t,
-                field: "seq_step",
-                value: steps,
-                bits: w.seq_step,
-            });
-        }
-        Ok(())
+        cycle::plan(&mut Int, &Design, &self.cfg, &self.w, self, cmds, &mut d.j)
     }
 
     /// Threads with work in flight or queued.
@@ -831,86 +656,13 @@ impl Unit for StackManager {
     /// `d` receives the outputs and the register writes; nothing in `self` changes.
     fn eval(&self, i: StackIn<'_>, d: &mut StackStep) {
         d.clear();
-        for &t in i.done.iter().chain(i.deq.iter()) {
-            let (inflight, latch) = match d.completed.iter().find(|c| c.0 == t) {
-                Some(c) => (c.1, c.2),
-                None => (self.seq[t as usize].inflight, self.seq[t as usize].latch),
-            };
-            let (mut inflight, mut latch) = (inflight, latch);
-            if let Some(u) = inflight.take() {
-                self.complete_into(t, u, &mut latch, d);
-            }
-            match d.completed.iter_mut().find(|c| c.0 == t) {
-                Some(c) => (c.1, c.2) = (inflight, latch),
-                None => d.completed.push((t, inflight, latch)),
-            }
-        }
-        for word in 0..self.queued.len() {
-            let mut bits = self.queued[word];
-            while bits != 0 {
-                let t = word as u32 * 64 + bits.trailing_zeros();
-                bits &= bits - 1;
-                let (inflight, latch) = match d.completed.iter().position(|c| c.0 == t) {
-                    Some(k) => {
-                        let c = d.completed.swap_remove(k);
-                        (c.1, c.2)
-                    }
-                    // Still waiting for its completion: nothing changes.
-                    None if self.seq[t as usize].inflight.is_some() => continue,
-                    None => (None, self.seq[t as usize].latch),
-                };
-                self.issue(t, inflight, latch, d);
-            }
-        }
-        // Completions of threads with nothing queued.
-        for k in 0..d.completed.len() {
-            let (thread, inflight, latch) = d.completed[k];
-            d.writes.push(Write::Seq { thread, issued: false, inflight, latch });
-        }
-        d.writes.extend(i.cmds.iter().filter(|c| c.1 != Cmd::None).map(|&(t, c)| Write::Cmd(t, c)));
-        self.plan(i.cmds, d);
+        self.cycle(&i, d);
     }
 
-    /// The clock edge: applies the writes the eval decided, in order.
+    /// The clock edge: applies the writes the eval decided ([`cycle::apply`]).
     fn commit(&mut self, d: &StackStep) {
-        for &(s, r) in &d.stacks {
-            self.stacks[s as usize] = r;
-        }
-        for &w in &d.writes {
-            match w {
-                Write::Cmd(..) => {}
-                Write::Thread(t, r) => self.threads[t as usize] = r,
-                Write::RbPushBack(t, v) => self.rb[t as usize].push_back(v),
-                Write::RbPopBack(t) => {
-                    self.rb[t as usize].pop_back();
-                }
-                Write::RbPopFront(t) => {
-                    self.rb[t as usize].pop_front();
-                }
-                Write::RbPushFront(t, v) => self.rb[t as usize].push_front(v),
-                Write::Sh(i, v) => self.sh_data[i] = v,
-                Write::Global { thread, slot, value } => {
-                    let g = &mut self.global[thread as usize];
-                    if g.len() <= slot as usize {
-                        g.resize(slot as usize + 1, POISON);
-                    }
-                    g[slot as usize] = value;
-                }
-                Write::Seq { thread, issued, inflight, latch } => {
-                    let q = &mut self.seq[thread as usize];
-                    if issued {
-                        q.uops.pop_front();
-                    }
-                    (q.inflight, q.latch) = (inflight, latch);
-                    self.sync_queued(thread);
-                }
-                Write::Emit(t, u) => {
-                    self.seq[t as usize].uops.push_back(u);
-                    self.sync_queued(t);
-                }
-            }
-        }
-        self.stats.add(&d.stats);
+        cycle::apply(&mut Int, &d.j, self);
+        self.stats.add(&d.j.stats);
     }
 
     /// The registers, and the cycle's commands with the pops that answered them, under
@@ -920,62 +672,123 @@ impl Unit for StackManager {
             return;
         }
         s.push_scope("stack_manager");
-        self.probe_signals(|t| d.cmd(t), &d.pops, s);
+        self.probe_signals(|t| d.cmd(t), d.pops(), s);
         s.pop_scope();
     }
 }
 
-/// The simulator's register file for one plan: the committed registers under the cycle's
-/// earlier plans (`d.stacks`) and this plan's own changes (`d.plan_stacks`).
-struct Overlay<'a> {
-    m: &'a StackManager,
-    d: &'a mut StackStep,
-    /// The commanding thread.
-    t: u32,
+/// The registers as the cycle began, for [`cycle::eval`].
+impl Registers<Int> for StackManager {
+    #[inline]
+    fn stack_q(&self, _: &mut Int, s: u32) -> StackRegs {
+        self.stacks[s as usize]
+    }
+    #[inline]
+    fn thread_q(&self, _: &mut Int, t: u32) -> ThreadRegs {
+        self.threads[t as usize]
+    }
+    fn done_q(&self, _: &mut Int, s: u32) -> bool {
+        self.threads[s as usize].done
+    }
+    #[inline]
+    fn busy_q(&self, _: &mut Int, t: u32) -> bool {
+        !self.ready(t)
+    }
+    #[inline]
+    fn inflight_q(&self, t: u32) -> Option<Uop> {
+        self.seq[t as usize].inflight
+    }
+    #[inline]
+    fn head_q(&self, t: u32) -> Option<Uop> {
+        self.seq[t as usize].uops.front().copied()
+    }
+    #[inline]
+    fn latch_q(&self, t: u32) -> Option<Entry> {
+        self.seq[t as usize].latch
+    }
+    fn rb_len_q(&self, _: &mut Int, t: u32) -> u32 {
+        self.rb[t as usize].len() as u32
+    }
+    fn rb_front_q(&self, _: &mut Int, t: u32) -> Entry {
+        self.rb[t as usize].front().copied().unwrap_or(POISON)
+    }
+    fn rb_back_q(&self, _: &mut Int, t: u32) -> Entry {
+        self.rb[t as usize].back().copied().unwrap_or(POISON)
+    }
+    fn sh_q(&self, _: &mut Int, stack: u32, entry: u32) -> Entry {
+        self.sh_data[self.sh_index(stack, entry)]
+    }
+    fn global_q(&self, _: &mut Int, t: u32, slot: u32) -> Entry {
+        self.global[t as usize].get(slot as usize).copied().unwrap_or(POISON)
+    }
+    #[inline]
+    fn next_queued(&self, from: u32) -> Option<u32> {
+        let mut word = (from / 64) as usize;
+        let mut bits = self.queued.get(word)? & (u64::MAX << (from % 64));
+        loop {
+            if bits != 0 {
+                return Some(word as u32 * 64 + bits.trailing_zeros());
+            }
+            word += 1;
+            bits = *self.queued.get(word)?;
+        }
+    }
+    fn acked_stores(&self) -> bool {
+        self.acked_stores
+    }
 }
 
-impl Regfile<Int> for Overlay<'_> {
+/// The clock edge's writes, for [`cycle::apply`].
+impl Store<Int> for StackManager {
     #[inline]
-    fn stack(&mut self, _: &mut Int, s: u32) -> StackRegs {
-        match self.d.plan_stacks.iter().find(|x| x.0 == s) {
-            Some(x) => x.1,
-            None => self.d.stack_now(&self.m.stacks, s),
+    fn set_stack(&mut self, _: &mut Int, s: u32, r: Regs<Int>) {
+        self.stacks[s as usize] = r;
+    }
+    #[inline]
+    fn set_thread(&mut self, t: u32, r: Thread<Int>) {
+        self.threads[t as usize] = r;
+    }
+    #[inline]
+    fn rb(&mut self, _: &mut Int, t: u32, op: RbOp<Entry>) {
+        let rb = &mut self.rb[t as usize];
+        match op {
+            RbOp::PushBack(v) => rb.push_back(v),
+            RbOp::PopBack => {
+                rb.pop_back();
+            }
+            RbOp::PopFront => {
+                rb.pop_front();
+            }
         }
     }
-    fn stack_q(&mut self, _: &mut Int, s: u32) -> StackRegs {
-        self.m.stacks[s as usize]
+    fn rb_push_front(&mut self, _: &mut Int, t: u32, v: Entry) {
+        self.rb[t as usize].push_front(v);
     }
-    #[inline]
-    fn set_stack(&mut self, _: &mut Int, s: u32, r: StackRegs) {
-        match self.d.plan_stacks.iter_mut().find(|x| x.0 == s) {
-            Some(x) => x.1 = r,
-            None => self.d.plan_stacks.push((s, r)),
+    fn sh(&mut self, _: &mut Int, stack: u32, entry: u32, v: Entry) {
+        let i = self.sh_index(stack, entry);
+        self.sh_data[i] = v;
+    }
+    fn global(&mut self, _: &mut Int, t: u32, slot: u32, v: Entry) {
+        let g = &mut self.global[t as usize];
+        if g.len() <= slot as usize {
+            g.resize(slot as usize + 1, POISON);
         }
-    }
-    fn done(&mut self, _: &mut Int, s: u32) -> bool {
-        self.m.threads[s as usize].done
-    }
-    fn rb_len(&mut self, _: &mut Int) -> u32 {
-        self.m.rb[self.t as usize].len() as u32
-    }
-    fn rb_front(&mut self, _: &mut Int) -> Entry {
-        self.m.rb[self.t as usize].front().copied().unwrap_or(POISON)
-    }
-    fn rb_back(&mut self, _: &mut Int) -> Entry {
-        self.m.rb[self.t as usize].back().copied().unwrap_or(POISON)
-    }
-    fn rb(&mut self, _: &mut Int, op: RbOp<Entry>) {
-        let t = self.t;
-        self.d.writes.push(match op {
-            RbOp::PopFront => Write::RbPopFront(t),
-            RbOp::PushBack(v) => Write::RbPushBack(t, v),
-            RbOp::PopBack => Write::RbPopBack(t),
-        });
+        g[slot as usize] = v;
     }
     #[inline]
-    fn emit(&mut self, _: &mut Int, valid: bool, u: UopL<Int>) {
+    fn seq(&mut self, t: u32, issued: bool, inflight: Option<Uop>, latch: Option<Entry>) {
+        let q = &mut self.seq[t as usize];
+        if issued {
+            q.uops.pop_front();
+        }
+        (q.inflight, q.latch) = (inflight, latch);
+        self.sync_queued(t);
+    }
+    #[inline]
+    fn emit(&mut self, _: &mut Int, t: u32, valid: bool, u: Uop) {
         if valid {
-            self.d.writes.push(Write::Emit(self.t, u));
+            self.seq[t as usize].uops.push_back(u);
+            self.sync_queued(t);
         }
     }
 }

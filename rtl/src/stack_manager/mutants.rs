@@ -66,11 +66,27 @@ pub enum Mutant {
     /// and stores nothing, as if the entry were still in the SH word it was flushed from (it
     /// often is: a flush copies words without clearing them).
     ReloadAssumesWordKept,
+    /// Write priority: when two changes of one stack's registers meet in a cycle (a release
+    /// landing and a plan, or two lanes' plans), the first is kept and the later dropped.
+    FirstStackWriteWins,
+    /// A command is accepted from a thread whose last micro-op completes in the same cycle (the
+    /// busy check reads the sequencer after the cycle's completions, not its register).
+    BusyAfterCompletion,
+    /// A sequencer whose micro-op completes issues its next one a cycle later.
+    IssueWaitsACycle,
+    /// A micro-op issued in the cycle its predecessor completes reads the data latch as the
+    /// cycle began, not the value that completion brought.
+    IssueReadsOldLatch,
+    /// When an SH completion and a global response arrive in the same cycle, the response is
+    /// dropped.
+    ResponseDroppedWithShDone,
+    /// A completing SH store addresses its entry with 3 bits (right for M ≤ 8).
+    StoredEntryThreeBits,
 }
 
 impl Mutant {
     /// Every mutant, in declaration order (the order of [`Self::NAMES`]).
-    pub const ALL: [Mutant; 23] = [
+    pub const ALL: [Mutant; 29] = [
         Mutant::QueueWrapOffByOne,
         Mutant::ReloadWrongEntry,
         Mutant::SpillDropsEntry,
@@ -94,6 +110,12 @@ impl Mutant {
         Mutant::SkewWrongForM4,
         Mutant::FinishWhileBusy,
         Mutant::ReloadAssumesWordKept,
+        Mutant::FirstStackWriteWins,
+        Mutant::BusyAfterCompletion,
+        Mutant::IssueWaitsACycle,
+        Mutant::IssueReadsOldLatch,
+        Mutant::ResponseDroppedWithShDone,
+        Mutant::StoredEntryThreeBits,
     ];
 }
 
@@ -121,7 +143,13 @@ named_enum!(
     Mutant::LinkWithThreadId => "link-with-thread-id",
     Mutant::SkewWrongForM4 => "skew-wrong-for-m4",
     Mutant::FinishWhileBusy => "finish-while-busy",
-    Mutant::ReloadAssumesWordKept => "reload-assumes-word-kept"
+    Mutant::ReloadAssumesWordKept => "reload-assumes-word-kept",
+    Mutant::FirstStackWriteWins => "first-stack-write-wins",
+    Mutant::BusyAfterCompletion => "busy-after-completion",
+    Mutant::IssueWaitsACycle => "issue-waits-a-cycle",
+    Mutant::IssueReadsOldLatch => "issue-reads-old-latch",
+    Mutant::ResponseDroppedWithShDone => "response-dropped-with-sh-done",
+    Mutant::StoredEntryThreeBits => "stored-entry-three-bits"
 );
 
 #[cfg(feature = "mutants")]
@@ -129,10 +157,73 @@ pub use planted::Mutated;
 
 #[cfg(feature = "mutants")]
 mod planted {
+    use super::super::cycle::{merge_stack, CycleIn, CycleSteps, Journal, Registers};
     use super::super::policy::{Chain, Plan, Regfile, Regs, Steps};
     use super::super::regs::{CmdOf, StackError, StackRegsOf};
     use super::Mutant;
+    use crate::config::Config;
     use crate::logic::Logic;
+
+    impl CycleSteps for Mutated {
+        fn busy_for_command<L: Logic>(&self, l: &mut L, q: &impl Registers<L>, d: &Journal<L>, t: u32) -> L::Bit {
+            let busy = q.busy_q(l, t);
+            if self.0 != Mutant::BusyAfterCompletion {
+                return busy;
+            }
+            // Ready again if the cycle's completion emptied a sequencer with nothing queued.
+            let drained = d.completed.iter().any(|c| c.0 == t && c.1.is_none()) && q.head_q(t).is_none();
+            if drained {
+                l.bit(false)
+            } else {
+                busy
+            }
+        }
+        fn issue_after_completion(&self) -> bool {
+            self.0 != Mutant::IssueWaitsACycle
+        }
+        fn latch_at_issue<L: Logic>(&self, q: &impl Registers<L>, t: u32, after: Option<L::Val>) -> Option<L::Val> {
+            if self.0 == Mutant::IssueReadsOldLatch {
+                q.latch_q(t)
+            } else {
+                after
+            }
+        }
+        fn stored_entry<L: Logic>(&self, l: &mut L, _cfg: &Config, entry: L::Word) -> L::Word {
+            if self.0 == Mutant::StoredEntryThreeBits {
+                let low = l.word(7);
+                l.mask(entry, low)
+            } else {
+                entry
+            }
+        }
+        fn merge_plan_stack<L: Logic>(
+            &self,
+            l: &mut L,
+            list: &mut Vec<(L::Word, Regs<L>)>,
+            s: L::Word,
+            r: Regs<L>,
+        ) {
+            if self.0 != Mutant::FirstStackWriteWins {
+                return merge_stack(l, list, s, r);
+            }
+            // Keep an earlier entry for the same stack: the later change is dropped.
+            let mut keep = l.bit(false);
+            for &(i, _) in list.iter() {
+                let hit = l.eq(i, s);
+                keep = l.or(keep, hit);
+            }
+            let before = super::super::cycle::lookup(l, list, s, r);
+            let v = StackRegsOf::mux(l, keep, before, r);
+            merge_stack(l, list, s, v);
+        }
+        fn completions<'a>(&self, i: &CycleIn<'a, impl Copy>) -> (&'a [u32], Option<u32>) {
+            if self.0 == Mutant::ResponseDroppedWithShDone && !i.done.is_empty() {
+                (i.done, None)
+            } else {
+                (i.done, i.deq)
+            }
+        }
+    }
 
     /// The design with planted bug `.0`.
     #[derive(Clone, Copy, Debug)]

@@ -26,7 +26,7 @@ pub type Thread<L> = ThreadRegsOf<<L as Logic>::Word, <L as Logic>::Bit>;
 pub type UopL<L> = UopOf<<L as Logic>::Word, <L as Logic>::Val>;
 
 /// A change to the commanding thread's RB.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RbOp<V> {
     /// The oldest entry leaves (it is being spilled).
     PopFront,
@@ -145,6 +145,7 @@ pub trait Steps: Sized {
 pub struct Design;
 
 impl Steps for Design {}
+impl super::cycle::CycleSteps for Design {}
 
 /// One command of one thread being planned.
 pub struct Plan<'a, L: Logic, P: Steps, R: Regfile<L>> {

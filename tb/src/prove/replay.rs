@@ -90,7 +90,7 @@ pub fn replay(
     let answers = cmds.iter().map(|&(t, cmd)| format!("thread {t} {cmd:?}: {:?}", d.answer(t))).collect();
     sm.commit(&d);
     sink.begin_cycle(1);
-    sm.probe_cycle(&[], &d.pops, &mut sink);
+    sm.probe_cycle(&[], d.pops(), &mut sink);
     sink.end_run(2);
     sink.finish().with_context(|| format!("--vcd {}", path.display()))?;
     Ok(Replayed { answers })

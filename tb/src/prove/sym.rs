@@ -446,6 +446,15 @@ impl Logic for Sym {
     fn mux_val(&mut self, c: B, a: V, b: V) -> V {
         V(self.ite(Sort::Val, c.0, a.0, b.0))
     }
+    fn same(&self, a: W, b: W) -> bool {
+        a.0 == b.0
+    }
+    fn exact(&self) -> bool {
+        false
+    }
+    fn concrete(&self, w: W) -> u32 {
+        self.word_of(w.0).unwrap_or(0)
+    }
     fn decide(&mut self, c: B) -> bool {
         if let Some(b) = self.bool_of(c.0) {
             return b;
