@@ -10,6 +10,7 @@
 //! - [`replay`]: a counterexample run on the simulator and dumped as a waveform.
 
 pub mod conserve;
+pub mod cycle;
 pub mod query;
 pub mod replay;
 pub mod solver;
@@ -20,7 +21,7 @@ use std::time::Duration;
 
 use anyhow::Result;
 use rtl::config::Config;
-use rtl::stack_manager::policy::Steps;
+use rtl::stack_manager::cycle::CycleSteps;
 
 use query::Kind;
 use solver::{Solver, Verdict};
@@ -33,6 +34,10 @@ pub struct Obligation {
     pub base: u32,
     pub cmds: Vec<(u32, Kind)>,
     pub what: What,
+    /// The cycle's control shape ([`What::Cycle`] only).
+    pub shape: Vec<cycle::LaneShape>,
+    /// Global stores wait for their acknowledgement ([`What::Cycle`] only).
+    pub acked: bool,
 }
 
 /// What an obligation proves of one cycle, from every state satisfying the invariant
@@ -47,6 +52,10 @@ pub enum What {
     /// The entry at a symbolic position of the commanding thread's logical stack is at the
     /// position the reference stack gives it after the cycle ([`conserve`]).
     Conservation,
+    /// The design's whole cycle (completions, issue, plans, the merge of their writes, the
+    /// edge) leaves the next state, requests and answers the specification's cycle gives, for
+    /// one control shape ([`cycle`]).
+    Cycle,
 }
 
 /// The one-step equivalence obligations at `cfg`: each command kind on one lane, and two
@@ -67,12 +76,30 @@ pub fn obligations(cfg: &Config) -> Vec<Obligation> {
     let mut out = Vec::new();
     for (what, prefix) in [(What::Equivalence, "one-step"), (What::Invariant, "invariant kept by")] {
         for (name, cmds) in &cycles {
-            out.push(Obligation { name: format!("{prefix} {name}"), base, cmds: cmds.clone(), what });
+            let name = format!("{prefix} {name}");
+            out.push(Obligation { name, base, cmds: cmds.clone(), what, shape: Vec::new(), acked: false });
         }
     }
     for k in [Kind::Push, Kind::Pop] {
         let name = format!("conservation through {}", k.name());
-        out.push(Obligation { name, base, cmds: vec![(a, k)], what: What::Conservation });
+        let (cmds, shape) = (vec![(a, k)], Vec::new());
+        out.push(Obligation { name, base, cmds, what: What::Conservation, shape, acked: false });
+    }
+    out.extend(cycle_obligations(cfg));
+    out
+}
+
+/// The whole-cycle obligations at `cfg` ([`cycle::shapes`]), with posted and with
+/// acknowledged global stores.
+pub fn cycle_obligations(cfg: &Config) -> Vec<Obligation> {
+    let base = if cfg.warps > 1 { cfg.warp_size } else { 0 };
+    let mut out = Vec::new();
+    for acked in [false, true] {
+        let stores = if acked { "acked stores" } else { "posted stores" };
+        for (name, shape) in cycle::shapes(cfg, acked) {
+            let name = format!("whole cycle, {stores}: {name}");
+            out.push(Obligation { name, base, cmds: Vec::new(), what: What::Cycle, shape, acked });
+        }
     }
     out
 }
@@ -92,7 +119,7 @@ pub struct Outcome {
 }
 
 /// Proves `ob` for the design with `steps` at `cfg` with each of `solvers`.
-pub fn prove<P: Steps>(
+pub fn prove<P: CycleSteps>(
     cfg: &Config,
     steps: &P,
     ob: &Obligation,
@@ -103,6 +130,7 @@ pub fn prove<P: Steps>(
         What::Equivalence => query::one_step(cfg, steps, ob.base, &ob.cmds),
         What::Invariant => query::preserves(cfg, steps, ob.base, &ob.cmds),
         What::Conservation => conserve::conserves(cfg, steps, ob.base, ob.cmds[0].0, ob.cmds[0].1),
+        What::Cycle => cycle::whole_cycle(cfg, steps, ob.base, &ob.shape, ob.acked),
     };
     let mut out = Vec::new();
     for &sv in solvers {

@@ -480,7 +480,7 @@ fn encode(l: &mut Sym, u: &UopL<Sym>) -> Enc {
     Enc { kind, a, b, latch, value }
 }
 
-fn mux_enc(l: &mut Sym, c: B, x: Enc, y: Enc) -> Enc {
+pub(super) fn mux_enc(l: &mut Sym, c: B, x: Enc, y: Enc) -> Enc {
     Enc {
         kind: l.mux(c, x.kind, y.kind),
         a: l.mux(c, x.a, y.a),
@@ -491,7 +491,7 @@ fn mux_enc(l: &mut Sym, c: B, x: Enc, y: Enc) -> Enc {
 }
 
 /// The program as `slots` fixed positions: `(valid, micro-op)`, valid ones first.
-fn compact(l: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> {
+pub(super) fn compact(l: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> {
     let none = {
         let z = l.word(0);
         let no = l.bit(false);
@@ -575,7 +575,7 @@ pub(super) struct Cycle {
     pub regs: Vec<Regs<Sym>>,
 }
 
-fn error_code(e: &StackError) -> u32 {
+pub(super) fn error_code(e: &StackError) -> u32 {
     2 + match e {
         StackError::PopEmpty { .. } => 0,
         StackError::FinishNonEmpty { .. } => 1,
