@@ -134,6 +134,14 @@ impl Gpu {
         Gpu::new(cfg, RtParams::default(), carve_out(&cfg, MemParams::default()))
     }
 
+    /// Every stack manager gets a scoreboard from `make`, checking each cycle it commits.
+    pub fn with_scoreboard(mut self, make: &dyn Fn() -> Box<dyn crate::stack_manager::Scoreboard>) -> Self {
+        for u in &mut self.units {
+            u.stack_unit.manager.set_scoreboard(make());
+        }
+        self
+    }
+
     /// Every stack manager gets a deliberately broken variant (test builds).
     #[cfg(feature = "mutants")]
     pub fn with_mutant(mut self, m: crate::stack_manager::Mutant) -> Self {

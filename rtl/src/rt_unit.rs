@@ -249,6 +249,9 @@ pub enum RunError {
     ExitNotEmpty { cycle: u64, sm: u32, thread: u32 },
     /// Work remains but nothing can ever happen again (a model bug).
     Stalled { cycle: u64 },
+    /// The stack manager's cycle disagreed with the scoreboard's specification (its message
+    /// names the cycle, warp, lane and property).
+    Decision { sm: u32, what: String },
 }
 
 impl RunError {
@@ -258,7 +261,8 @@ impl RunError {
             RunError::Stack { sm, .. }
             | RunError::PopMismatch { sm, .. }
             | RunError::PopMissing { sm, .. }
-            | RunError::ExitNotEmpty { sm, .. } => Some(*sm),
+            | RunError::ExitNotEmpty { sm, .. }
+            | RunError::Decision { sm, .. } => Some(*sm),
             RunError::BadJob { .. } | RunError::Stalled { .. } => None,
         }
     }
@@ -281,6 +285,7 @@ impl std::fmt::Display for RunError {
                 write!(f, "cycle {cycle}, SM {sm}, thread {thread}: warp left with stack entries behind")
             }
             RunError::Stalled { cycle } => write!(f, "cycle {cycle}: work remains but nothing can happen"),
+            RunError::Decision { sm: _, what } => write!(f, "stack decision check: {what}"),
         }
     }
 }
@@ -539,6 +544,9 @@ impl RtUnit {
     fn decide(&self, i: &RtIn, d: &mut RtStep) -> Result<(), RunError> {
         let (ws, warps, now) = (self.cfg.warp_size, self.cfg.warps, i.now);
         d.now = now;
+        if let Some(what) = self.stack_unit.manager.scoreboard_failure() {
+            return Err(RunError::Decision { sm: self.id, what: what.to_string() });
+        }
         d.load_slot = self.free_slot();
         if let Some(job) = i.job {
             d.job.lanes.clone_from(&job.lanes);

@@ -36,6 +36,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if std::env::args().any(|a| a == "--serial") {
         tb::run::sim::allow_helper_thread(false);
     }
+    // `--decisions=all|sample|off`: the decision scoreboard, as `sms --decisions` sets it.
+    if let Some(d) = std::env::args().find_map(|a| a.strip_prefix("--decisions=").map(str::to_string)) {
+        tb::run::sim::check_decisions(match d.as_str() {
+            "all" => 1,
+            "sample" => tb::prove::scoreboard::SAMPLE_EVERY,
+            "off" => 0,
+            _ => return Err(format!("--decisions={d}: expected all, sample or off").into()),
+        });
+    }
     let scene = tb::load_scene(SCENE)?;
     let opts = WorkloadOpts { width: RES, height: RES, ..WorkloadOpts::for_scene(&scene) };
     let w = Workload::new(&scene, opts)?;

@@ -89,6 +89,10 @@ pub struct JournalOf<W, B, V> {
     pub pops: Vec<(u32, V)>,
     /// Commands refused.
     pub errors: Vec<StackError>,
+    /// The cycle's completions and its number, as they came in (for a scoreboard).
+    pub done: Vec<u32>,
+    pub deq: Option<u32>,
+    pub now: u64,
 }
 
 impl<W, B, V> Default for JournalOf<W, B, V> {
@@ -103,6 +107,9 @@ impl<W, B, V> Default for JournalOf<W, B, V> {
             g_req: Vec::new(),
             pops: Vec::new(),
             errors: Vec::new(),
+            done: Vec::new(),
+            deq: None,
+            now: 0,
         }
     }
 }
@@ -118,6 +125,9 @@ impl<W, B, V> JournalOf<W, B, V> {
         self.g_req.clear();
         self.pops.clear();
         self.errors.clear();
+        self.done.clear();
+        self.deq = None;
+        self.now = 0;
     }
 }
 
@@ -134,6 +144,8 @@ pub struct CycleIn<'a, V> {
     pub done: &'a [u32],
     /// Thread whose global response the response FIFO delivered.
     pub deq: Option<u32>,
+    /// The cycle's number (reports only).
+    pub now: u64,
 }
 
 /// The registers and memories as the cycle began (what the flip-flops and arrays hold).
@@ -248,6 +260,9 @@ pub fn eval<L: Logic, P: CycleSteps>(
     d: &mut Journal<L>,
 ) {
     d.clear();
+    d.done.extend_from_slice(i.done);
+    d.deq = i.deq;
+    d.now = i.now;
     let (done, deq) = steps.completions(i);
     for &t in done.iter().chain(deq.iter()) {
         let (inflight, latch) = match d.completed.iter().find(|c| c.0 == t) {

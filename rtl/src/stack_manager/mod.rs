@@ -114,6 +114,11 @@ impl StackStep {
         &self.j.errors
     }
 
+    /// The cycle's decisions and writes ([`cycle::eval`]'s journal).
+    pub fn journal(&self) -> &Journal<Int> {
+        &self.j
+    }
+
     /// What the cycle answered to thread `t`'s command: the popped entry, nothing, or the
     /// refusal.
     pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
@@ -130,6 +135,44 @@ impl StackStep {
             _ => None,
         });
         taken.unwrap_or(Cmd::None)
+    }
+}
+
+/// A checker of every committed cycle (a scoreboard): it sees the registers as the cycle began
+/// and the cycle's decisions ([`Scoreboard::before`]), then the registers after the clock edge
+/// ([`Scoreboard::after`]), and names the first disagreement with its own model of the cycle.
+pub trait Scoreboard: Send + std::panic::UnwindSafe + std::panic::RefUnwindSafe {
+    fn before(&mut self, q: &StackManager, d: &StackStep);
+    /// The disagreement, if any: "cycle N, SM s, warp w, lane l: what (design …, expected …)".
+    fn after(&mut self, next: &StackManager, d: &StackStep) -> Option<String>;
+    fn clone_box(&self) -> Box<dyn Scoreboard>;
+}
+
+/// The scoreboard a run attached, and the first disagreement it found. Not architectural state:
+/// equality and hashing ignore it.
+#[derive(Default)]
+struct Board {
+    check: Option<Box<dyn Scoreboard>>,
+    failed: Option<String>,
+}
+
+impl Clone for Board {
+    fn clone(&self) -> Self {
+        Board { check: self.check.as_ref().map(|c| c.clone_box()), failed: self.failed.clone() }
+    }
+}
+impl PartialEq for Board {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+impl Eq for Board {}
+impl std::hash::Hash for Board {
+    fn hash<H: std::hash::Hasher>(&self, _: &mut H) {}
+}
+impl std::fmt::Debug for Board {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Board {{ attached: {}, failed: {:?} }}", self.check.is_some(), self.failed)
     }
 }
 
@@ -157,6 +200,7 @@ pub struct StackManager {
     /// completion input ([`StackTiming::Blocking`]); otherwise it is posted.
     acked_stores: bool,
     pub stats: StackStats,
+    board: Board,
     #[cfg(feature = "mutants")]
     pub mutant: Option<Mutant>,
     /// Reused by the one-command entry points ([`StackManager::accept`], `apply`); always empty
@@ -185,6 +229,7 @@ impl Clone for StackManager {
             global: self.global.clone(),
             acked_stores: self.acked_stores,
             stats: self.stats,
+            board: self.board.clone(),
             #[cfg(feature = "mutants")]
             mutant: self.mutant,
             scratch: self.scratch.clone(),
@@ -207,6 +252,7 @@ impl Clone for StackManager {
             global,
             acked_stores,
             stats,
+            board,
             #[cfg(feature = "mutants")]
             mutant,
             scratch,
@@ -225,6 +271,7 @@ impl Clone for StackManager {
         self.global.clone_from(global);
         self.acked_stores = *acked_stores;
         self.stats = *stats;
+        self.board = board.clone();
         #[cfg(feature = "mutants")]
         {
             self.mutant = *mutant;
@@ -262,6 +309,7 @@ impl StackManager {
             global: vec![Vec::new(); n],
             acked_stores: false,
             stats: StackStats::default(),
+            board: Board::default(),
             #[cfg(feature = "mutants")]
             mutant: None,
             scratch: StackStep::default(),
@@ -274,6 +322,18 @@ impl StackManager {
 
     pub fn config(&self) -> &Config {
         &self.cfg
+    }
+    /// Which SM this stack manager belongs to.
+    pub fn sm(&self) -> u32 {
+        self.sm
+    }
+    /// Attaches a scoreboard that checks every committed cycle.
+    pub fn set_scoreboard(&mut self, b: Box<dyn Scoreboard>) {
+        self.board.check = Some(b);
+    }
+    /// The first disagreement the scoreboard found.
+    pub fn scoreboard_failure(&self) -> Option<&str> {
+        self.board.failed.as_deref()
     }
     /// Global stores wait for their acknowledgement (`true`, [`StackTiming::Blocking`]) or are
     /// posted (`false`, the default of [`StackManager::new`], and [`StackTiming::Overlapped`]).
@@ -312,6 +372,15 @@ impl StackManager {
     /// Micro-ops the thread still has to issue (after `accept`, the whole program).
     pub fn pending_uops(&self, t: u32) -> impl Iterator<Item = &Uop> + '_ {
         self.seq[t as usize].uops.iter()
+    }
+    /// Thread `t`'s data latch.
+    pub fn latch(&self, t: u32) -> Option<Entry> {
+        self.seq[t as usize].latch
+    }
+    /// Thread `t`'s global region as the memory holds it: every slot ever written, including
+    /// those past the spill pointer.
+    pub fn global_region(&self, t: u32) -> &[Entry] {
+        &self.global[t as usize]
     }
     /// The micro-op thread `t` has issued and not yet completed.
     pub fn inflight_uop(&self, t: u32) -> Option<Uop> {
@@ -497,6 +566,10 @@ impl StackManager {
 
     fn cycle_with<P: CycleSteps>(&self, steps: &P, i: &CycleIn<'_, Entry>, d: &mut StackStep) {
         cycle::eval(&mut Int, steps, &self.cfg, &self.w, self, i, &mut d.j);
+        if let Err(e) = self.addressed(&d.j) {
+            d.j.errors.push(e);
+            return;
+        }
         d.sh_req.clear();
         d.g_req.clear();
         for r in &d.j.sh_req {
@@ -505,6 +578,41 @@ impl StackManager {
         for r in &d.j.g_req {
             d.g_req.push(GReq { thread: r.thread, write: r.write, addr: self.spill_addr(r.thread, r.slot) });
         }
+    }
+
+    /// Every stack and SH entry the cycle writes or addresses exists: a design that names one
+    /// past the arrays is a refused cycle, never an index out of bounds.
+    fn addressed(&self, d: &Journal<Int>) -> Result<(), StackError> {
+        let (n, m) = (self.cfg.threads(), self.cfg.sh_entries);
+        let stack = |thread: u32, s: u32| match s < n {
+            true => Ok(()),
+            false => Err(StackError::OutOfRange { thread, what: "stack", value: u64::from(s) }),
+        };
+        let entry = |thread: u32, e: u32| match e < m {
+            true => Ok(()),
+            false => Err(StackError::OutOfRange { thread, what: "SH entry", value: u64::from(e) }),
+        };
+        let uop = |t: u32, u: &Uop| match *u {
+            Uop::ShLoad { stack: s, entry: e } | Uop::ShStore { stack: s, entry: e, .. } => {
+                stack(t, s).and_then(|_| entry(t, e))
+            }
+            Uop::Release { stack: s } => stack(t, s),
+            _ => Ok(()),
+        };
+        for &(s, _) in &d.stacks {
+            stack(s, s)?;
+        }
+        for w in &d.writes {
+            match w {
+                WriteOf::Sh { stack: s, entry: e, .. } => stack(*s, *s).and_then(|_| entry(*s, *e))?,
+                WriteOf::Emit(t, _, u) => uop(*t, u)?,
+                _ => {}
+            }
+        }
+        for r in &d.sh_req {
+            stack(r.thread, r.stack).and_then(|_| entry(r.thread, r.entry))?;
+        }
+        Ok(())
     }
 
     /// Completes `u` of thread `t` at once (the functional level): the data effect the cycle
@@ -661,8 +769,18 @@ impl Unit for StackManager {
 
     /// The clock edge: applies the writes the eval decided ([`cycle::apply`]).
     fn commit(&mut self, d: &StackStep) {
+        let mut check = self.board.check.take();
+        if let Some(b) = &mut check {
+            b.before(self, d);
+        }
         cycle::apply(&mut Int, &d.j, self);
         self.stats.add(&d.j.stats);
+        if let Some(b) = &mut check {
+            if let Some(e) = b.after(self, d) {
+                self.board.failed.get_or_insert(e);
+            }
+        }
+        self.board.check = check;
     }
 
     /// The registers, and the cycle's commands with the pops that answered them, under
@@ -681,14 +799,16 @@ impl Unit for StackManager {
 impl Registers<Int> for StackManager {
     #[inline]
     fn stack_q(&self, _: &mut Int, s: u32) -> StackRegs {
-        self.stacks[s as usize]
+        // A stack past the array reads as reset registers; the cycle is then refused
+        // ([`StackManager::addressed`]) or its decisions differ from the scoreboard's.
+        self.stacks.get(s as usize).copied().unwrap_or_default()
     }
     #[inline]
     fn thread_q(&self, _: &mut Int, t: u32) -> ThreadRegs {
         self.threads[t as usize]
     }
     fn done_q(&self, _: &mut Int, s: u32) -> bool {
-        self.threads[s as usize].done
+        self.threads.get(s as usize).is_none_or(|t| t.done)
     }
     #[inline]
     fn busy_q(&self, _: &mut Int, t: u32) -> bool {
@@ -716,7 +836,8 @@ impl Registers<Int> for StackManager {
         self.rb[t as usize].back().copied().unwrap_or(POISON)
     }
     fn sh_q(&self, _: &mut Int, stack: u32, entry: u32) -> Entry {
-        self.sh_data[self.sh_index(stack, entry)]
+        let i = stack.checked_mul(self.cfg.sh_entries).and_then(|x| x.checked_add(entry));
+        i.and_then(|i| self.sh_data.get(i as usize)).copied().unwrap_or(POISON)
     }
     fn global_q(&self, _: &mut Int, t: u32, slot: u32) -> Entry {
         self.global[t as usize].get(slot as usize).copied().unwrap_or(POISON)

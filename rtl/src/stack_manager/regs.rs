@@ -252,6 +252,13 @@ pub enum StackError {
         value: u64,
         bits: u32,
     },
+    /// The design addressed a stack or SH entry that does not exist (a design bug, reported
+    /// instead of indexing past an array).
+    OutOfRange {
+        thread: u32,
+        what: &'static str,
+        value: u64,
+    },
 }
 
 impl std::fmt::Display for StackError {
@@ -266,6 +273,9 @@ impl std::fmt::Display for StackError {
             }
             StackError::AfterFinish { thread } => {
                 write!(f, "thread {thread}: command after finish")
+            }
+            StackError::OutOfRange { thread, what, value } => {
+                write!(f, "thread {thread}: {what} {value} lies outside the stack manager's registers")
             }
             StackError::Overflow { thread, field, value, bits } => {
                 write!(f, "thread {thread}: {field} = {value} does not fit its {bits}-bit register")
@@ -290,7 +300,8 @@ impl StackError {
             | StackError::Busy { thread }
             | StackError::AfterFinish { thread }
             | StackError::SpillRegionFull { thread, .. }
-            | StackError::Overflow { thread, .. } => thread,
+            | StackError::Overflow { thread, .. }
+            | StackError::OutOfRange { thread, .. } => thread,
         }
     }
 }

@@ -26,8 +26,22 @@ pub struct Cli {
     /// subcommand.
     #[arg(long, short, global = true)]
     pub quiet: bool,
+    /// How cycle-level runs check the stack manager's decisions against the specification's
+    /// cycle, beside the data checks every run makes (every pop against the trace, every warp
+    /// at exit): all (every cycle), sample (every 64th cycle), off. docs/verification.md has
+    /// the cost of each.
+    #[arg(long, global = true, value_enum, default_value = "all")]
+    pub decisions: Decisions,
     #[command(subcommand)]
     pub command: Command,
+}
+
+/// `--decisions`: which cycles the decision scoreboard checks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Decisions {
+    All,
+    Sample,
+    Off,
 }
 
 /// `-q/--quiet`, set once by [`Cli::run`] for the whole process.
@@ -82,6 +96,11 @@ impl Cli {
     /// Runs the chosen subcommand.
     pub fn run(self) -> anyhow::Result<()> {
         set_quiet(self.quiet);
+        crate::run::sim::check_decisions(match self.decisions {
+            Decisions::All => 1,
+            Decisions::Sample => crate::prove::scoreboard::SAMPLE_EVERY,
+            Decisions::Off => 0,
+        });
         match self.command {
             Command::Scenes(args) => scenes::run(args),
             Command::Depth(args) => depth::run(args),

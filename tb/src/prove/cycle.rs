@@ -214,7 +214,22 @@ impl<L: Logic> WarpState<L> {
     fn hit(&self, l: &mut L, s: L::Word, j: usize) -> L::Bit {
         l.eq_k(s, self.base + j as u32)
     }
+    /// Lane `j` that word `s` names, when the instance knows values (integers): indexing then
+    /// replaces the multiplexer over the warp. `Err` when the word names no lane.
+    fn known_lane(&self, l: &L, s: L::Word) -> Option<Result<usize, ()>> {
+        if !l.exact() {
+            return None;
+        }
+        let v = l.concrete(s);
+        Some(match v.checked_sub(self.base) {
+            Some(j) if j < self.lanes() => Ok(j as usize),
+            _ => Err(()),
+        })
+    }
     fn read_stack(&self, l: &mut L, s: L::Word) -> Regs<L> {
+        if let Some(j) = self.known_lane(l, s) {
+            return j.map_or(self.outside, |j| self.stacks[j]);
+        }
         let mut v = self.outside;
         for j in (0..self.stacks.len()).rev() {
             let hit = self.hit(l, s, j);
@@ -223,6 +238,12 @@ impl<L: Logic> WarpState<L> {
         v
     }
     fn write_stack(&mut self, l: &mut L, s: L::Word, r: Regs<L>) {
+        if let Some(j) = self.known_lane(l, s) {
+            if let Ok(j) = j {
+                self.stacks[j] = r;
+            }
+            return;
+        }
         for j in 0..self.stacks.len() {
             let hit = self.hit(l, s, j);
             if l.maybe(hit) {
@@ -231,6 +252,13 @@ impl<L: Logic> WarpState<L> {
         }
     }
     fn read_sh(&self, l: &mut L, stack: L::Word, entry: L::Word) -> L::Val {
+        if let Some(j) = self.known_lane(l, stack) {
+            let e = l.concrete(entry);
+            return match j {
+                Ok(j) if e < self.m => self.sh[j * self.m as usize + e as usize],
+                _ => l.val(POISON),
+            };
+        }
         let mut v = l.val(POISON);
         for j in (0..self.stacks.len()).rev() {
             for e in (0..self.m).rev() {
@@ -243,6 +271,13 @@ impl<L: Logic> WarpState<L> {
         v
     }
     fn write_sh(&mut self, l: &mut L, stack: L::Word, entry: L::Word, x: L::Val) {
+        if let Some(j) = self.known_lane(l, stack) {
+            let e = l.concrete(entry);
+            if let (Ok(j), true) = (j, e < self.m) {
+                self.sh[j * self.m as usize + e as usize] = x;
+            }
+            return;
+        }
         for j in 0..self.stacks.len() {
             for e in 0..self.m {
                 let a = self.hit(l, stack, j);
@@ -257,6 +292,10 @@ impl<L: Logic> WarpState<L> {
     }
     fn read_global(&self, l: &mut L, t: u32, slot: L::Word) -> L::Val {
         let j = self.lane(t);
+        if l.exact() {
+            let k = l.concrete(slot) as usize;
+            return self.global[j].get(k).copied().unwrap_or(self.global_far[j]);
+        }
         let mut v = self.global_far[j];
         for k in (0..self.global[j].len()).rev() {
             let hit = l.eq_k(slot, k as u32);
@@ -297,6 +336,9 @@ impl<L: Logic> Registers<L> for WarpState<L> {
         self.threads[self.lane(t)]
     }
     fn done_q(&self, l: &mut L, s: L::Word) -> L::Bit {
+        if let Some(j) = self.known_lane(l, s) {
+            return j.map_or_else(|_| l.bit(true), |j| self.threads[j].done);
+        }
         let mut v = l.bit(true);
         for j in (0..self.threads.len()).rev() {
             let hit = self.hit(l, s, j);
@@ -399,7 +441,7 @@ pub fn design_cycle<L: Logic, P: CycleSteps>(
 ) -> (WarpState<L>, Outputs<L::Word, L::Val>, Journal<L>) {
     let w = cfg.widths().expect("a valid configuration");
     let mut d = Journal::<L>::default();
-    cycle::eval(l, steps, cfg, &w, q, &CycleIn { cmds, done, deq }, &mut d);
+    cycle::eval(l, steps, cfg, &w, q, &CycleIn { cmds, done, deq, now: 0 }, &mut d);
     let mut next = q.clone();
     next.rb.iter_mut().for_each(|r| r.log.clear());
     next.global_writes.iter_mut().for_each(|g| g.clear());
@@ -444,7 +486,6 @@ pub fn spec_cycle<L: Logic>(
     done: &[u32],
     deq: Option<u32>,
 ) -> Outputs<L::Word, L::Val> {
-    let start = st.clone();
     st.rb.iter_mut().for_each(|r| r.log.clear());
     st.global_writes.iter_mut().for_each(|g| g.clear());
     let busy: Vec<bool> = (0..st.stacks.len()).map(|j| st.busy(j)).collect();
@@ -453,28 +494,35 @@ pub fn spec_cycle<L: Logic>(
         SrcOf::Value(v) => v,
         SrcOf::Latch => latch.take().unwrap_or_else(|| l.val(POISON)),
     };
-    // 1. Completions.
+    // 1. Completions: the loads read memory as the cycle began, so they land before the
+    //    stores.
     let mut arrived: Vec<u32> = done.to_vec();
     arrived.extend(deq);
-    for t in arrived {
-        let j = st.lane(t);
-        let Some(u) = st.seq[j].inflight.take() else { continue };
-        let mut latch = st.seq[j].latch;
-        match u {
-            UopOf::ShLoad { stack, entry } => latch = Some(start.read_sh(l, stack, entry)),
-            UopOf::GlobalLoad { slot } => latch = Some(start.read_global(l, t, slot)),
-            UopOf::ShStore { stack, entry, src } => {
-                let v = data(l, &mut latch, src);
-                st.write_sh(l, stack, entry, v);
+    for loads in [true, false] {
+        for &t in &arrived {
+            let j = st.lane(t);
+            let is_load = matches!(st.seq[j].inflight, Some(UopOf::ShLoad { .. } | UopOf::GlobalLoad { .. }));
+            if is_load != loads {
+                continue;
             }
-            UopOf::GlobalStore { slot, src } => {
-                let v = data(l, &mut latch, src);
-                st.global_writes[j].push((slot, v));
+            let Some(u) = st.seq[j].inflight.take() else { continue };
+            let mut latch = st.seq[j].latch;
+            match u {
+                UopOf::ShLoad { stack, entry } => latch = Some(st.read_sh(l, stack, entry)),
+                UopOf::GlobalLoad { slot } => latch = Some(st.read_global(l, t, slot)),
+                UopOf::ShStore { stack, entry, src } => {
+                    let v = data(l, &mut latch, src);
+                    st.write_sh(l, stack, entry, v);
+                }
+                UopOf::GlobalStore { slot, src } => {
+                    let v = data(l, &mut latch, src);
+                    st.global_writes[j].push((slot, v));
+                }
+                // Complete at issue; never in flight.
+                UopOf::RbBottom | UopOf::Release { .. } => {}
             }
-            // Complete at issue; never in flight.
-            UopOf::RbBottom | UopOf::Release { .. } => {}
+            st.seq[j].latch = latch;
         }
-        st.seq[j].latch = latch;
     }
     // 2. Issue.
     for j in 0..st.stacks.len() {
@@ -527,18 +575,23 @@ pub fn spec_cycle<L: Logic>(
             continue;
         }
         let j = st.lane(t);
-        let mut scratch = st.clone();
+        // A refused command changes nothing: what a command may change is kept to put back.
+        let (stacks, rb, queued) = (st.stacks.clone(), st.rb[j].clone(), st.seq[j].queue.len());
         let th = st.threads[j];
         let b = l.bit(busy[j]);
+        let base = st.base;
         let (r, th) = {
-            let mut rf = SpecFile { st: &mut scratch, t };
-            let mut p = Spec { l: &mut *l, rf: &mut rf, cfg, t, base: st.base, th };
+            let mut rf = SpecFile { st: &mut *st, t };
+            let mut p = Spec { l: &mut *l, rf: &mut rf, cfg, t, base, th };
             let r = p.apply(cmd, b);
             (r, p.th)
         };
         if r.is_ok() {
-            scratch.threads[j] = th;
-            *st = scratch;
+            st.threads[j] = th;
+        } else {
+            st.stacks = stacks;
+            st.rb[j] = rb;
+            st.seq[j].queue.truncate(queued);
         }
         out.answers.push((j as u32, r));
     }

@@ -13,6 +13,7 @@ pub mod conserve;
 pub mod cycle;
 pub mod query;
 pub mod replay;
+pub mod scoreboard;
 pub mod solver;
 pub mod spec;
 pub mod sym;

@@ -583,6 +583,7 @@ pub(super) fn error_code(e: &StackError) -> u32 {
         StackError::AfterFinish { .. } => 3,
         StackError::SpillRegionFull { .. } => 4,
         StackError::Overflow { .. } => 5,
+        StackError::OutOfRange { .. } => 6,
     }
 }
 

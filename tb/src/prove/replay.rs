@@ -86,7 +86,7 @@ pub fn replay(
     sink.begin_cycle(0);
     sm.probe_cycle(&cmds, &[], &mut sink);
     let mut d = StackStep::default();
-    sm.eval(StackIn { cmds: &cmds, done: &[], deq: None }, &mut d);
+    sm.eval(StackIn { cmds: &cmds, done: &[], deq: None, now: 0 }, &mut d);
     let answers = cmds.iter().map(|&(t, cmd)| format!("thread {t} {cmd:?}: {:?}", d.answer(t))).collect();
     sm.commit(&d);
     sink.begin_cycle(1);

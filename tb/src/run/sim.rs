@@ -20,7 +20,7 @@
 //! several SMs at once.
 
 use std::cell::Cell;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use rtl::config::Config;
@@ -459,6 +459,22 @@ pub fn helper_thread() -> bool {
     spare_core() && HELPER_THREAD.load(Ordering::Relaxed)
 }
 
+/// Whether cycle-level runs check every stack-manager cycle against the specification's
+/// ([`crate::prove::scoreboard::SpecBoard`]; on by default, [`check_decisions`]).
+static DECISIONS: AtomicU64 = AtomicU64::new(1);
+
+/// Has cycle-level runs check every `every`-th cycle's stack-manager decisions (1, the default:
+/// every cycle); 0 turns the scoreboard off, and a run checks data only (every pop against the
+/// trace, every warp at exit).
+pub fn check_decisions(every: u64) {
+    DECISIONS.store(every, Ordering::Relaxed);
+}
+
+/// Every how many cycles cycle-level runs started here check decisions (0: never).
+pub fn decisions_checked() -> u64 {
+    DECISIONS.load(Ordering::Relaxed)
+}
+
 /// Whether a run started here has a core to spare, so that it traces on a second thread and
 /// runs part of the model on another ([`Gpu::with_helper_thread`]): a second core exists and this is
 /// not one of a parallel sweep's runs (a rayon worker).
@@ -514,6 +530,10 @@ fn run_cycle<S: Sink>(
     let gpu = Gpu::new(spec.config, spec.hw.rt, spec.hw.mem_for(&spec.config))
         .map_err(|e| Error::Invalid(e.to_string()))?
         .with_helper_thread(helper_thread());
+    let gpu = match decisions_checked() {
+        0 => gpu,
+        every => gpu.with_scoreboard(&|| Box::new(crate::prove::scoreboard::SpecBoard::every(every))),
+    };
     let mut per_job = Vec::new();
     let total = total as u32;
     let report = gpu
