@@ -105,14 +105,32 @@ const TABLE: [(Mutant, Pick, u32, Property); 23] = [
     (Mutant::SkewWrongForM4, Pick::Corner("SH_4"), 0, Property::Placement),
     (Mutant::FinishWhileBusy, Pick::Corner("busy commands"), 0, Property::Busy),
     (Mutant::ReloadAssumesWordKept, Pick::Sh1, 0, Property::RequestSequence),
+    // A finish turns the stack Idle and the later lane's borrow of it in the same cycle is lost.
+    (Mutant::FirstStackWriteWins, Pick::Corner("two per cycle"), 0, Property::SameCycle),
+    // A chain of two flushes where it could borrow a third stack.
+    (Mutant::FlushBeforeLastBorrow, Pick::Chain3, 0, Property::RequestSequence),
+];
+
+/// The planted bugs in the clocked cycle's sequencing that the functional search cannot
+/// reach (its micro-ops complete at once, one thread at a time): the whole-cycle proof
+/// (`proofs/tests/whole_cycle.rs`) and the decision scoreboard of real runs
+/// (`tb/tests/decisions.rs`) catch them; `StoredEntryThreeBits` needs M = 16.
+const CYCLE_ONLY: [Mutant; 5] = [
+    Mutant::BusyAfterCompletion,
+    Mutant::IssueWaitsACycle,
+    Mutant::IssueReadsOldLatch,
+    Mutant::ResponseDroppedWithShDone,
+    Mutant::StoredEntryThreeBits,
 ];
 
 #[test]
 fn every_mutant_is_caught_by_the_fixpoint_search() {
+    let listed: Vec<Mutant> =
+        Mutant::ALL.into_iter().filter(|m| !CYCLE_ONLY.contains(m)).collect();
     assert_eq!(
         TABLE.map(|r| r.0)[..],
-        Mutant::ALL[..],
-        "the table lists every mutant of the one list, in its order"
+        listed[..],
+        "the table lists every mutant of the one list but the cycle-only ones, in its order"
     );
     let mut wrong = Vec::new();
     for (m, pick, extra, expected) in TABLE {

@@ -82,11 +82,14 @@ pub enum Mutant {
     ResponseDroppedWithShDone,
     /// A completing SH store addresses its entry with 3 bits (right for M ≤ 8).
     StoredEntryThreeBits,
+    /// A full chain flushes where it may still borrow its last stack (every entry still lands
+    /// right: only the decision differs).
+    FlushBeforeLastBorrow,
 }
 
 impl Mutant {
     /// Every mutant, in declaration order (the order of [`Self::NAMES`]).
-    pub const ALL: [Mutant; 29] = [
+    pub const ALL: [Mutant; 30] = [
         Mutant::QueueWrapOffByOne,
         Mutant::ReloadWrongEntry,
         Mutant::SpillDropsEntry,
@@ -116,6 +119,7 @@ impl Mutant {
         Mutant::IssueReadsOldLatch,
         Mutant::ResponseDroppedWithShDone,
         Mutant::StoredEntryThreeBits,
+        Mutant::FlushBeforeLastBorrow,
     ];
 }
 
@@ -149,7 +153,8 @@ named_enum!(
     Mutant::IssueWaitsACycle => "issue-waits-a-cycle",
     Mutant::IssueReadsOldLatch => "issue-reads-old-latch",
     Mutant::ResponseDroppedWithShDone => "response-dropped-with-sh-done",
-    Mutant::StoredEntryThreeBits => "stored-entry-three-bits"
+    Mutant::StoredEntryThreeBits => "stored-entry-three-bits",
+    Mutant::FlushBeforeLastBorrow => "flush-before-last-borrow"
 );
 
 #[cfg(feature = "mutants")]
@@ -291,6 +296,14 @@ mod planted {
 
         fn reload_target<L: Logic, R: Regfile<L>>(p: &mut P<L, R>, c: &Chain<L>) -> L::Word {
             p.by_priority(c, is(p, Mutant::ReloadIntoTop))
+        }
+
+        fn may_borrow<L: Logic, R: Regfile<L>>(p: &mut P<L, R>, len: L::Word, limit: L::Word) -> L::Bit {
+            if is(p, Mutant::FlushBeforeLastBorrow) {
+                p.l.lt(len, limit)
+            } else {
+                p.l.le(len, limit)
+            }
         }
 
         fn first_idle<L: Logic, R: Regfile<L>>(p: &mut P<L, R>) -> (L::Bit, L::Word) {

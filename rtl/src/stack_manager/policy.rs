@@ -95,6 +95,11 @@ pub trait Steps: Sized {
     fn reload_target<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, c: &Chain<L>) -> L::Word {
         p.by_priority(c, false)
     }
+    /// A full chain of `len` stacks may borrow another (the borrow limit counts borrowed
+    /// stacks, so a chain holds at most 1 + limit).
+    fn may_borrow<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, len: L::Word, limit: L::Word) -> L::Bit {
+        p.l.le(len, limit)
+    }
     /// The idle stack a full chain borrows: (found, stack).
     fn first_idle<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) -> (L::Bit, L::Word) {
         p.first_idle()
@@ -536,7 +541,7 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
                 return Ok(());
             }
             let limit = self.l.word(ra.borrow_limit);
-            let may_borrow = self.l.le(len, limit);
+            let may_borrow = P::may_borrow(self, len, limit);
             if self.l.decide(may_borrow) {
                 let (some_idle, s) = P::first_idle(self);
                 if self.l.decide(some_idle) {

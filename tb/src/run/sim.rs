@@ -459,12 +459,12 @@ pub fn helper_thread() -> bool {
     spare_core() && HELPER_THREAD.load(Ordering::Relaxed)
 }
 
-/// Whether cycle-level runs check every stack-manager cycle against the specification's
-/// ([`crate::prove::scoreboard::SpecBoard`]; on by default, [`check_decisions`]).
-static DECISIONS: AtomicU64 = AtomicU64::new(1);
+/// Every how many cycles cycle-level runs check the stack manager's cycle against the
+/// specification's ([`crate::prove::scoreboard::SpecBoard`], [`check_decisions`]).
+static DECISIONS: AtomicU64 = AtomicU64::new(crate::prove::scoreboard::SAMPLE_EVERY);
 
-/// Has cycle-level runs check every `every`-th cycle's stack-manager decisions (1, the default:
-/// every cycle); 0 turns the scoreboard off, and a run checks data only (every pop against the
+/// Has cycle-level runs check every `every`-th cycle's stack-manager decisions (the default:
+/// [`crate::prove::scoreboard::SAMPLE_EVERY`]; 1: every cycle); 0 turns the scoreboard off, and a run checks data only (every pop against the
 /// trace, every warp at exit).
 pub fn check_decisions(every: u64) {
     DECISIONS.store(every, Ordering::Relaxed);
