@@ -776,6 +776,31 @@ mod tests {
     }
 
     #[test]
+    fn the_raw_builder_keeps_every_operator_and_counts_no_rule() {
+        let mut s = Sym::raw();
+        let (a, b) = (s.word(3), s.word(4));
+        let c = s.add(a, b);
+        assert_eq!(s.word_of(c.0), None, "no folding");
+        assert_eq!(s.expr(c.0), format!("(bvadd {} {})", s.name(a.0), s.name(b.0)));
+        let x = s.var_word("x");
+        let d = s.div(x, b);
+        assert_eq!(s.expr(d.0), format!("(bvudiv x {})", s.name(b.0)), "no shift");
+        let t = s.bit(true);
+        let p = s.var_bit("p");
+        let m = s.mux_bit(t, p, p);
+        assert_eq!(s.expr(m.0), "(ite true p p)");
+        assert!(Rule::ALL.iter().all(|&r| s.fired(r) == 0));
+
+        let mut s = Sym::default();
+        let (a, b) = (s.word(3), s.word(4));
+        let x = s.var_word("x");
+        let xa = s.add(x, a);
+        let y = s.add(xa, b);
+        assert_eq!(s.offset(y), Some((x, 7)));
+        assert_eq!((s.fired(Rule::AddMerge), s.fired(Rule::AddConst)), (1, 0));
+    }
+
+    #[test]
     fn explore_visits_every_path_once() {
         let mut s = Sym::default();
         let (p, q) = (s.var_bit("p"), s.var_bit("q"));
