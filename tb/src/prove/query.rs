@@ -748,7 +748,12 @@ pub struct Query {
 /// Builds the one-step equivalence query of `cmds` (lanes of the warp at `base`, planned in
 /// that order in one cycle) for the design with `steps`.
 pub fn one_step<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind)]) -> Query {
-    let (mut s, st, inv, d, slots) = design_cycle(cfg, steps, base, cmds);
+    one_step_in(Sym::default(), cfg, steps, base, cmds)
+}
+
+/// [`one_step`] built in `s` (a builder with other simplifications).
+pub fn one_step_in<P: Steps>(s: Sym, cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind)]) -> Query {
+    let (mut s, st, inv, d, slots) = design_cycle(s, cfg, steps, base, cmds);
     let sp = side::<P>(&mut s, cfg, &st, &Side::Spec, slots);
     let parts = agreement(&mut s, &d, &sp, &st.lanes);
     finish(s, inv, parts)
@@ -759,7 +764,7 @@ pub fn one_step<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind
 /// lane's stack registers, and the commanding lanes' thread registers, RB lengths and
 /// sequencers (busy when the cycle loaded a program) as the cycle leaves them.
 pub fn preserves<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kind)]) -> Query {
-    let (mut s, st, inv, d, _) = design_cycle(cfg, steps, base, cmds);
+    let (mut s, st, inv, d, _) = design_cycle(Sym::default(), cfg, steps, base, cmds);
     let mut done = st.done.clone();
     let mut after = Vec::new();
     for (x, a) in st.lanes.iter().zip(&d.lanes) {
@@ -773,15 +778,15 @@ pub fn preserves<P: Steps>(cfg: &Config, steps: &P, base: u32, cmds: &[(u32, Kin
     finish(s, inv, kept.into_iter().map(|(n, b)| (format!("after the cycle, {n}"), b)).collect())
 }
 
-/// The start both queries share: fresh state variables for `cmds`, the invariant over them, and
-/// the design's cycle (with the program's slot count, for the specification's side).
+/// The start both queries share, in `s`: fresh state variables for `cmds`, the invariant over
+/// them, and the design's cycle (with the program's slot count, for the specification's side).
 fn design_cycle<P: Steps>(
+    mut s: Sym,
     cfg: &Config,
     steps: &P,
     base: u32,
     cmds: &[(u32, Kind)],
 ) -> (Sym, State, B, Cycle, usize) {
-    let mut s = Sym::default();
     let st = State::new(&mut s, cfg, base, cmds);
     let lanes: Vec<(u32, Thread<Sym>, W, B)> =
         st.lanes.iter().map(|x| (x.lane, x.th, x.rb_len, x.busy)).collect();
