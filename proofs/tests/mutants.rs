@@ -70,7 +70,7 @@ fn config(p: Pick) -> Config {
 /// Per mutant: the smallest case whose fixpoint search catches it, extra depth-cap entries
 /// beyond the case's cap ([`default_cap`] for full warps), and the property that catches it
 /// first.
-const TABLE: [(Mutant, Pick, u32, Property); 23] = [
+const TABLE: [(Mutant, Pick, u32, Property); 25] = [
     (Mutant::QueueWrapOffByOne, Pick::Sh2, 0, Property::RequestSequence),
     (Mutant::ReloadWrongEntry, Pick::Sh2, 0, Property::RequestSequence),
     (Mutant::SpillDropsEntry, Pick::Sh1, 0, Property::RequestSequence),
