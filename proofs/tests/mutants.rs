@@ -1,4 +1,5 @@
-//! Every planted bug of the one [`Mutant`] list, caught by the exhaustive layer itself: the
+//! Every planted bug of the one [`Mutant`] list but those of the cycle's issue and completion
+//! ports ([`CYCLE_ONLY`]), caught by the exhaustive layer itself: the
 //! fixpoint search of one case of [`full_cases`] — per mutant the smallest that catches it: a
 //! small configuration of [`full_configs`], or for the bugs only the design's own sizes show
 //! (M = 4 or 8, chains of 5, lanes ≥ 16, a second warp, two lanes in one cycle, a busy thread)
@@ -70,7 +71,7 @@ fn config(p: Pick) -> Config {
 /// Per mutant: the smallest case whose fixpoint search catches it, extra depth-cap entries
 /// beyond the case's cap ([`default_cap`] for full warps), and the property that catches it
 /// first.
-const TABLE: [(Mutant, Pick, u32, Property); 23] = [
+const TABLE: [(Mutant, Pick, u32, Property); 26] = [
     (Mutant::QueueWrapOffByOne, Pick::Sh2, 0, Property::RequestSequence),
     (Mutant::ReloadWrongEntry, Pick::Sh2, 0, Property::RequestSequence),
     (Mutant::SpillDropsEntry, Pick::Sh1, 0, Property::RequestSequence),
@@ -105,14 +106,45 @@ const TABLE: [(Mutant, Pick, u32, Property); 23] = [
     (Mutant::SkewWrongForM4, Pick::Corner("SH_4"), 0, Property::Placement),
     (Mutant::FinishWhileBusy, Pick::Corner("busy commands"), 0, Property::Busy),
     (Mutant::ReloadAssumesWordKept, Pick::Sh1, 0, Property::RequestSequence),
+    // Lane 0's finish and lane 1's borrow of the stack it frees, in one cycle: the borrow's
+    // write to that stack is dropped.
+    (Mutant::FirstStackWriteWins, Pick::Corner("two per cycle"), 0, Property::SameCycle),
+    // An SH store to entry 8 or above of a 16- or 32-entry queue lands 8 entries lower.
+    (Mutant::StoredEntryThreeBits, Pick::Corner("SH_32+"), 0, Property::Conservation),
+    // The first flush of a stack, with flush limit 3, counts 2.
+    (Mutant::FlushCountedTwice, Pick::Corner("flush 3 lanes 0100"), 0, Property::FlushCount),
 ];
+
+/// The planted bugs of the cycle's issue and completion ports. The exhaustive layer's
+/// micro-ops complete at once (nothing waits in flight for a port), so no thread there issues
+/// in the cycle its predecessor completes and no SH and global completions meet; `sms prove`'s
+/// whole-cycle obligations catch these.
+const CYCLE_ONLY: [Mutant; 4] = [
+    Mutant::BusyAfterCompletion,
+    Mutant::IssueWaitsACycle,
+    Mutant::IssueReadsOldLatch,
+    Mutant::ResponseDroppedWithShDone,
+];
+
+/// The port bugs survive the exhaustive layer, even the case that completes micro-ops in a
+/// command's cycle: the claim that it cannot see them, checked.
+#[test]
+fn the_cycle_port_bugs_are_outside_the_exhaustive_layer() {
+    let case = case(Pick::Corner("+completion with command"));
+    for m in CYCLE_ONLY {
+        let cov = check(case.cfg, case.bounds(), |sm| sm.with_mutant(Some(m)))
+            .unwrap_or_else(|e| panic!("{m:?} is caught after all: {e}"));
+        assert!(cov.fixpoint, "{m:?}");
+    }
+}
 
 #[test]
 fn every_mutant_is_caught_by_the_fixpoint_search() {
+    let listed: Vec<Mutant> = Mutant::ALL.into_iter().filter(|m| !CYCLE_ONLY.contains(m)).collect();
     assert_eq!(
         TABLE.map(|r| r.0)[..],
-        Mutant::ALL[..],
-        "the table lists every mutant of the one list, in its order"
+        listed[..],
+        "the table lists every mutant of the one list but the cycle's ports', in its order"
     );
     let mut wrong = Vec::new();
     for (m, pick, extra, expected) in TABLE {

@@ -489,8 +489,28 @@ fn run_functional(
             }
         }),
     )
-    .map_err(|e| Error::Invalid(format!("{}: {e}", spec.config.name())))?;
+    .map_err(|e| functional_failure(&spec.config, e))?;
     Ok((run.total, None, run.pops_checked))
+}
+
+/// A functional run's failure as the CLI reports it: a configuration the stack manager refuses
+/// is bad input; a stack property violated is the design's failure.
+pub(crate) fn functional_failure(config: &Config, e: crate::run::functional::FunctionalError) -> Error {
+    use crate::run::functional::FunctionalError;
+    match e {
+        FunctionalError::Config(_) => Error::Invalid(format!("{}: {e}", config.name())),
+        FunctionalError::Violation(_) => Error::DesignCheck(format!("{}: {e}", config.name())),
+    }
+}
+
+/// A cycle-level run's failure as the CLI reports it: a job the RT unit cannot take is bad
+/// input; a refused stack command, a pop that disagrees with the trace, a warp leaving stack
+/// state behind or a stall is the design's failure.
+pub(crate) fn cycle_failure(config: &Config, e: rtl::rt_unit::RunError) -> Error {
+    match e {
+        rtl::rt_unit::RunError::BadJob { .. } => Error::Invalid(format!("{}: {e}", config.name())),
+        _ => Error::DesignCheck(format!("{}: {e}", config.name())),
+    }
 }
 
 /// The cycle level on the RT units' jobs of `total` pixel warps, in order; fills `residence`
@@ -524,7 +544,7 @@ fn run_cycle<S: Sink>(
             |p: Progress| progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle }),
             &mut per_job,
         )
-        .map_err(|e| Error::Invalid(format!("{} failed its checks: {e}", spec.config.name())))?;
+        .map_err(|e| cycle_failure(&spec.config, e))?;
     let mut next = per_job.iter();
     residence.clear();
     residence.extend(jobs_per_warp.borrow().iter().map(|&n| next.by_ref().take(n).sum::<u64>()));
