@@ -96,10 +96,11 @@ pub struct Args {
     pub full: bool,
     #[command(flatten)]
     pub output: OutputArgs,
-    /// With --full: the cap on the entries the warp holds (default per case: RB + SH × (1 +
-    /// borrow limit) + 1, enough to fill a whole chain and reach global memory; for the one-lane
-    /// cases RB + 2 × SH × (1 + borrow limit) + 1, so every stack is flushed once and the first
-    /// twice).
+    /// The cap on the entries the warp holds: pushes are offered only while it holds fewer.
+    /// Without it a grid search never runs out of new states, so it ends at the depth bound
+    /// (bounded); with it the search can reach its fixpoint. With --full the default is per
+    /// case: RB + SH × (1 + borrow limit) + 1, enough to fill a whole chain and reach global
+    /// memory (the corner cases' own caps are in docs/verification.md).
     #[arg(long)]
     pub cap: Option<u32>,
     /// With --full: explore without the partial-order reduction (every interleaving of private
@@ -258,11 +259,13 @@ pub fn run(args: Args) -> Result<()> {
     let mut capped = Vec::new();
     for c in &configs {
         let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
-        crate::cli::note(format!("checking {} to depth {depth} ...", describe(c)));
+        let under = args.cap.map_or(String::new(), |c| format!(" under cap {c}"));
+        crate::cli::note(format!("checking {} to depth {depth}{under} ...", describe(c)));
         let bounds = Bounds {
             depth,
             values: args.values,
             max_states: args.max_states.unwrap_or(MAX_STATES),
+            cap: args.cap,
             ..Bounds::default()
         };
         match check(*c, bounds, design) {

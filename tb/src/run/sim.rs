@@ -682,6 +682,36 @@ mod tests {
         assert_eq!(s.map(|v| v * 2).zip(&s, |a, b| a - b), s);
     }
 
+    /// A run's failed check is the design's failure, reported as such; only what the input got
+    /// wrong (a configuration refused, a job the RT unit cannot take) is an invalid option.
+    #[test]
+    fn a_failed_design_check_is_not_worded_as_bad_input() {
+        use crate::run::functional::FunctionalError;
+        use crate::run::verify::invariants::{Property, Violation};
+        use rtl::rt_unit::RunError;
+        let cfg = Config::sms();
+        let v = Violation {
+            property: Property::Equivalence,
+            detail: "thread 3 popped 7, the reference 9".into(),
+        };
+        let e = functional_failure(&cfg, FunctionalError::Violation(v)).to_string();
+        assert_eq!(
+            e,
+            "design check failed: RB_8+SH_8+SK+RA: stack mismatch at the functional level: Equivalence violated: \
+             thread 3 popped 7, the reference 9"
+        );
+        let refused = Config { sh_entries: 3, ..cfg }.validate().unwrap_err();
+        let e = functional_failure(&cfg, FunctionalError::Config(refused)).to_string();
+        assert!(e.starts_with("invalid option: RB_8+SH_8+SK+RA: "), "{e}");
+        let pop = RunError::PopMismatch { cycle: 10, sm: 0, thread: 3, expected: 9, got: 7 };
+        let e = cycle_failure(&cfg, pop).to_string();
+        assert!(e.starts_with("design check failed: RB_8+SH_8+SK+RA: "), "{e}");
+        let e = cycle_failure(&cfg, RunError::Stalled { cycle: 10 }).to_string();
+        assert!(e.starts_with("design check failed: "), "{e}");
+        let job = RunError::BadJob { job: 1, reason: "31 lanes".into() };
+        assert!(cycle_failure(&cfg, job).to_string().starts_with("invalid option: "));
+    }
+
     fn workload(scene: &crate::workload::scene::Scene, res: u32) -> Workload<'_> {
         Workload::new(scene, WorkloadOpts::quick(scene, res)).unwrap()
     }
