@@ -84,9 +84,12 @@ pub struct Args {
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Mutant::NAMES))]
     pub mutant: Option<String>,
     /// Prove instead of search: explore every case of the full set (the small grid, skewed
-    /// configurations with 4 and 8 banks, and 4-thread warps with one active lane whose chains
-    /// of three stacks rotate) to its fixpoint, every interleaving unbounded in time, under a
-    /// cap on the entries the warp holds; a cover goal never reached fails the run. The two
+    /// configurations with 4 and 8 banks, 4-thread warps with one active lane whose chains
+    /// of three stacks rotate, and the design's own sizes with few lanes active: M = 4, 8, 16
+    /// and 32, chains of 5, flush limit 3, lanes above 15, a second warp, two commands or a
+    /// completion and a command in one cycle) to its fixpoint, every interleaving unbounded in
+    /// time, under a cap on the entries the warp holds; a cover goal never reached fails the
+    /// run, a case stopped by --max-states is reported as bounded (exit status 2). The two
     /// 4-thread warps with M = 2 and reallocation are searched depth first and take most of the
     /// time (measured here: 1.0 * 10^8 and 3.9 * 10^7 states, 14 and 6 minutes, 3.7 GB at the
     /// peak); --small-cap runs them under a smaller cap, --quick leaves them out.

@@ -84,6 +84,22 @@
 //! with and without the reduction (same verdicts and covers, 6 % fewer states over the set) and
 //! `tests/mutants.rs` catches every mutant both ways. `sms check --full --no-por` turns it off.
 //!
+//! **Several actions in one cycle.** Two threads' commands ([`Action::Both`], [`Bounds::pairs`])
+//! and a micro-op completion with a command ([`Action::UopWithCmd`], [`Bounds::uop_cmds`]) are
+//! checked against the same actions one after the other ([`Property::SameCycle`]) and then
+//! taken through the checked path action by action, so they add transitions, not states. The
+//! reduction above skips a combined action whose completion is a private micro-op α: such a
+//! cycle is α and then the command, since a plan reads nothing α writes (a command of α's own
+//! thread is refused in both, the thread being busy), so the check it would make holds
+//! trivially; a combined action of another thread's completion commutes with α as its parts do.
+//!
+//! **Flush counts.** The model counts each stack's consecutive flushes itself
+//! ([`Property::FlushCount`]): after every accepted command it runs the specification's case
+//! table ([`super::sequence::expected_flush_counts`]) over the registers with its own counts in
+//! place of the Flush registers, and compares the design's registers with the counts that
+//! gives. The counts are not in the state key: while the property holds they equal the
+//! registers the key hashes.
+//!
 //! **Depth first.** The 4-thread warps with M = 2 and reallocation ([`Case::dfs`]) are searched
 //! depth first ([`Bounds::dfs`]): a BFS level of theirs holds millions of models (about 2.3 kB
 //! each: the stack manager's vectors, the scoreboard, the shadows), the depth-first path only
@@ -1723,7 +1739,10 @@ pub fn full_cases() -> Vec<Case> {
 ///   to 5, while lanes 0–15 are active but silent (still waiting on their first node), so the
 ///   stacks lent are lanes 17 and up (Next TID needs 5 bits);
 /// - the second warp of an RT unit (thread ids differ from lanes);
-/// - two threads' commands planned in one cycle, and commands offered to busy threads.
+/// - two threads' commands planned in one cycle, commands offered to busy threads, and a
+///   micro-op completion with a command in one cycle;
+/// - M = 16 and M = 32 (4- and 5-bit Top and Bottom, skew base lane mod M) on one lane of a
+///   32-lane warp, through a full chain of two stacks, a flush and the global reload.
 pub fn corner_cases() -> Vec<Case> {
     use rtl::config::{RbSize, Realloc};
     let ra = |borrow_limit, flush_limit| Some(Realloc { borrow_limit, flush_limit });
