@@ -519,4 +519,10 @@ fn flush_count_catches_a_flush_counted_twice_that_the_bounds_pass() {
     let ra =
         find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some());
     check(ra, Bounds::fixpoint(default_cap(&ra)), twice).expect("with flush limit 1 twice is once");
+    // The bounds still catch a count never reset, on their own, once the pop is done.
+    let kept = check(ra, Bounds { flush_count: false, ..Bounds::fixpoint(default_cap(&ra)) }, |sm| {
+        sm.with_mutant(Some(Mutant::FlushKeepsCount))
+    })
+    .expect_err("FlushKeepsCount survived the bounds");
+    assert_eq!(kept.violation.property, Property::Flush);
 }

@@ -78,7 +78,7 @@ const TABLE: [(Mutant, Pick, u32, Property); 26] = [
     (Mutant::MissingGlobalReload, Pick::Sh1, 0, Property::RequestSequence),
     (Mutant::EarlyRelease, Pick::Ra2, 0, Property::RequestSequence),
     (Mutant::SkipOverflowClear, Pick::Sh1, 0, Property::Overflow),
-    (Mutant::FlushKeepsCount, Pick::Ra, 0, Property::Flush),
+    (Mutant::FlushKeepsCount, Pick::Ra, 0, Property::FlushCount),
     (Mutant::EagerRelease, Pick::Ra, 0, Property::RequestSequence),
     (Mutant::SkewWrongForOneM, Pick::Skew8, 0, Property::Placement),
     (Mutant::PriorityKeptOnRelease, Pick::Ra, 0, Property::Chains),
