@@ -380,3 +380,149 @@ fn four_thread_m2_reallocation_depth_first_under_a_small_cap() {
         .expect_err("LendActiveStack survived");
     println!("  LendActiveStack: {} after {} actions", cex.violation, cex.trace.len());
 }
+
+/// The corner case whose description contains `text`.
+fn corner(text: &str) -> Case {
+    corner_cases().into_iter().find(|c| c.describe().contains(text)).unwrap_or_else(|| panic!("{text:?}"))
+}
+
+/// `StackManager::complete_and_accept` is the cycle's order: a release completing in a cycle is
+/// seen by that cycle's plans (another lane borrows the released stack, the lowest Idle one,
+/// where planning before the release lands takes the next), and the completing thread is busy
+/// for its own command that cycle even when the micro-op is its last.
+#[test]
+fn a_release_completing_in_a_cycle_is_seen_by_that_cycles_plans() {
+    let c = Config {
+        rb: RbSize::Entries(1),
+        sh_entries: 1,
+        realloc: Some(Realloc { borrow_limit: 2, flush_limit: 1 }),
+        warp_size: 4,
+        warps: 1,
+        ..Config::default()
+    };
+    let mut sm = rtl::stack_manager::StackManager::new(c, 0).unwrap();
+    sm.load_warp(0, 0b0011);
+    let drain = |sm: &mut rtl::stack_manager::StackManager, t| while sm.complete_next(t) {};
+    // Lane 0 fills its RB, its stack and borrows stack 2; lane 1 fills its RB and its stack.
+    for (t, n) in [(0, 3), (1, 2)] {
+        for v in 0..n {
+            sm.accept(t, Cmd::Push(10 * t as u64 + v)).unwrap();
+            drain(&mut sm, t);
+        }
+    }
+    assert_eq!(sm.chain(0), [0, 2]);
+    // Lane 0's pop drains the borrowed stack: SH load, RB bottom, then the release.
+    sm.accept(0, Cmd::Pop).unwrap();
+    sm.complete_next(0);
+    sm.complete_next(0);
+    assert_eq!(
+        sm.pending_uops(0).copied().collect::<Vec<_>>(),
+        [rtl::stack_manager::Uop::Release { stack: 2 }]
+    );
+    let early = {
+        let mut x = sm.clone();
+        assert_eq!(x.accept(1, Cmd::Push(12)), Ok(None));
+        x.chain(1)
+    };
+    assert_eq!(early, [1, 3], "planned before the release lands, lane 1 borrows stack 3");
+    let mut same = sm.clone();
+    assert_eq!(same.complete_and_accept(&[0], &[(1, Cmd::Push(12))]), [Ok(None)]);
+    assert_eq!(same.chain(1), [1, 2], "in the release's cycle, lane 1 borrows the released stack");
+    assert!(same.ready(0), "the release was lane 0's last micro-op");
+    assert_eq!(
+        sm.complete_and_accept(&[0], &[(0, Cmd::Pop)]),
+        [Err(rtl::stack_manager::StackError::Busy { thread: 0 })],
+        "lane 0 is busy for the whole cycle its last micro-op completes in"
+    );
+    assert!(sm.ready(0) && sm.stack(2).idle, "the completion landed, the refused pop changed nothing");
+}
+
+/// A completion and a command in one cycle (`Action::UopWithCmd`) reach the cases they are for
+/// (a stack released and borrowed in one cycle; a command refused as the thread's last
+/// micro-op completes), and catch a merge that keeps a release's write to a stack over a
+/// same-cycle plan's (FirstStackWriteWins) by SameCycle, which the search without them misses.
+#[test]
+fn completions_with_commands_in_one_cycle_reach_their_cases_and_catch_a_lost_write() {
+    let case = corner("+completion with command");
+    let goals = case.goals();
+    assert!(goals.contains(&Goal::ReleaseMeetsBorrow) && goals.contains(&Goal::BusyAsLastUopCompletes));
+    let cov = check(case.cfg, case.bounds(), |sm| sm).unwrap_or_else(|e| panic!("{e}"));
+    assert!(cov.fixpoint);
+    assert_eq!(cov.covers.missing_of(&goals), vec![]);
+    println!("{}: {} states, {:.2?}", case.describe(), cov.states, cov.elapsed);
+    // The completions alone (no two commands per cycle, no commands to busy threads).
+    let alone = Case { busy_cmds: false, pairs: false, ..case };
+    let planted = |sm: rtl::stack_manager::StackManager| sm.with_mutant(Some(Mutant::FirstStackWriteWins));
+    let cex = check(alone.cfg, alone.bounds(), planted).expect_err("FirstStackWriteWins survived");
+    println!("  FirstStackWriteWins: {cex}");
+    assert_eq!(cex.violation.property, Property::SameCycle);
+    assert!(matches!(cex.trace.last(), Some(Action::UopWithCmd(u, t, _)) if u != t), "{cex}");
+    let without = check(alone.cfg, Bounds { uop_cmds: false, ..alone.bounds() }, planted)
+        .unwrap_or_else(|e| panic!("without completions in a command's cycle nothing merges: {e}"));
+    assert!(without.fixpoint);
+}
+
+/// SH queues of 16 and 32 entries (4- and 5-bit Top and Bottom; skew base lane mod M, k = 1)
+/// on one lane of a 32-lane warp: valid configurations, every interleaving to the fixpoint
+/// through a full chain, a flush and the global reload, and a store addressed with 3 bits
+/// (right for M ≤ 8) caught at both sizes.
+#[test]
+fn queues_of_16_and_32_entries_reach_their_fixpoint_and_catch_a_narrow_store_address() {
+    for m in [16, 32] {
+        let case = corner(&format!("SH_{m}+"));
+        let c = case.cfg;
+        c.validate().unwrap();
+        assert!((0..32).all(|l| c.skew_base(l) == l % m && formula_base(&c, l) == l % m));
+        let goals = case.goals();
+        for g in
+            [Goal::Borrow, Goal::FullChain, Goal::Flush, Goal::OldestReload, Goal::Demotion, Goal::SkewBase]
+        {
+            assert!(goals.contains(&g), "SH_{m}: {g:?}");
+        }
+        let cov = check(c, case.bounds(), |sm| sm).unwrap_or_else(|e| panic!("{}: {e}", case.describe()));
+        println!(
+            "{}: {} states, depth {}, {:.2?}",
+            case.describe(),
+            cov.states,
+            cov.depth_reached,
+            cov.elapsed
+        );
+        assert!(cov.fixpoint);
+        assert_eq!(cov.covers.missing_of(&goals), vec![], "{}", case.describe());
+        let cex = check(c, case.bounds(), |sm| sm.with_mutant(Some(Mutant::StoredEntryThreeBits)))
+            .expect_err("StoredEntryThreeBits survived");
+        println!("  StoredEntryThreeBits: {} after {} actions", cex.violation, cex.trace.len());
+        assert_eq!(cex.violation.property, Property::Conservation);
+    }
+    let eight = corner("RB_8+SH_8");
+    check(eight.cfg, eight.bounds(), |sm| sm.with_mutant(Some(Mutant::StoredEntryThreeBits)))
+        .expect("3 bits address every entry of M = 8");
+}
+
+/// FlushCount compares every Flush register with the count the checker keeps from SPEC 5. A
+/// flush counted twice (saturating, so in range and 0 on every empty stack) passes every other
+/// property, the bounds-only Flush property and RequestSequence (which reads the design's
+/// counts) included, to the fixpoint; FlushCount catches it at the first flush. With a flush
+/// limit of 1 counting twice is right, and the search passes.
+#[test]
+fn flush_count_catches_a_flush_counted_twice_that_the_bounds_pass() {
+    let case = corner("flush 3 lanes 0100");
+    assert_eq!(case.cfg.realloc.map(|r| r.flush_limit), Some(3));
+    let twice = |sm: rtl::stack_manager::StackManager| sm.with_mutant(Some(Mutant::FlushCountedTwice));
+    let cov = check(case.cfg, Bounds { flush_count: false, ..case.bounds() }, twice)
+        .unwrap_or_else(|e| panic!("without FlushCount: {e}"));
+    assert!(cov.fixpoint && cov.flushes > 0, "the search flushed");
+    assert_eq!(cov.covers.missing_of(&case.goals()), vec![]);
+    let cex = check(case.cfg, case.bounds(), twice).expect_err("FlushCountedTwice survived FlushCount");
+    println!("FlushCountedTwice: {cex}");
+    assert_eq!(cex.violation.property, Property::FlushCount);
+    let ra =
+        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some());
+    check(ra, Bounds::fixpoint(default_cap(&ra)), twice).expect("with flush limit 1 twice is once");
+    // The bounds still catch a count never reset, on their own, once the pop is done.
+    let kept = check(ra, Bounds { flush_count: false, ..Bounds::fixpoint(default_cap(&ra)) }, |sm| {
+        sm.with_mutant(Some(Mutant::FlushKeepsCount))
+    })
+    .expect_err("FlushKeepsCount survived the bounds");
+    assert_eq!(kept.violation.property, Property::Flush);
+}

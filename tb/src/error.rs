@@ -37,6 +37,11 @@ pub enum Error {
     /// An option combination that cannot produce a workload.
     #[error("invalid option: {0}")]
     Invalid(String),
+    /// The model failed one of its own checks while running (a pop the reference stack
+    /// disagrees with, a warp leaving stack state behind, a stall): a bug of the design, not of
+    /// the input.
+    #[error("design check failed: {0}")]
+    DesignCheck(String),
 }
 
 impl Error {

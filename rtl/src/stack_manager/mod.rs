@@ -688,6 +688,32 @@ impl StackManager {
         r
     }
 
+    /// One cycle in which the next micro-op of each thread in `complete` (each at most once)
+    /// completes and `cmds` are planned, in the cycle's order ([`cycle::eval`]): the completions
+    /// land first, so a release completing now is seen by this cycle's plans; `ready` is a
+    /// register, so a thread whose micro-op completes now is still busy for a command in the
+    /// same cycle (refused Busy). Returns each command's answer, in order.
+    pub fn complete_and_accept(
+        &mut self,
+        complete: &[u32],
+        cmds: &[(u32, Cmd)],
+    ) -> Vec<Result<Option<Entry>, StackError>> {
+        let mut d = std::mem::take(&mut self.scratch);
+        d.clear();
+        for &t in complete {
+            let Some(&u) = self.seq[t as usize].uops.front() else { continue };
+            let mut latch = self.seq[t as usize].latch;
+            self.complete_with(t, u, &mut latch, &mut d);
+            d.j.writes.push(WriteOf::Seq { thread: t, issued: true, inflight: None, latch });
+        }
+        self.plan(cmds, &mut d);
+        let r = cmds.iter().map(|c| d.answer(c.0)).collect();
+        self.commit(&d);
+        d.clear();
+        self.scratch = d;
+        r
+    }
+
     /// Functional level: accept the command and complete its whole program at once.
     pub fn apply(&mut self, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
         let r = self.accept(t, cmd)?;

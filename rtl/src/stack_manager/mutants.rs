@@ -85,11 +85,15 @@ pub enum Mutant {
     /// A full chain flushes where it may still borrow its last stack (every entry still lands
     /// right: only the decision differs).
     FlushBeforeLastBorrow,
+    /// A flush is counted twice: the spill into the stack just flushed adds one more to its
+    /// Flush register (saturating at the limit, so the count stays in range and is 0 on every
+    /// empty stack; right for a flush limit of 1).
+    FlushCountedTwice,
 }
 
 impl Mutant {
     /// Every mutant, in declaration order (the order of [`Self::NAMES`]).
-    pub const ALL: [Mutant; 30] = [
+    pub const ALL: [Mutant; 31] = [
         Mutant::QueueWrapOffByOne,
         Mutant::ReloadWrongEntry,
         Mutant::SpillDropsEntry,
@@ -120,6 +124,7 @@ impl Mutant {
         Mutant::ResponseDroppedWithShDone,
         Mutant::StoredEntryThreeBits,
         Mutant::FlushBeforeLastBorrow,
+        Mutant::FlushCountedTwice,
     ];
 }
 
@@ -154,7 +159,8 @@ named_enum!(
     Mutant::IssueReadsOldLatch => "issue-reads-old-latch",
     Mutant::ResponseDroppedWithShDone => "response-dropped-with-sh-done",
     Mutant::StoredEntryThreeBits => "stored-entry-three-bits",
-    Mutant::FlushBeforeLastBorrow => "flush-before-last-borrow"
+    Mutant::FlushBeforeLastBorrow => "flush-before-last-borrow",
+    Mutant::FlushCountedTwice => "flush-counted-twice"
 );
 
 #[cfg(feature = "mutants")]
@@ -170,7 +176,13 @@ mod planted {
     use crate::logic::Logic;
 
     impl CycleSteps for Mutated {
-        fn busy_for_command<L: Logic>(&self, l: &mut L, q: &impl Registers<L>, d: &Journal<L>, t: u32) -> L::Bit {
+        fn busy_for_command<L: Logic>(
+            &self,
+            l: &mut L,
+            q: &impl Registers<L>,
+            d: &Journal<L>,
+            t: u32,
+        ) -> L::Bit {
             let busy = q.busy_q(l, t);
             if self.0 != Mutant::BusyAfterCompletion {
                 return busy;
@@ -186,7 +198,12 @@ mod planted {
         fn issue_after_completion(&self) -> bool {
             self.0 != Mutant::IssueWaitsACycle
         }
-        fn latch_at_issue<L: Logic>(&self, q: &impl Registers<L>, t: u32, after: Option<L::Val>) -> Option<L::Val> {
+        fn latch_at_issue<L: Logic>(
+            &self,
+            q: &impl Registers<L>,
+            t: u32,
+            after: Option<L::Val>,
+        ) -> Option<L::Val> {
             if self.0 == Mutant::IssueReadsOldLatch {
                 q.latch_q(t)
             } else {
@@ -381,6 +398,18 @@ mod planted {
         }
 
         fn spill_into<L: Logic, R: Regfile<L>>(p: &mut P<L, R>, s: L::Word, v: L::Val) {
+            if let (true, Some(ra)) = (is(p, Mutant::FlushCountedTwice), p.cfg.realloc) {
+                // The plan flushed `s` when its count moved since the cycle began (nothing else
+                // in a push's plan writes Flush but a borrow, which writes 0 over 0).
+                let now = p.stack(s);
+                let was = p.rf.stack_q(p.l, s);
+                let flushed = p.l.ne(now.flush, was.flush);
+                let room = p.l.lt_k(now.flush, ra.flush_limit);
+                let again = p.l.and(flushed, room);
+                let up = p.l.add_k(now.flush, 1);
+                let flush = p.l.mux(again, up, now.flush);
+                p.set(s, StackRegsOf { flush, ..now });
+            }
             if is(p, Mutant::SpillDropsEntry) {
                 // Top advances; the store never issues.
                 let r = p.stack(s);

@@ -3,6 +3,12 @@
 //! (the shared configuration flags, as every subcommand takes them); with `--full`, every
 //! case of [`crate::run::verify::exhaustive::full_cases`] explored to its fixpoint
 //! under a depth cap, every cover goal asserted.
+//!
+//! The verdict says what was examined: "all properties hold" / "every property proved" only
+//! when every configuration's search reached its fixpoint (every reachable state explored). A
+//! search stopped by the depth bound or the state limit without a violation is *bounded*: its
+//! row and the verdict name the cap and the depth, and `sms` exits with 2 ([`Bounded`]); a
+//! violation, a missed cover goal or bad input exits with 1.
 
 use std::path::{Path, PathBuf};
 
@@ -15,11 +21,19 @@ use rtl::stack_manager::{Mutant, StackManager};
 use rtl::trace::{Probe, Sink};
 
 use crate::cli::stack_config::StackConfigArgs;
-use crate::cli::{Format, OutputArgs};
+use crate::cli::{Bounded, Format, OutputArgs};
 use crate::report::table::Table;
 use crate::vcd::{Selection, VcdOptions, VcdSink};
 
+/// The exit status, in `sms check --help`.
+pub const EXIT_STATUS: &str =
+    "Exit status: 0 when every configuration's search reached its fixpoint with no \
+property violated (with --full: every cover goal reached too); 1 when a property is violated, a cover goal \
+is missed, or the input is bad; 2 when no property is violated but some search stopped at a cap (the depth \
+bound of the grid, or --max-states) before its fixpoint: a bounded check, not a proof.";
+
 #[derive(clap::Args, Debug)]
+#[command(after_help = EXIT_STATUS)]
 pub struct Args {
     /// RB entries of the grid, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [1, 2])]
@@ -39,7 +53,9 @@ pub struct Args {
     // `--warp-size` threads (which they then need: the names' 32 threads are too many).
     #[command(flatten)]
     pub stack: StackConfigArgs,
-    /// Longest action sequence (commands and micro-op completions) for 2-thread warps.
+    /// Longest action sequence (commands and micro-op completions) for 2-thread warps. A
+    /// configuration whose search is still finding new states at this depth is reported as
+    /// bounded (exit status 2), not proved.
     #[arg(long, default_value_t = 16)]
     pub depth: u32,
     /// Longest action sequence for wider warps.
@@ -53,8 +69,10 @@ pub struct Args {
     /// for a data-independent design, and far fewer states).
     #[arg(long)]
     pub all_values: bool,
-    /// Stop a configuration after this many distinct states [default: 20000000; with --full
-    /// 400000000: the largest case has 1.0 * 10^8 and peaked at 3.7 GB resident].
+    /// Stop a configuration after this many distinct states, at least 1 (the initial state);
+    /// a configuration stopped so is reported as bounded (exit status 2), not proved [default:
+    /// 20000000; with --full 400000000: the largest case has 1.0 * 10^8 and peaked at 3.7 GB
+    /// resident].
     #[arg(long)]
     pub max_states: Option<usize>,
     /// If a property fails, dump the shortest counterexample here as a VCD (one action per time
@@ -66,9 +84,12 @@ pub struct Args {
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Mutant::NAMES))]
     pub mutant: Option<String>,
     /// Prove instead of search: explore every case of the full set (the small grid, skewed
-    /// configurations with 4 and 8 banks, and 4-thread warps with one active lane whose chains
-    /// of three stacks rotate) to its fixpoint, every interleaving unbounded in time, under a
-    /// cap on the entries the warp holds; a cover goal never reached fails the run. The two
+    /// configurations with 4 and 8 banks, 4-thread warps with one active lane whose chains
+    /// of three stacks rotate, and the design's own sizes with few lanes active: M = 4, 8, 16
+    /// and 32, chains of 5, flush limit 3, lanes above 15, a second warp, two commands or a
+    /// completion and a command in one cycle) to its fixpoint, every interleaving unbounded in
+    /// time, under a cap on the entries the warp holds; a cover goal never reached fails the
+    /// run, a case stopped by --max-states is reported as bounded (exit status 2). The two
     /// 4-thread warps with M = 2 and reallocation are searched depth first and take most of the
     /// time (measured here: 1.0 * 10^8 and 3.9 * 10^7 states, 14 and 6 minutes, 3.7 GB at the
     /// peak); --small-cap runs them under a smaller cap, --quick leaves them out.
@@ -78,10 +99,11 @@ pub struct Args {
     pub full: bool,
     #[command(flatten)]
     pub output: OutputArgs,
-    /// With --full: the cap on the entries the warp holds (default per case: RB + SH × (1 +
-    /// borrow limit) + 1, enough to fill a whole chain and reach global memory; for the one-lane
-    /// cases RB + 2 × SH × (1 + borrow limit) + 1, so every stack is flushed once and the first
-    /// twice).
+    /// The cap on the entries the warp holds: pushes are offered only while it holds fewer.
+    /// Without it a grid search never runs out of new states, so it ends at the depth bound
+    /// (bounded); with it the search can reach its fixpoint. With --full the default is per
+    /// case: RB + SH × (1 + borrow limit) + 1, enough to fill a whole chain and reach global
+    /// memory (the corner cases' own caps are in docs/verification.md).
     #[arg(long)]
     pub cap: Option<u32>,
     /// With --full: explore without the partial-order reduction (every interleaving of private
@@ -90,7 +112,7 @@ pub struct Args {
     #[arg(long)]
     pub no_por: bool,
     /// With --full: prove only the cases whose description contains this text (e.g. "SH_2+SK+RA
-    /// warp 4"); an error if none does.
+    /// warp 4"); an error listing the cases if none does.
     #[arg(long, value_name = "TEXT")]
     pub only: Option<String>,
     /// With --full: explore every case depth first (by default only the 4-thread warps with M =
@@ -216,6 +238,9 @@ pub fn run(args: Args) -> Result<()> {
     if args.cap == Some(0) {
         bail!("--cap 0: the warp must be able to hold at least one entry");
     }
+    if args.max_states == Some(0) {
+        bail!("--max-states 0: a search holds at least its initial state; give 1 or more");
+    }
     if args.full {
         return run_full(&args);
     }
@@ -231,31 +256,40 @@ pub fn run(args: Args) -> Result<()> {
         "flushes",
         "reloads",
         "releases",
-        "complete",
+        "searched",
     ]);
     let started = std::time::Instant::now();
+    let mut capped = Vec::new();
     for c in &configs {
         let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
-        crate::cli::note(format!("checking {} to depth {depth} ...", describe(c)));
+        let under = args.cap.map_or(String::new(), |c| format!(" under cap {c}"));
+        crate::cli::note(format!("checking {} to depth {depth}{under} ...", describe(c)));
         let bounds = Bounds {
             depth,
             values: args.values,
             max_states: args.max_states.unwrap_or(MAX_STATES),
+            cap: args.cap,
             ..Bounds::default()
         };
         match check(*c, bounds, design) {
-            Ok(cov) => t.row([
-                describe(c),
-                cov.depth_reached.to_string(),
-                cov.states.to_string(),
-                cov.sequences.to_string(),
-                format!("{:.2}", cov.elapsed.as_secs_f64()),
-                cov.borrows.to_string(),
-                cov.flushes.to_string(),
-                cov.global_reloads.to_string(),
-                cov.releases.to_string(),
-                if cov.complete { "yes".into() } else { "state cap".into() },
-            ]),
+            Ok(cov) => {
+                let searched = searched(&cov, bounds.max_states);
+                if !cov.fixpoint {
+                    capped.push(format!("{} ({searched})", describe(c)));
+                }
+                t.row([
+                    describe(c),
+                    cov.depth_reached.to_string(),
+                    cov.states.to_string(),
+                    cov.sequences.to_string(),
+                    format!("{:.2}", cov.elapsed.as_secs_f64()),
+                    cov.borrows.to_string(),
+                    cov.flushes.to_string(),
+                    cov.global_reloads.to_string(),
+                    cov.releases.to_string(),
+                    searched,
+                ]);
+            }
             Err(cex) => {
                 print_report(&args.output, &t, None)?;
                 if let Some(path) = &args.vcd {
@@ -274,12 +308,35 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
+    let seconds = started.elapsed().as_secs_f64();
+    if !capped.is_empty() {
+        let verdict = format!(
+            "bounded: no property violated, but {} of {} configurations stopped at a cap before their \
+             fixpoint, so nothing is proved for them: {} ({seconds:.1} s)",
+            capped.len(),
+            configs.len(),
+            capped.join("; ")
+        );
+        print_report(&args.output, &t, Some(&verdict))?;
+        return Err(Bounded(verdict).into());
+    }
     let verdict = format!(
-        "all properties hold on {} configurations ({:.1} s)",
-        configs.len(),
-        started.elapsed().as_secs_f64()
+        "all properties hold on {} configurations, each searched to its fixpoint ({seconds:.1} s)",
+        configs.len()
     );
     print_report(&args.output, &t, Some(&verdict))
+}
+
+/// How far a search went, for its row: to its fixpoint, or stopped by the state limit or the
+/// depth bound (and at which depth).
+fn searched(cov: &Coverage, max_states: usize) -> String {
+    if cov.fixpoint {
+        format!("fixpoint at depth {}", cov.depth_reached)
+    } else if !cov.complete {
+        format!("state cap {max_states} at depth {}", cov.depth_reached)
+    } else {
+        format!("depth cap {}", cov.depth_reached)
+    }
 }
 
 /// Prints the table and, when every property held, the verdict line, in the format asked for
@@ -317,9 +374,10 @@ fn selected_cases(args: &Args) -> Result<Vec<Case>> {
         }
     }
     if let Some(only) = &args.only {
+        let names: Vec<String> = cases.iter().map(Case::describe).collect();
         cases.retain(|c| c.describe().contains(only.as_str()));
         if cases.is_empty() {
-            bail!("--only {only:?}: no case of the full set matches");
+            bail!("--only {only:?}: no case of the full set matches; the cases: {}", names.join("; "));
         }
     }
     Ok(cases)
@@ -342,7 +400,7 @@ fn run_full(args: &Args) -> Result<()> {
         "covers missing",
     ]);
     let started = std::time::Instant::now();
-    let mut failed = Vec::new();
+    let (mut capped, mut uncovered) = (Vec::new(), Vec::new());
     let cases = selected_cases(args)?;
     for case in &cases {
         let c = &case.cfg;
@@ -380,8 +438,11 @@ fn run_full(args: &Args) -> Result<()> {
             cov.elapsed.as_secs_f64(),
             cov.fixpoint
         ));
-        if !cov.fixpoint || !missing.is_empty() {
-            failed.push(name.clone());
+        let max_states = bounds.max_states;
+        if !cov.fixpoint {
+            capped.push(format!("{name} (state cap {max_states} at depth {})", cov.depth_reached));
+        } else if !missing.is_empty() {
+            uncovered.push(format!("{name} ({missing:?})"));
         }
         t.row([
             name,
@@ -401,9 +462,25 @@ fn run_full(args: &Args) -> Result<()> {
             },
         ]);
     }
-    if !failed.is_empty() {
+    if !uncovered.is_empty() {
         print_report(&args.output, &t, None)?;
-        bail!("not proved (state cap hit or a cover goal missed): {}", failed.join(", "));
+        bail!(
+            "not proved: the fixpoint was reached but a cover goal never was, so the check is vacuous \
+             there: {}",
+            uncovered.join("; ")
+        );
+    }
+    if !capped.is_empty() {
+        let verdict = format!(
+            "bounded: no property violated, but {} of {} cases stopped at the state cap before their \
+             fixpoint, so nothing is proved for them: {} ({:.1} s)",
+            capped.len(),
+            cases.len(),
+            capped.join("; "),
+            started.elapsed().as_secs_f64()
+        );
+        print_report(&args.output, &t, Some(&verdict))?;
+        return Err(Bounded(verdict).into());
     }
     let verdict = format!(
         "every property proved on {} configurations to the fixpoint, every cover reached ({:.1} s)",

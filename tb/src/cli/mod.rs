@@ -116,6 +116,23 @@ impl Cli {
     }
 }
 
+/// A check that stopped at a cap before examining everything it was asked to, and found
+/// nothing wrong on the way: not a proof, not a failure. `sms` prints it and exits with
+/// [`EXIT_BOUNDED`], distinct from a failure's 1.
+#[derive(Debug)]
+pub struct Bounded(pub String);
+
+impl std::fmt::Display for Bounded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Bounded {}
+
+/// The exit status of a [`Bounded`] check.
+pub const EXIT_BOUNDED: u8 = 2;
+
 /// Progress of a long phase on stderr unless `-q`: `what: done/total pixel warps` every 2 s
 /// once the phase has run that long.
 pub fn phase_progress(what: &'static str) -> impl FnMut(u32, u32) {

@@ -22,7 +22,8 @@ pub struct Args {
     /// Time limit per proof and solver, in seconds; past it the verdict is "unknown".
     #[arg(long, default_value_t = 600)]
     pub timeout: u64,
-    /// Only the properties whose name contains TEXT.
+    /// Only the properties whose name contains TEXT; an error listing the properties if none
+    /// does.
     #[arg(long, value_name = "TEXT")]
     pub only: Option<String>,
     /// Prove a planted bug instead of the design (builds with `--features mutants`): a
@@ -40,6 +41,17 @@ pub fn run(args: Args) -> Result<()> {
         crate::cli::guard::outside_scene_data("--vcd", vcd, &crate::SceneLibrary::default().data)?;
     }
     let cfgs = args.stack.resolve(&["SMS"])?;
+    if let Some(only) = &args.only {
+        let mut names: Vec<String> = Vec::new();
+        for ob in cfgs.iter().flat_map(obligations) {
+            if !names.contains(&ob.name) {
+                names.push(ob.name);
+            }
+        }
+        if !names.iter().any(|n| n.contains(only.as_str())) {
+            bail!("--only {only:?}: no property's name contains it; the properties: {}", names.join("; "));
+        }
+    }
     let mut solvers = Vec::new();
     for s in &args.solver {
         let Some(sv) = Solver::from_name(s) else {

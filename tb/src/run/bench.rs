@@ -356,7 +356,7 @@ pub fn bench_scene(
             let t = Instant::now();
             functional::run_with(config, w.warps(), fast).map(|r| (r, secs(t.elapsed())))
         };
-        let err = |e: functional::FunctionalError| Error::Invalid(format!("{}: {e}", config.name()));
+        let err = |e: functional::FunctionalError| crate::run::sim::functional_failure(&config, e);
         let (full, full_wall) = time(false).map_err(err)?;
         let (fast, fast_wall) = time(true).map_err(err)?;
         let same = if fast.total == full.total { "identical counts" } else { "COUNTS DIFFER" };

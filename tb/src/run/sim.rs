@@ -505,8 +505,28 @@ fn run_functional(
             }
         }),
     )
-    .map_err(|e| Error::Invalid(format!("{}: {e}", spec.config.name())))?;
+    .map_err(|e| functional_failure(&spec.config, e))?;
     Ok((run.total, None, run.pops_checked))
+}
+
+/// A functional run's failure as the CLI reports it: a configuration the stack manager refuses
+/// is bad input; a stack property violated is the design's failure.
+pub(crate) fn functional_failure(config: &Config, e: crate::run::functional::FunctionalError) -> Error {
+    use crate::run::functional::FunctionalError;
+    match e {
+        FunctionalError::Config(_) => Error::Invalid(format!("{}: {e}", config.name())),
+        FunctionalError::Violation(_) => Error::DesignCheck(format!("{}: {e}", config.name())),
+    }
+}
+
+/// A cycle-level run's failure as the CLI reports it: a job the RT unit cannot take is bad
+/// input; a refused stack command, a pop that disagrees with the trace, a warp leaving stack
+/// state behind or a stall is the design's failure.
+pub(crate) fn cycle_failure(config: &Config, e: rtl::rt_unit::RunError) -> Error {
+    match e {
+        rtl::rt_unit::RunError::BadJob { .. } => Error::Invalid(format!("{}: {e}", config.name())),
+        _ => Error::DesignCheck(format!("{}: {e}", config.name())),
+    }
 }
 
 /// The cycle level on the RT units' jobs of `total` pixel warps, in order; fills `residence`
@@ -544,7 +564,7 @@ fn run_cycle<S: Sink>(
             |p: Progress| progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle }),
             &mut per_job,
         )
-        .map_err(|e| Error::Invalid(format!("{} failed its checks: {e}", spec.config.name())))?;
+        .map_err(|e| cycle_failure(&spec.config, e))?;
     let mut next = per_job.iter();
     residence.clear();
     residence.extend(jobs_per_warp.borrow().iter().map(|&n| next.by_ref().take(n).sum::<u64>()));
@@ -680,6 +700,36 @@ mod tests {
         assert_eq!(map.keys().map(String::as_str).collect::<Vec<_>>(), names);
         assert_eq!(map["sh_to_global"], 5);
         assert_eq!(s.map(|v| v * 2).zip(&s, |a, b| a - b), s);
+    }
+
+    /// A run's failed check is the design's failure, reported as such; only what the input got
+    /// wrong (a configuration refused, a job the RT unit cannot take) is an invalid option.
+    #[test]
+    fn a_failed_design_check_is_not_worded_as_bad_input() {
+        use crate::run::functional::FunctionalError;
+        use crate::run::verify::invariants::{Property, Violation};
+        use rtl::rt_unit::RunError;
+        let cfg = Config::sms();
+        let v = Violation {
+            property: Property::Equivalence,
+            detail: "thread 3 popped 7, the reference 9".into(),
+        };
+        let e = functional_failure(&cfg, FunctionalError::Violation(v)).to_string();
+        assert_eq!(
+            e,
+            "design check failed: RB_8+SH_8+SK+RA: stack mismatch at the functional level: Equivalence violated: \
+             thread 3 popped 7, the reference 9"
+        );
+        let refused = Config { sh_entries: 3, ..cfg }.validate().unwrap_err();
+        let e = functional_failure(&cfg, FunctionalError::Config(refused)).to_string();
+        assert!(e.starts_with("invalid option: RB_8+SH_8+SK+RA: "), "{e}");
+        let pop = RunError::PopMismatch { cycle: 10, sm: 0, thread: 3, expected: 9, got: 7 };
+        let e = cycle_failure(&cfg, pop).to_string();
+        assert!(e.starts_with("design check failed: RB_8+SH_8+SK+RA: "), "{e}");
+        let e = cycle_failure(&cfg, RunError::Stalled { cycle: 10 }).to_string();
+        assert!(e.starts_with("design check failed: "), "{e}");
+        let job = RunError::BadJob { job: 1, reason: "31 lanes".into() };
+        assert!(cycle_failure(&cfg, job).to_string().starts_with("invalid option: "));
     }
 
     fn workload(scene: &crate::workload::scene::Scene, res: u32) -> Workload<'_> {

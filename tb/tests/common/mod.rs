@@ -23,6 +23,24 @@ pub fn sms(args: &[&str], more: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("utf-8")
 }
 
+/// What one run of the `sms` binary built for the tests ended with: its exit status (`None`
+/// when a signal ended it), stdout and stderr.
+pub struct Ran {
+    pub code: Option<i32>,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+/// Runs the `sms` binary built for the tests with `args`, whatever its exit status.
+pub fn sms_status(args: &[&str]) -> Ran {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_sms")).args(args).output().expect("sms runs");
+    Ran {
+        code: out.status.code(),
+        stdout: String::from_utf8(out.stdout).expect("utf-8"),
+        stderr: String::from_utf8(out.stderr).expect("utf-8"),
+    }
+}
+
 /// A scratch directory removed when the test ends.
 pub struct TmpDir(PathBuf);
 

@@ -84,6 +84,22 @@
 //! with and without the reduction (same verdicts and covers, 6 % fewer states over the set) and
 //! `tests/mutants.rs` catches every mutant both ways. `sms check --full --no-por` turns it off.
 //!
+//! **Several actions in one cycle.** Two threads' commands ([`Action::Both`], [`Bounds::pairs`])
+//! and a micro-op completion with a command ([`Action::UopWithCmd`], [`Bounds::uop_cmds`]) are
+//! checked against the same actions one after the other ([`Property::SameCycle`]) and then
+//! taken through the checked path action by action, so they add transitions, not states. The
+//! reduction above skips a combined action whose completion is a private micro-op α: such a
+//! cycle is α and then the command, since a plan reads nothing α writes (a command of α's own
+//! thread is refused in both, the thread being busy), so the check it would make holds
+//! trivially; a combined action of another thread's completion commutes with α as its parts do.
+//!
+//! **Flush counts.** The model counts each stack's consecutive flushes itself
+//! ([`Property::FlushCount`]): after every accepted command it runs the specification's case
+//! table ([`super::sequence::expected_flush_counts`]) over the registers with its own counts in
+//! place of the Flush registers, and compares the design's registers with the counts that
+//! gives. The counts are not in the state key: while the property holds they equal the
+//! registers the key hashes.
+//!
 //! **Depth first.** The 4-thread warps with M = 2 and reallocation ([`Case::dfs`]) are searched
 //! depth first ([`Bounds::dfs`]): a BFS level of theirs holds millions of models (about 2.3 kB
 //! each: the stack manager's vectors, the scoreboard, the shadows), the depth-first path only
@@ -114,7 +130,7 @@ use super::invariants::{
     check_bank_map, check_no_overlap, check_placement, check_thread, check_warp_exit, check_warp_fields,
     fail, Property, Violation,
 };
-use super::sequence::{check_sequence, Before};
+use super::sequence::{check_sequence, expected_flush_counts, Before};
 
 /// One step of an explored sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -125,6 +141,10 @@ pub enum Action {
     Both(u32, Cmd, u32, Cmd),
     /// Thread's next micro-op completes.
     Uop(u32),
+    /// In one cycle the first thread's next micro-op completes and the second thread's
+    /// command is planned (the two threads may be one: its command is then refused, the thread
+    /// being busy as the cycle begins).
+    UopWithCmd(u32, u32, Cmd),
 }
 
 /// Bounds of one exhaustive run.
@@ -176,6 +196,12 @@ pub struct Bounds {
     /// waiting on their first node, which keep their stacks out of the Idle pool so the idle
     /// search reaches higher lanes.
     pub silent: u32,
+    /// Also offer a micro-op completion and a command in one cycle ([`Action::UopWithCmd`]):
+    /// the completing thread's own command and every other ready thread's, which must equal
+    /// completing and then planning ([`Property::SameCycle`]).
+    pub uop_cmds: bool,
+    /// Check [`Property::FlushCount`] (default); off to show which bugs only it catches.
+    pub flush_count: bool,
 }
 
 impl Default for Bounds {
@@ -196,6 +222,8 @@ impl Default for Bounds {
             warp: 0,
             scrub: true,
             silent: 0,
+            uop_cmds: false,
+            flush_count: true,
         }
     }
 }
@@ -275,10 +303,17 @@ pub enum Goal {
     /// Two threads borrow in one cycle, the second seeing the first's lend. Asked of the cases
     /// that plan two threads' commands in one cycle ([`Case::pairs`]) with reallocation.
     SameCycleBorrow,
+    /// A stack whose release completes in a cycle is borrowed by another thread's command in
+    /// that same cycle. Asked of the cases that offer a completion and a command in one cycle
+    /// ([`Case::uop_cmds`]) with reallocation.
+    ReleaseMeetsBorrow,
+    /// A command of a thread whose last micro-op completes in the same cycle is refused (Busy).
+    /// Asked of the cases that offer a completion and a command in one cycle.
+    BusyAsLastUopCompletes,
 }
 
 impl Goal {
-    pub const ALL: [Goal; 14] = [
+    pub const ALL: [Goal; 16] = [
         Goal::Borrow,
         Goal::RotatedRelease,
         Goal::FullChain,
@@ -293,6 +328,8 @@ impl Goal {
         Goal::FlushAtLimit,
         Goal::BusyRefusal,
         Goal::SameCycleBorrow,
+        Goal::ReleaseMeetsBorrow,
+        Goal::BusyAsLastUopCompletes,
     ];
 
     /// Whether `c` has the feature the goal needs (so it must be reached).
@@ -307,7 +344,11 @@ impl Goal {
             Goal::RotatedRelease => finite && c.realloc.is_some_and(|r| r.borrow_limit >= 2),
             Goal::SkewBase => finite && (0..c.warp_size).any(|l| c.skew_base(l) != 0),
             Goal::FlushAtLimit => finite && c.realloc.is_some_and(|r| r.flush_limit >= 2),
-            Goal::NonAdjacentRelease | Goal::BusyRefusal | Goal::SameCycleBorrow => false,
+            Goal::NonAdjacentRelease
+            | Goal::BusyRefusal
+            | Goal::SameCycleBorrow
+            | Goal::ReleaseMeetsBorrow
+            | Goal::BusyAsLastUopCompletes => false,
         }
     }
 }
@@ -414,6 +455,15 @@ pub struct Model {
     pub scrub_dead: bool,
     /// Lanes never offered a command ([`Bounds::silent`]).
     pub silent: u32,
+    /// Offer a micro-op completion and a command in one cycle too ([`Bounds::uop_cmds`]).
+    pub uop_cmds: bool,
+    /// Check [`Property::FlushCount`] ([`Bounds::flush_count`]).
+    pub flush_count: bool,
+    /// Per lane of the warp: the consecutive flushes of its stack as the checker counts them
+    /// from the accepted commands and SPEC section 5 ([`expected_flush_counts`]), never from the
+    /// design's Flush register. Not part of the state key: while [`Property::FlushCount`] holds
+    /// it equals the registers the key hashes.
+    flushes: Vec<u32>,
 }
 
 /// The one distinguished push value of a [`Bounds::one_mark`] run.
@@ -455,6 +505,9 @@ impl Clone for Model {
             pairs,
             scrub_dead,
             silent,
+            uop_cmds,
+            flush_count,
+            flushes,
         } = self;
         Model {
             sm: sm.clone(),
@@ -469,6 +522,9 @@ impl Clone for Model {
             pairs: *pairs,
             scrub_dead: *scrub_dead,
             silent: *silent,
+            uop_cmds: *uop_cmds,
+            flush_count: *flush_count,
+            flushes: flushes.clone(),
         }
     }
     fn clone_from(&mut self, src: &Self) {
@@ -485,6 +541,9 @@ impl Clone for Model {
             pairs,
             scrub_dead,
             silent,
+            uop_cmds,
+            flush_count,
+            flushes,
         } = src;
         self.sm.clone_from(sm);
         self.sb.clone_from(sb);
@@ -498,6 +557,9 @@ impl Clone for Model {
         self.pairs = *pairs;
         self.scrub_dead = *scrub_dead;
         self.silent = *silent;
+        self.uop_cmds = *uop_cmds;
+        self.flush_count = *flush_count;
+        self.flushes.clone_from(flushes);
     }
 }
 
@@ -597,6 +659,9 @@ impl Model {
             pairs: false,
             scrub_dead: true,
             silent: 0,
+            uop_cmds: false,
+            flush_count: true,
+            flushes: vec![0; cfg.warp_size as usize],
         })
     }
 
@@ -667,6 +732,7 @@ impl Model {
         let r = match a {
             Action::Cmd(t, cmd) if !self.sm.ready(t) => self.refuse_busy(t, cmd, cov),
             Action::Both(t, c, u, d) => self.same_cycle((t, c), (u, d), cov),
+            Action::UopWithCmd(u, t, c) => self.uop_with_cmd(u, (t, c), cov),
             Action::Cmd(..) | Action::Uop(_) => self.act_one(a, cov),
         };
         if r == Ok(true) && self.scrub_dead {
@@ -719,6 +785,52 @@ impl Model {
         self.act_one(Action::Cmd(b.0, b.1), cov)?;
         if b1 > b0 && self.sm.stats.borrows > b1 {
             cov.covers.hit(Goal::SameCycleBorrow);
+        }
+        Ok(true)
+    }
+
+    /// Thread `u`'s next micro-op completes and thread `t`'s command is planned in one cycle
+    /// ([`StackManager::complete_and_accept`]). The design must answer and leave the state
+    /// exactly as completing the micro-op and then planning the command one after the other
+    /// does, except that a command of `u` itself is refused (Busy: `ready` is a register, so a
+    /// thread is busy for the whole cycle its last micro-op completes in) and changes nothing
+    /// ([`Property::SameCycle`]). Every other property is checked on the way, action by action.
+    fn uop_with_cmd(&mut self, u: u32, (t, cmd): (u32, Cmd), cov: &mut Coverage) -> Result<bool, Violation> {
+        let Some(&uop) = self.sm.pending_uops(u).next() else { return Ok(false) };
+        let last = self.sm.pending_uops(u).count() == 1;
+        let start = self.sm.clone();
+        let mut one_by_one = start.clone();
+        one_by_one.complete_next(u);
+        let want = if t == u { Err(StackError::Busy { thread: t }) } else { one_by_one.accept(t, cmd) };
+        let got = self.sm.complete_and_accept(&[u], &[(t, cmd)]);
+        let then = if t == u { "refusing the command" } else { "then planning the command" };
+        let cycle = format!("thread {u}'s {uop:?} completing in the cycle of thread {t}'s {cmd:?}");
+        if got != [want] {
+            return fail(
+                Property::SameCycle,
+                format!("{cycle} answered {got:?}; completing it and {then}: {want:?}"),
+            );
+        }
+        if state_hash(&self.sm) != state_hash(&one_by_one) {
+            return fail(
+                Property::SameCycle,
+                format!("{cycle} left another state than completing it and {then} (both answered {want:?})"),
+            );
+        }
+        // The same cycle once more through the checked path, from the state before it.
+        self.sm = start;
+        self.act_one(Action::Uop(u), cov)?;
+        if t == u {
+            if last {
+                cov.covers.hit(Goal::BusyAsLastUopCompletes);
+            }
+            return Ok(true);
+        }
+        self.act_one(Action::Cmd(t, cmd), cov)?;
+        if let Uop::Release { stack } = uop {
+            if self.sm.chain(t).contains(&stack) {
+                cov.covers.hit(Goal::ReleaseMeetsBorrow);
+            }
         }
         Ok(true)
     }
@@ -785,6 +897,18 @@ impl Model {
                     let before = Before { cfg: sm.config(), stacks: &stacks, thread, rb: &rb };
                     check_sequence(&before, base, t, cmd, accepted, sm.pending_uops(t))?;
                 }
+                if accepted && ra.is_some() {
+                    // The checker's counts in place of the design's Flush registers.
+                    let counted: Vec<StackRegs> = stacks
+                        .iter()
+                        .zip(&self.flushes)
+                        .map(|(r, &flush)| StackRegs { flush, ..*r })
+                        .collect();
+                    let before = Before { cfg: sm.config(), stacks: &counted, thread, rb: &rb };
+                    if let Some(f) = expected_flush_counts(&before, base, t, cmd) {
+                        self.flushes = f;
+                    }
+                }
                 let loads = live_reads(sm, t, &stacks, &global)?;
                 self.shadow[t as usize].global_loads = loads;
             }
@@ -804,7 +928,11 @@ impl Model {
                 }
                 sm.complete_next(t);
             }
-            Action::Both(..) => unreachable!("two commands in one cycle go through Model::same_cycle"),
+            Action::Both(..) | Action::UopWithCmd(..) => {
+                unreachable!(
+                    "a cycle of several actions goes through Model::same_cycle or Model::uop_with_cmd"
+                )
+            }
         }
         let d = sm.stats.since(&before);
         cov.borrows += d.borrows;
@@ -823,6 +951,9 @@ impl Model {
         }
         let quiescent = sm.quiescent();
         check_warp_fields(sm, self.warp, quiescent)?;
+        if self.flush_count && ra.is_some() {
+            check_flush_counts(sm, self.warp, &self.flushes)?;
+        }
         for t in sm.warp_threads(self.warp).filter(|&t| sm.ready(t)) {
             check_thread(sm, t, self.sb.reference(t))?;
         }
@@ -872,7 +1003,7 @@ impl Model {
             b += block(self.sb.reference(t).len() * 8);
         }
         b += block(n * std::mem::size_of::<super::reference::RefStack>()) + block(n);
-        b += block(n * std::mem::size_of::<Shadow>());
+        b += block(n * std::mem::size_of::<Shadow>()) + block(n * 4);
         b += self.shadow.iter().map(|s| block(s.global_loads.len() * 8)).sum::<usize>();
         b
     }
@@ -900,6 +1031,9 @@ impl Model {
                 if self.busy_cmds && !sm.thread(t).done {
                     out.extend([Cmd::Push(UNMARKED), Cmd::Pop, Cmd::Finish].map(|c| Action::Cmd(t, c)));
                 }
+                if self.uop_cmds {
+                    self.uop_cmd_actions(t, push, &mut out);
+                }
                 continue;
             }
             if sm.thread(t).done || self.is_silent(t) {
@@ -920,6 +1054,19 @@ impl Model {
             self.pair_actions(cap, &mut out);
         }
         out
+    }
+
+    /// Busy thread `u`'s next micro-op completing in the cycle of a command of `u` itself or of
+    /// any ready, unfinished thread: every kind, pushes carrying [`UNMARKED`] while `push` (the
+    /// cap leaves room).
+    fn uop_cmd_actions(&self, u: u32, push: bool, out: &mut Vec<Action>) {
+        let sm = &self.sm;
+        let kinds: &[Cmd] =
+            if push { &[Cmd::Push(UNMARKED), Cmd::Pop, Cmd::Finish] } else { &[Cmd::Pop, Cmd::Finish] };
+        let open = |t: u32| t == u || (sm.ready(t) && !sm.thread(t).done && !self.is_silent(t));
+        for t in sm.warp_threads(self.warp).filter(|&t| open(t)) {
+            out.extend(kinds.iter().map(|&c| Action::UopWithCmd(u, t, c)));
+        }
     }
 
     /// Two ready, unfinished threads' commands in one cycle, in lane order: every pair of
@@ -1006,6 +1153,21 @@ fn live_reads(
         }
     }
     Ok(loads)
+}
+
+/// [`Property::FlushCount`]: every stack's Flush register of warp `w` equals `counted`, the
+/// consecutive flushes the checker counted for it (lane order).
+fn check_flush_counts(sm: &StackManager, w: u32, counted: &[u32]) -> Result<(), Violation> {
+    for (s, &want) in sm.warp_threads(w).zip(counted) {
+        let got = sm.stack(s).flush;
+        if got != want {
+            return fail(
+                Property::FlushCount,
+                format!("stack {s}: Flush {got}, SPEC section 5 counts {want} consecutive flushes"),
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Records the cover goals a command of thread `t` reached; `d` is what it counted, `ring` its
@@ -1156,6 +1318,8 @@ pub fn check(
     model.pairs = bounds.pairs;
     model.scrub_dead = bounds.scrub;
     model.silent = bounds.silent;
+    model.uop_cmds = bounds.uop_cmds;
+    model.flush_count = bounds.flush_count;
     if bounds.scrub {
         model.scrub();
     }
@@ -1436,6 +1600,8 @@ pub struct Case {
     pub waived: &'static [Goal],
     /// Active lanes never offered a command ([`Bounds::silent`]).
     pub silent: u32,
+    /// Offer a micro-op completion and a command in one cycle ([`Bounds::uop_cmds`]).
+    pub uop_cmds: bool,
 }
 
 impl Case {
@@ -1459,6 +1625,7 @@ impl Case {
             warp: 0,
             waived: &[],
             silent: 0,
+            uop_cmds: false,
         }
     }
     pub fn partial(&self) -> bool {
@@ -1488,6 +1655,12 @@ impl Case {
         if self.pairs && self.cfg.realloc.is_some() {
             g.push(Goal::SameCycleBorrow);
         }
+        if self.uop_cmds {
+            g.push(Goal::BusyAsLastUopCompletes);
+            if self.cfg.realloc.is_some() {
+                g.push(Goal::ReleaseMeetsBorrow);
+            }
+        }
         g
     }
     pub fn bounds(&self) -> Bounds {
@@ -1498,6 +1671,7 @@ impl Case {
             pairs: self.pairs,
             warp: self.warp,
             silent: self.silent,
+            uop_cmds: self.uop_cmds,
             ..Bounds::fixpoint(self.cap)
         }
     }
@@ -1511,8 +1685,9 @@ impl Case {
             if self.warp > 0 { format!(" (warp {} of {})", self.warp, self.warp + 1) } else { String::new() };
         let busy = if self.busy_cmds { " +busy commands" } else { "" };
         let pairs = if self.pairs { " +two per cycle" } else { "" };
+        let uop_cmds = if self.uop_cmds { " +completion with command" } else { "" };
         let silent = if self.silent != 0 { format!(" silent {:b}", self.silent) } else { String::new() };
-        format!("{}{lanes}{silent}{warp}{busy}{pairs}", describe(&self.cfg))
+        format!("{}{lanes}{silent}{warp}{busy}{pairs}{uop_cmds}", describe(&self.cfg))
     }
 }
 
@@ -1564,7 +1739,10 @@ pub fn full_cases() -> Vec<Case> {
 ///   to 5, while lanes 0–15 are active but silent (still waiting on their first node), so the
 ///   stacks lent are lanes 17 and up (Next TID needs 5 bits);
 /// - the second warp of an RT unit (thread ids differ from lanes);
-/// - two threads' commands planned in one cycle, and commands offered to busy threads.
+/// - two threads' commands planned in one cycle, commands offered to busy threads, and a
+///   micro-op completion with a command in one cycle;
+/// - M = 16 and M = 32 (4- and 5-bit Top and Bottom, skew base lane mod M) on one lane of a
+///   32-lane warp, through a full chain of two stacks, a flush and the global reload.
 pub fn corner_cases() -> Vec<Case> {
     use rtl::config::{RbSize, Realloc};
     let ra = |borrow_limit, flush_limit| Some(Realloc { borrow_limit, flush_limit });
@@ -1596,7 +1774,30 @@ pub fn corner_cases() -> Vec<Case> {
             ..Case::new(cfg(1, 2, 32, ra(4, 3)))
         },
         Case { active: 0b0110, warp: 1, ..Case::new(cfg(1, 1, 4, ra(2, 1))) },
-        Case { active: 0b0011, busy_cmds: true, pairs: true, cap: 6, ..Case::new(cfg(1, 1, 4, ra(2, 1))) },
+        Case {
+            active: 0b0011,
+            busy_cmds: true,
+            pairs: true,
+            uop_cmds: true,
+            cap: 6,
+            ..Case::new(cfg(1, 1, 4, ra(2, 1)))
+        },
+        // M = 16: lane 17 (base 1) on a 32-lane warp, the others finished: its RB, a chain of
+        // two 16-entry stacks, then a flush of the oldest and the global reload.
+        Case {
+            active: 1 << 17,
+            cap: 1 + 2 * 16 + 1,
+            waived: &[Goal::FlushSaturation],
+            ..Case::new(cfg(1, 16, 32, ra(1, 1)))
+        },
+        // M = 32: lane 21 (base 21; the stack it borrows, lane 0's, links back to it with Next
+        // TID 21), the same path through 32-entry stacks.
+        Case {
+            active: 1 << 21,
+            cap: 1 + 2 * 32 + 1,
+            waived: &[Goal::FlushSaturation],
+            ..Case::new(cfg(1, 32, 32, ra(1, 1)))
+        },
     ]
 }
 

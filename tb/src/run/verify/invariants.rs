@@ -27,6 +27,11 @@ pub enum Property {
     Chains,
     /// Flush never above its limit, and 0 on every empty stack.
     Flush,
+    /// Every stack's Flush register equals the consecutive flushes the checker counts for it
+    /// from the accepted commands and SPEC section 5: one more per flush of the stack
+    /// (saturating at the flush limit), 0 after a pop drains it (so after every release and
+    /// demotion) and when it is borrowed.
+    FlushCount,
     /// At warp exit every queue is empty and every stack back with its owner.
     WarpExit,
     /// The request sequences of SPEC section 3.
@@ -43,7 +48,10 @@ pub enum Property {
     /// changes nothing.
     Busy,
     /// Several threads' commands planned in one cycle answer and leave the registers, programs
-    /// and memory exactly as planning them one after the other in the same order does.
+    /// and memory exactly as planning them one after the other in the same order does; a
+    /// micro-op completing in the cycle of a command leaves them as completing it and then
+    /// planning the command does, except that the completing thread's own command is refused
+    /// (Busy) and changes nothing.
     SameCycle,
     /// Skew placement (docs/stack.md, SPEC section 4): every lane's stack starts at base entry
     /// `(lane / k) mod M`, `k = max(1, banks / (M × words per entry))` — at warp load and

@@ -80,6 +80,20 @@ pub fn expected_program(b: &Before, base: u32, t: u32, cmd: Cmd) -> Vec<Uop> {
     }
 }
 
+/// The Flush registers of the warp's lanes (lane order) after thread `t`'s `cmd` is accepted
+/// from the registers `b`, as SPEC section 5 counts consecutive flushes (the specification's
+/// case table, [`crate::prove::spec`]): a flush of a stack adds one, saturating at the flush
+/// limit; a pop that drains a stack (so every release and demotion) sets it to 0, and so does a
+/// borrow. The counts come from `b.stacks`' Flush fields, which the exhaustive checker fills
+/// with its own counts, never the design's ([`Property::FlushCount`]). `None` when the
+/// specification refuses the command.
+pub fn expected_flush_counts(b: &Before, base: u32, t: u32, cmd: Cmd) -> Option<Vec<u32>> {
+    let mut rf = IntWarp { base, stacks: b.stacks.to_vec(), rb: b.rb, prog: Vec::new() };
+    let mut spec = Spec { l: &mut Int, rf: &mut rf, cfg: b.cfg, t, base, th: b.thread };
+    spec.apply(cmd, false).ok()?;
+    Some(rf.stacks.iter().map(|r| r.flush).collect())
+}
+
 /// [`Property::RequestSequence`] for thread `t`'s command `cmd`, just accepted (`accepted`:
 /// not refused) from the registers `b`: the program now queued in its sequencer, `got`, must be
 /// [`expected_program`]'s (nothing for a refused command).
