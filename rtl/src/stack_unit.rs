@@ -145,7 +145,8 @@ impl Unit for StackUnit {
     ///
     /// A quiet cycle (no command, completion or port handshake comes in, and no register holds
     /// work: [`StackUnit::quiet`]) evaluates every child to its value for no input, which is the
-    /// same in every quiet cycle but for the cycle number the arbiter's step carries. So when `d`
+    /// same in every quiet cycle but for the cycle number the arbiter's and the manager's steps
+    /// carry. So when `d`
     /// already holds a quiet cycle's step, only that number is updated; the children are not
     /// evaluated again, and the commit skips the step (committing it changes nothing).
     /// Test: `quiet_cycles_skip_work_with_identical_steps_and_state` compares every step and
@@ -155,6 +156,7 @@ impl Unit for StackUnit {
         let quiet = self.quiet(&i);
         if quiet && d.quiet {
             d.arb.set_now(i.now);
+            d.manager.set_now(i.now);
             return;
         }
         self.eval_children(&i, d);

@@ -114,6 +114,11 @@ impl StackStep {
         &self.j.errors
     }
 
+    /// Sets the cycle number the step carries (a quiet cycle's step reused unchanged).
+    pub fn set_now(&mut self, now: u64) {
+        self.j.now = now;
+    }
+
     /// The cycle's decisions and writes ([`cycle::eval`]'s journal).
     pub fn journal(&self) -> &Journal<Int> {
         &self.j
