@@ -72,7 +72,14 @@ fn the_whole_cycle_equals_the_specifications_cycle_with_two_solvers() {
                 continue;
             }
             for o in prove(&c, &Design, ob, &sv, LIMIT).unwrap() {
-                assert_eq!(o.verdict, Verdict::Proved, "{} at {} by {}", o.property, c.name(), o.solver.name());
+                assert_eq!(
+                    o.verdict,
+                    Verdict::Proved,
+                    "{} at {} by {}",
+                    o.property,
+                    c.name(),
+                    o.solver.name()
+                );
             }
         }
     }
@@ -100,9 +107,19 @@ fn every_planted_bug_in_the_cycle_code_is_caught() {
         // Write priority: a finish turns a stack Idle and a later lane borrows it in the cycle.
         (Mutant::FirstStackWriteWins, &small, named(&small, "finish+push"), "registers"),
         // Completion against command: the lane whose store completes is still busy.
-        (Mutant::BusyAfterCompletion, &small, named(&small, "push beside completions and a release"), "answer"),
+        (
+            Mutant::BusyAfterCompletion,
+            &small,
+            named(&small, "push beside completions and a release"),
+            "answer",
+        ),
         // The sequencer.
-        (Mutant::IssueWaitsACycle, &small, with_lane(&small_obs, false, completes_then(UopKind::ShLoad)), "sequencer"),
+        (
+            Mutant::IssueWaitsACycle,
+            &small,
+            with_lane(&small_obs, false, completes_then(UopKind::ShLoad)),
+            "sequencer",
+        ),
         (
             Mutant::IssueReadsOldLatch,
             &small,
@@ -127,7 +144,14 @@ fn every_planted_bug_in_the_cycle_code_is_caught() {
     // One solver per mutant keeps CI short; both prove the design's obligations above.
     for (m, c, ob, part) in cases {
         for o in prove(c, &Mutated(m), &ob, &sv[1..], LIMIT).unwrap() {
-            println!("{:32} {:44} {:10} {:6.1} s: {:?}", m.name(), o.property, o.solver.name(), o.seconds, o.differ);
+            println!(
+                "{:32} {:44} {:10} {:6.1} s: {:?}",
+                m.name(),
+                o.property,
+                o.solver.name(),
+                o.seconds,
+                o.differ
+            );
             assert!(
                 matches!(o.verdict, Verdict::Counterexample(_)),
                 "{} survived {} ({}): {:?}",
@@ -136,7 +160,12 @@ fn every_planted_bug_in_the_cycle_code_is_caught() {
                 o.solver.name(),
                 o.verdict
             );
-            assert!(o.differ.iter().any(|d| d.contains(part)), "{}: {} differ, expected {part}", m.name(), o.differ.join("; "));
+            assert!(
+                o.differ.iter().any(|d| d.contains(part)),
+                "{}: {} differ, expected {part}",
+                m.name(),
+                o.differ.join("; ")
+            );
         }
         // The design proves the same obligation: the counterexample is the bug's.
         for o in prove(c, &Design, &ob, &sv[..1], LIMIT).unwrap() {

@@ -105,8 +105,10 @@ impl StackUnit {
     }
 
     fn eval_children(&self, i: &StackUnitIn, d: &mut StackUnitStep) {
-        self.manager
-            .eval(StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq(), now: i.now }, &mut d.manager);
+        self.manager.eval(
+            StackIn { cmds: i.cmds, done: self.arb.done(), deq: self.sched.deq(), now: i.now },
+            &mut d.manager,
+        );
         self.arb.eval(ArbIn { now: i.now, new: &d.manager.sh_req }, &mut d.arb);
         let sched_in = SchedIn { new: &d.manager.g_req, req_ready: i.req_ready, completions: i.completions };
         self.sched.eval(sched_in, &mut d.sched);

@@ -39,7 +39,8 @@ fn the_scoreboard_catches_decisions_the_data_checks_miss() {
         // Every entry lands right: the data checks pass.
         let r = Gpu::paper(c).unwrap().with_mutant(m).run(work.clone(), &mut NullSink);
         assert!(r.is_ok(), "{m:?} on {cfg} without the scoreboard: {r:?}");
-        let r = Gpu::paper(c).unwrap().with_mutant(m).with_scoreboard(&board).run(work.clone(), &mut NullSink);
+        let r =
+            Gpu::paper(c).unwrap().with_mutant(m).with_scoreboard(&board).run(work.clone(), &mut NullSink);
         match r {
             Err(RunError::Decision { what: msg, .. }) => {
                 println!("{m:?} on {cfg}: {msg}");

@@ -28,9 +28,7 @@
 //! are the instance's words, bits and entries.
 
 use super::policy::{Plan, RbOp, Regfile, Regs, Steps, Thread, UopL};
-use super::regs::{
-    CmdOf, SrcOf, StackError, StackRegsOf, StackStats, ThreadRegsOf, UopOf, POISON,
-};
+use super::regs::{CmdOf, SrcOf, StackError, StackRegsOf, StackStats, ThreadRegsOf, UopOf, POISON};
 use crate::config::{Config, Widths};
 use crate::logic::Logic;
 
@@ -46,10 +44,23 @@ pub enum WriteOf<W, B, V> {
     Rb(u32, RbOp<V>),
     /// An entry back under the RB (the RB-bottom micro-op).
     RbPushFront(u32, V),
-    Sh { stack: W, entry: W, value: V },
-    Global { thread: u32, slot: W, value: V },
+    Sh {
+        stack: W,
+        entry: W,
+        value: V,
+    },
+    Global {
+        thread: u32,
+        slot: W,
+        value: V,
+    },
     /// A sequencer's next state; `issued`: its queue's head left.
-    Seq { thread: u32, issued: bool, inflight: Option<UopOf<W, V>>, latch: Option<V> },
+    Seq {
+        thread: u32,
+        issued: bool,
+        inflight: Option<UopOf<W, V>>,
+        latch: Option<V>,
+    },
     /// A micro-op appended to the thread's program when the bit is set.
     Emit(u32, B, UopOf<W, V>),
 }
@@ -193,7 +204,13 @@ pub trait CycleSteps: Steps {
         merge_stack(l, &mut d.stacks, s, StackRegsOf { idle, ..r });
     }
     /// Whether a thread's command finds its sequencer busy (its register as the cycle began).
-    fn busy_for_command<L: Logic>(&self, l: &mut L, q: &impl Registers<L>, _d: &Journal<L>, t: u32) -> L::Bit {
+    fn busy_for_command<L: Logic>(
+        &self,
+        l: &mut L,
+        q: &impl Registers<L>,
+        _d: &Journal<L>,
+        t: u32,
+    ) -> L::Bit {
         q.busy_q(l, t)
     }
     /// A thread whose micro-op completed this cycle issues its next one in the same cycle.
@@ -201,7 +218,12 @@ pub trait CycleSteps: Steps {
         true
     }
     /// The latch an issuing micro-op reads: as this cycle's completion leaves it.
-    fn latch_at_issue<L: Logic>(&self, _q: &impl Registers<L>, _t: u32, after: Option<L::Val>) -> Option<L::Val> {
+    fn latch_at_issue<L: Logic>(
+        &self,
+        _q: &impl Registers<L>,
+        _t: u32,
+        after: Option<L::Val>,
+    ) -> Option<L::Val> {
         after
     }
     /// The entry a completing SH store writes.
@@ -209,7 +231,13 @@ pub trait CycleSteps: Steps {
         entry
     }
     /// Merges a plan's change of stack `s` into the cycle's list: the later value wins.
-    fn merge_plan_stack<L: Logic>(&self, l: &mut L, list: &mut Vec<(L::Word, Regs<L>)>, s: L::Word, r: Regs<L>) {
+    fn merge_plan_stack<L: Logic>(
+        &self,
+        l: &mut L,
+        list: &mut Vec<(L::Word, Regs<L>)>,
+        s: L::Word,
+        r: Regs<L>,
+    ) {
         merge_stack(l, list, s, r)
     }
     /// The completions the cycle takes: every SH completion, then the response FIFO's.

@@ -643,8 +643,12 @@ fn sym_uop(s: &mut Sym, k: UopKind, j: u32, tag: &str) -> UopL<Sym> {
     let v = |s: &mut Sym, f: &str| s.var_val(&format!("{tag}_{f}_{j}"));
     match k {
         UopKind::ShLoad => UopOf::ShLoad { stack: w(s, "stack"), entry: w(s, "entry") },
-        UopKind::ShStore => UopOf::ShStore { stack: w(s, "stack"), entry: w(s, "entry"), src: SrcOf::Value(v(s, "data")) },
-        UopKind::ShStoreLatch => UopOf::ShStore { stack: w(s, "stack"), entry: w(s, "entry"), src: SrcOf::Latch },
+        UopKind::ShStore => {
+            UopOf::ShStore { stack: w(s, "stack"), entry: w(s, "entry"), src: SrcOf::Value(v(s, "data")) }
+        }
+        UopKind::ShStoreLatch => {
+            UopOf::ShStore { stack: w(s, "stack"), entry: w(s, "entry"), src: SrcOf::Latch }
+        }
         UopKind::GlobalLoad => UopOf::GlobalLoad { slot: w(s, "slot") },
         UopKind::GlobalStore => UopOf::GlobalStore { slot: w(s, "slot"), src: SrcOf::Value(v(s, "data")) },
         UopKind::GlobalStoreLatch => UopOf::GlobalStore { slot: w(s, "slot"), src: SrcOf::Latch },
@@ -693,9 +697,8 @@ pub fn sym_state(s: &mut Sym, cfg: &Config, base: u32, shape: &[LaneShape], acke
         })
         .collect();
     let sh = (0..ws * m).map(|k| s.var_val(&format!("sh_{}_{}", k / m.max(1), k % m.max(1)))).collect();
-    let global = (0..ws)
-        .map(|j| (0..GLOBAL_SLOTS).map(|k| s.var_val(&format!("global_{j}_{k}"))).collect())
-        .collect();
+    let global =
+        (0..ws).map(|j| (0..GLOBAL_SLOTS).map(|k| s.var_val(&format!("global_{j}_{k}"))).collect()).collect();
     let global_far = (0..ws).map(|j| s.var_val(&format!("global_{j}_far"))).collect();
     WarpState {
         base,
@@ -1000,7 +1003,13 @@ fn in_range(s: &mut Sym, cfg: &Config, base: u32, d: &Journal<Sym>) -> B {
 }
 
 /// Builds the whole-cycle equivalence query for `shape` at the warp starting at `base`.
-pub fn whole_cycle<P: CycleSteps>(cfg: &Config, steps: &P, base: u32, shape: &[LaneShape], acked: bool) -> Query {
+pub fn whole_cycle<P: CycleSteps>(
+    cfg: &Config,
+    steps: &P,
+    base: u32,
+    shape: &[LaneShape],
+    acked: bool,
+) -> Query {
     let mut s = Sym::default();
     let st = sym_state(&mut s, cfg, base, shape, acked);
     let (cmds, done, deq) = inputs(&mut s, base, shape);

@@ -159,29 +159,42 @@ impl Scoreboard for SpecBoard {
                 let (k, t) = (lane as usize, e.warp * ws + lane);
                 let x = &e.state;
                 if *next.stack(t) != x.stacks[k] {
-                    return Some(at(lane, "stack registers", format!("{:?}", next.stack(t)), format!("{:?}", x.stacks[k])));
+                    return Some(at(
+                        lane,
+                        "stack registers",
+                        format!("{:?}", next.stack(t)),
+                        format!("{:?}", x.stacks[k]),
+                    ));
                 }
                 if *next.thread(t) != x.threads[k] {
                     let (a, b) = (format!("{:?}", next.thread(t)), format!("{:?}", x.threads[k]));
                     return Some(at(lane, "Overflow, spill pointer, done", a, b));
                 }
                 let xs = &x.seq[k];
-                let same_queue = next.pending_uops(t).copied().eq(xs.queue.iter().filter(|u| u.0).map(|u| u.1));
+                let same_queue =
+                    next.pending_uops(t).copied().eq(xs.queue.iter().filter(|u| u.0).map(|u| u.1));
                 if next.inflight_uop(t) != xs.inflight || next.latch(t) != xs.latch || !same_queue {
-                    let queue = |s: &SeqState<Int>| s.queue.iter().filter(|u| u.0).map(|u| u.1).collect::<Vec<_>>();
+                    let queue =
+                        |s: &SeqState<Int>| s.queue.iter().filter(|u| u.0).map(|u| u.1).collect::<Vec<_>>();
                     let design = format!(
                         "in flight {:?}, latch {:?}, queue {:?}",
                         next.inflight_uop(t),
                         next.latch(t),
                         next.pending_uops(t).collect::<Vec<_>>()
                     );
-                    let spec = format!("in flight {:?}, latch {:?}, queue {:?}", xs.inflight, xs.latch, queue(xs));
+                    let spec =
+                        format!("in flight {:?}, latch {:?}, queue {:?}", xs.inflight, xs.latch, queue(xs));
                     return Some(at(lane, "sequencer", design, spec));
                 }
                 for e2 in 0..c.sh_entries {
                     let (got, want) = (next.sh_entry(t, e2), x.sh[k * c.sh_entries as usize + e2 as usize]);
                     if got != want {
-                        return Some(at(lane, &format!("SH word {e2}"), format!("{got:#x}"), format!("{want:#x}")));
+                        return Some(at(
+                            lane,
+                            &format!("SH word {e2}"),
+                            format!("{got:#x}"),
+                            format!("{want:#x}"),
+                        ));
                     }
                 }
                 match e.rb.iter().find(|r| r.0 == k) {
@@ -202,7 +215,8 @@ impl Scoreboard for SpecBoard {
                     // Unchanged by the specification: its length and ends as they were.
                     None => {
                         let rb = next.rb(t);
-                        let (front, back) = (rb.front().copied().unwrap_or(POISON), rb.back().copied().unwrap_or(POISON));
+                        let (front, back) =
+                            (rb.front().copied().unwrap_or(POISON), rb.back().copied().unwrap_or(POISON));
                         let r = &x.rb[k];
                         if rb.len() as u32 != r.len || front != r.front || back != r.back {
                             let design = format!("{} entries", rb.len());
@@ -219,7 +233,12 @@ impl Scoreboard for SpecBoard {
                     })
                     .collect();
                 if writes != x.global_writes[k] {
-                    return Some(at(lane, "global writes", format!("{writes:?}"), format!("{:?}", x.global_writes[k])));
+                    return Some(at(
+                        lane,
+                        "global writes",
+                        format!("{writes:?}"),
+                        format!("{:?}", x.global_writes[k]),
+                    ));
                 }
                 let sh = j.sh_req.iter().find(|r| r.thread == t).map(|r| (r.stack, r.entry, r.write));
                 let xsh = e.out.sh_req.iter().find(|r| r.0 == lane).map(|r| (r.1, r.2, r.3));
