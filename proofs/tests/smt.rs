@@ -35,11 +35,7 @@ fn cfg(rb: u32, m: u32, skew: bool, ra: Option<(u32, u32)>, warp_size: u32, warp
 }
 
 fn solvers() -> Vec<Solver> {
-    let s = vec![Solver::Z3, Solver::Boolector];
-    for x in &s {
-        x.check_installed().unwrap_or_else(|e| panic!("{e}"));
-    }
-    s
+    Solver::defaults_installed().unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Proves `ob` for the design at `c` with each of `sv`, asserting every verdict is "proved".

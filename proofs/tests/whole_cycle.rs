@@ -9,7 +9,7 @@
 
 use std::time::Duration;
 
-use rtl::config::{Config, RbSize, Realloc};
+use rtl::config::{Config, Realloc};
 use rtl::stack_manager::mutants::Mutated;
 use rtl::stack_manager::policy::Design;
 use rtl::stack_manager::Mutant;
@@ -19,26 +19,18 @@ use tb::prove::{cycle_obligations, prove, Obligation};
 
 const LIMIT: Duration = Duration::from_secs(300);
 
-fn cfg(rb: u32, m: u32, ra: Option<(u32, u32)>, warp_size: u32, warps: u32) -> Config {
-    let c = Config {
-        rb: RbSize::Entries(rb),
-        sh_entries: m,
-        skew: true,
-        realloc: ra.map(|(borrow_limit, flush_limit)| Realloc { borrow_limit, flush_limit }),
-        warp_size,
-        warps,
-        ..Config::default()
-    };
+/// Configuration `name` (reallocation with borrow limit 2, flush limit 1) on warps of
+/// `warp_size` lanes, `warps` to an RT unit.
+fn cfg(name: &str, warp_size: u32, warps: u32) -> Config {
+    let base: Config = name.parse().expect("a configuration name");
+    let realloc = Some(Realloc { borrow_limit: 2, flush_limit: 1 });
+    let c = Config { realloc, warp_size, warps, ..base };
     c.validate().expect("a valid test configuration");
     c
 }
 
 fn solvers() -> Vec<Solver> {
-    let s = vec![Solver::Z3, Solver::Boolector];
-    for x in &s {
-        x.check_installed().unwrap_or_else(|e| panic!("{e}"));
-    }
-    s
+    Solver::defaults_installed().unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Two lanes' commands beside a release take minutes (the paths of the two plans multiply):
@@ -49,7 +41,7 @@ const SLOW: &str = "push+push";
 fn the_whole_cycle_equals_the_specifications_cycle_with_two_solvers() {
     let sv = solvers();
     // Chains of 3 with a flush limit on a second warp; M = 16, where an entry needs 4 bits.
-    for c in [cfg(2, 2, Some((2, 1)), 4, 2), cfg(2, 16, Some((2, 1)), 4, 1)] {
+    for c in [cfg("RB_2+SH_2+SK+RA", 4, 2), cfg("RB_2+SH_16+SK+RA", 4, 1)] {
         let obs: Vec<Obligation> =
             cycle_obligations(&c).into_iter().filter(|o| !o.name.contains(SLOW)).collect();
         assert!(obs.len() > 30, "every sequencer combination and the command shapes");
@@ -93,8 +85,8 @@ fn with_lane(obs: &[Obligation], acked: bool, f: impl Fn(&LaneShape) -> bool) ->
 #[test]
 fn every_planted_bug_in_the_cycle_code_is_caught() {
     let sv = solvers();
-    let small = cfg(2, 2, Some((2, 1)), 4, 2);
-    let wide = cfg(2, 16, Some((2, 1)), 4, 1);
+    let small = cfg("RB_2+SH_2+SK+RA", 4, 2);
+    let wide = cfg("RB_2+SH_16+SK+RA", 4, 1);
     let named = |c: &Config, name: &str| {
         cycle_obligations(c).into_iter().find(|o| !o.acked && o.name.ends_with(name)).expect("the obligation")
     };

@@ -125,6 +125,17 @@ impl<W, B, V> Default for JournalOf<W, B, V> {
     }
 }
 
+impl<W, B, V: Copy> JournalOf<W, B, V> {
+    /// What the cycle answered to thread `t`'s command: the popped entry, nothing, or the
+    /// refusal.
+    pub fn answer(&self, t: u32) -> Result<Option<V>, StackError> {
+        if let Some(e) = self.errors.iter().find(|e| e.thread() == t) {
+            return Err(*e);
+        }
+        Ok(self.pops.iter().find(|p| p.0 == t).map(|p| p.1))
+    }
+}
+
 impl<W, B, V> JournalOf<W, B, V> {
     pub fn clear(&mut self) {
         self.writes.clear();

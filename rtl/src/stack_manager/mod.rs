@@ -127,10 +127,7 @@ impl StackStep {
     /// What the cycle answered to thread `t`'s command: the popped entry, nothing, or the
     /// refusal.
     pub fn answer(&self, t: u32) -> Result<Option<Entry>, StackError> {
-        if let Some(e) = self.j.errors.iter().find(|e| e.thread() == t) {
-            return Err(*e);
-        }
-        Ok(self.j.pops.iter().find(|p| p.0 == t).map(|p| p.1))
+        self.j.answer(t)
     }
 
     /// Thread `t`'s command this cycle ([`Cmd::None`] if it sent none).

@@ -20,7 +20,7 @@ use rtl::stack_manager::cycle::{self, CycleIn, CycleSteps, Journal, Registers, S
 use rtl::stack_manager::policy::{RbOp, Regfile, Regs, Thread, UopL};
 use rtl::stack_manager::{CmdOf, SrcOf, StackError, StackRegsOf, ThreadRegsOf, UopOf, POISON};
 
-use super::query::{compact, eq_bit, error_code, finish, mux_enc, well_formed, Enc, Kind, Query};
+use super::query::{compact, eq_bit, error_code, finish, mux_enc, sym_stack, well_formed, Enc, Kind, Query};
 use super::spec::Spec;
 use super::sym::{Sym, B, V, W};
 
@@ -452,13 +452,7 @@ pub fn design_cycle<L: Logic, P: CycleSteps>(
         answers: cmds
             .iter()
             .filter(|c| !matches!(c.1, CmdOf::None))
-            .map(|&(t, _)| {
-                let a = match d.errors.iter().find(|e| e.thread() == t) {
-                    Some(e) => Err(*e),
-                    None => Ok(d.pops.iter().find(|p| p.0 == t).map(|p| p.1)),
-                };
-                (t - q.base, a)
-            })
+            .map(|&(t, _)| (t - q.base, d.answer(t)))
             .collect(),
     };
     (next, out, d)
@@ -661,17 +655,8 @@ fn sym_uop(s: &mut Sym, k: UopKind, j: u32, tag: &str) -> UopL<Sym> {
 pub fn sym_state(s: &mut Sym, cfg: &Config, base: u32, shape: &[LaneShape], acked: bool) -> WarpState<Sym> {
     let ws = cfg.warp_size;
     let m = cfg.sh_entries;
-    let regs = |s: &mut Sym, j: String| StackRegsOf {
-        top: s.var_word(&format!("top_{j}")),
-        bottom: s.var_word(&format!("bottom_{j}")),
-        empty: s.var_bit(&format!("empty_{j}")),
-        idle: s.var_bit(&format!("idle_{j}")),
-        next_tid: s.var_word(&format!("next_tid_{j}")),
-        priority: s.var_word(&format!("priority_{j}")),
-        flush: s.var_word(&format!("flush_{j}")),
-    };
-    let stacks = (0..ws).map(|j| regs(s, j.to_string())).collect();
-    let outside = regs(s, "outside".into());
+    let stacks = (0..ws).map(|j| sym_stack(s, &j.to_string())).collect();
+    let outside = sym_stack(s, "outside");
     let threads = (0..ws)
         .map(|j| ThreadRegsOf {
             overflow: s.var_bit(&format!("overflow_{j}")),

@@ -55,21 +55,24 @@ pub struct State {
     pub lanes: Vec<LaneIn>,
 }
 
+/// A stack's registers as fresh variables named `top_{tag}`, `bottom_{tag}`, ….
+pub fn sym_stack(s: &mut Sym, tag: &str) -> Regs<Sym> {
+    StackRegsOf {
+        top: s.var_word(&format!("top_{tag}")),
+        bottom: s.var_word(&format!("bottom_{tag}")),
+        empty: s.var_bit(&format!("empty_{tag}")),
+        idle: s.var_bit(&format!("idle_{tag}")),
+        next_tid: s.var_word(&format!("next_tid_{tag}")),
+        priority: s.var_word(&format!("priority_{tag}")),
+        flush: s.var_word(&format!("flush_{tag}")),
+    }
+}
+
 impl State {
     /// Fresh variables for a warp starting at thread `base` whose lanes `cmds` command.
     pub fn new(s: &mut Sym, cfg: &Config, base: u32, cmds: &[(u32, Kind)]) -> State {
         let ws = cfg.warp_size;
-        let regs = (0..ws)
-            .map(|j| StackRegsOf {
-                top: s.var_word(&format!("top_{j}")),
-                bottom: s.var_word(&format!("bottom_{j}")),
-                empty: s.var_bit(&format!("empty_{j}")),
-                idle: s.var_bit(&format!("idle_{j}")),
-                next_tid: s.var_word(&format!("next_tid_{j}")),
-                priority: s.var_word(&format!("priority_{j}")),
-                flush: s.var_word(&format!("flush_{j}")),
-            })
-            .collect();
+        let regs = (0..ws).map(|j| sym_stack(s, &j.to_string())).collect();
         let done = (0..ws).map(|j| s.var_bit(&format!("done_{j}"))).collect::<Vec<_>>();
         let lanes = cmds
             .iter()

@@ -46,6 +46,16 @@ impl Solver {
     }
 
     /// Fails with what to install when the solver is not on the PATH.
+    /// The two solvers every proof runs by default (z3, boolector), each checked installed:
+    /// an error names the Debian package of the first missing one.
+    pub fn defaults_installed() -> Result<Vec<Solver>> {
+        let s = vec![Solver::Z3, Solver::Boolector];
+        for x in &s {
+            x.check_installed()?;
+        }
+        Ok(s)
+    }
+
     pub fn check_installed(self) -> Result<()> {
         match Command::new(self.name())
             .arg("--version")
