@@ -159,6 +159,26 @@ pub fn outside_scene_data(flag: &str, path: &Path, data: &Path) -> anyhow::Resul
     Ok(())
 }
 
+/// Makes `path` (given as `flag`) a folder to write into, before any work: outside the scene
+/// data, a folder (created if missing) and writable; an error names the flag and what is wrong.
+pub fn output_folder(flag: &str, path: &Path, data: &Path) -> anyhow::Result<()> {
+    outside_scene_data(flag, path, data)?;
+    let shown = path.display();
+    if path.exists() && !path.is_dir() {
+        bail!("{flag} {shown}: not a folder (a file has that name); give a folder to write into");
+    }
+    if let Err(e) = std::fs::create_dir_all(path) {
+        bail!("{flag} {shown}: cannot create the folder ({e}); give a folder you can write into");
+    }
+    // One probe per process: shards started together prepare the same folder.
+    let probe = path.join(format!(".sms-write-test-{}", std::process::id()));
+    if let Err(e) = std::fs::write(&probe, b"") {
+        bail!("{flag} {shown}: cannot write into the folder ({e}); give a folder you can write into");
+    }
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// On Ctrl-C (SIGINT, or SIGTERM as Slurm sends it), says how many results the cache `dir`
 /// holds and that running the same command again resumes from them, then exits with 130. The
 /// cache is never left half-written: each result is renamed into place once complete.
@@ -229,6 +249,30 @@ mod tests {
             // Not wildly above either: within 4× on memory for the large scenes.
             assert!(primitives < 1_000_000 || e.bytes < 4.0 * bytes, "{primitives}: {}", e.describe());
         }
+    }
+
+    #[test]
+    fn an_output_folder_must_be_a_writable_folder() {
+        let tmp = std::env::temp_dir().join(format!("sms-guard-out-{}", std::process::id()));
+        let data = tmp.join("data");
+        std::fs::create_dir_all(&data).unwrap();
+        let file = tmp.join("file");
+        std::fs::write(&file, b"x").unwrap();
+        let e = output_folder("--out", &file, &data).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "--out {}: not a folder (a file has that name); give a folder to write into",
+                file.display()
+            )
+        );
+        let e = output_folder("--out", &file.join("sub"), &data).unwrap_err().to_string();
+        assert!(e.starts_with("--out ") && e.contains("cannot create the folder"), "{e}");
+        let e = output_folder("--out", &data.join("x"), &data).unwrap_err().to_string();
+        assert!(e.contains("inside the scene data folder"), "{e}");
+        output_folder("--out", &tmp.join("new/deep"), &data).unwrap();
+        assert_eq!(std::fs::read_dir(tmp.join("new/deep")).unwrap().count(), 0, "the probe is removed");
+        std::fs::remove_dir_all(&tmp).unwrap();
     }
 
     #[test]

@@ -177,18 +177,34 @@ pub struct SceneArgs {
 }
 
 impl SceneArgs {
-    pub fn library(&self) -> SceneLibrary {
+    /// The scene library these arguments give; a data folder named by `--scenes-dir` or
+    /// `SMS_SCENES_DIR` must be one.
+    pub fn library(&self) -> anyhow::Result<SceneLibrary> {
         let mut library = match &self.scenes_dir {
             Some(dir) => SceneLibrary::with_data_dir(dir),
             None => SceneLibrary::default(),
         };
+        let named = match library.origin {
+            crate::workload::scene::DataOrigin::Flag => Some("--scenes-dir ".to_string()),
+            crate::workload::scene::DataOrigin::Env => {
+                Some(format!("{}=", crate::workload::scene::SCENES_DIR_ENV))
+            }
+            _ => None,
+        };
+        if let Some(named) = named.filter(|_| !library.data.is_dir()) {
+            let what = if library.data.exists() { "not a folder" } else { "no such folder" };
+            anyhow::bail!(
+                "{named}{}: {what}; give the folder that holds the scene data (`sms scenes --fetch DIR` lays one out)",
+                library.data.display()
+            );
+        }
         library.camera = crate::workload::scene::CameraOverride {
             eye: self.camera_eye,
             look_at: self.camera_look_at,
             up: self.camera_up,
             vfov: self.vfov,
         };
-        library
+        Ok(library)
     }
 }
 
@@ -261,7 +277,8 @@ impl WorkloadArgs {
 #[derive(Clone, Debug, clap::Args)]
 pub struct SampleArgs {
     /// Simulate this fraction (0 < f ≤ 1) of the pixel warps and estimate every metric of the
-    /// whole frame with a 95 % confidence interval. At the cycle level the sample is one launch
+    /// whole frame with a 95 % confidence interval; 1 is every warp, the full run exactly (its
+    /// report, no intervals). At the cycle level the sample is one launch
     /// and the intervals of cycles, DRAM and conflicts are indicative only: `sms bench` measures
     /// the real error, and a sampled sweep prints the error measured at LumiBench's settings
     /// (geomean speed-ups up to 3.5 points low at 0.25) [default: every warp].
@@ -276,7 +293,8 @@ pub struct SampleArgs {
 }
 
 impl SampleArgs {
-    /// The sample asked for (`None`: every warp), checked; drawn with `seed`.
+    /// The sample asked for (`None`: every warp, which `--sample 1` is too), checked; drawn
+    /// with `seed`.
     pub fn plan(&self, seed: u64) -> anyhow::Result<Option<crate::run::sampling::SamplePlan>> {
         let Some(fraction) = self.sample else { return Ok(None) };
         let plan = crate::run::sampling::SamplePlan {
@@ -286,7 +304,7 @@ impl SampleArgs {
             seed,
         };
         plan.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
-        Ok(Some(plan))
+        Ok((!plan.every_warp()).then_some(plan))
     }
 }
 
