@@ -1,11 +1,8 @@
 //! `sms`: command-line front end of the SMS model. The grammar and every subcommand live in
 //! `tb::cli`.
 
-use clap::Parser;
-use tb::cli::Cli;
-
 fn main() -> std::process::ExitCode {
-    match Cli::parse().run() {
+    match tb::cli::parse().run() {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");

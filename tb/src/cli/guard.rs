@@ -73,7 +73,7 @@ impl Estimate {
     }
 
     pub fn describe(&self) -> String {
-        let rays = if self.rays < 1e12 { format!("{:.0}", self.rays) } else { format!("{:.3e}", self.rays) };
+        let rays = if self.rays < 1e12 { format!("{:.0}", self.rays) } else { plain(self.rays) };
         format!("at most {rays} rays, {} of memory, {}", bytes(self.bytes), duration(self.secs))
     }
 
@@ -97,17 +97,36 @@ impl Estimate {
     }
 }
 
+/// `x` with at most one decimal and thousands grouped, or as `m × 10^e` beyond a trillion.
+fn plain(x: f64) -> String {
+    if x >= 1e12 {
+        let e = x.log10().floor();
+        return format!("{:.1} × 10^{e}", x / 10f64.powf(e));
+    }
+    let whole = format!("{:.0}", x.trunc());
+    let grouped: Vec<String> =
+        whole.as_bytes().rchunks(3).rev().map(|c| String::from_utf8_lossy(c).into_owned()).collect();
+    let tenth = ((x.fract() * 10.0).round() as u32).min(9);
+    if x < 100.0 && tenth > 0 {
+        format!("{}.{tenth}", grouped.join(","))
+    } else {
+        grouped.join(",")
+    }
+}
+
 fn bytes(b: f64) -> String {
     match b {
-        b if b >= 1e12 => format!("{:.3e} bytes", b),
+        b if b >= 1e12 => format!("{} TB", plain(b / 1e12)),
         b if b >= 1e9 => format!("{:.1} GB", b / 1e9),
         b => format!("{:.0} MB", b / 1e6),
     }
 }
 
 fn duration(s: f64) -> String {
+    const YEAR: f64 = 3600.0 * 24.0 * 365.0;
     match s {
-        s if s >= 3600.0 * 24.0 * 365.0 => format!("{:.1e} years", s / (3600.0 * 24.0 * 365.0)),
+        s if s >= YEAR => format!("{} years", plain(s / YEAR)),
+        s if s >= 3600.0 * 24.0 * 2.0 => format!("{} days", plain(s / (3600.0 * 24.0))),
         s if s >= 3600.0 => format!("{:.1} h", s / 3600.0),
         s if s >= 60.0 => format!("{:.0} min", s / 60.0),
         s => format!("{s:.0} s"),
@@ -220,7 +239,7 @@ mod tests {
         };
         let e = Estimate::new(&opts, 20_000, 3, 2, Fidelity::Cycle);
         let err = e.check(Some(16 << 30), false).unwrap_err().to_string();
-        assert!(err.starts_with("estimated at most 2.621e14 rays") && err.contains("--force"), "{err}");
+        assert!(err.starts_with("estimated at most 2.6 × 10^14 rays") && err.contains("--force"), "{err}");
         assert!(e.check(Some(16 << 30), true).is_ok());
         let lumibench =
             WorkloadOpts { width: 128, height: 128, spp: 2, max_bounces: 15, ..Default::default() };
@@ -248,6 +267,23 @@ mod tests {
             assert!(e.bytes >= bytes && e.secs >= secs, "{primitives}: {}", e.describe());
             // Not wildly above either: within 4× on memory for the large scenes.
             assert!(primitives < 1_000_000 || e.bytes < 4.0 * bytes, "{primitives}: {}", e.describe());
+        }
+    }
+
+    #[test]
+    fn large_estimates_read_as_plain_numbers() {
+        const YEAR: f64 = 3600.0 * 24.0 * 365.0;
+        assert_eq!(duration(1.2 * YEAR), "1.2 years");
+        assert_eq!(duration(1400.0 * YEAR), "1,400 years");
+        assert_eq!(duration(3.0e15 * YEAR), "3.0 × 10^15 years");
+        assert_eq!(duration(3.0 * 24.0 * 3600.0), "3 days");
+        assert_eq!(duration(25.0 * 3600.0), "25.0 h");
+        assert_eq!(bytes(4.588e15), "4,588 TB");
+        assert_eq!(bytes(2.5e9), "2.5 GB");
+        for s in [duration(1.2 * YEAR), duration(1e30), bytes(1e30)] {
+            let exponent =
+                s.as_bytes().windows(3).any(|w| w[0].is_ascii_digit() && w[1] == b'e' && w[2] != b' ');
+            assert!(!exponent, "no exponent notation: {s}");
         }
     }
 

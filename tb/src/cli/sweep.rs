@@ -195,6 +195,24 @@ pub struct Args {
 impl Args {
     /// The sweep these arguments ask for, checked before any simulation starts.
     pub fn request(&self) -> anyhow::Result<Request> {
+        // Each size named by its flag, before the plan's own checks name configurations.
+        for &n in &self.rb_sizes {
+            let c: rtl::config::Config =
+                format!("RB_{n}").parse().map_err(|e| anyhow::anyhow!("--rb-sizes {n}: {e}"))?;
+            c.validate().map_err(|e| anyhow::anyhow!("--rb-sizes {n}: {e}"))?;
+        }
+        let sms: rtl::config::Config = sweep::with_sms(8).parse()?;
+        let sh_kb = rtl::gpu::shared_bytes(&sms).div_ceil(1024);
+        if let Some(kb) = self.l1d_sizes.iter().find(|&&kb| kb <= sh_kb) {
+            bail!(
+                "--l1d-sizes {kb}: each size (in KB) must be above {sh_kb}, the SH stacks of {} that the L1D \
+                 sweep runs on it (e.g. 16,32,64,128,256)",
+                sms.name()
+            );
+        }
+        if let Some(kb) = self.l1d_sizes.iter().find(|&&kb| kb > u32::MAX / 1024) {
+            bail!("--l1d-sizes {kb}: too large; each size (in KB) must be at most {}", u32::MAX / 1024);
+        }
         let plan = Plan {
             configs: {
                 self.stack.names_only("sweep")?;
