@@ -13,9 +13,9 @@ pub enum Error {
     /// A file was read but its content is wrong; `at` names the line or element.
     #[error("{}: {at}: {what}", path.display())]
     Format { path: PathBuf, at: String, what: String },
-    /// A mesh (or a whole scene) has no usable primitive.
-    #[error("{}: no triangles left ({dropped} degenerate dropped)", path.display())]
-    EmptyMesh { path: PathBuf, dropped: usize },
+    /// A mesh (or a whole scene) has no usable primitive; `why` says what the file held instead.
+    #[error("{}: no triangles: {why}", path.display())]
+    EmptyMesh { path: PathBuf, why: String },
     /// `load_scene` was given a name that is neither built in nor described, nor a scene file.
     #[error(
         "unknown scene '{name}': not a scene name ({}), nor a path to a mesh (.obj, .ply, .glb, .gltf, optionally .gz) or a .toml description",

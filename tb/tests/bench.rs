@@ -36,6 +36,31 @@ fn bench_runs_end_to_end_and_writes_its_files() {
     assert_eq!(work[0]["triangle"], 0, "the procedural scene does no triangle work");
     assert!(work[0]["procedural"].as_u64().unwrap() > 0);
     assert!(work[1]["triangle"].as_u64().unwrap() > 0);
+    // A sample of every warp is the full run at its level: its values and errors, no interval;
+    // at the cycle level every error is 0.
+    let rows = json["report"]["rows"].as_array().unwrap();
+    let every_warp: Vec<&serde_json::Value> =
+        rows.iter().filter(|r| r["setting"]["sample"]["fraction"] == 1.0).collect();
+    assert_eq!(every_warp.len(), 2 * 3 * 2 * 2, "each scene, configuration, level and mode");
+    for r in every_warp {
+        if r["setting"]["fidelity"] == "cycle" {
+            for (name, e) in r["errors"].as_object().unwrap() {
+                assert!(e.is_null() || e.as_f64() == Some(0.0), "{name} error {e} of {r}");
+            }
+        }
+        assert!(r["ci"].is_null(), "no interval: {r}");
+        let full = rows
+            .iter()
+            .find(|f| {
+                f["scene"] == r["scene"]
+                    && f["config"] == r["config"]
+                    && f["setting"]["fidelity"] == r["setting"]["fidelity"]
+                    && f["setting"]["sample"].is_null()
+            })
+            .unwrap();
+        assert_eq!((&full["values"], &full["errors"]), (&r["values"], &r["errors"]), "{r}");
+        assert_eq!(full["pixel_warps"], r["pixel_warps"]);
+    }
     let text = read("bench.txt");
     assert!(text.contains("fastest within 1% on every headline metric"));
     assert!(!text.contains("DIFFER"), "skipping work never changes results:\n{text}");

@@ -111,6 +111,29 @@ fn gzip(bytes: &[u8]) -> Vec<u8> {
     gz.finish().unwrap()
 }
 
+/// A glTF holding one primitive of `mode` (0 points, 1 lines, 3 line strip, 4 triangles) over
+/// three vertices, the buffer embedded.
+fn gltf_triangle(mode: u32) -> String {
+    let floats: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
+    let uri = format!("data:application/octet-stream;base64,{}", {
+        use base64::Engine;
+        base64::engine::general_purpose::STANDARD.encode(&bytes)
+    });
+    serde_json::json!({
+        "asset": { "version": "2.0" },
+        "buffers": [{ "byteLength": 36, "uri": uri }],
+        "bufferViews": [{ "buffer": 0, "byteLength": 36 }],
+        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "max": [1, 1, 0], "min": [0, 0, 0] }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 }, "mode": mode }] }],
+        "nodes": [{ "mesh": 0 }],
+        "scenes": [{ "nodes": [0] }],
+        "scene": 0
+    })
+    .to_string()
+}
+
 /// Rays and cycles of a one-configuration report.
 fn rays_cycles(report: &serde_json::Value) -> (u64, u64) {
     let gpu = &report["results"][0]["full"]["gpu"];
@@ -214,6 +237,47 @@ fn bad_meshes_given_by_path_are_clear_errors() {
     let e = sms.fails(&bad_desc);
     assert!(e.contains("line 3"), "{e}");
 
+    // What a file named .obj is instead of OBJ text, and why a mesh has no triangles.
+    let utf16: Vec<u8> =
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".encode_utf16().flat_map(u16::to_le_bytes).collect();
+    let with_bom = [&[0xff, 0xfe][..], &utf16].concat();
+    for (name, bytes, want) in [
+        ("utf16.obj", with_bom.clone(), "UTF-16 text; sms reads OBJ as ASCII or UTF-8 text"),
+        ("utf16-no-bom.obj", utf16.clone(), "UTF-16 text"),
+        ("utf16.obj.gz", gzip(&with_bom), "UTF-16 text"),
+        ("binary.obj", (0u8..=255).cycle().take(600).collect(), "binary data, not OBJ text"),
+        (
+            "model.obj",
+            b"glTF\x02\0\0\0rest".to_vec(),
+            "binary glTF (GLB) data, not OBJ text: name the file .glb",
+        ),
+        ("packed.obj", gzip(CUBE_OBJ.as_bytes()), "gzip-compressed data: name the file .obj.gz"),
+        ("cube.ply.obj", CUBE_PLY.as_bytes().to_vec(), "a PLY file, not OBJ text"),
+        ("comments.obj", b"# only a comment\nv 0 0 0\n".to_vec(), "no triangles: the file holds no faces"),
+        (
+            "flat.obj",
+            b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n".to_vec(),
+            "no triangles: all 1 of its faces have zero area",
+        ),
+    ] {
+        let e = sms.fails(&sms.file(name, &bytes));
+        assert!(e.contains(want), "{name}: {e}");
+    }
+    // A UTF-8 byte-order mark is read past.
+    sms.file("bom.obj", &[b"\xef\xbb\xbf", CUBE_OBJ.as_bytes()].concat());
+    assert!(rays_cycles(&sms.run("bom.obj", &[])).1 > 0);
+    // glTF: primitives of points or lines only; glTF 1 with its version as a number.
+    for (mode, name) in [(0, "points.gltf"), (1, "lines.gltf"), (3, "strip.gltf")] {
+        let e = sms.fails(&sms.file(name, gltf_triangle(mode).as_bytes()));
+        assert!(e.contains("no triangles: its 1 primitive(s) are points or lines"), "{name}: {e}");
+    }
+    assert!(
+        rays_cycles(&sms.run(sms.file("tri.gltf", gltf_triangle(4).as_bytes()).to_str().unwrap(), &[])).1 > 0
+    );
+    let v1 = sms.file("v1.gltf", br#"{"asset": {"version": 1.0}, "meshes": {}}"#);
+    let e = sms.fails(&v1);
+    assert!(e.contains("glTF: version 1.0; sms reads glTF 2.0"), "{e}");
+
     for dir in ["meshes", "meshes.obj"] {
         let path = sms.work().join(dir);
         std::fs::create_dir_all(&path).unwrap();
@@ -234,14 +298,53 @@ fn scenes_lists_every_name_marking_missing_meshes() {
     assert!(out.status.success(), "{stderr}");
     let library = tb::workload::scene::SceneLibrary::default();
     let names = library.names().unwrap();
-    let rows: Vec<&str> = stdout.lines().skip(1).collect();
+    let rows: Vec<&str> = stdout.lines().skip(2).collect();
     assert_eq!(rows.len(), names.len(), "one row per scene: {stdout}");
     for (row, name) in rows.iter().zip(&names) {
-        assert!(row.starts_with(&format!("{name:<20} ")), "{row}");
+        assert!(row.starts_with(&format!("{name:<19} ")), "{row}");
         let builtin = tb::workload::scene::procedural::NAMES.contains(&name.as_str());
-        assert_eq!(row.contains(" mesh missing: "), !builtin, "{row}");
+        assert_eq!(row.contains(": missing"), !builtin, "{row}");
     }
     let described = names.len() - tb::workload::scene::procedural::NAMES.len();
-    let note = format!("{described} scenes' meshes are missing (no scenes folder: ");
+    assert!(stderr.contains("scene data: no scenes folder: "), "{stderr}");
+    let note = format!("{described} scene(s) lack data; `sms scenes --fetch DIR --from URL` lays out");
     assert!(stderr.lines().last().unwrap().starts_with(&note), "{stderr}");
+    assert!(sms.sms(&["scenes", "-q"]).stderr.is_empty(), "-q: the listing only");
+
+    // The listing reads the manifest and the files' sizes, never a mesh: a file of the listed
+    // size counts as present whatever it holds (--fetch checks the SHA-256, --build loads it).
+    let data = sms.tmp.join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    let listed = tb::workload::scene::manifest::Manifest::shipped();
+    let bunny = listed.file("stanford-bunny-69k.obj.gz").unwrap();
+    std::fs::write(data.join(&bunny.file), vec![b'x'; bunny.bytes as usize]).unwrap();
+    std::fs::write(data.join("karimSchooner.obj.gz"), b"too short").unwrap();
+    let d = data.to_str().unwrap();
+    let out = sms.sms(&["scenes", "bunny69k", "ship", "--scenes-dir", d, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let scenes = json["scenes"].as_array().unwrap();
+    assert_eq!((&scenes[0]["name"], &scenes[0]["triangles"]), (&"bunny69k".into(), &69_451.into()));
+    assert_eq!(scenes[0]["files"][0]["state"], "present");
+    assert_eq!(scenes[1]["files"][0]["state"], "wrong size");
+    let csv =
+        String::from_utf8(sms.sms(&["scenes", "bunny69k", "--scenes-dir", d, "--format", "csv"]).stdout)
+            .unwrap();
+    assert_eq!(csv, "scene,kind,triangles,bytes,data,files\nbunny69k,described,69451,819403,present,stanford-bunny-69k.obj.gz\n");
+    let out = sms.sms(&["scenes", "--build", "bunny69k", "--scenes-dir", d]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && e.contains("stanford-bunny-69k.obj.gz"), "--build reads it: {e}");
+
+    // A data folder that is not one is an error, whichever way it is given.
+    let file = data.join("karimSchooner.obj.gz");
+    let f = file.to_str().unwrap();
+    let out = sms.sms(&["scenes", "--scenes-dir", f]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{e}");
+    assert!(e.starts_with(&format!("error: --scenes-dir {f}: not a folder;")), "{e}");
+    let out = sms.spawn(&["scenes"], |c| c.env("SMS_SCENES_DIR", sms.tmp.join("nowhere")));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && e.contains("SMS_SCENES_DIR=") && e.contains(": no such folder;"), "{e}");
+    let out = sms.sms(&["run", "--scene", "clutter", "--scenes-dir", f]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not a folder"), "every command checks it");
 }

@@ -63,6 +63,10 @@ fn run_json_states_provenance_and_the_hardware_hash_tells_presets_apart() {
     assert_eq!(p["model"]["version"], env!("CARGO_PKG_VERSION"));
     assert_eq!(p["model"]["sources"], tb::run::sweep::cache::MODEL_VERSION);
     assert!(p["model"].get("commit").is_some());
+    // The lock file the binary was built with, hashed as `sha256sum Cargo.lock` hashes it.
+    let lock = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../Cargo.lock")).unwrap();
+    assert_eq!(p["model"]["cargo_lock"], tb::report::provenance::sha256_hex(&lock));
+    assert!(p.get("files").is_none(), "a named scene states no files");
 
     // Per-ray figures: what was simulated, divided by its rays.
     let r = &paper["results"][0];
@@ -76,6 +80,69 @@ fn run_json_states_provenance_and_the_hardware_hash_tells_presets_apart() {
     assert_eq!(per_ray["stack_ops"].as_f64().unwrap(), ops / rays);
     // Finished no earlier than it took since the simulations started.
     assert!(r["finished_at"].as_f64().unwrap() >= r["full"]["wall"].as_f64().unwrap());
+}
+
+/// SHA-256's published test vector, so the lock-file and mesh hashes are SHA-256 indeed.
+#[test]
+fn file_hashes_are_sha256() {
+    assert_eq!(
+        tb::report::provenance::sha256_hex(b"abc"),
+        "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+    );
+}
+
+/// A mesh or description given by path is named in the provenance with the SHA-256 of each
+/// file read, in every format; another file of the same name gets another hash.
+#[test]
+fn a_scene_given_by_path_states_its_files_and_their_hashes() {
+    let tmp = TmpDir::new("reports", "mesh-provenance");
+    let cube = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+    let mesh = tmp.join("quad.obj");
+    std::fs::write(&mesh, cube).unwrap();
+    let desc = tmp.join("scene.toml");
+    std::fs::write(&desc, "[[mesh]]\nfile = \"quad.obj\"\n").unwrap();
+    let args = ["run", "-q", "--res", "4x4", "--spp", "1", "--bounces", "0", "-c", "RB_8"];
+    let run = |scene: &Path, more: &[&str]| {
+        stdout(&sms(&[&args[..], &["--scene", scene.to_str().unwrap()], more].concat()))
+    };
+    let sha = tb::report::provenance::sha256_hex(cube.as_bytes());
+    let json: Value = serde_json::from_str(&run(&mesh, &["--json"])).unwrap();
+    let files = &json["provenance"]["files"];
+    assert_eq!(files, &serde_json::json!([{ "path": mesh.to_str().unwrap(), "sha256": sha }]));
+    let text = run(&mesh, &[]);
+    let line = text.lines().next().unwrap();
+    assert!(line.contains(&format!("file {} (sha256 {})", mesh.display(), &sha[..16])), "{line}");
+    let json: Value = serde_json::from_str(&run(&desc, &["--json"])).unwrap();
+    let paths: Vec<&str> =
+        json["provenance"]["files"].as_array().unwrap().iter().map(|f| f["path"].as_str().unwrap()).collect();
+    assert_eq!(paths, [desc.to_str().unwrap(), tmp.join("quad.obj").to_str().unwrap()]);
+    std::fs::write(&mesh, cube.replace("1 1 0", "1 2 0")).unwrap();
+    let json: Value = serde_json::from_str(&run(&mesh, &["--json"])).unwrap();
+    assert_ne!(json["provenance"]["files"][0]["sha256"], sha, "the content, not the name");
+}
+
+/// `--sample 1` samples every warp: that is the full run, report for report.
+#[test]
+fn a_sample_of_every_warp_is_the_full_run() {
+    // Wall-clock fields aside.
+    let strip = |mut v: Value| {
+        for r in v["results"].as_array_mut().unwrap() {
+            r["finished_at"] = Value::Null;
+            r["full"]["wall"] = Value::Null;
+        }
+        v
+    };
+    for level in ["cycle", "functional"] {
+        let full = strip(run_json(&["-c", "RB_2,SMS", "--fidelity", level]));
+        let sampled = strip(run_json(&["-c", "RB_2,SMS", "--fidelity", level, "--sample", "1"]));
+        assert_eq!(full, sampled, "{level}");
+        assert!(sampled["results"][0]["sampled"].is_null(), "no estimate, no interval");
+    }
+    let text = stdout(&sms(&[&["run", "-q"], &TINY[..], &["-c", "RB_2", "--sample", "1"]].concat()));
+    assert!(!text.contains('±'), "{text}");
+    // Planted: a sample of nearly every warp is a sample, with intervals.
+    let almost = run_json(&["-c", "RB_2", "--sample", "0.99", "--batches", "2"]);
+    assert!(almost["results"][0]["sampled"].is_object(), "{almost}");
 }
 
 #[test]
@@ -236,13 +303,30 @@ fn quiet_is_accepted_by_every_subcommand_and_silences_progress() {
     assert!(o.status.success() && o.stderr.is_empty(), "{}", String::from_utf8_lossy(&o.stderr));
     let noisy = sms(&[&["run"], &TINY[..], &["-c", "SMS"]].concat());
     assert!(String::from_utf8_lossy(&noisy.stderr).contains("done at"), "progress without -q");
+    // Sweep-like commands: nothing but the report, with -q; their status lines without it.
+    let tmp = TmpDir::new("reports", "quiet-sweep");
+    let tiny = ["--scenes", "wknd", "--res", "8x8", "--spp", "1", "--bounces", "1"];
+    for sub in ["sweep", "ablate"] {
+        let out = tmp.join(sub);
+        let args = [&[sub, "--out", out.to_str().unwrap()], &tiny[..]].concat();
+        let quiet = sms(&[&args[..], &["-q"]].concat());
+        assert!(
+            quiet.status.success() && quiet.stderr.is_empty(),
+            "{sub}: {}",
+            String::from_utf8_lossy(&quiet.stderr)
+        );
+        assert!(!quiet.stdout.is_empty(), "{sub} prints its report");
+        let noisy = sms(&args);
+        let err = String::from_utf8_lossy(&noisy.stderr);
+        assert!(err.contains(" s wall time") && err.contains("cache: "), "{sub}: {err}");
+    }
 }
 
 /// A sweep of two built-in scenes, a small plan (RB_8 and SMS on the base L1D, no RB or L1D
 /// sweep), tiny, with `extra` arguments.
 fn small_sweep(out: &Path, extra: &[&str]) -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_sms"));
-    cmd.args(["sweep", "-q", "--scenes", "wknd,clutter", "--res", "8x8", "--spp", "1", "--bounces", "1"])
+    cmd.args(["sweep", "--scenes", "wknd,clutter", "--res", "8x8", "--spp", "1", "--bounces", "1"])
         .args(["--configs", "SMS", "--rb-sizes", "8", "--l1d-sizes", "64", "--jobs", "1"])
         .args(["--out", out.to_str().unwrap()])
         .args(extra)
@@ -263,7 +347,7 @@ fn three_shards_and_a_collect_write_the_reports_of_one_process() {
     ok(small_sweep(&whole, &["--no-cache"]));
     let c = cache.to_str().unwrap();
 
-    let err = error(&small_sweep(&sharded, &["--cache", c, "--collect"]).output().unwrap());
+    let err = error(&small_sweep(&sharded, &["--cache", c, "--collect", "-q"]).output().unwrap());
     assert!(err.contains("--collect: 6 result(s) are not in the cache"), "{err}");
     // Refused by the argument parser: its one-line error, then clap's pointer to --help.
     for (shard, why) in [("3/3", "K must be 0 to N-1"), ("1", "expected K/N"), ("0/0", "N at least 1")] {
@@ -314,21 +398,10 @@ fn ctrl_c_on_a_sweep_says_what_is_cached_and_a_rerun_resumes() {
     // Large enough to be interrupted part-way: 32x32 pixels, the default plan, one job.
     let sweep = || {
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_sms"));
-        cmd.args([
-            "sweep",
-            "-q",
-            "--scenes",
-            "wknd,clutter",
-            "--res",
-            "32x32",
-            "--spp",
-            "1",
-            "--bounces",
-            "1",
-        ])
-        .args(["--jobs", "1", "--out", out.to_str().unwrap()])
-        .env_remove(tb::run::sweep::cache::STOP_AFTER_ENV)
-        .stderr(Stdio::piped());
+        cmd.args(["sweep", "--scenes", "wknd,clutter", "--res", "32x32", "--spp", "1", "--bounces", "1"])
+            .args(["--jobs", "1", "--out", out.to_str().unwrap()])
+            .env_remove(tb::run::sweep::cache::STOP_AFTER_ENV)
+            .stderr(Stdio::piped());
         cmd
     };
     let child = sweep().spawn().unwrap();

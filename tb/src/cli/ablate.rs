@@ -31,7 +31,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let per_scene = req.plan.variants(req.base_kb())?.len();
     let mechanisms = ablate::MECHANISMS;
     let progress = start("ablate", &req, per_scene, mechanisms.len() + 1, &args.out);
-    let result = ablate::run(&req, mechanisms, &args.common.library.library(), &progress)?;
+    let result = ablate::run(&req, mechanisms, &args.common.library.library()?, &progress)?;
     if crate::cli::sweep::shard_done(&req, &result.reference).is_some() {
         return Ok(());
     }

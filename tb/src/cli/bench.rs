@@ -61,7 +61,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
-    crate::cli::guard::outside_scene_data("--out", &args.out, &args.scene_files.library().data)?;
+    crate::cli::guard::output_folder("--out", &args.out, &args.scene_files.library()?.data)?;
     args.stack.names_only("bench")?;
     let configs = args.stack.resolve(&DEFAULT_CONFIGS)?;
     let opts = BenchOpts {
@@ -78,7 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         args.scenes.clone()
     };
-    let library = args.scene_files.library();
+    let library = args.scene_files.library()?;
     let mut report = Report::default();
     for name in &scenes {
         let scene = library.load(name)?;

@@ -53,11 +53,11 @@ pub struct Args {
     // `--warp-size` threads (which they then need: the names' 32 threads are too many).
     #[command(flatten)]
     pub stack: StackConfigArgs,
-    /// Longest action sequence (commands and micro-op completions) for 2-thread warps. A
-    /// configuration whose search is still finding new states at this depth is reported as
-    /// bounded (exit status 2), not proved.
-    #[arg(long, default_value_t = 16)]
-    pub depth: u32,
+    /// Longest action sequence (commands and micro-op completions) for 2-thread warps [default:
+    /// 16]; wider warps take --wide-depth. A configuration whose search is still finding new
+    /// states at this depth is reported as bounded (exit status 2), not proved.
+    #[arg(long)]
+    pub depth: Option<u32>,
     /// Longest action sequence for wider warps.
     #[arg(long, default_value_t = 9)]
     pub wide_depth: u32,
@@ -245,6 +245,12 @@ pub fn run(args: Args) -> Result<()> {
         return run_full(&args);
     }
     let configs = grid(&args)?;
+    if let Some(d) = args.depth.filter(|_| configs.iter().all(|c| c.warp_size > 2)) {
+        bail!(
+            "--depth {d}: bounds 2-thread warps only, and every warp here is wider; give --wide-depth (now {})",
+            args.wide_depth
+        );
+    }
     let design = design(mutant(args.mutant.as_deref())?);
     let mut t = Table::new([
         "configuration",
@@ -261,7 +267,7 @@ pub fn run(args: Args) -> Result<()> {
     let started = std::time::Instant::now();
     let mut capped = Vec::new();
     for c in &configs {
-        let depth = if c.warp_size <= 2 { args.depth } else { args.wide_depth };
+        let depth = if c.warp_size <= 2 { args.depth.unwrap_or(16) } else { args.wide_depth };
         let under = args.cap.map_or(String::new(), |c| format!(" under cap {c}"));
         crate::cli::note(format!("checking {} to depth {depth}{under} ...", describe(c)));
         let bounds = Bounds {

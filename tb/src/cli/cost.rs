@@ -24,7 +24,18 @@ pub struct Args {
     pub baselines: bool,
 }
 
+/// The largest `--full-depth`: far beyond any scene's stack (the deepest measured is under 100),
+/// and small enough that no width overflows.
+pub const MAX_FULL_DEPTH: u32 = 65536;
+
 pub fn run(args: Args) -> Result<()> {
+    if !(1..=MAX_FULL_DEPTH).contains(&args.full_depth) {
+        anyhow::bail!(
+            "--full-depth {}: RB_FULL needs 1 to {MAX_FULL_DEPTH} entries (the deepest stack of a scene: `sms depth` \
+             reports it)",
+            args.full_depth
+        );
+    }
     let hw = args.hardware.hardware()?;
     let sms = hw.mem.sms;
     let provenance = Provenance::new(None, Some(args.hardware.id(&hw)));

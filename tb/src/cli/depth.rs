@@ -32,11 +32,13 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
-    let library = args.scenes.library();
-    if let Some(out) = &args.out {
-        // Checked before the work too, so that a bad folder costs nothing.
-        guard::outside_scene_data("--out", out, &library.data)?;
-    }
+    let library = args.scenes.library()?;
+    // Checked before any work, so that a bad folder costs nothing.
+    let out = match &args.out {
+        Some(out) => out.clone(),
+        None => PathBuf::from("out/depth").join(library.name_of(&args.scene)?),
+    };
+    guard::output_folder("--out", &out, &library.data)?;
     let scene = library.load(&args.scene)?;
     note(format!(
         "loaded {} ({} primitives, {} degenerate triangles dropped) in {:.2} s",
@@ -77,7 +79,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     note(format!("recorded traces in {:.2} s", start.elapsed().as_secs_f64()));
 
     let report = DepthReport::new(&scene.name, opts, workload.num_rays(), histogram);
-    let p = Provenance::new(Some(WorkloadId::new(vec![scene.name.clone()], &[opts])), None);
+    let p = Provenance::new(
+        Some(WorkloadId::new(vec![scene.name.clone()], &[opts]).with_files([&scene.files[..]])),
+        None,
+    );
     let csv = p.csv() + &report.csv();
     let json = serde_json::to_string_pretty(&WithProvenance { report: &report, provenance: &p })?;
     match args.output.format() {
@@ -87,9 +92,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Format::Json => println!("{json}"),
     }
 
-    let out = args.out.unwrap_or_else(|| PathBuf::from("out/depth").join(&scene.name));
-    guard::outside_scene_data("--out", &out, &library.data)?;
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let stem = format!("{:?}-{:?}", opts.bvh, opts.order).to_lowercase();
     let write = |name: String, text: String| {
         let path = out.join(name);

@@ -73,7 +73,7 @@ impl Estimate {
     }
 
     pub fn describe(&self) -> String {
-        let rays = if self.rays < 1e12 { format!("{:.0}", self.rays) } else { format!("{:.3e}", self.rays) };
+        let rays = if self.rays < 1e12 { format!("{:.0}", self.rays) } else { plain(self.rays) };
         format!("at most {rays} rays, {} of memory, {}", bytes(self.bytes), duration(self.secs))
     }
 
@@ -97,17 +97,36 @@ impl Estimate {
     }
 }
 
+/// `x` with at most one decimal and thousands grouped, or as `m × 10^e` beyond a trillion.
+fn plain(x: f64) -> String {
+    if x >= 1e12 {
+        let e = x.log10().floor();
+        return format!("{:.1} × 10^{e}", x / 10f64.powf(e));
+    }
+    let whole = format!("{:.0}", x.trunc());
+    let grouped: Vec<String> =
+        whole.as_bytes().rchunks(3).rev().map(|c| String::from_utf8_lossy(c).into_owned()).collect();
+    let tenth = ((x.fract() * 10.0).round() as u32).min(9);
+    if x < 100.0 && tenth > 0 {
+        format!("{}.{tenth}", grouped.join(","))
+    } else {
+        grouped.join(",")
+    }
+}
+
 fn bytes(b: f64) -> String {
     match b {
-        b if b >= 1e12 => format!("{:.3e} bytes", b),
+        b if b >= 1e12 => format!("{} TB", plain(b / 1e12)),
         b if b >= 1e9 => format!("{:.1} GB", b / 1e9),
         b => format!("{:.0} MB", b / 1e6),
     }
 }
 
 fn duration(s: f64) -> String {
+    const YEAR: f64 = 3600.0 * 24.0 * 365.0;
     match s {
-        s if s >= 3600.0 * 24.0 * 365.0 => format!("{:.1e} years", s / (3600.0 * 24.0 * 365.0)),
+        s if s >= YEAR => format!("{} years", plain(s / YEAR)),
+        s if s >= 3600.0 * 24.0 * 2.0 => format!("{} days", plain(s / (3600.0 * 24.0))),
         s if s >= 3600.0 => format!("{:.1} h", s / 3600.0),
         s if s >= 60.0 => format!("{:.0} min", s / 60.0),
         s => format!("{s:.0} s"),
@@ -159,6 +178,26 @@ pub fn outside_scene_data(flag: &str, path: &Path, data: &Path) -> anyhow::Resul
     Ok(())
 }
 
+/// Makes `path` (given as `flag`) a folder to write into, before any work: outside the scene
+/// data, a folder (created if missing) and writable; an error names the flag and what is wrong.
+pub fn output_folder(flag: &str, path: &Path, data: &Path) -> anyhow::Result<()> {
+    outside_scene_data(flag, path, data)?;
+    let shown = path.display();
+    if path.exists() && !path.is_dir() {
+        bail!("{flag} {shown}: not a folder (a file has that name); give a folder to write into");
+    }
+    if let Err(e) = std::fs::create_dir_all(path) {
+        bail!("{flag} {shown}: cannot create the folder ({e}); give a folder you can write into");
+    }
+    // One probe per process: shards started together prepare the same folder.
+    let probe = path.join(format!(".sms-write-test-{}", std::process::id()));
+    if let Err(e) = std::fs::write(&probe, b"") {
+        bail!("{flag} {shown}: cannot write into the folder ({e}); give a folder you can write into");
+    }
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// On Ctrl-C (SIGINT, or SIGTERM as Slurm sends it), says how many results the cache `dir`
 /// holds and that running the same command again resumes from them, then exits with 130. The
 /// cache is never left half-written: each result is renamed into place once complete.
@@ -200,7 +239,7 @@ mod tests {
         };
         let e = Estimate::new(&opts, 20_000, 3, 2, Fidelity::Cycle);
         let err = e.check(Some(16 << 30), false).unwrap_err().to_string();
-        assert!(err.starts_with("estimated at most 2.621e14 rays") && err.contains("--force"), "{err}");
+        assert!(err.starts_with("estimated at most 2.6 × 10^14 rays") && err.contains("--force"), "{err}");
         assert!(e.check(Some(16 << 30), true).is_ok());
         let lumibench =
             WorkloadOpts { width: 128, height: 128, spp: 2, max_bounces: 15, ..Default::default() };
@@ -229,6 +268,47 @@ mod tests {
             // Not wildly above either: within 4× on memory for the large scenes.
             assert!(primitives < 1_000_000 || e.bytes < 4.0 * bytes, "{primitives}: {}", e.describe());
         }
+    }
+
+    #[test]
+    fn large_estimates_read_as_plain_numbers() {
+        const YEAR: f64 = 3600.0 * 24.0 * 365.0;
+        assert_eq!(duration(1.2 * YEAR), "1.2 years");
+        assert_eq!(duration(1400.0 * YEAR), "1,400 years");
+        assert_eq!(duration(3.0e15 * YEAR), "3.0 × 10^15 years");
+        assert_eq!(duration(3.0 * 24.0 * 3600.0), "3 days");
+        assert_eq!(duration(25.0 * 3600.0), "25.0 h");
+        assert_eq!(bytes(4.588e15), "4,588 TB");
+        assert_eq!(bytes(2.5e9), "2.5 GB");
+        for s in [duration(1.2 * YEAR), duration(1e30), bytes(1e30)] {
+            let exponent =
+                s.as_bytes().windows(3).any(|w| w[0].is_ascii_digit() && w[1] == b'e' && w[2] != b' ');
+            assert!(!exponent, "no exponent notation: {s}");
+        }
+    }
+
+    #[test]
+    fn an_output_folder_must_be_a_writable_folder() {
+        let tmp = std::env::temp_dir().join(format!("sms-guard-out-{}", std::process::id()));
+        let data = tmp.join("data");
+        std::fs::create_dir_all(&data).unwrap();
+        let file = tmp.join("file");
+        std::fs::write(&file, b"x").unwrap();
+        let e = output_folder("--out", &file, &data).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "--out {}: not a folder (a file has that name); give a folder to write into",
+                file.display()
+            )
+        );
+        let e = output_folder("--out", &file.join("sub"), &data).unwrap_err().to_string();
+        assert!(e.starts_with("--out ") && e.contains("cannot create the folder"), "{e}");
+        let e = output_folder("--out", &data.join("x"), &data).unwrap_err().to_string();
+        assert!(e.contains("inside the scene data folder"), "{e}");
+        output_folder("--out", &tmp.join("new/deep"), &data).unwrap();
+        assert_eq!(std::fs::read_dir(tmp.join("new/deep")).unwrap().count(), 0, "the probe is removed");
+        std::fs::remove_dir_all(&tmp).unwrap();
     }
 
     #[test]

@@ -133,6 +133,86 @@ impl std::error::Error for Bounded {}
 /// The exit status of a [`Bounded`] check.
 pub const EXIT_BOUNDED: u8 = 2;
 
+/// The process's command line, parsed; a value that must be text but is not UTF-8 is refused
+/// with an error naming its argument (clap's own names none), like every other usage error
+/// (exit status 2).
+pub fn parse() -> Cli {
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    match <Cli as clap::Parser>::try_parse_from(&args) {
+        Ok(cli) => cli,
+        Err(e) if e.kind() == clap::error::ErrorKind::InvalidUtf8 => {
+            eprintln!("error: {}", not_utf8(&args));
+            std::process::exit(2)
+        }
+        Err(e) => e.exit(),
+    }
+}
+
+/// Names the first argument whose value is not UTF-8 where the argument takes text (paths of
+/// files sms writes may be any bytes; scene names, mesh paths and the like are text).
+pub fn not_utf8(args: &[std::ffi::OsString]) -> String {
+    use clap::CommandFactory;
+    let mut cli = Cli::command();
+    cli.build();
+    let mut sub: Option<&clap::Command> = None;
+    // The flag before the current token, when it takes a value.
+    let mut pending: Option<&clap::Arg> = None;
+    let mut positionals = 0;
+    for token in args.iter().skip(1) {
+        let cmd = sub.unwrap_or(&cli);
+        let bytes = token.as_encoded_bytes();
+        let (arg, value) = if let Some(arg) = pending.take() {
+            (Some(arg), bytes)
+        } else if let Some(rest) = bytes.strip_prefix(b"--") {
+            let name_end = rest.iter().position(|&b| b == b'=').unwrap_or(rest.len());
+            let name = std::str::from_utf8(&rest[..name_end]).unwrap_or_default();
+            let arg = cmd.get_arguments().find(|a| a.get_long() == Some(name));
+            if name_end == rest.len() {
+                pending = arg.filter(|a| a.get_action().takes_values());
+                continue;
+            }
+            (arg, &rest[name_end + 1..])
+        } else if bytes.len() == 2 && bytes[0] == b'-' && bytes[1] != b'-' {
+            let arg = cmd.get_arguments().find(|a| a.get_short() == Some(bytes[1] as char));
+            pending = arg.filter(|a| a.get_action().takes_values());
+            continue;
+        } else {
+            if sub.is_none() {
+                if let Some(found) = token.to_str().and_then(|t| cli.find_subcommand(t)) {
+                    sub = Some(found);
+                    continue;
+                }
+            }
+            let arg = cmd.get_positionals().nth(positionals);
+            if arg.is_some_and(|a| matches!(a.get_action(), clap::ArgAction::Set)) {
+                positionals += 1;
+            }
+            (arg, bytes)
+        };
+        if std::str::from_utf8(value).is_ok() {
+            continue;
+        }
+        // Values clap takes as paths (files written) accept any bytes.
+        let path = |a: &clap::Arg| {
+            let t = a.get_value_parser().type_id();
+            t == std::any::TypeId::of::<PathBuf>() || t == std::any::TypeId::of::<std::ffi::OsString>()
+        };
+        if arg.is_some_and(path) {
+            continue;
+        }
+        let name = arg.map_or("an argument".to_string(), |a| match a.get_long() {
+            Some(long) => format!("--{long}"),
+            None => format!("<{}>", a.get_id().as_str().to_uppercase()),
+        });
+        return format!(
+            "{name} '{}': not valid UTF-8; sms reads scene names, mesh and description paths and the other text \
+             arguments as UTF-8 (rename the file, or link it under a UTF-8 name)",
+            String::from_utf8_lossy(value)
+        );
+    }
+    "an argument is not valid UTF-8; sms reads its text arguments as UTF-8".to_string()
+}
+
 /// Progress of a long phase on stderr unless `-q`: `what: done/total pixel warps` every 2 s
 /// once the phase has run that long.
 pub fn phase_progress(what: &'static str) -> impl FnMut(u32, u32) {
@@ -165,8 +245,8 @@ pub struct OutputArgs {
     /// Output format: text, markdown, csv or json (JSON layout: docs/json.md).
     #[arg(long, value_enum, default_value = "text")]
     pub format: Format,
-    /// Same as `--format json`.
-    #[arg(long)]
+    /// Same as `--format json` (so not given with --format).
+    #[arg(long, conflicts_with = "format")]
     pub json: bool,
 }
 
@@ -214,18 +294,34 @@ pub struct SceneArgs {
 }
 
 impl SceneArgs {
-    pub fn library(&self) -> SceneLibrary {
+    /// The scene library these arguments give; a data folder named by `--scenes-dir` or
+    /// `SMS_SCENES_DIR` must be one.
+    pub fn library(&self) -> anyhow::Result<SceneLibrary> {
         let mut library = match &self.scenes_dir {
             Some(dir) => SceneLibrary::with_data_dir(dir),
             None => SceneLibrary::default(),
         };
+        let named = match library.origin {
+            crate::workload::scene::DataOrigin::Flag => Some("--scenes-dir ".to_string()),
+            crate::workload::scene::DataOrigin::Env => {
+                Some(format!("{}=", crate::workload::scene::SCENES_DIR_ENV))
+            }
+            _ => None,
+        };
+        if let Some(named) = named.filter(|_| !library.data.is_dir()) {
+            let what = if library.data.exists() { "not a folder" } else { "no such folder" };
+            anyhow::bail!(
+                "{named}{}: {what}; give the folder that holds the scene data (`sms scenes --fetch DIR` lays one out)",
+                library.data.display()
+            );
+        }
         library.camera = crate::workload::scene::CameraOverride {
             eye: self.camera_eye,
             look_at: self.camera_look_at,
             up: self.camera_up,
             vfov: self.vfov,
         };
-        library
+        Ok(library)
     }
 }
 
@@ -298,7 +394,8 @@ impl WorkloadArgs {
 #[derive(Clone, Debug, clap::Args)]
 pub struct SampleArgs {
     /// Simulate this fraction (0 < f ≤ 1) of the pixel warps and estimate every metric of the
-    /// whole frame with a 95 % confidence interval. At the cycle level the sample is one launch
+    /// whole frame with a 95 % confidence interval; 1 is every warp, the full run exactly (its
+    /// report, no intervals). At the cycle level the sample is one launch
     /// and the intervals of cycles, DRAM and conflicts are indicative only: `sms bench` measures
     /// the real error, and a sampled sweep prints the error measured at LumiBench's settings
     /// (geomean speed-ups up to 3.5 points low at 0.25) [default: every warp].
@@ -313,7 +410,8 @@ pub struct SampleArgs {
 }
 
 impl SampleArgs {
-    /// The sample asked for (`None`: every warp), checked; drawn with `seed`.
+    /// The sample asked for (`None`: every warp, which `--sample 1` is too), checked; drawn
+    /// with `seed`.
     pub fn plan(&self, seed: u64) -> anyhow::Result<Option<crate::run::sampling::SamplePlan>> {
         let Some(fraction) = self.sample else { return Ok(None) };
         let plan = crate::run::sampling::SamplePlan {
@@ -323,7 +421,7 @@ impl SampleArgs {
             seed,
         };
         plan.validate().map_err(|e| anyhow::anyhow!("--sample: {e}"))?;
-        Ok(Some(plan))
+        Ok((!plan.every_warp()).then_some(plan))
     }
 }
 

@@ -178,7 +178,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         s.validate()?;
     }
 
-    let library = args.scenes.library();
+    let library = args.scenes.library()?;
     for (flag, path) in [("--vcd", vcd.as_ref().map(|v| &v.path)), ("--png", args.png.as_ref())] {
         if let Some(path) = path {
             guard::outside_scene_data(flag, path, &library.data)?;
@@ -255,7 +255,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         fidelity: args.fidelity,
         results,
         provenance: Provenance::new(
-            Some(WorkloadId::new(vec![scene.name.clone()], &[opts])),
+            Some(WorkloadId::new(vec![scene.name.clone()], &[opts]).with_files([&scene.files[..]])),
             Some(args.hardware.id(&hw)),
         ),
     };

@@ -63,7 +63,19 @@ impl StackConfigArgs {
                 vec![name.parse().with_context(|| format!("--config {name}"))?]
             };
             for c in base {
-                let c = self.apply(c);
+                let mut c = self.apply(c);
+                // The names' borrow limit (4) is for 32-thread warps: a smaller warp without
+                // --borrow-limit takes the most it allows.
+                if let (None, Some(ra)) = (self.borrow_limit, c.realloc.as_mut()) {
+                    if c.warp_size >= 2 && ra.borrow_limit >= c.warp_size {
+                        crate::cli::note(format!(
+                            "--config {name}: borrow limit {} (the most a {}-thread warp allows; --borrow-limit sets it)",
+                            c.warp_size - 1,
+                            c.warp_size
+                        ));
+                        ra.borrow_limit = c.warp_size - 1;
+                    }
+                }
                 c.validate().with_context(|| format!("--config {name}"))?;
                 out.push(c);
             }

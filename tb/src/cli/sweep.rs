@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 
 use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{Format, HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
@@ -68,8 +68,8 @@ pub struct SweepArgs {
     pub hardware: HardwareArgs,
     #[command(flatten)]
     pub library: SceneArgs,
-    // What is printed: the headline table (sweep: cost against performance, ablate: the deltas);
-    // the folder gets every format.
+    // What is printed: the headline tables (sweep: the speed-ups per scene, then cost against
+    // performance; ablate: the deltas); the folder gets every format.
     #[command(flatten)]
     pub output: OutputArgs,
 }
@@ -85,6 +85,28 @@ pub fn print_figure(output: &OutputArgs, f: &Figure, p: &Provenance) -> anyhow::
     Ok(())
 }
 
+/// Prints several figures' tables, each under its title, stating `p` once: text and Markdown
+/// one after the other; CSV each table after a `# title` comment line, a blank line between;
+/// JSON one object with each figure's `.json` content under its name.
+pub fn print_figures(output: &OutputArgs, figures: &[Figure], p: &Provenance) -> anyhow::Result<()> {
+    let each = |f: &dyn Fn(&Figure) -> String| figures.iter().map(f).collect::<Vec<_>>();
+    match output.format() {
+        Format::Text => {
+            print!("{}{}", p.text(), each(&|f| format!("\n{}\n{}", f.title, f.table.to_text())).concat())
+        }
+        Format::Markdown => print!("{}{}", p.markdown(), each(&|f| figure_markdown(f, "#")).join("\n")),
+        Format::Csv => {
+            print!("{}{}", p.csv(), each(&|f| format!("# {}\n{}", f.title, f.table.to_csv())).join("\n"))
+        }
+        Format::Json => {
+            let all: serde_json::Map<String, serde_json::Value> =
+                figures.iter().map(|f| (f.name.to_string(), figure_json(f, p))).collect();
+            println!("{}", serde_json::to_string_pretty(&all)?)
+        }
+    }
+    Ok(())
+}
+
 impl SweepArgs {
     /// The result cache folder for a report in `out`: `--cache`, else `out/cache`; none with
     /// `--no-cache`.
@@ -94,7 +116,7 @@ impl SweepArgs {
 
     /// The request for `plan`, checked before any simulation starts.
     pub fn request(&self, plan: Plan) -> anyhow::Result<Request> {
-        let library = self.library.library();
+        let library = self.library.library()?;
         let scenes = match (&self.scenes[..], self.quick) {
             ([], false) => library.names()?,
             ([], true) => crate::workload::scene::procedural::NAMES.iter().map(|s| s.to_string()).collect(),
@@ -115,7 +137,7 @@ impl SweepArgs {
         }
         let sampling =
             SampleArgs { sample: Some(self.sampling.sample.unwrap_or(DEFAULT_SAMPLE)), ..self.sampling };
-        let sample = sampling.plan(settings.seed)?.filter(|p| p.fraction < 1.0);
+        let sample = sampling.plan(settings.seed)?;
         let jobs = match self.jobs {
             Some(0) => bail!("--jobs must be at least 1"),
             Some(n) => n,
@@ -173,6 +195,24 @@ pub struct Args {
 impl Args {
     /// The sweep these arguments ask for, checked before any simulation starts.
     pub fn request(&self) -> anyhow::Result<Request> {
+        // Each size named by its flag, before the plan's own checks name configurations.
+        for &n in &self.rb_sizes {
+            let c: rtl::config::Config =
+                format!("RB_{n}").parse().map_err(|e| anyhow::anyhow!("--rb-sizes {n}: {e}"))?;
+            c.validate().map_err(|e| anyhow::anyhow!("--rb-sizes {n}: {e}"))?;
+        }
+        let sms: rtl::config::Config = sweep::with_sms(8).parse()?;
+        let sh_kb = rtl::gpu::shared_bytes(&sms).div_ceil(1024);
+        if let Some(kb) = self.l1d_sizes.iter().find(|&&kb| kb <= sh_kb) {
+            bail!(
+                "--l1d-sizes {kb}: each size (in KB) must be above {sh_kb}, the SH stacks of {} that the L1D \
+                 sweep runs on it (e.g. 16,32,64,128,256)",
+                sms.name()
+            );
+        }
+        if let Some(kb) = self.l1d_sizes.iter().find(|&&kb| kb > u32::MAX / 1024) {
+            bail!("--l1d-sizes {kb}: too large; each size (in KB) must be at most {}", u32::MAX / 1024);
+        }
         let plan = Plan {
             configs: {
                 self.stack.names_only("sweep")?;
@@ -216,32 +256,33 @@ pub fn start(
     }
 }
 
-/// The lines every sweep-like command ends with on stderr: wall time, peak memory, the cache's
-/// use, and the error a sample is expected to have.
+/// The lines every sweep-like command ends with on stderr unless `-q`: wall time, peak memory,
+/// the cache's use, and the error a sample is expected to have (the summary states it too).
 pub fn finish(what: &str, result: &sweep::Sweep, written: usize, out: &std::path::Path) {
-    eprintln!(
+    let note = crate::cli::note;
+    note(format!(
         "{what} in {:.1} s wall time, peak memory {}; wrote {written} files, summary: {}",
         result.wall.as_secs_f64(),
         crate::run::memory::describe(result.peak_rss),
         out.join("summary.md").display()
-    );
+    ));
     if let Some(c) = &result.cache {
-        eprintln!("cache: {}", c.describe());
+        note(format!("cache: {}", c.describe()));
     }
     if result.runs.iter().any(|r| r.sample.is_some()) {
-        eprintln!("sampled: {SAMPLE_ERROR}");
+        note(format!("sampled: {SAMPLE_ERROR}"));
     } else if let Some(p) = result.sample {
-        eprintln!(
+        note(format!(
             "not sampled: a {:.0} % sample of every scene would hold every warp (at least one per batch)",
             p.fraction * 100.0
-        );
+        ));
     }
 }
 
-/// Says what shard `result` was of and what it did; `None` unless it was one.
+/// Says (unless `-q`) what shard `result` was of and what it did; `None` unless it was one.
 pub fn shard_done(req: &Request, result: &sweep::Sweep) -> Option<()> {
     let (s, c) = (req.shard?, result.shard?);
-    eprintln!(
+    crate::cli::note(format!(
         "shard {}/{}: {} result(s) computed, {} already in the cache {}, {} left to the other shards; when \
          every shard is done, the same arguments with --collect (instead of --shard) write the report",
         s.index,
@@ -250,19 +291,18 @@ pub fn shard_done(req: &Request, result: &sweep::Sweep) -> Option<()> {
         c.cached,
         req.cache.as_deref().map_or("?".into(), |d| d.display().to_string()),
         c.others
-    );
+    ));
     Some(())
 }
 
 /// Checks that the report folder and cache are writable and not in the scene data, and prints
 /// a line on Ctrl-C saying how many results the cache holds (a re-run resumes from them).
 pub fn prepare(common: &SweepArgs, req: &Request, out: &std::path::Path) -> anyhow::Result<()> {
-    let data = common.library.library().data;
-    crate::cli::guard::outside_scene_data("--out", out, &data)?;
+    let data = common.library.library()?.data;
+    crate::cli::guard::output_folder("--out", out, &data)?;
     if let Some(c) = &req.cache {
         crate::cli::guard::outside_scene_data("--cache", c, &data)?;
     }
-    crate::report::sweep::prepare(out).with_context(|| format!("report folder {}", out.display()))?;
     crate::cli::guard::on_interrupt(req.cache.clone());
     Ok(())
 }
@@ -274,12 +314,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     prepare(&args.common, &req, &args.out)?;
     let variants = req.plan.variants(req.base_kb())?.len();
     let progress = start("sweep", &req, variants, 1, &args.out);
-    let result = sweep::run(&req, &args.common.library.library(), &progress)?;
+    let result = sweep::run(&req, &args.common.library.library()?, &progress)?;
     if shard_done(&req, &result).is_some() {
         return Ok(());
     }
     let written = crate::report::sweep::write_all(&result, &args.out)?;
-    print_figure(&args.common.output, &crate::report::figures::cost(&result)?, &result.provenance())?;
+    let headline = [crate::report::figures::performance(&result), crate::report::figures::cost(&result)?];
+    print_figures(&args.common.output, &headline, &result.provenance())?;
     finish(&format!("{} simulations", result.runs.len()), &result, written.len(), &args.out);
     Ok(())
 }

@@ -163,12 +163,12 @@ impl CostReport {
             let extra = w.priority - paper_priority_bits(r.borrow_limit);
             if extra > 0 {
                 fields.push(Field {
-                    name: "priority",
+                    name: "priority_msb",
                     what: "rank of the dedicated stack",
                     origin: Origin::Rtl,
                     bits: extra,
                     copies_per_sm: t,
-                    note: "ranks 0..=borrow limit: a flush can rotate the dedicated stack to the top",
+                    note: "the priority register's top bit: ranks 0..=borrow limit, as a flush can rotate the dedicated stack to the top",
                 });
             }
         }
@@ -395,6 +395,11 @@ mod tests {
         // The RTL adds: empty bit 1, sequencer step bits_for(20) = 5, latch 64, priority +1.
         assert_eq!(r.bits_per_sm(Origin::Rtl), (1 + 5 + 64 + 1) * 128);
         assert_eq!(r.differences.len(), 4);
+        // Every row has its own name.
+        let mut names: Vec<&str> = r.fields.iter().map(|f| f.name).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), r.fields.len(), "{names:?}");
     }
 
     /// The report's widths are the RTL's: the same names, the same widths as the stack manager's
@@ -411,7 +416,13 @@ mod tests {
             };
             let w = cfg.widths().unwrap();
             for f in r.fields.iter().filter(|f| f.origin != Origin::Rtl || f.name == "sh_empty") {
-                let total: u32 = r.fields.iter().filter(|g| g.name == f.name).map(|g| g.bits).sum();
+                // The paper's priority and the bit the RTL adds to it make one register.
+                let total: u32 = r
+                    .fields
+                    .iter()
+                    .filter(|g| g.name == f.name || g.name.strip_suffix("_msb") == Some(f.name))
+                    .map(|g| g.bits)
+                    .sum();
                 match probe_width(f.name) {
                     Some(pw) => assert_eq!(pw, total, "{}: {} report vs probe", cfg.name(), f.name),
                     None => assert_eq!(f.name, "rb_entries", "{}: {} has no probe", cfg.name(), f.name),

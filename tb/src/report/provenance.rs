@@ -1,6 +1,7 @@
 //! What produced a report: the workload (scenes, resolution, samples, bounces, seed, hierarchy,
 //! acceleration structure), the hardware (its name and a hash of its whole description) and the
-//! model (crate version, git commit, hash of the sources). Every report of `sms run`, `depth`,
+//! model (crate version, git commit, hash of the sources, SHA-256 of the `Cargo.lock` it was
+//! built with). Scenes given by path add each file read, with its SHA-256. Every report of `sms run`, `depth`,
 //! `cost`, `sweep` and `ablate` carries one: a `provenance` object in JSON, a line above the
 //! table in text and Markdown, `# ` comment lines on top of CSV (docs/reports.md).
 //!
@@ -10,6 +11,7 @@
 use serde::Serialize;
 
 use crate::hw::Hardware;
+use crate::workload::scene::SourceFile;
 use crate::workload::traverse::ChildOrder;
 use crate::workload::{Accel, BvhKind, PathEnd, WorkloadOpts};
 
@@ -23,6 +25,23 @@ pub struct ModelId {
     pub commit: Option<&'static str>,
     /// Hash of every source the results depend on (`tb/build.rs`): the result cache's key.
     pub sources: &'static str,
+    /// SHA-256 of the workspace's `Cargo.lock` the binary was built with (embedded at build
+    /// time): which version of every dependency went in, when built with `--locked`.
+    pub cargo_lock: String,
+}
+
+/// The workspace's lock file as it was when this binary was built.
+const CARGO_LOCK: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../Cargo.lock"));
+
+/// SHA-256 of `bytes`, as 64 lowercase hex digits.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    hex(&sha2::Sha256::digest(bytes))
+}
+
+/// `bytes` as lowercase hex digits.
+pub fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 impl ModelId {
@@ -32,12 +51,18 @@ impl ModelId {
             version: env!("CARGO_PKG_VERSION"),
             commit: (!commit.is_empty()).then_some(commit),
             sources: crate::run::sweep::cache::MODEL_VERSION,
+            cargo_lock: sha256_hex(CARGO_LOCK),
         }
     }
 
     fn describe(&self) -> String {
         let commit = self.commit.map_or("no git commit".to_string(), |c| format!("commit {}", short(c)));
-        format!("sms {} ({commit}, sources {})", self.version, &self.sources[..16.min(self.sources.len())])
+        format!(
+            "sms {} ({commit}, sources {}, Cargo.lock {})",
+            self.version,
+            &self.sources[..16.min(self.sources.len())],
+            &self.cargo_lock[..16]
+        )
     }
 }
 
@@ -91,6 +116,10 @@ pub struct WorkloadId {
     pub accel: Option<Accel>,
     pub order: Option<ChildOrder>,
     pub path_end: Option<PathEnd>,
+    /// The files read for scenes given by path, with their SHA-256 (absent when every scene was
+    /// named: a built-in or shipped scene is identified by its name).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub files: Vec<SourceFile>,
 }
 
 impl WorkloadId {
@@ -110,7 +139,14 @@ impl WorkloadId {
             accel: same(opts, |o| o.accel),
             order: same(opts, |o| o.order),
             path_end: same(opts, |o| o.path_end),
+            files: Vec::new(),
         }
+    }
+
+    /// The same, stating the files `scenes` given by path were read from.
+    pub fn with_files<'a>(mut self, scenes: impl IntoIterator<Item = &'a [SourceFile]>) -> Self {
+        self.files = scenes.into_iter().flatten().cloned().collect();
+        self
     }
 
     fn describe(&self) -> String {
@@ -118,8 +154,13 @@ impl WorkloadId {
         let or_each = |v: Option<String>| v.unwrap_or_else(|| each.to_string());
         // Named as in JSON and on the command line (`two-level`, `bvh6`).
         let name = |v: serde_json::Value| v.as_str().map_or_else(|| v.to_string(), str::to_string);
+        let files = self
+            .files
+            .iter()
+            .map(|f| format!(" · file {} (sha256 {})", f.path, &f.sha256[..16]))
+            .collect::<String>();
         format!(
-            "scene {} · {} px · {} spp · {} bounce(s) · seed {} · {} {} ({} order, path end {})",
+            "scene {}{files} · {} px · {} spp · {} bounce(s) · seed {} · {} {} ({} order, path end {})",
             self.scenes.join(","),
             or_each(self.resolution.clone()),
             or_each(self.spp.map(|v| v.to_string())),

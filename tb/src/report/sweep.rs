@@ -17,7 +17,7 @@ use super::provenance::Provenance;
 use crate::error::{Error, Result};
 use crate::run::sweep::Sweep;
 
-/// Creates `dir` and checks that files can be written there, before any simulation starts.
+/// Creates `dir` and checks that files can be written there.
 pub fn prepare(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     // One probe per process: shards started together prepare the same folder.

@@ -240,7 +240,14 @@ pub fn bench_scene(
     for setting in opts.settings() {
         for &config in &configs {
             let s = spec(config, setting.fidelity);
-            let (values, wall, ci, warps) = match setting.sample {
+            let plan = setting.sample.map(|sample| SamplePlan {
+                fraction: sample.fraction,
+                mode: sample.mode,
+                batches: opts.batches,
+                seed: opts.sample_seed,
+            });
+            // A sample of every warp is the full run.
+            let (values, wall, ci, warps) = match plan.filter(|p| !p.every_warp()) {
                 None => {
                     let o = simulate_all(&s, &w)?;
                     if setting == Setting::FULL_CYCLE {
@@ -248,13 +255,7 @@ pub fn bench_scene(
                     }
                     (Values::of_outcome(&o), secs(o.wall), None, o.pixel_warps)
                 }
-                Some(sample) => {
-                    let plan = SamplePlan {
-                        fraction: sample.fraction,
-                        mode: sample.mode,
-                        batches: opts.batches,
-                        seed: opts.sample_seed,
-                    };
+                Some(plan) => {
                     let sampled = simulate_sampled(&s, &w, &plan, |_| {})?;
                     let ci = [Metric::Cycles, Metric::StackGlobal, Metric::ConflictCycles]
                         .into_iter()

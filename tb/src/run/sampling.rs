@@ -55,6 +55,13 @@ pub struct SamplePlan {
 }
 
 impl SamplePlan {
+    /// Whether the plan takes every warp: then it is no sample, and callers run the full
+    /// simulation instead (batch estimates of a whole frame would only add rounding and
+    /// intervals to exact counts).
+    pub fn every_warp(&self) -> bool {
+        self.fraction >= 1.0
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         if !(self.fraction > 0.0 && self.fraction <= 1.0) {
             return Err(format!("sample fraction {} must be in (0, 1]", self.fraction));

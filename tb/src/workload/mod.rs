@@ -463,6 +463,7 @@ mod tests {
             camera: crate::workload::scene::Camera::look_at([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 45.0),
             render: crate::workload::scene::RenderSettings { width: 8, height: 8, spp: 1, max_bounces: 3 },
             dropped_degenerate: 0,
+            files: Vec::new(),
         }
     }
 

@@ -308,6 +308,9 @@ pub struct SceneResult {
     pub rays: u64,
     pub pixel_warps: u32,
     pub depth: DepthReport<WorkloadOpts>,
+    /// The files a scene given by path was read from (stated in the provenance).
+    #[serde(skip)]
+    pub files: Vec<crate::workload::scene::SourceFile>,
     /// Seconds to load the scene and to build its BVH and render it (not part of the results).
     #[serde(skip)]
     pub load_secs: f64,
@@ -350,7 +353,7 @@ impl Sweep {
         let names = self.scenes.iter().map(|s| s.name.clone()).collect();
         let opts: Vec<WorkloadOpts> = self.scenes.iter().map(|s| s.opts).collect();
         Provenance::new(
-            Some(WorkloadId::new(names, &opts)),
+            Some(WorkloadId::new(names, &opts).with_files(self.scenes.iter().map(|s| &s.files[..]))),
             Some(HardwareId::new(self.hw_name.clone(), &self.hw)),
         )
     }
@@ -619,6 +622,7 @@ fn scene_result(
         rays: info.rays,
         pixel_warps: info.pixel_warps,
         depth: DepthReport::new(&scene.name, opts, info.rays, info.depth),
+        files: scene.files.clone(),
         load_secs,
         workload_secs,
     }

@@ -60,8 +60,13 @@ fn version_1(bytes: &[u8]) -> Option<String> {
     let version = match bytes.strip_prefix(b"glTF") {
         Some(rest) => u32::from_le_bytes(rest.get(..4)?.try_into().ok()?).to_string(),
         None => {
+            // Some glTF 1 exporters wrote the version as a number (`"version": 1.0`).
             let json: serde_json::Value = serde_json::from_slice(bytes).ok()?;
-            json["asset"]["version"].as_str()?.to_owned()
+            match &json["asset"]["version"] {
+                serde_json::Value::String(v) => v.clone(),
+                serde_json::Value::Number(n) => n.to_string(),
+                _ => return None,
+            }
         }
     };
     version.starts_with('1').then_some(version)
@@ -205,7 +210,7 @@ fn add_mesh(
             }
             Mode::TriangleFan => sink.add_fan(indices.iter().map(|&i| v(i))),
             // Points and lines have no surface to hit.
-            Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => {}
+            Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => sink.non_surface += 1,
         }
     }
     Ok(())

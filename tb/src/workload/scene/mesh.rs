@@ -21,6 +21,10 @@ use crate::error::{Error, Result};
 pub(crate) struct TriangleSink<'a> {
     pub triangles: &'a mut Vec<Triangle>,
     pub dropped: usize,
+    /// Faces offered (triangles and polygons, kept or dropped): none means the file had none.
+    pub offered: usize,
+    /// glTF primitives of points or lines, skipped: they have no surface to hit.
+    pub non_surface: usize,
     pub objects: Objects,
     /// Start of the open world-space object.
     open: Option<usize>,
@@ -28,7 +32,14 @@ pub(crate) struct TriangleSink<'a> {
 
 impl<'a> TriangleSink<'a> {
     pub fn new(triangles: &'a mut Vec<Triangle>) -> Self {
-        TriangleSink { triangles, dropped: 0, objects: Objects::default(), open: None }
+        TriangleSink {
+            triangles,
+            dropped: 0,
+            offered: 0,
+            non_surface: 0,
+            objects: Objects::default(),
+            open: None,
+        }
     }
 
     /// Closes the open world-space object (if any) and opens one at the next triangle.
@@ -48,6 +59,7 @@ impl<'a> TriangleSink<'a> {
     }
     /// Adds a triangle, or counts it as dropped when its area is zero.
     pub fn add(&mut self, v0: Vec3A, v1: Vec3A, v2: Vec3A) {
+        self.offered += 1;
         if (v1 - v0).cross(v2 - v0) == Vec3A::ZERO {
             self.dropped += 1;
         } else {
@@ -59,6 +71,7 @@ impl<'a> TriangleSink<'a> {
     pub fn add_fan(&mut self, polygon: impl IntoIterator<Item = Vec3A>) {
         let mut it = polygon.into_iter();
         let (Some(first), Some(mut prev)) = (it.next(), it.next()) else {
+            self.offered += 1;
             self.dropped += 1;
             return;
         };
@@ -69,6 +82,7 @@ impl<'a> TriangleSink<'a> {
             any = true;
         }
         if !any {
+            self.offered += 1;
             self.dropped += 1;
         }
     }
@@ -119,17 +133,52 @@ fn open(path: &Path) -> Result<Box<dyn BufRead>> {
     })
 }
 
+/// What the first bytes of a file named `.obj` (after any gzip decompression) say it is, when
+/// that is not OBJ text: the error's text, naming what to do.
+fn not_obj_text(head: &[u8]) -> Option<&'static str> {
+    let utf16 = "UTF-16 text; sms reads OBJ as ASCII or UTF-8 text: convert it (iconv -f UTF-16 -t UTF-8)";
+    if head.starts_with(&[0xff, 0xfe]) || head.starts_with(&[0xfe, 0xff]) {
+        return Some(utf16);
+    }
+    if head.starts_with(b"glTF") {
+        return Some("binary glTF (GLB) data, not OBJ text: name the file .glb");
+    }
+    if head.starts_with(&[0x1f, 0x8b]) {
+        return Some("gzip-compressed data: name the file .obj.gz");
+    }
+    if head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n") {
+        return Some("a PLY file, not OBJ text: name the file .ply");
+    }
+    let nul = |bytes: &mut dyn Iterator<Item = &u8>| bytes.filter(|&&b| b == 0).count();
+    if nul(&mut head.iter()) == 0 {
+        return None;
+    }
+    // ASCII as UTF-16 without a byte-order mark: every other byte is 0.
+    let (even, odd) = (nul(&mut head.iter().step_by(2)), nul(&mut head.iter().skip(1).step_by(2)));
+    let half = head.len() / 2;
+    if head.len() >= 8 && (even >= half * 9 / 10 || odd >= half * 9 / 10) {
+        return Some(utf16);
+    }
+    Some("binary data, not OBJ text (it holds NUL bytes): is it another format under an .obj name?")
+}
+
 /// Loads the triangles of a mesh file (OBJ, PLY, glTF/GLB, optionally gzip-compressed) into
 /// `sink`, transformed by `xf`.
 pub(crate) fn load_mesh(path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> Result<()> {
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
     let format = name.strip_suffix(".gz").unwrap_or(name);
     let ext = format.rsplit('.').next().unwrap_or_default().to_ascii_lowercase();
-    let before = sink.triangles.len();
+    let (before, offered, non_surface) = (sink.triangles.len(), sink.offered, sink.non_surface);
     match ext.as_str() {
         // Each file is at least one object (LumiBench makes every OBJ file its own BLAS).
         "obj" | "ply" => {
-            let (reader, file) = (open(path)?, MeshFile { path, xf });
+            let (mut reader, file) = (open(path)?, MeshFile { path, xf });
+            if ext == "obj" {
+                let head = reader.fill_buf().map_err(|e| Error::io(path, e))?;
+                if let Some(what) = not_obj_text(&head[..head.len().min(4096)]) {
+                    return Err(Error::format(path, "content", what));
+                }
+            }
             sink.begin_object();
             if ext == "obj" {
                 obj::load(reader, file, sink)?;
@@ -152,7 +201,14 @@ pub(crate) fn load_mesh(path: &Path, xf: &Affine3A, sink: &mut TriangleSink) -> 
         }
     }
     if sink.triangles.len() == before {
-        return Err(Error::EmptyMesh { path: path.to_owned(), dropped: sink.dropped });
+        let why = match (sink.offered - offered, sink.non_surface - non_surface) {
+            (0, 0) => "the file holds no faces".to_string(),
+            (0, n) => {
+                format!("its {n} primitive(s) are points or lines, which have no surface for a ray to hit")
+            }
+            (n, _) => format!("all {n} of its faces have zero area"),
+        };
+        return Err(Error::EmptyMesh { path: path.to_owned(), why });
     }
     Ok(())
 }

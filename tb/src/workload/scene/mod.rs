@@ -15,7 +15,9 @@
 //! A description's format, every key annotated, is [`DESCRIPTION_EXAMPLE`]; `sms scenes --help`
 //! and docs/scenes.md show it.
 
+pub mod fetch;
 mod glb;
+pub mod manifest;
 mod mesh;
 mod obj;
 mod ply;
@@ -26,7 +28,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Affine3A, Mat4, Vec3A};
 use obvhs::triangle::Triangle;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::workload::geometry::Primitives;
@@ -158,6 +160,39 @@ pub struct Scene {
     pub render: RenderSettings,
     /// Zero-area triangles the loaders dropped.
     pub dropped_degenerate: usize,
+    /// The files read for a scene given by path (its description, then each mesh), with their
+    /// SHA-256, which reports state; empty for built-in scenes and shipped descriptions, which
+    /// their name identifies.
+    pub files: Vec<SourceFile>,
+}
+
+/// A file a scene given by path was read from.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct SourceFile {
+    /// As given (a description's meshes: joined to the description's folder).
+    pub path: String,
+    /// SHA-256 of the file's bytes as stored (before any gzip decompression), 64 hex digits.
+    pub sha256: String,
+}
+
+impl SourceFile {
+    /// `path` and the SHA-256 of its content.
+    pub fn read(path: &Path) -> Result<Self> {
+        use sha2::Digest;
+        use std::io::Read;
+        let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let mut hasher = sha2::Sha256::new();
+        let mut buf = vec![0u8; 1 << 16];
+        loop {
+            let n = file.read(&mut buf).map_err(|e| Error::io(path, e))?;
+            if n == 0 {
+                break;
+            }
+            hasher.update(&buf[..n]);
+        }
+        let sha256 = crate::report::provenance::hex(&hasher.finalize());
+        Ok(SourceFile { path: path.display().to_string(), sha256 })
+    }
 }
 
 #[derive(Deserialize)]
@@ -236,6 +271,14 @@ pub fn description_help() -> String {
 /// `tb/build.rs`): `(name, text)` sorted by name. Their mesh paths are relative to the shared
 /// data folder ([`SceneLibrary::data`]).
 pub const SHIPPED: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/shipped_scenes.rs"));
+
+/// The mesh files the shipped description `name` reads (relative to the data folder); `None`
+/// when no description has that name.
+pub fn described_files(name: &str) -> Option<Vec<String>> {
+    let (_, text) = SHIPPED.iter().find(|(n, _)| *n == name)?;
+    let desc: SceneDesc = toml::from_str(text).ok()?;
+    Some(desc.mesh.into_iter().map(|m| m.file).collect())
+}
 
 /// The environment variable naming the shared scene data folder.
 pub const SCENES_DIR_ENV: &str = "SMS_SCENES_DIR";
@@ -447,11 +490,24 @@ impl SceneLibrary {
         }
     }
 
+    /// The name a loaded `spec` will have ([`Scene::name`]), without loading it.
+    pub fn name_of(&self, spec: &str) -> Result<String> {
+        Ok(match self.resolve(spec)? {
+            SceneSource::BuiltIn(name) | SceneSource::Described(name, _) => name,
+            SceneSource::Description(path) | SceneSource::Mesh(path) => file_stem(&path),
+        })
+    }
+
     /// Loads a scene from a description file; its mesh paths are relative to the file's folder.
     pub fn load_description(&self, name: &str, path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-        self.load_text(name, path, &text, &dir, None)
+        let mut scene = self.load_text(name, path, &text, &dir, None)?;
+        let meshes: SceneDesc = toml::from_str(&text).expect("parsed by load_text");
+        scene.files = std::iter::once(SourceFile::read(path))
+            .chain(meshes.mesh.iter().map(|m| SourceFile::read(&dir.join(&m.file))))
+            .collect::<Result<_>>()?;
+        Ok(scene)
     }
 
     /// One mesh file, identity transform, camera framing its bounds, LumiBench render settings.
@@ -469,6 +525,7 @@ impl SceneLibrary {
             camera,
             render: RenderSettings::default(),
             dropped_degenerate,
+            files: vec![SourceFile::read(path)?],
         })
     }
 
@@ -548,6 +605,7 @@ impl SceneLibrary {
             camera,
             render: desc.render,
             dropped_degenerate,
+            files: Vec::new(),
         })
     }
 

@@ -28,6 +28,10 @@ pub(super) fn load(mut reader: impl BufRead, file: MeshFile, sink: &mut Triangle
     let mut face: Vec<Vec3A> = Vec::new();
     let mut buf = Vec::new();
     let mut line_no = 0usize;
+    // A UTF-8 byte-order mark (some Windows exporters write one) is not part of the first line.
+    if reader.fill_buf().map_err(|e| Error::io(path, e))?.starts_with(b"\xef\xbb\xbf") {
+        reader.consume(3);
+    }
     loop {
         buf.clear();
         if reader.read_until(b'\n', &mut buf).map_err(|e| Error::io(path, e))? == 0 {

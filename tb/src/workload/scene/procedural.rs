@@ -28,6 +28,7 @@ pub fn build(name: &str) -> Option<Scene> {
         camera,
         render: RenderSettings::default(),
         dropped_degenerate: 0,
+        files: Vec::new(),
     })
 }
 

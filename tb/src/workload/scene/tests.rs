@@ -119,7 +119,7 @@ fn obj_errors_name_the_line() {
     let e = load_err(&dir, "short.obj", "v 0 0\n");
     assert!(e.contains("line 1") && e.contains("3 coordinates"), "{e}");
     let e = load_err(&dir, "empty.obj", "# nothing\n");
-    assert!(e.contains("no triangles"), "{e}");
+    assert!(e.ends_with("no triangles: the file holds no faces"), "{e}");
 }
 
 #[test]
@@ -130,7 +130,7 @@ fn degenerate_triangles_are_dropped_and_counted() {
     let (tris, dropped) = load(&write(&dir, "d.obj", text.as_bytes())).expect("loads");
     assert_eq!((tris.len(), dropped), (1, 3));
     let e = load_err(&dir, "all.obj", "v 0 0 0\nv 1 0 0\nf 1 2 2\n");
-    assert!(e.contains("1 degenerate"), "{e}");
+    assert!(e.ends_with("no triangles: all 1 of its faces have zero area"), "{e}");
 }
 
 #[test]
