@@ -38,6 +38,8 @@ macro_rules! named_enum {
     };
 }
 
+#[macro_use]
+pub mod params;
 pub mod bank_arbiter;
 pub mod clock;
 pub mod config;

@@ -62,6 +62,7 @@ use crate::clock::Unit;
 use crate::config::{Config, ConfigError, Widths, GM_POSTED_QUEUE_BITS};
 use crate::mem::{MemReq, MemResp, ReqKind};
 use crate::node_fetch::NodeFetch;
+use crate::params::{check_bounds, Bound};
 use crate::ray_op::{NodeKind, RayOp, WarpJob};
 use crate::scheduler::WarpScheduler;
 pub use crate::scheduler::WarpSelect;
@@ -108,67 +109,67 @@ pub enum PortPriority {
 
 named_enum!(PortPriority, PortPriority::Stack => "stack", PortPriority::Node => "node");
 
-/// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and run options.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct RtParams {
-    /// Once per ray, when its warp is loaded (4).
-    pub bvh_header: u32,
-    /// Ray-box tests of an internal node (8).
-    pub internal: u32,
-    /// Instance transform (8).
-    pub instance_leaf: u32,
-    /// Leaf descriptor (4).
-    pub leaf_descriptor: u32,
-    /// Ray-triangle test (8).
-    pub triangle: u32,
-    /// Procedural primitive (8).
-    pub procedural: u32,
-    /// Jump over cycles in which every thread waits on memory (identical results, faster).
-    pub idle_skip: bool,
-    /// Whether stack traffic is on the ray's critical path (`Blocking`, the paper's sequence and
-    /// the default) or overlaps the next node fetch with posted stores (`Overlapped`, the `legacy`
-    /// preset's). See [`StackTiming`].
-    pub stack_timing: StackTiming,
-    /// Total cycles of an unconflicted shared-memory (SH stack) access, from the cycle the
-    /// sequencer issues it to the cycle it issues its next micro-op; each bank-conflict cycle adds
-    /// one. Default 20: Vulkan-Sim's `-gpgpu_smem_latency 20`
-    /// (`configs/tested-cfgs/MOBILE/gpgpusim.config` line 108; the ldst unit's pipeline depth,
-    /// `shader.cc` ~3646). 2 (issue, then one bank cycle) is the `legacy` preset's and the
-    /// least allowed ([`MIN_SH_LATENCY`]).
-    pub sh_latency: u32,
-    /// Which stores hold the next node fetch under [`StackTiming::Blocking`] (ignored with
-    /// `Overlapped`, where nothing does). Default [`StoreGating::Acked`].
-    pub store_gating: StoreGating,
-    /// Global stores that may wait in the memory scheduler's queue before the stack manager
-    /// takes no new command (back-pressure on the RT unit's stack commands); 0 = unbounded, the
-    /// default: Vulkan-Sim's RT store queue is a `std::deque` with no bound
-    /// (`src/gpgpu-sim/shader.h:1344`), pushed without a check (`abstract_hardware_model.cc`
-    /// `dec_thread_latency`, and `shader.cc:3516` on a reservation failure). At most
-    /// `2^GM_POSTED_QUEUE_BITS - 1`.
-    pub store_queue: u32,
-    /// Which requests the memory port serves first. Default [`PortPriority::Stack`].
-    pub port_priority: PortPriority,
-    /// How the scheduler picks a warp. Default [`WarpSelect::Gto`] (the paper's).
-    pub warp_select: WarpSelect,
-}
+/// The latency bound's reason.
+const LATENCY: Bound = Bound::at_least(1).because("operation latency must be at least 1 cycle");
 
-impl Default for RtParams {
-    fn default() -> Self {
-        RtParams {
-            bvh_header: 4,
-            internal: 8,
-            instance_leaf: 8,
-            leaf_descriptor: 4,
-            triangle: 8,
-            procedural: 8,
-            idle_skip: true,
-            stack_timing: StackTiming::Blocking,
-            sh_latency: 20,
-            store_gating: StoreGating::Acked,
-            store_queue: 0,
-            port_priority: PortPriority::Stack,
-            warp_select: WarpSelect::Gto,
-        }
+params! {
+    /// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and run options.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub struct RtParams {
+        /// Once per ray, when its warp is loaded (4).
+        ["rt" "bvh_header", LATENCY]
+        pub bvh_header: u32 = 4,
+        /// Ray-box tests of an internal node (8).
+        ["rt" "internal", LATENCY]
+        pub internal: u32 = 8,
+        /// Instance transform (8).
+        ["rt" "instance_leaf", LATENCY]
+        pub instance_leaf: u32 = 8,
+        /// Leaf descriptor (4).
+        ["rt" "leaf_descriptor", LATENCY]
+        pub leaf_descriptor: u32 = 4,
+        /// Ray-triangle test (8).
+        ["rt" "triangle", LATENCY]
+        pub triangle: u32 = 8,
+        /// Procedural primitive (8).
+        ["rt" "procedural", LATENCY]
+        pub procedural: u32 = 8,
+        /// Jump over cycles in which every thread waits on memory (identical results, faster).
+        ["rt" "idle_skip"; run]
+        pub idle_skip: bool = true,
+        /// Whether stack traffic is on the ray's critical path (`Blocking`, the paper's sequence and
+        /// the default) or overlaps the next node fetch with posted stores (`Overlapped`, the `legacy`
+        /// preset's). See [`StackTiming`].
+        ["stack" "timing"]
+        pub stack_timing: StackTiming = StackTiming::Blocking,
+        /// Total cycles of an unconflicted shared-memory (SH stack) access, from the cycle the
+        /// sequencer issues it to the cycle it issues its next micro-op; each bank-conflict cycle adds
+        /// one. Default 20: Vulkan-Sim's `-gpgpu_smem_latency 20`
+        /// (`configs/tested-cfgs/MOBILE/gpgpusim.config` line 108; the ldst unit's pipeline depth,
+        /// `shader.cc` ~3646). 2 (issue, then one bank cycle) is the `legacy` preset's and the
+        /// least allowed ([`MIN_SH_LATENCY`]).
+        ["stack" "sh_latency", Bound::at_least(MIN_SH_LATENCY)
+            .because("an SH access takes at least {least} cycles (issue, then the bank)")]
+        pub sh_latency: u32 = 20,
+        /// Which stores hold the next node fetch under [`StackTiming::Blocking`] (ignored with
+        /// `Overlapped`, where nothing does). Default [`StoreGating::Acked`].
+        ["stack" "store_gating"]
+        pub store_gating: StoreGating = StoreGating::Acked,
+        /// Global stores that may wait in the memory scheduler's queue before the stack manager
+        /// takes no new command (back-pressure on the RT unit's stack commands); 0 = unbounded, the
+        /// default: Vulkan-Sim's RT store queue is a `std::deque` with no bound
+        /// (`src/gpgpu-sim/shader.h:1344`), pushed without a check (`abstract_hardware_model.cc`
+        /// `dec_thread_latency`, and `shader.cc:3516` on a reservation failure). At most
+        /// `2^GM_POSTED_QUEUE_BITS - 1`.
+        ["stack" "store_queue", Bound { least: 0, most: (1 << GM_POSTED_QUEUE_BITS) - 1, why: "" }
+            .because("the memory scheduler's queue holds at most {most} requests (0 = unbounded)")]
+        pub store_queue: u32 = 0,
+        /// Which requests the memory port serves first. Default [`PortPriority::Stack`].
+        ["stack" "port_priority"]
+        pub port_priority: PortPriority = PortPriority::Stack,
+        /// How the scheduler picks a warp. Default [`WarpSelect::Gto`] (the paper's).
+        ["rt" "warp_select"]
+        pub warp_select: WarpSelect = WarpSelect::Gto,
     }
 }
 
@@ -199,37 +200,7 @@ impl RtParams {
     /// Every latency must be at least one cycle (a thread is Busy for exactly that many cycles);
     /// `sh_latency` at least [`MIN_SH_LATENCY`]; `store_queue` within the scheduler queue's width.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let most = (1u32 << GM_POSTED_QUEUE_BITS) - 1;
-        if self.store_queue > most {
-            return Err(ConfigError {
-                parameter: "store_queue",
-                value: self.store_queue.to_string(),
-                reason: format!("the memory scheduler's queue holds at most {most} requests (0 = unbounded)"),
-            });
-        }
-        if self.sh_latency < MIN_SH_LATENCY {
-            return Err(ConfigError {
-                parameter: "sh_latency",
-                value: self.sh_latency.to_string(),
-                reason: format!("an SH access takes at least {MIN_SH_LATENCY} cycles (issue, then the bank)"),
-            });
-        }
-        let named = [
-            ("bvh_header", self.bvh_header),
-            ("internal", self.internal),
-            ("instance_leaf", self.instance_leaf),
-            ("leaf_descriptor", self.leaf_descriptor),
-            ("triangle", self.triangle),
-            ("procedural", self.procedural),
-        ];
-        match named.iter().find(|(_, v)| *v == 0) {
-            Some(&(parameter, v)) => Err(ConfigError {
-                parameter,
-                value: v.to_string(),
-                reason: "operation latency must be at least 1 cycle".into(),
-            }),
-            None => Ok(()),
-        }
+        check_bounds(RtParams::KEYS, self)
     }
 }
 

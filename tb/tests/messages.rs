@@ -130,7 +130,10 @@ fn plan_and_size_flags_say_what_is_allowed() {
         assert!(err.starts_with(want), "{args:?}: {err}");
     }
     // --depth still bounds a 2-thread warp, and the default applies without it.
-    assert!(sms(&["check", "-q", "-c", "SMS", "--warp-size", "2", "--depth", "4"]).status.success());
+    // (Exit status 2: a search stopped at depth 4 is bounded, not proved.)
+    let o = sms(&["check", "-q", "-c", "SMS", "--warp-size", "2", "--depth", "4"]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("depth cap 4"));
 }
 
 /// A reallocating configuration's default borrow limit (4) is the paper's, for 32-thread warps:
@@ -196,13 +199,14 @@ fn a_reader_that_closes_the_pipe_ends_sms_quietly() {
     use std::os::unix::process::ExitStatusExt;
     use std::process::Stdio;
     // `sms cost | true`: the reader has gone before sms writes its table.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_sms"))
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let child = Command::new(env!("CARGO_BIN_EXE_sms"))
         .arg("cost")
-        .stdout(Stdio::piped())
+        .stdout(writer)
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    drop(child.stdout.take());
     let o = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.is_empty(), "{err}");

@@ -76,6 +76,7 @@ pub mod mshr;
 pub use addr::{LocalLayout, SetIndex};
 
 use crate::config::{bits_for, ConfigError};
+use crate::params::{check_bounds, Bound};
 use std::fmt;
 
 /// Width of an address signal in the waveform.
@@ -271,94 +272,92 @@ pub enum Assoc {
     Ways(u32),
 }
 
-/// Every parameter of the memory hierarchy. Defaults follow SPEC section 7 (Vulkan-Sim MOBILE);
-/// the DRAM bandwidth and the queue and MSHR sizes below L1D are this model's assumptions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct MemParams {
-    /// SMs sharing the L2, one L1D each (8).
-    pub sms: u32,
-    /// Fill and merge granularity (32 B).
-    pub sector_bytes: u32,
-    /// Tag granularity (128 B).
-    pub line_bytes: u32,
-    /// L1D data capacity (64 KB minus the shared-memory carve-out; any multiple of the line size
-    /// times the ways, e.g. 56 KB fully associative).
-    pub l1d_bytes: u32,
-    pub l1d_assoc: Assoc,
-    /// Cycles from accepting a read that hits to its response being visible to the RT unit (1:
-    /// Vulkan-Sim's RT unit uses an L1D hit in the cycle of the lookup, and 1 is the earliest a
-    /// registered response allows; `legacy`'s 20 is the load/store unit's `-gpgpu_l1_latency`).
-    pub l1d_hit_latency: u32,
-    /// Outstanding missed sectors per L1D (4096: Vulkan-Sim's streaming L1D, `gpu-cache.h:562`;
-    /// old 32).
-    pub l1d_mshrs: u32,
-    /// Requests one L1D MSHR entry can hold (64 = `MAX_WARP_PER_SM`, `gpu-cache.h:564`; old 8).
-    pub l1d_mshr_merge: u32,
-    /// Requests an L1D can hold waiting for the L2 port (16: the dl1 config string; old 8).
-    pub l1d_miss_queue: u32,
-    /// What a store hit does (write-evict; old write-through).
-    pub l1d_write: L1dWrite,
-    /// L2 capacity (3 MB).
-    pub l2_bytes: u32,
-    pub l2_assoc: Assoc,
-    /// Cycles from an L1D accepting a read that misses it and hits L2 to its response (160).
-    pub l2_latency: u32,
-    /// L2 banks (memory sub-partitions), each with its own sets (`l2_bytes / l2_banks`); each bank
-    /// accepts one request per cycle (8).
-    pub l2_banks: u32,
-    /// Bytes of consecutive addresses per bank before the next bank: `bank = addr /
-    /// interleave mod banks` (256: MOBILE `-gpgpu_mem_addr_mapping dramid@8`; `legacy`'s 128 = the
-    /// line, which with [`SetIndex::Linear`] is one array: `line mod banks`, `line mod sets`). A power of
-    /// two, at least the line.
-    pub l2_interleave_bytes: u32,
-    /// Set index within a bank, over the address with the bank digit removed (IPOLY; old linear).
-    pub l2_set_index: SetIndex,
-    /// Requests one bank's pipeline can hold (256).
-    pub l2_bank_queue: u32,
-    /// Outstanding missed sectors in the whole L2 (256).
-    pub l2_mshrs: u32,
-    /// Requests one L2 MSHR entry can hold (16).
-    pub l2_mshr_merge: u32,
-    /// Requests the L2 can hold waiting for DRAM (64).
-    pub l2_dram_queue: u32,
-    /// Cycles an L2 miss adds to the L2 latency, unloaded (100).
-    pub dram_latency: u32,
-    /// DRAM data bandwidth (32 B/cycle); a request occupies the bus ceil(bytes / this) cycles.
-    pub dram_bytes_per_cycle: u32,
-    /// Requests waiting for the DRAM bus (64).
-    pub dram_queue: u32,
-    /// Where threads' spill slots live (interleaved across threads; old per-thread regions).
-    pub local_layout: LocalLayout,
-}
-
-impl Default for MemParams {
-    fn default() -> Self {
-        MemParams {
-            sms: 8,
-            sector_bytes: 32,
-            line_bytes: 128,
-            l1d_bytes: 64 * 1024,
-            l1d_assoc: Assoc::Full,
-            l1d_hit_latency: 1,
-            l1d_mshrs: 4096,
-            l1d_mshr_merge: 64,
-            l1d_miss_queue: 16,
-            l1d_write: L1dWrite::WriteEvict,
-            l2_bytes: 3 * 1024 * 1024,
-            l2_assoc: Assoc::Ways(16),
-            l2_latency: 160,
-            l2_banks: 8,
-            l2_interleave_bytes: 256,
-            l2_set_index: SetIndex::Ipoly,
-            l2_bank_queue: 256,
-            l2_mshrs: 256,
-            l2_mshr_merge: 16,
-            l2_dram_queue: 64,
-            dram_latency: 100,
-            dram_bytes_per_cycle: 32,
-            dram_queue: 64,
-            local_layout: LocalLayout::Interleaved,
-        }
+params! {
+    /// Every parameter of the memory hierarchy. Defaults follow SPEC section 7 (Vulkan-Sim MOBILE);
+    /// the DRAM bandwidth and the queue and MSHR sizes below L1D are this model's assumptions.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub struct MemParams {
+        /// SMs sharing the L2, one L1D each (8).
+        ["mem" "sms", Bound::at_least(1)]
+        pub sms: u32 = 8,
+        /// Fill and merge granularity (32 B).
+        ["mem" "sector_bytes"]
+        pub sector_bytes: u32 = 32,
+        /// Tag granularity (128 B).
+        ["mem" "line_bytes"]
+        pub line_bytes: u32 = 128,
+        /// L1D data capacity (64 KB minus the shared-memory carve-out; any multiple of the line size
+        /// times the ways, e.g. 56 KB fully associative).
+        ["mem" "l1d_bytes"]
+        pub l1d_bytes: u32 = 64 * 1024,
+        /// Ways of an L1D set; 0 = fully associative (the default).
+        ["mem" "l1d_ways"]
+        pub l1d_assoc: Assoc = Assoc::Full,
+        /// Cycles from accepting a read that hits to its response being visible to the RT unit (1:
+        /// Vulkan-Sim's RT unit uses an L1D hit in the cycle of the lookup, and 1 is the earliest a
+        /// registered response allows; `legacy`'s 20 is the load/store unit's `-gpgpu_l1_latency`).
+        ["mem" "l1d_hit_latency", Bound::at_least(1)]
+        pub l1d_hit_latency: u32 = 1,
+        /// Outstanding missed sectors per L1D (4096: Vulkan-Sim's streaming L1D, `gpu-cache.h:562`;
+        /// old 32).
+        ["mem" "l1d_mshrs", Bound::at_least(1)]
+        pub l1d_mshrs: u32 = 4096,
+        /// Requests one L1D MSHR entry can hold (64 = `MAX_WARP_PER_SM`, `gpu-cache.h:564`; old 8).
+        ["mem" "l1d_mshr_merge", Bound::at_least(1)]
+        pub l1d_mshr_merge: u32 = 64,
+        /// Requests an L1D can hold waiting for the L2 port (16: the dl1 config string; old 8).
+        ["mem" "l1d_miss_queue", Bound::at_least(1)]
+        pub l1d_miss_queue: u32 = 16,
+        /// What a store hit does (write-evict; old write-through).
+        ["mem" "l1d_write"]
+        pub l1d_write: L1dWrite = L1dWrite::WriteEvict,
+        /// L2 capacity (3 MB).
+        ["mem" "l2_bytes"]
+        pub l2_bytes: u32 = 3 * 1024 * 1024,
+        /// Ways of an L2 set; 0 = fully associative (16).
+        ["mem" "l2_ways"]
+        pub l2_assoc: Assoc = Assoc::Ways(16),
+        /// Cycles from an L1D accepting a read that misses it and hits L2 to its response (160).
+        ["mem" "l2_latency", Bound::at_least(4)
+            .because("must be at least {least} (two port registers, one response register and one pipeline stage)")]
+        pub l2_latency: u32 = 160,
+        /// L2 banks (memory sub-partitions), each with its own sets (`l2_bytes / l2_banks`); each bank
+        /// accepts one request per cycle (8).
+        ["mem" "l2_banks", Bound::at_least(1)]
+        pub l2_banks: u32 = 8,
+        /// Bytes of consecutive addresses per bank before the next bank: `bank = addr /
+        /// interleave mod banks` (256: MOBILE `-gpgpu_mem_addr_mapping dramid@8`; `legacy`'s 128 = the
+        /// line, which with [`SetIndex::Linear`] is one array: `line mod banks`, `line mod sets`). A power of
+        /// two, at least the line.
+        ["mem" "l2_interleave_bytes"]
+        pub l2_interleave_bytes: u32 = 256,
+        /// Set index within a bank, over the address with the bank digit removed (IPOLY; old linear).
+        ["mem" "l2_set_index"]
+        pub l2_set_index: SetIndex = SetIndex::Ipoly,
+        /// Requests one bank's pipeline can hold (256).
+        ["mem" "l2_bank_queue", Bound::at_least(1)]
+        pub l2_bank_queue: u32 = 256,
+        /// Outstanding missed sectors in the whole L2 (256).
+        ["mem" "l2_mshrs", Bound::at_least(1)]
+        pub l2_mshrs: u32 = 256,
+        /// Requests one L2 MSHR entry can hold (16).
+        ["mem" "l2_mshr_merge", Bound::at_least(1)]
+        pub l2_mshr_merge: u32 = 16,
+        /// Requests the L2 can hold waiting for DRAM (64).
+        ["mem" "l2_dram_queue", Bound::at_least(1)]
+        pub l2_dram_queue: u32 = 64,
+        /// Cycles an L2 miss adds to the L2 latency, unloaded (100).
+        ["mem" "dram_latency", Bound::at_least(2).because("must be at least {least} (the request port and the response register)")]
+        pub dram_latency: u32 = 100,
+        /// DRAM data bandwidth (32 B/cycle); a request occupies the bus ceil(bytes / this) cycles.
+        ["mem" "dram_bytes_per_cycle", Bound::at_least(1)]
+        pub dram_bytes_per_cycle: u32 = 32,
+        /// Requests waiting for the DRAM bus (64).
+        ["mem" "dram_queue", Bound::at_least(1)]
+        pub dram_queue: u32 = 64,
+        /// Where threads' spill slots live (interleaved across threads; old per-thread regions).
+        ["mem" "local_layout"]
+        pub local_layout: LocalLayout = LocalLayout::Interleaved,
     }
 }
 
@@ -395,14 +394,6 @@ fn check_cache(
     Ok(())
 }
 
-fn at_least(name: &'static str, value: u32, min: u32, why: &str) -> Result<(), ConfigError> {
-    if value < min {
-        Err(reject(name, value, format!("must be at least {min}{why}")))
-    } else {
-        Ok(())
-    }
-}
-
 impl MemParams {
     /// The defaults with `shared_bytes` of the L1D array given to shared memory.
     pub fn with_shared_carveout(shared_bytes: u32) -> MemParams {
@@ -412,7 +403,7 @@ impl MemParams {
 
     /// Checks every parameter; the error names the first bad one.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        at_least("sms", self.sms, 1, "")?;
+        check_bounds(MemParams::KEYS, self)?;
         let s = self.sector_bytes;
         if s < 4 || !s.is_power_of_two() {
             return Err(reject("sector_bytes", s, "must be a power of two, at least 4"));
@@ -426,18 +417,7 @@ impl MemParams {
             ));
         }
         check_cache("l1d_bytes", self.l1d_bytes, "l1d_assoc", self.l1d_assoc, l)?;
-        at_least("l1d_hit_latency", self.l1d_hit_latency, 1, "")?;
-        at_least("l1d_mshrs", self.l1d_mshrs, 1, "")?;
-        at_least("l1d_mshr_merge", self.l1d_mshr_merge, 1, "")?;
-        at_least("l1d_miss_queue", self.l1d_miss_queue, 1, "")?;
         check_cache("l2_bytes", self.l2_bytes, "l2_assoc", self.l2_assoc, l)?;
-        at_least(
-            "l2_latency",
-            self.l2_latency,
-            4,
-            " (two port registers, one response register and one pipeline stage)",
-        )?;
-        at_least("l2_banks", self.l2_banks, 1, "")?;
         let i = self.l2_interleave_bytes;
         if !i.is_power_of_two() || i < l {
             return Err(reject(
@@ -465,13 +445,6 @@ impl MemParams {
                 return Err(reject("l2_set_index", self.l2_set_index, why));
             }
         }
-        at_least("l2_bank_queue", self.l2_bank_queue, 1, "")?;
-        at_least("l2_mshrs", self.l2_mshrs, 1, "")?;
-        at_least("l2_mshr_merge", self.l2_mshr_merge, 1, "")?;
-        at_least("l2_dram_queue", self.l2_dram_queue, 1, "")?;
-        at_least("dram_latency", self.dram_latency, 2, " (the request port and the response register)")?;
-        at_least("dram_bytes_per_cycle", self.dram_bytes_per_cycle, 1, "")?;
-        at_least("dram_queue", self.dram_queue, 1, "")?;
         Ok(())
     }
 

@@ -116,6 +116,17 @@ impl Cli {
     }
 }
 
+/// `--hw`'s long help: the presets, then every key of a description, from the registry.
+fn hw_long_help() -> String {
+    format!(
+        "Hardware: a shipped preset — paper (default: the paper's text, the rest from Vulkan-Sim's MOBILE \
+         config), vulkansim-mobile (that config file as it is), rtx2060, legacy (this model before it adopted \
+         Vulkan-Sim's mechanisms) — or a TOML file applied to `paper`, with {}. The presets are in tb/hw/, \
+         every key cited; docs/assumptions.md has each choice's sources.",
+        crate::hw::key_list()
+    )
+}
+
 /// A check that stopped at a cap before examining everything it was asked to, and found
 /// nothing wrong on the way: not a proof, not a failure. `sms` prints it and exits with
 /// [`EXIT_BOUNDED`], distinct from a failure's 1.
@@ -436,20 +447,9 @@ pub fn parse_res(s: &str) -> Result<(u32, u32), String> {
 pub struct HardwareArgs {
     /// Hardware: a shipped preset — paper (default: the paper's text, the rest from Vulkan-Sim's
     /// MOBILE config), vulkansim-mobile (that config file as it is), rtx2060, legacy (this model
-    /// before it adopted Vulkan-Sim's mechanisms) — or a TOML file applied to `paper`, with
-    /// `[rt]` keys bvh_header, internal, instance_leaf, leaf_descriptor, triangle, procedural,
-    /// idle_skip, warp_select ("gto" or "oldest"); `[stack]` keys timing ("blocking" or
-    /// "overlapped"), sh_latency (cycles of an unconflicted shared-memory access, at least 2),
-    /// store_gating (which stores hold the next node fetch: "acked", "posted" or "sh-posted"),
-    /// store_queue (global stores that may wait for the port, 0 = unbounded), port_priority
-    /// ("stack" or "node" first; docs/assumptions.md has each choice's sources); `[mem]` keys sms, sector_bytes,
-    /// line_bytes, l1d_bytes, shared_carveout (SH stacks carved out of the L1D array),
-    /// l1d_ways (0 = fully associative), l1d_hit_latency, l1d_mshrs, l1d_mshr_merge,
-    /// l1d_miss_queue, l1d_write ("evict" or "through"), l2_bytes, l2_ways, l2_latency,
-    /// l2_banks, l2_interleave_bytes, l2_set_index ("ipoly" or "linear"), l2_bank_queue,
-    /// l2_mshrs, l2_mshr_merge, l2_dram_queue, dram_latency, dram_bytes_per_cycle, dram_queue,
-    /// local_layout ("interleaved" or "linear"). The presets are in tb/hw/, every key cited.
-    #[arg(long, value_name = "PRESET|FILE")]
+    /// before it adopted Vulkan-Sim's mechanisms) — or a TOML file applied to `paper`
+    /// (`--help` lists its keys).
+    #[arg(long, value_name = "PRESET|FILE", long_help = hw_long_help())]
     pub hw: Option<String>,
     /// Stack timing: blocking (the paper's RT unit: a ray's next node fetch waits for its stack
     /// requests, stores wait for the L2's acknowledgement) or overlapped (posted stores, the

@@ -6,8 +6,9 @@
 //! hardware it is applied to; an unknown key, a wrong type or a value outside its set is an error
 //! naming the key. The default hardware is the `paper` preset.
 
-use rtl::mem::{Assoc, L1dWrite, LocalLayout, MemParams, SetIndex};
-use rtl::rt_unit::{PortPriority, RtParams, StackTiming, StoreGating, WarpSelect};
+use rtl::mem::MemParams;
+use rtl::params::{Bound, Key, Kind, Value};
+use rtl::rt_unit::RtParams;
 
 pub mod presets;
 
@@ -18,8 +19,7 @@ pub mod presets;
 pub struct Hardware {
     pub rt: RtParams,
     pub mem: MemParams,
-    /// The SH stacks' shared memory comes out of the L1D array (the paper, SPEC section 8);
-    /// `false`: shared memory sits beside the L1D (Vulkan-Sim's configs, adaptive cache off).
+    /// The key `mem.shared_carveout` ([`HARDWARE_KEYS`]).
     pub shared_carveout: bool,
 }
 
@@ -74,17 +74,145 @@ pub fn resolve(spec: &str) -> Result<Hardware, String> {
     Ok(hw)
 }
 
-/// One of `names`, given as a TOML string.
-fn choice<T>(
-    name: &str,
-    v: &toml::Value,
-    names: &[&str],
-    from: impl Fn(&str) -> Option<T>,
-) -> Result<T, String> {
-    v.as_str().and_then(from).ok_or_else(|| {
-        let allowed: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
-        format!("{name} = {v}: expected one of {}", allowed.join(", "))
-    })
+/// The keys of the description that are neither [`RtParams`]' nor [`MemParams`]'.
+pub const HARDWARE_KEYS: &[Key<Hardware>] = &[rtl::param_key!(
+    Hardware,
+    "mem",
+    "shared_carveout",
+    shared_carveout: bool,
+    "SH stacks carved out of the L1D array (the paper, SPEC section 8); false: shared memory beside the L1D \
+     (Vulkan-Sim's configs, adaptive cache off).",
+    Bound::ANY,
+    false
+)];
+
+/// One key of a description, whichever struct it sets.
+#[derive(Clone, Copy)]
+pub enum AnyKey {
+    Rt(&'static Key<RtParams>),
+    Mem(&'static Key<MemParams>),
+    Hardware(&'static Key<Hardware>),
+}
+
+impl AnyKey {
+    pub fn section(&self) -> &'static str {
+        self.either(|k| k.section, |k| k.section, |k| k.section)
+    }
+    pub fn key(&self) -> &'static str {
+        self.either(|k| k.key, |k| k.key, |k| k.key)
+    }
+    pub fn kind(&self) -> Kind {
+        self.either(|k| k.kind, |k| k.kind, |k| k.kind)
+    }
+    pub fn summary(&self) -> &'static str {
+        self.either(|k| k.summary(), |k| k.summary(), |k| k.summary())
+    }
+    pub fn bound(&self) -> Bound {
+        self.either(|k| k.bound, |k| k.bound, |k| k.bound)
+    }
+    /// A run option rather than hardware: presets need not set it.
+    pub fn run_option(&self) -> bool {
+        self.either(|k| k.run_option, |k| k.run_option, |k| k.run_option)
+    }
+    pub fn get(&self, hw: &Hardware) -> Value {
+        match self {
+            AnyKey::Rt(k) => (k.get)(&hw.rt),
+            AnyKey::Mem(k) => (k.get)(&hw.mem),
+            AnyKey::Hardware(k) => (k.get)(hw),
+        }
+    }
+    /// Sets the key; `false` when `v` is not of its kind.
+    pub fn set(&self, hw: &mut Hardware, v: Value) -> bool {
+        match self {
+            AnyKey::Rt(k) => (k.set)(&mut hw.rt, v),
+            AnyKey::Mem(k) => (k.set)(&mut hw.mem, v),
+            AnyKey::Hardware(k) => (k.set)(hw, v),
+        }
+    }
+    fn either<R>(
+        &self,
+        rt: impl Fn(&Key<RtParams>) -> R,
+        mem: impl Fn(&Key<MemParams>) -> R,
+        hw: impl Fn(&Key<Hardware>) -> R,
+    ) -> R {
+        match self {
+            AnyKey::Rt(k) => rt(k),
+            AnyKey::Mem(k) => mem(k),
+            AnyKey::Hardware(k) => hw(k),
+        }
+    }
+}
+
+/// Every key of a hardware description, `[rt]`, then `[stack]`, then `[mem]`.
+pub fn keys() -> Vec<AnyKey> {
+    let all: Vec<AnyKey> = RtParams::KEYS
+        .iter()
+        .map(AnyKey::Rt)
+        .chain(MemParams::KEYS.iter().map(AnyKey::Mem))
+        .chain(HARDWARE_KEYS.iter().map(AnyKey::Hardware))
+        .collect();
+    ["rt", "stack", "mem"]
+        .iter()
+        .flat_map(|s| all.iter().filter(move |k| k.section() == *s).copied())
+        .collect()
+}
+
+/// The key `section.key`.
+pub fn find_key(section: &str, key: &str) -> Option<AnyKey> {
+    keys().into_iter().find(|k| k.section() == section && k.key() == key)
+}
+
+/// The keys of every table, for `--hw`'s help: `[rt]` keys a, b ("x" or "y"), ….
+pub fn key_list() -> String {
+    let keys = keys();
+    let mut tables = Vec::new();
+    for section in ["rt", "stack", "mem"] {
+        let names: Vec<String> = keys
+            .iter()
+            .filter(|k| k.section() == section)
+            .map(|k| match k.kind() {
+                Kind::Choice(names) => {
+                    let quoted: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+                    let (last, rest) = quoted.split_last().expect("a choice has names");
+                    match rest {
+                        [] => format!("{} ({last})", k.key()),
+                        _ => format!("{} ({} or {last})", k.key(), rest.join(", ")),
+                    }
+                }
+                Kind::Ways => format!("{} (0 = fully associative)", k.key()),
+                Kind::Bool => format!("{} (true or false)", k.key()),
+                Kind::Uint => match k.bound() {
+                    b if b.most < u32::MAX => format!("{} ({} to {})", k.key(), b.least, b.most),
+                    b if b.least > 1 => format!("{} (at least {})", k.key(), b.least),
+                    _ => k.key().to_string(),
+                },
+            })
+            .collect();
+        tables.push(format!("[{section}] keys {}", names.join(", ")));
+    }
+    tables.join("; ")
+}
+
+/// `v`, read as a value of `name`'s `kind`.
+fn value_of(name: &str, kind: Kind, v: &toml::Value) -> Result<Value, String> {
+    match kind {
+        Kind::Uint | Kind::Ways => v
+            .as_integer()
+            .and_then(|i| u32::try_from(i).ok())
+            .map(Value::Uint)
+            .ok_or_else(|| format!("{name} = {v}: expected a whole number ≥ 0")),
+        Kind::Bool => {
+            v.as_bool().map(Value::Bool).ok_or_else(|| format!("{name} = {v}: expected true or false"))
+        }
+        Kind::Choice(names) => {
+            v.as_str().and_then(|s| names.iter().find(|n| **n == s)).map(|n| Value::Name(n)).ok_or_else(
+                || {
+                    let allowed: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+                    format!("{name} = {v}: expected one of {}", allowed.join(", "))
+                },
+            )
+        }
+    }
 }
 
 /// Applies the `[rt]`, `[stack]` and `[mem]` tables of `text` to `hw`.
@@ -94,66 +222,10 @@ pub fn apply_toml(hw: &mut Hardware, text: &str) -> Result<(), String> {
         let table = value.as_table().ok_or_else(|| format!("'{section}' must be a table ([{section}])"))?;
         for (key, v) in table {
             let name = format!("{section}.{key}");
-            let uint = || -> Result<u32, String> {
-                v.as_integer()
-                    .and_then(|i| u32::try_from(i).ok())
-                    .ok_or_else(|| format!("{name} = {v}: expected a whole number ≥ 0"))
-            };
-            let boolean = || v.as_bool().ok_or_else(|| format!("{name} = {v}: expected true or false"));
-            let ways = |w: u32| if w == 0 { Assoc::Full } else { Assoc::Ways(w) };
-            let (rt, m) = (&mut hw.rt, &mut hw.mem);
-            match (section.as_str(), key.as_str()) {
-                ("rt", "bvh_header") => rt.bvh_header = uint()?,
-                ("rt", "internal") => rt.internal = uint()?,
-                ("rt", "instance_leaf") => rt.instance_leaf = uint()?,
-                ("rt", "leaf_descriptor") => rt.leaf_descriptor = uint()?,
-                ("rt", "triangle") => rt.triangle = uint()?,
-                ("rt", "procedural") => rt.procedural = uint()?,
-                ("rt", "idle_skip") => rt.idle_skip = boolean()?,
-                ("rt", "warp_select") => {
-                    rt.warp_select = choice(&name, v, WarpSelect::NAMES, WarpSelect::from_name)?
-                }
-                ("stack", "timing") => {
-                    rt.stack_timing = choice(&name, v, StackTiming::NAMES, StackTiming::from_name)?
-                }
-                ("stack", "sh_latency") => rt.sh_latency = uint()?,
-                ("stack", "store_gating") => {
-                    rt.store_gating = choice(&name, v, StoreGating::NAMES, StoreGating::from_name)?
-                }
-                ("stack", "store_queue") => rt.store_queue = uint()?,
-                ("stack", "port_priority") => {
-                    rt.port_priority = choice(&name, v, PortPriority::NAMES, PortPriority::from_name)?
-                }
-                ("mem", "sms") => m.sms = uint()?,
-                ("mem", "sector_bytes") => m.sector_bytes = uint()?,
-                ("mem", "line_bytes") => m.line_bytes = uint()?,
-                ("mem", "l1d_bytes") => m.l1d_bytes = uint()?,
-                ("mem", "shared_carveout") => hw.shared_carveout = boolean()?,
-                ("mem", "l1d_ways") => m.l1d_assoc = ways(uint()?),
-                ("mem", "l1d_hit_latency") => m.l1d_hit_latency = uint()?,
-                ("mem", "l1d_mshrs") => m.l1d_mshrs = uint()?,
-                ("mem", "l1d_mshr_merge") => m.l1d_mshr_merge = uint()?,
-                ("mem", "l1d_miss_queue") => m.l1d_miss_queue = uint()?,
-                ("mem", "l1d_write") => m.l1d_write = choice(&name, v, L1dWrite::NAMES, L1dWrite::from_name)?,
-                ("mem", "l2_bytes") => m.l2_bytes = uint()?,
-                ("mem", "l2_ways") => m.l2_assoc = ways(uint()?),
-                ("mem", "l2_latency") => m.l2_latency = uint()?,
-                ("mem", "l2_banks") => m.l2_banks = uint()?,
-                ("mem", "l2_interleave_bytes") => m.l2_interleave_bytes = uint()?,
-                ("mem", "l2_set_index") => {
-                    m.l2_set_index = choice(&name, v, SetIndex::NAMES, SetIndex::from_name)?
-                }
-                ("mem", "l2_bank_queue") => m.l2_bank_queue = uint()?,
-                ("mem", "l2_mshrs") => m.l2_mshrs = uint()?,
-                ("mem", "l2_mshr_merge") => m.l2_mshr_merge = uint()?,
-                ("mem", "l2_dram_queue") => m.l2_dram_queue = uint()?,
-                ("mem", "dram_latency") => m.dram_latency = uint()?,
-                ("mem", "dram_bytes_per_cycle") => m.dram_bytes_per_cycle = uint()?,
-                ("mem", "dram_queue") => m.dram_queue = uint()?,
-                ("mem", "local_layout") => {
-                    m.local_layout = choice(&name, v, LocalLayout::NAMES, LocalLayout::from_name)?
-                }
-                _ => return Err(format!("unknown parameter {name}")),
+            let k = find_key(section, key).ok_or_else(|| format!("unknown parameter {name}"))?;
+            let value = value_of(&name, k.kind(), v)?;
+            if !k.set(hw, value) {
+                return Err(format!("{name} = {v}: not a value of this key"));
             }
         }
     }
@@ -163,68 +235,30 @@ pub fn apply_toml(hw: &mut Hardware, text: &str) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rtl::mem::{Assoc, L1dWrite, LocalLayout, SetIndex};
+    use rtl::rt_unit::{PortPriority, StackTiming, StoreGating, WarpSelect};
 
     #[test]
     fn every_preset_is_valid_and_sets_every_parameter() {
-        // Applied to two bases that differ in every value a file can set, a complete file gives
-        // the same hardware: a key it forgot would keep the base's value. The second base names
-        // every field, so a new parameter must be added here (and to every preset) to compile.
+        // Applied to two bases that differ in every key a file can set (made from the registry,
+        // so a declared key is covered), a complete file gives the same hardware: a key it
+        // forgot would keep the base's value. Run options are not hardware: no preset sets them.
         let a = base();
-        let (r, m) = (a.rt, a.mem);
-        let b = Hardware {
-            rt: RtParams {
-                bvh_header: r.bvh_header + 1,
-                internal: r.internal + 1,
-                instance_leaf: r.instance_leaf + 1,
-                leaf_descriptor: r.leaf_descriptor + 1,
-                triangle: r.triangle + 1,
-                procedural: r.procedural + 1,
-                idle_skip: r.idle_skip, // a run option, not hardware: no preset sets it
-                stack_timing: StackTiming::Overlapped,
-                sh_latency: r.sh_latency + 1,
-                store_gating: StoreGating::ShPosted,
-                store_queue: r.store_queue + 1,
-                port_priority: PortPriority::Node,
-                warp_select: WarpSelect::Oldest,
-            },
-            mem: MemParams {
-                sms: m.sms + 1,
-                sector_bytes: m.sector_bytes * 2,
-                line_bytes: m.line_bytes * 2,
-                l1d_bytes: m.l1d_bytes + 1,
-                l1d_assoc: Assoc::Ways(3),
-                l1d_hit_latency: m.l1d_hit_latency + 1,
-                l1d_mshrs: m.l1d_mshrs + 1,
-                l1d_mshr_merge: m.l1d_mshr_merge + 1,
-                l1d_miss_queue: m.l1d_miss_queue + 1,
-                l1d_write: L1dWrite::WriteThrough,
-                l2_bytes: m.l2_bytes + 1,
-                l2_assoc: Assoc::Ways(5),
-                l2_latency: m.l2_latency + 1,
-                l2_banks: m.l2_banks + 1,
-                l2_interleave_bytes: m.l2_interleave_bytes * 2,
-                l2_set_index: SetIndex::Linear,
-                l2_bank_queue: m.l2_bank_queue + 1,
-                l2_mshrs: m.l2_mshrs + 1,
-                l2_mshr_merge: m.l2_mshr_merge + 1,
-                l2_dram_queue: m.l2_dram_queue + 1,
-                dram_latency: m.dram_latency + 1,
-                dram_bytes_per_cycle: m.dram_bytes_per_cycle + 1,
-                dram_queue: m.dram_queue + 1,
-                local_layout: LocalLayout::Linear,
-            },
-            shared_carveout: !a.shared_carveout,
-        };
-        assert_eq!(
-            (a.rt.stack_timing, a.mem.l1d_write, a.mem.l2_set_index, a.mem.local_layout),
-            (StackTiming::Blocking, L1dWrite::WriteEvict, SetIndex::Ipoly, LocalLayout::Interleaved),
-            "the two bases differ in the enums too"
-        );
-        assert_eq!(
-            (a.rt.store_gating, a.rt.port_priority, a.rt.warp_select),
-            (StoreGating::Acked, PortPriority::Stack, WarpSelect::Gto),
-            "and in the open choices"
-        );
+        // A field of `Hardware` outside the registry would not be compared: name them all.
+        let Hardware { rt: _, mem: _, shared_carveout: _ } = a;
+        let mut b = a;
+        for k in keys().into_iter().filter(|k| !k.run_option()) {
+            let other = match (k.kind(), k.get(&a)) {
+                (Kind::Choice(names), Value::Name(n)) => {
+                    Value::Name(names.iter().find(|m| **m != n).unwrap())
+                }
+                (_, Value::Uint(v)) => Value::Uint(v + 3),
+                (_, Value::Bool(x)) => Value::Bool(!x),
+                (kind, v) => panic!("{}.{}: {v} is not a {kind:?}", k.section(), k.key()),
+            };
+            assert!(k.set(&mut b, other));
+            assert_ne!(k.get(&b), k.get(&a), "{}.{}", k.section(), k.key());
+        }
         for p in presets::PRESETS {
             let (mut on_a, mut on_b) = (a, b);
             apply_toml(&mut on_a, p.toml).unwrap();
@@ -238,6 +272,31 @@ mod tests {
         apply_toml(&mut on_a, &forgetful).unwrap();
         apply_toml(&mut on_b, &forgetful).unwrap();
         assert_ne!(on_a, on_b);
+    }
+
+    #[test]
+    fn the_key_list_names_every_key_once_in_its_table() {
+        let list = key_list();
+        let all = keys();
+        assert_eq!(all.len(), RtParams::KEYS.len() + MemParams::KEYS.len() + HARDWARE_KEYS.len());
+        for k in &all {
+            let table = list.split("; ").find(|t| t.starts_with(&format!("[{}]", k.section()))).unwrap();
+            let names: Vec<&str> = table
+                .split_once(" keys ")
+                .unwrap()
+                .1
+                .split(", ")
+                .map(|n| n.split(' ').next().unwrap())
+                .collect();
+            assert_eq!(names.iter().filter(|n| **n == k.key()).count(), 1, "{} in {table}", k.key());
+        }
+        assert!(list.contains("timing (\"blocking\" or \"overlapped\")"), "{list}");
+        assert!(list.contains("l2_ways (0 = fully associative)"), "{list}");
+        assert!(list.contains("store_gating (\"acked\", \"posted\" or \"sh-posted\")"), "{list}");
+        assert!(
+            list.contains("sh_latency (at least 2)") && list.contains("store_queue (0 to 65535)"),
+            "{list}"
+        );
     }
 
     #[test]
