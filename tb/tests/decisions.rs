@@ -63,3 +63,20 @@ fn a_design_that_addresses_past_its_registers_is_a_checked_error() {
     assert!(r.is_err(), "the planted bug went unnoticed");
     println!("{r:?}");
 }
+
+#[test]
+fn a_run_report_says_how_many_decisions_it_checked() {
+    let row = |mode: &str| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_sms"))
+            .args(["-q", "--decisions", mode, "run", "--res", "8x8", "-c", "SMS"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8(o.stdout).unwrap();
+        let line = out.lines().find(|l| l.starts_with("stack decisions checked against the spec")).unwrap();
+        line.split_whitespace().skip(6).collect::<Vec<_>>().join(" ")
+    };
+    assert_eq!(row("all"), "every cycle");
+    assert_eq!(row("sample"), "1 cycle in 64");
+    assert_eq!(row("off"), "off");
+}

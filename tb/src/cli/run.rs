@@ -374,6 +374,18 @@ fn table(report: &RunReport) -> Table {
         }
     }
     row("pops checked against the trace", full(&|o| o.pops_checked.to_string()));
+    // The decision scoreboard (`--decisions`) runs beside cycle-level simulations only.
+    let decisions = match crate::run::sim::decisions_checked() {
+        0 => "off".to_string(),
+        1 => "every cycle".to_string(),
+        n => format!("1 cycle in {n}"),
+    };
+    if rs.iter().any(|r| simulated(r).is_some_and(|o| o.gpu.is_some())) {
+        row(
+            "stack decisions checked against the spec",
+            full(&|o| o.gpu.map_or("-".into(), |_| decisions.clone())),
+        );
+    }
     row(
         "finished at (since the simulations started)",
         rs.iter().map(|r| format!("{:.2} s", r.finished_at.as_secs_f64())).collect(),
