@@ -568,12 +568,12 @@ impl StackManager {
 
     fn cycle_with<P: CycleSteps>(&self, steps: &P, i: &CycleIn<'_, Entry>, d: &mut StackStep) {
         cycle::eval(&mut Int, steps, &self.cfg, &self.w, self, i, &mut d.j);
+        d.sh_req.clear();
+        d.g_req.clear();
         if let Err(e) = self.addressed(&d.j) {
             d.j.errors.push(e);
             return;
         }
-        d.sh_req.clear();
-        d.g_req.clear();
         for r in &d.j.sh_req {
             d.sh_req.push(self.sh_request(r.thread, r.stack, r.entry, r.write));
         }
@@ -791,7 +791,7 @@ impl Unit for StackManager {
     /// each command is planned (in order: a plan sees the stack registers earlier ones changed).
     /// `d` receives the outputs and the register writes; nothing in `self` changes.
     fn eval(&self, i: StackIn<'_>, d: &mut StackStep) {
-        d.clear();
+        // `cycle::eval` starts from a cleared journal and the requests are rebuilt from it.
         self.cycle(&i, d);
     }
 
