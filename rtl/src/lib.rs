@@ -13,8 +13,8 @@
 //!
 //! No I/O lives in this crate.
 
-/// `NAMES`, `name` and `from_name` (and `Display`) for a fieldless enum spelled by name in
-/// hardware descriptions.
+/// `NAMES`, `name` and `from_name` (and `Display`, and [`params::Param`]) for a fieldless enum
+/// spelled by name in hardware descriptions.
 macro_rules! named_enum {
     ($t:ty, $($v:path => $n:literal),+) => {
         impl $t {
@@ -27,6 +27,19 @@ macro_rules! named_enum {
 
             pub fn from_name(s: &str) -> Option<Self> {
                 match s { $($n => Some($v),)+ _ => None }
+            }
+        }
+
+        impl $crate::params::Param for $t {
+            const KIND: $crate::params::Kind = $crate::params::Kind::Choice(<$t>::NAMES);
+            fn value(self) -> $crate::params::Value {
+                $crate::params::Value::Name(self.name())
+            }
+            fn from_value(v: $crate::params::Value) -> Option<$t> {
+                match v {
+                    $crate::params::Value::Name(n) => <$t>::from_name(n),
+                    _ => None,
+                }
             }
         }
 

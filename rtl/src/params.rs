@@ -8,7 +8,6 @@
 //! structs' own `validate`, after the registry's per-key bounds.
 
 use crate::config::ConfigError;
-use crate::mem::Assoc;
 
 /// One value a key takes, as a description spells it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,7 +40,8 @@ pub enum Kind {
     Ways,
 }
 
-/// A field type a key can set: its [`Kind`] and the conversions to and from a [`Value`].
+/// A field type a key can set: its [`Kind`] and the conversions to and from a [`Value`]. Every
+/// `named_enum!` is one, of kind [`Kind::Choice`].
 pub trait Param: Copy {
     const KIND: Kind;
     fn value(self) -> Value;
@@ -70,23 +70,6 @@ impl Param for bool {
     fn from_value(v: Value) -> Option<bool> {
         match v {
             Value::Bool(b) => Some(b),
-            _ => None,
-        }
-    }
-}
-
-impl Param for Assoc {
-    const KIND: Kind = Kind::Ways;
-    fn value(self) -> Value {
-        Value::Uint(match self {
-            Assoc::Full => 0,
-            Assoc::Ways(w) => w,
-        })
-    }
-    fn from_value(v: Value) -> Option<Assoc> {
-        match v {
-            Value::Uint(0) => Some(Assoc::Full),
-            Value::Uint(w) => Some(Assoc::Ways(w)),
             _ => None,
         }
     }
@@ -244,34 +227,6 @@ macro_rules! params {
     (@run) => { false };
     (@run run) => { true };
 }
-
-/// Choice keys: every named enum is a [`Param`] of kind [`Kind::Choice`].
-macro_rules! choice_param {
-    ($($t:ty),+) => {$(
-        impl $crate::params::Param for $t {
-            const KIND: $crate::params::Kind = $crate::params::Kind::Choice(<$t>::NAMES);
-            fn value(self) -> $crate::params::Value {
-                $crate::params::Value::Name(self.name())
-            }
-            fn from_value(v: $crate::params::Value) -> Option<$t> {
-                match v {
-                    $crate::params::Value::Name(n) => <$t>::from_name(n),
-                    _ => None,
-                }
-            }
-        }
-    )+};
-}
-
-choice_param!(
-    crate::stack_manager::StackTiming,
-    crate::rt_unit::StoreGating,
-    crate::rt_unit::PortPriority,
-    crate::scheduler::WarpSelect,
-    crate::mem::L1dWrite,
-    crate::mem::SetIndex,
-    crate::mem::LocalLayout
-);
 
 #[cfg(test)]
 mod tests {

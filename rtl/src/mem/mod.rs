@@ -272,6 +272,24 @@ pub enum Assoc {
     Ways(u32),
 }
 
+/// A cache's ways as a description spells them: 0 for fully associative.
+impl crate::params::Param for Assoc {
+    const KIND: crate::params::Kind = crate::params::Kind::Ways;
+    fn value(self) -> crate::params::Value {
+        crate::params::Value::Uint(match self {
+            Assoc::Full => 0,
+            Assoc::Ways(w) => w,
+        })
+    }
+    fn from_value(v: crate::params::Value) -> Option<Assoc> {
+        match v {
+            crate::params::Value::Uint(0) => Some(Assoc::Full),
+            crate::params::Value::Uint(w) => Some(Assoc::Ways(w)),
+            _ => None,
+        }
+    }
+}
+
 params! {
     /// Every parameter of the memory hierarchy. Defaults follow SPEC section 7 (Vulkan-Sim MOBILE);
     /// the DRAM bandwidth and the queue and MSHR sizes below L1D are this model's assumptions.
