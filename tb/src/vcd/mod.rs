@@ -13,7 +13,7 @@
 //!
 //! Time: GTKWave knows only seconds and their fractions, so the dump reads cycles as seconds:
 //! `$timescale 100 ms`, each cycle [`UNITS_PER_CYCLE`] units, so the time axis shows cycle `n`
-//! at `n s` and a top-level `clk` rises at each cycle's start and falls half-way (docs/waves.md).
+//! at `n s` and a top-level `clk` rises at each cycle's start and falls half-way (docs/waveforms.md).
 //! Vectors are written without leading zeros (`b101`), as VCD allows.
 //!
 //! A sink cannot return errors from inside the walk, so I/O and walk errors are kept and
