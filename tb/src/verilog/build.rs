@@ -473,13 +473,14 @@ impl Lane {
         let e = (0..n_rb).map(|k| d.add(s, f(&format!("rb{k}")), Some("rb_entries"), wd.entry, Sort::Val, 0));
         let e: Vec<V> = e.collect::<Vec<_>>().into_iter().map(|t| v(&mut [t].into_iter())).collect();
         let rb = Rb { count, e };
-        let sc = d.add(s, f("seq_step"), Some("seq_step"), wd.seq_step, Sort::Word, 0);
+        // The accounting counts a sequencer only beside an SH level (M > 0).
+        let seq_field = |n| (cfg.sh_entries > 0).then_some(n);
+        let sc = d.add(s, f("seq_step"), seq_field("seq_step"), wd.seq_step, Sort::Word, 0);
         let ub = uop_bits(wd);
         let slots = (0..queue_slots(cfg)).map(|k| d.uop(s, &f(&format!("seq{k}")), ub)).collect();
         let inflight = d.uop(s, &f("inflight"), ub);
         let lv = d.add(s, f("latch_valid"), None, 1, Sort::Bool, 0);
-        let latch_field = (cfg.sh_entries > 0).then_some("seq_latch");
-        let lx = d.add(s, f("latch"), latch_field, wd.entry, Sort::Val, 0);
+        let lx = d.add(s, f("latch"), seq_field("seq_latch"), wd.entry, Sort::Val, 0);
         let seq = Seq {
             count: w(&mut [sc].into_iter()),
             slots,

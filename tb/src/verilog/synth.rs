@@ -66,9 +66,11 @@ pub fn cross_check(g: &Generated, flip_flops: u64) -> Result<(u64, Vec<(String, 
         }
     }
     for (name, bits) in &declared {
-        if name.is_some() {
-            accounted += bits;
+        let Some(name) = name else { continue };
+        if *bits > 0 && !cost.fields.iter().any(|f| f.name == *name) {
+            bail!("{}: register {name} ({bits} bits) is not in the bit accounting (sms cost)", g.cfg.name());
         }
+        accounted += bits;
     }
     let total = g.total_register_bits();
     if flip_flops != total {
