@@ -34,7 +34,8 @@ pub fn run(args: Args) -> Result<()> {
             Ok(g) => g,
             Err(e) => bail!("{}: {e}", cfg.name()),
         };
-        let dir = if configs.len() > 1 { args.out.join(cfg.name().replace('+', "_")) } else { args.out.clone() };
+        let dir =
+            if configs.len() > 1 { args.out.join(cfg.name().replace('+', "_")) } else { args.out.clone() };
         let path = verilog::write(&g, &dir)?;
         note(format!(
             "{}: {} ({} paths over {} control shapes, {} terms, {:.1} s)",

@@ -365,7 +365,15 @@ fn stack_parts(r: &Regs<Sym>, out: &mut Vec<T>) {
 }
 
 fn stack_from(p: &mut impl Iterator<Item = T>) -> Regs<Sym> {
-    StackRegsOf { top: w(p), bottom: w(p), empty: b(p), idle: b(p), next_tid: w(p), priority: w(p), flush: w(p) }
+    StackRegsOf {
+        top: w(p),
+        bottom: w(p),
+        empty: b(p),
+        idle: b(p),
+        next_tid: w(p),
+        priority: w(p),
+        flush: w(p),
+    }
 }
 
 /// Every result of `paths` merged into one under the paths' conditions (the last is the
@@ -402,7 +410,15 @@ struct Decl {
 
 impl Decl {
     /// A register's current value: a variable, or its constant reset value when it has no bits.
-    fn add(&mut self, s: &mut Sym, name: String, field: Option<&'static str>, bits: u32, sort: Sort, reset: u64) -> T {
+    fn add(
+        &mut self,
+        s: &mut Sym,
+        name: String,
+        field: Option<&'static str>,
+        bits: u32,
+        sort: Sort,
+        reset: u64,
+    ) -> T {
         let q = match (sort, bits) {
             (Sort::Bool, 0) => T::B(s.bit(reset != 0)),
             (Sort::Word, 0) => T::W(s.word(reset as u32)),
@@ -418,7 +434,8 @@ impl Decl {
     fn uop(&mut self, s: &mut Sym, name: &str, bits: [u32; 5]) -> Enc {
         let f = ["kind", "a", "b", "latch", "value"];
         let sorts = [Sort::Word, Sort::Word, Sort::Word, Sort::Bool, Sort::Val];
-        let parts: Vec<T> = (0..5).map(|i| self.add(s, format!("{name}_{}", f[i]), None, bits[i], sorts[i], 0)).collect();
+        let parts: Vec<T> =
+            (0..5).map(|i| self.add(s, format!("{name}_{}", f[i]), None, bits[i], sorts[i], 0)).collect();
         enc_from(&mut parts.into_iter())
     }
 }
@@ -463,7 +480,8 @@ impl Lane {
             ("overflow", wd.overflow, Sort::Bool, 0),
             ("spill_ptr", wd.spill_ptr, Sort::Word, 0),
         ];
-        let mut p: Vec<T> = stack.iter().map(|&(n, bits, sort, r)| d.add(s, f(n), Some(n), bits, sort, r)).collect();
+        let mut p: Vec<T> =
+            stack.iter().map(|&(n, bits, sort, r)| d.add(s, f(n), Some(n), bits, sort, r)).collect();
         p.push(d.add(s, f("done"), None, 1, Sort::Bool, 0));
         p.push(d.add(s, f("rb_count"), Some("rb_count"), wd.rb_count, Sort::Word, 0));
         let mut it = p.into_iter();
@@ -534,7 +552,12 @@ impl SeqOut {
     fn parts(&self) -> Vec<T> {
         let mut out = vec![T::B(self.issued)];
         enc_parts(&self.inflight, &mut out);
-        out.extend([T::B(self.latch_valid), T::V(self.latch), T::B(self.push_front.0), T::V(self.push_front.1)]);
+        out.extend([
+            T::B(self.latch_valid),
+            T::V(self.latch),
+            T::B(self.push_front.0),
+            T::V(self.push_front.1),
+        ]);
         let (a, b_, c, d) = self.sh_wr;
         out.extend([T::B(a), T::W(b_), T::W(c), T::V(d)]);
         let (a, b_, c) = self.g_wr;
@@ -568,7 +591,13 @@ impl SeqOut {
 }
 
 /// Lane `j`'s sequencer stage from journal `d` of a cycle that ran only it.
-fn seq_out(s: &mut Sym, lane: &Lane, j: u32, stacks: &[Regs<Sym>], d: &Journal<Sym>) -> Result<SeqOut, String> {
+fn seq_out(
+    s: &mut Sym,
+    lane: &Lane,
+    j: u32,
+    stacks: &[Regs<Sym>],
+    d: &Journal<Sym>,
+) -> Result<SeqOut, String> {
     let (no, z, zv) = (s.bit(false), s.word(0), s.val(0));
     let yes = s.bit(true);
     let mut o = SeqOut {
@@ -712,7 +741,10 @@ fn plan_parts(
         queue_parts(queue.0, queue.1, &mut out);
     } else {
         if emits.len() > q_slots {
-            return Err(format!("lane {j}: a program of {} micro-ops exceeds the {q_slots} slots", emits.len()));
+            return Err(format!(
+                "lane {j}: a program of {} micro-ops exceeds the {q_slots} slots",
+                emits.len()
+            ));
         }
         let slots = compact(s, &emits, q_slots);
         let mut count = s.word(0);
@@ -766,7 +798,13 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
             input(&mut s, format!("lane{j}_load_active"), 1, Sort::Bool),
         ];
         let p = &mut p.into_iter();
-        ins.push(LaneIn { cmd_kind: w(p), cmd_value: v(p), sh_done: b(p), sh_rdata: v(p), load_active: b(p) });
+        ins.push(LaneIn {
+            cmd_kind: w(p),
+            cmd_value: v(p),
+            sh_done: b(p),
+            sh_rdata: v(p),
+            load_active: b(p),
+        });
     }
     let p = [
         input(&mut s, "deq_valid".into(), 1, Sort::Bool),
@@ -791,8 +829,7 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
     let (mut shapes, mut paths, mut max_plan_paths) = (0, 0, 0);
 
     // 1. Sequencers.
-    let waiting: Vec<usize> =
-        [0usize, 1, 3].into_iter().chain(acked.then_some(4)).collect();
+    let waiting: Vec<usize> = [0usize, 1, 3].into_iter().chain(acked.then_some(4)).collect();
     let mut seq_outs = Vec::new();
     for j in 0..ws {
         let lane = &lanes[j as usize];
@@ -842,7 +879,8 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
                             acked,
                         };
                         let done = [j];
-                        let cin = CycleIn { cmds: &[], done: if c { &done[..] } else { &[] }, deq: None, now: 0 };
+                        let cin =
+                            CycleIn { cmds: &[], done: if c { &done[..] } else { &[] }, deq: None, now: 0 };
                         let found = s.explore(|l| {
                             let mut d = Journal::<Sym>::default();
                             cycle::eval(l, &Design, cfg, &wd, &view, &cin, &mut d);
@@ -896,7 +934,9 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
             out.extend([T::W(z), T::V(zv)]);
             results.push((cond, out));
         }
-        for (k, cmd) in [(CMD_PUSH, CmdOf::Push(li.cmd_value)), (CMD_POP, CmdOf::Pop), (CMD_FINISH, CmdOf::Finish)] {
+        for (k, cmd) in
+            [(CMD_PUSH, CmdOf::Push(li.cmd_value)), (CMD_POP, CmdOf::Pop), (CMD_FINISH, CmdOf::Finish)]
+        {
             let cond = s.eq_k(li.cmd_kind, k);
             let view = View {
                 stacks: None,

@@ -307,7 +307,12 @@ impl Scoreboard for Recorder {
             // The testbench's first cycle loads every warp as the model's registers stand.
             let active = (0..threads).map(|t| !q.thread(t).done).collect();
             let all = (1u64 << q.config().warps) - 1;
-            out.cycles.push(Cycle { load_warps: all, load_active: active, records: now_regs.clone(), ..Cycle::default() });
+            out.cycles.push(Cycle {
+                load_warps: all,
+                load_active: active,
+                records: now_regs.clone(),
+                ..Cycle::default()
+            });
         } else {
             // Warps loaded since the last edge: their registers changed outside a cycle.
             let (mut warps, mut active) = (0u64, vec![false; threads as usize]);
@@ -340,7 +345,9 @@ impl Scoreboard for Recorder {
         let mut c = Cycle { now: j.now, load_active: vec![false; threads as usize], ..Cycle::default() };
         let read = |t: u32| match q.inflight_uop(t) {
             Some(Uop::ShLoad { stack, entry }) => (q.sh_entry(stack, entry), None),
-            Some(Uop::GlobalLoad { slot }) => (0, Some(q.global_region(t).get(slot as usize).copied().unwrap_or(POISON))),
+            Some(Uop::GlobalLoad { slot }) => {
+                (0, Some(q.global_region(t).get(slot as usize).copied().unwrap_or(POISON)))
+            }
             _ => (0, None),
         };
         for t in 0..threads {
@@ -429,16 +436,36 @@ pub fn testbench(g: &Generated, layout: &Layout) -> String {
     let width = |b: u32| if b <= 1 { String::new() } else { format!("[{}:0] ", b - 1) };
     let mut s = String::new();
     let _ = writeln!(s, "`timescale 1ns/1ps\nmodule {TOP}_tb;");
-    let _ = writeln!(s, "    reg clk = 0;\n    reg deq_valid = 0;\n    reg {}deq_thread = 0;", width(w.thread.max(1)));
-    let _ = writeln!(s, "    reg [63:0] g_rdata = 0;\n    reg {}load_warps = 0;\n    reg {}load_active = 0;", width(cfg.warps), width(t_n));
+    let _ = writeln!(
+        s,
+        "    reg clk = 0;\n    reg deq_valid = 0;\n    reg {}deq_thread = 0;",
+        width(w.thread.max(1))
+    );
+    let _ = writeln!(
+        s,
+        "    reg [63:0] g_rdata = 0;\n    reg {}load_warps = 0;\n    reg {}load_active = 0;",
+        width(cfg.warps),
+        width(t_n)
+    );
     let _ = writeln!(s, "    reg [1:0] cmd_kind [0:{}];\n    reg [63:0] cmd_value [0:{}];", t_n - 1, t_n - 1);
     let _ = writeln!(s, "    reg sh_done [0:{}];\n    reg [63:0] sh_rdata [0:{}];", t_n - 1, t_n - 1);
-    let _ = writeln!(s, "    reg {}prev [0:{}];\n    reg {}outs [0:{}];", width(bits - out_bits), t_n - 1, width(out_bits.max(1)), t_n - 1);
+    let _ = writeln!(
+        s,
+        "    reg {}prev [0:{}];\n    reg {}outs [0:{}];",
+        width(bits - out_bits),
+        t_n - 1,
+        width(out_bits.max(1)),
+        t_n - 1
+    );
     let mut conn = vec![".clk(clk)".to_string(), ".deq_valid(deq_valid)".into()];
     if w.thread > 0 {
         conn.push(".deq_thread(deq_thread)".into());
     }
-    conn.extend([".g_rdata(g_rdata)".to_string(), ".load_warps(load_warps)".into(), ".load_active(load_active)".into()]);
+    conn.extend([
+        ".g_rdata(g_rdata)".to_string(),
+        ".load_warps(load_warps)".into(),
+        ".load_active(load_active)".into(),
+    ]);
     for t in 0..t_n {
         conn.push(format!(".t{t}_cmd_kind(cmd_kind[{t}])"));
         conn.push(format!(".t{t}_cmd_value(cmd_value[{t}])"));
@@ -476,12 +503,18 @@ pub fn testbench(g: &Generated, layout: &Layout) -> String {
     let _ = writeln!(s, "    initial begin");
     let _ = writeln!(s, "        fi = $fopen(\"stimulus.txt\", \"r\");\n        fo = $fopen(\"trace.txt\", \"w\");\n        cyc = 0;");
     let _ = writeln!(s, "        for (t = 0; t < {t_n}; t = t + 1) prev[t] = 0;");
-    let _ = writeln!(s, "        while ($fscanf(fi, \"%h %h %b %h %h %h %h\\n\", now, lw, la, dv, dt, gr, n) == 7) begin");
+    let _ = writeln!(
+        s,
+        "        while ($fscanf(fi, \"%h %h %b %h %h %h %h\\n\", now, lw, la, dv, dt, gr, n) == 7) begin"
+    );
     let _ = writeln!(s, "            for (t = 0; t < {t_n}; t = t + 1) begin cmd_kind[t] = 0; cmd_value[t] = 0; sh_done[t] = 0; sh_rdata[t] = 0; end");
     let _ = writeln!(s, "            for (i = 0; i < n; i = i + 1) begin");
     let _ = writeln!(s, "                r = $fscanf(fi, \"%h %h %h %h %h\\n\", t, k, v, dn, rd);");
     let _ = writeln!(s, "                cmd_kind[t] = k; cmd_value[t] = v; sh_done[t] = dn; sh_rdata[t] = rd;\n            end");
-    let _ = writeln!(s, "            load_warps = lw; load_active = la; deq_valid = dv; deq_thread = dt; g_rdata = gr;");
+    let _ = writeln!(
+        s,
+        "            load_warps = lw; load_active = la; deq_valid = dv; deq_thread = dt; g_rdata = gr;"
+    );
     let _ = writeln!(s, "            #1;");
     for t in 0..t_n {
         let _ = writeln!(s, "            outs[{t}] = out_{t};");
@@ -493,7 +526,10 @@ pub fn testbench(g: &Generated, layout: &Layout) -> String {
             "            if (reg_{t} !== prev[{t}] || outs[{t}] != 0 || cyc == 0) begin $fdisplay(fo, \"%0d {t} %h\", cyc, {{outs[{t}], reg_{t}}}); prev[{t}] = reg_{t}; end"
         );
     }
-    let _ = writeln!(s, "            cyc = cyc + 1;\n        end\n        $fclose(fo);\n        $finish;\n    end\nendmodule");
+    let _ = writeln!(
+        s,
+        "            cyc = cyc + 1;\n        end\n        $fclose(fo);\n        $finish;\n    end\nendmodule"
+    );
     s
 }
 
@@ -547,7 +583,8 @@ pub fn compare(layout: &Layout, cycles: &[Cycle], warp_size: u32, trace: &str) -
         for t in 0..threads {
             let exp = &c.records[t];
             let line = lines[k].iter().find(|x| x.0 == t as u32).map(|x| &x.1);
-            let regs_changed = layout.fields.iter().enumerate().any(|(i, f)| f.reg && exp[i] != model_prev[t][i]);
+            let regs_changed =
+                layout.fields.iter().enumerate().any(|(i, f)| f.reg && exp[i] != model_prev[t][i]);
             let outs = layout.fields.iter().enumerate().any(|(i, f)| !f.reg && exp[i] != 0);
             let got: Vec<Option<u64>> = match line {
                 Some(l) => l.clone(),
@@ -563,7 +600,8 @@ pub fn compare(layout: &Layout, cycles: &[Cycle], warp_size: u32, trace: &str) -
                 for (i, f) in layout.fields.iter().enumerate().filter(|x| k > 0 || x.1.reg) {
                     if got[i] != Some(exp[i]) {
                         let v = got[i].map_or("x".to_string(), |v| format!("{v:#x}"));
-                        let when = if k == 0 { "reset".to_string() } else { format!("simulation cycle {}", c.now) };
+                        let when =
+                            if k == 0 { "reset".to_string() } else { format!("simulation cycle {}", c.now) };
                         return Err(format!(
                             "cycle {k} ({when}), thread {t} (warp {}, lane {}): {}{}: verilog {v}, model {:#x}",
                             t as u32 / warp_size,
@@ -583,7 +621,6 @@ pub fn compare(layout: &Layout, cycles: &[Cycle], warp_size: u32, trace: &str) -
     }
     Ok(())
 }
-
 
 /// What a co-simulation did.
 #[derive(Clone, Debug)]
@@ -615,12 +652,22 @@ pub fn run(g: &Generated, text: &str, cycles: &[Cycle], dir: &Path) -> Result<Co
         if !out.status.success() {
             let err = String::from_utf8_lossy(&out.stderr);
             let tail: Vec<&str> = err.lines().rev().take(10).collect();
-            return Err(format!("{what} failed in {}:\n{}", dir.display(), tail.into_iter().rev().collect::<Vec<_>>().join("\n")));
+            return Err(format!(
+                "{what} failed in {}:\n{}",
+                dir.display(),
+                tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+            ));
         }
         Ok(())
     };
     tool(
-        std::process::Command::new("iverilog").args(["-g2005", "-o", "sim.vvp", &format!("{TOP}_tb.v"), &format!("{TOP}.v")]),
+        std::process::Command::new("iverilog").args([
+            "-g2005",
+            "-o",
+            "sim.vvp",
+            &format!("{TOP}_tb.v"),
+            &format!("{TOP}.v"),
+        ]),
         "iverilog",
     )?;
     tool(std::process::Command::new("vvp").args(["-n", "sim.vvp"]), "vvp")?;

@@ -60,8 +60,13 @@ pub fn warp_module(c: &Circuit) -> String {
             narrow.insert(n.clone(), *bits);
         }
     }
-    let roots: Vec<u32> =
-        c.regs.iter().filter(|r| r.bits > 0).map(|r| r.d.id()).chain(c.outputs.iter().map(|p| p.t.id())).collect();
+    let roots: Vec<u32> = c
+        .regs
+        .iter()
+        .filter(|r| r.bits > 0)
+        .map(|r| r.d.id())
+        .chain(c.outputs.iter().map(|p| p.t.id()))
+        .collect();
     let need = reachable(c, &roots);
     let mut s = String::new();
     let _ = writeln!(s, "module {WARP} (");
@@ -181,7 +186,8 @@ pub fn top_module(cfg: &Config, c: &Circuit) -> String {
     // A warp load: the warps loaded at this edge, and which of their lanes start active.
     ports.push(format!("    input wire {}load_warps", width(cfg.warps)));
     ports.push(format!("    input wire {}load_active", width(cfg.threads())));
-    let lane_of = |n: &str| n.split_once('_').map(|(l, rest)| (l[4..].parse::<u32>().unwrap(), rest.to_string()));
+    let lane_of =
+        |n: &str| n.split_once('_').map(|(l, rest)| (l[4..].parse::<u32>().unwrap(), rest.to_string()));
     let is_stack = |f: &str| f.ends_with("_stack");
     for wp in 0..cfg.warps {
         for p in c.inputs.iter().filter(|p| p.bits > 0 && !WARP_INPUTS.contains(&p.name.as_str())) {
@@ -202,13 +208,21 @@ pub fn top_module(cfg: &Config, c: &Circuit) -> String {
     let _ = writeln!(s, "module {TOP} (\n{}\n);", ports.join(",\n"));
     for wp in 0..cfg.warps {
         let mut conn = vec![".clk(clk)".to_string()];
-        let here = if warp_bits > 0 { format!(" && deq_thread[{}:{}] == {wp}", w.thread - 1, w.tid) } else { String::new() };
+        let here = if warp_bits > 0 {
+            format!(" && deq_thread[{}:{}] == {wp}", w.thread - 1, w.tid)
+        } else {
+            String::new()
+        };
         conn.push(format!(".deq_valid(deq_valid{here})"));
         if w.tid > 0 {
             conn.push(format!(".deq_lane(deq_thread[{}:0])", w.tid - 1));
         }
         conn.push(".g_rdata(g_rdata)".into());
-        conn.push(if cfg.warps > 1 { format!(".load(load_warps[{wp}])") } else { ".load(load_warps)".into() });
+        conn.push(if cfg.warps > 1 {
+            format!(".load(load_warps[{wp}])")
+        } else {
+            ".load(load_warps)".into()
+        });
         for p in c.inputs.iter().filter(|p| p.bits > 0 && !WARP_INPUTS.contains(&p.name.as_str())) {
             let (j, f) = lane_of(&p.name).expect("a lane input");
             if f == "load_active" {

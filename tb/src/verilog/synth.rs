@@ -2,17 +2,18 @@
 //! the cross-check of its flip-flops against the bit accounting of `sms cost`.
 //!
 //! The flow maps the module to yosys's internal gate library (`$_AND_`, `$_MUX_`, `$_DFF_P_`,
-//! …) and runs ABC's fast script; it leaves out the coarse passes that share resources and
+//! …) with ABC (`strash; dretime; map`), whose `print_stats` gives the logic depth; it leaves out the coarse passes that share resources and
 //! simplify multiplexer trees and flip-flops (`share`, `opt_muxtree`, `opt_dff`), which take
 //! hours on these netlists. The cell counts are therefore an upper estimate of the logic, in
 //! generic gates, not a process node's area; the flip-flop count is exact (no pass removes a
-//! register), and the depth is the longest path in cells through one warp.
+//! register), and the depth is ABC's level count of the mapped warp module (gates on the longest
+//! register-to-register or port path).
 
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use super::print::{TOP, WARP};
+use super::print::TOP;
 use super::Generated;
 use crate::report::cost::CostReport;
 use crate::report::table::Table;
@@ -21,8 +22,8 @@ use crate::report::table::Table;
 pub fn script(file: &str) -> String {
     format!(
         "read_verilog {file}\nhierarchy -top {TOP}\nproc\nopt_expr\nopt_clean\nwreduce\nopt_clean\nalumacc\n\
-         techmap\nopt_expr\nopt_clean\nabc -fast\nopt_clean\ntee -o stat.txt stat -top {TOP}\n\
-         tee -o ltp.txt ltp -noff {WARP}\n"
+         techmap\nopt_expr\nopt_clean\nabc -script +strash;dretime;map;print_stats\nopt_clean\n\
+         tee -o stat.txt stat -top {TOP}\n"
     )
 }
 
@@ -33,7 +34,7 @@ pub struct SynthReport {
     pub flip_flops: u64,
     /// Logic cells by yosys cell type (flip-flops excluded), most first.
     pub cells: Vec<(String, u64)>,
-    /// Longest combinational path through a warp, in cells.
+    /// Logic levels of the mapped warp module (ABC's `lev`).
     pub depth: u64,
     /// Register bits of the accounting's fields (`sms cost`) and of the registers it does not
     /// count, by name.
@@ -108,7 +109,9 @@ pub fn synthesize(g: &Generated, path: &Path) -> Result<SynthReport> {
         .current_dir(dir)
         .output()
         .map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => anyhow::anyhow!("yosys is not on PATH: install it (apt-get install yosys)"),
+            std::io::ErrorKind::NotFound => {
+                anyhow::anyhow!("yosys is not on PATH: install it (apt-get install yosys)")
+            }
             _ => anyhow::anyhow!("yosys: {e}"),
         })?;
     if !out.status.success() {
@@ -121,11 +124,18 @@ pub fn synthesize(g: &Generated, path: &Path) -> Result<SynthReport> {
         );
     }
     let stat = std::fs::read_to_string(dir.join("stat.txt"))?;
-    let ltp = std::fs::read_to_string(dir.join("ltp.txt"))?;
+    let log = std::fs::read_to_string(dir.join("synth.log"))?;
     let (flip_flops, cells) = parse_stat(&stat)?;
-    let depth = parse_ltp(&ltp)?;
+    let depth = parse_levels(&log)?;
     let (accounted, unaccounted) = cross_check(g, flip_flops)?;
-    Ok(SynthReport { config: super::describe(&g.cfg, g.acked), flip_flops, cells, depth, accounted, unaccounted })
+    Ok(SynthReport {
+        config: super::describe(&g.cfg, g.acked),
+        flip_flops,
+        cells,
+        depth,
+        accounted,
+        unaccounted,
+    })
 }
 
 /// Flip-flops and logic cells by type from `stat -top`'s hierarchy summary (its last cell
@@ -153,11 +163,13 @@ pub fn parse_stat(stat: &str) -> Result<(u64, Vec<(String, u64)>)> {
     Ok((ff, cells))
 }
 
-/// The longest path's length from `ltp`'s output.
-pub fn parse_ltp(ltp: &str) -> Result<u64> {
-    let at = ltp.find("length=").context("ltp: no longest path")?;
-    let n: String = ltp[at + 7..].chars().take_while(|c| c.is_ascii_digit()).collect();
-    Ok(n.parse()?)
+/// The deepest logic level ABC reports (`print_stats`: `lev = N`) over the mapped modules.
+pub fn parse_levels(log: &str) -> Result<u64> {
+    let levels = log.lines().filter_map(|l| {
+        let at = l.find("lev =")?;
+        l[at + 5..].trim().split_whitespace().next()?.parse::<u64>().ok()
+    });
+    levels.max().context("yosys log: ABC reported no logic levels")
 }
 
 /// The reports as a table.
@@ -169,7 +181,7 @@ pub fn render(reports: &[SynthReport]) -> String {
         "registers sms cost omits",
         "logic cells",
         "largest kinds",
-        "depth (cells)",
+        "depth (levels)",
     ]);
     for r in reports {
         let omit: Vec<String> = r.unaccounted.iter().map(|(n, b)| format!("{n} {b}")).collect();
@@ -185,7 +197,7 @@ pub fn render(reports: &[SynthReport]) -> String {
         ]);
     }
     format!(
-        "{}\nyosys generic flow (techmap, abc -fast; no share/opt_muxtree/opt_dff): a technology-independent \
+        "{}\nyosys generic flow (techmap, abc map; no share/opt_muxtree/opt_dff): a technology-independent \
          estimate in generic gates, not a process node's area. Flip-flops are exact and checked against the \
          declared registers and, field by field, against the bit accounting of `sms cost`.\n",
         t.to_text()
