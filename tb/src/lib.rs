@@ -23,6 +23,7 @@ pub mod run;
 #[doc(hidden)]
 pub mod testing;
 pub mod vcd;
+pub mod verilog;
 pub mod workload;
 
 pub use error::{Error, Result};

@@ -12,6 +12,7 @@ pub mod run;
 pub mod scenes;
 pub mod stack_config;
 pub mod sweep;
+pub mod verilog;
 
 use std::path::PathBuf;
 
@@ -91,6 +92,10 @@ pub enum Command {
     Ablate(ablate::Args),
     /// Run time against error of each level and sample rate, throughput, savings of skipped work.
     Bench(bench::Args),
+    /// Write the stack manager as synthesizable Verilog-2005, generated from the cycle
+    /// description the simulator runs; --synth adds yosys's flip-flop, cell and depth report.
+    /// Every configuration the RTL accepts is generated (RB_FULL, unbounded, is refused).
+    Verilog(verilog::Args),
 }
 
 impl Cli {
@@ -112,6 +117,7 @@ impl Cli {
             Command::Sweep(args) => sweep::run(args),
             Command::Ablate(args) => ablate::run(args),
             Command::Bench(args) => bench::run(args),
+            Command::Verilog(args) => verilog::run(args),
         }
     }
 }

@@ -445,7 +445,7 @@ impl Regfile<Sym> for SymWarp<'_> {
 /// A micro-op as words: kind (its waveform code), first field (stack or slot), entry, whether
 /// its data comes from the latch, and its immediate value.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Enc {
+pub struct Enc {
     pub kind: W,
     pub a: W,
     pub b: W,
@@ -454,7 +454,7 @@ pub(super) struct Enc {
 }
 
 /// [`Enc::kind`] codes.
-pub(super) mod code {
+pub mod code {
     pub const SH_LOAD: u32 = 1;
     pub const SH_STORE: u32 = 2;
     pub const GLOBAL_LOAD: u32 = 3;
@@ -463,7 +463,7 @@ pub(super) mod code {
     pub const RELEASE: u32 = 6;
 }
 
-fn encode(l: &mut Sym, u: &UopL<Sym>) -> Enc {
+pub fn encode(l: &mut Sym, u: &UopL<Sym>) -> Enc {
     let z = l.word(0);
     let no = l.bit(false);
     let zv = l.val(0);
@@ -483,7 +483,7 @@ fn encode(l: &mut Sym, u: &UopL<Sym>) -> Enc {
     Enc { kind, a, b, latch, value }
 }
 
-pub(super) fn mux_enc(l: &mut Sym, c: B, x: Enc, y: Enc) -> Enc {
+pub fn mux_enc(l: &mut Sym, c: B, x: Enc, y: Enc) -> Enc {
     Enc {
         kind: l.mux(c, x.kind, y.kind),
         a: l.mux(c, x.a, y.a),
@@ -494,7 +494,7 @@ pub(super) fn mux_enc(l: &mut Sym, c: B, x: Enc, y: Enc) -> Enc {
 }
 
 /// The program as `slots` fixed positions: `(valid, micro-op)`, valid ones first.
-pub(super) fn compact(l: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> {
+pub fn compact(l: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> {
     let none = {
         let z = l.word(0);
         let no = l.bit(false);

@@ -28,8 +28,9 @@ pub enum Sort {
     Val,
 }
 
+/// A term: a constant, a variable or an operator over earlier terms (by id).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
-enum Node {
+pub enum Node {
     Bool(bool),
     Word(u32),
     Val(u64),
@@ -340,6 +341,11 @@ impl Sym {
             Node::Add(x, k) => self.word_of(k).map(|k| (W(x), k)),
             _ => None,
         }
+    }
+
+    /// Term `i` (its operands are earlier terms' ids).
+    pub fn node(&self, i: u32) -> &Node {
+        &self.nodes[i as usize]
     }
 
     /// Terms in the DAG (a size measure for reports).
