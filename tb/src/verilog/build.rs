@@ -675,8 +675,8 @@ fn rb_apply(s: &mut Sym, rb: &Rb, ev: RbEv, valid: B) -> Rb {
         }
         RbEv::Op(RbOp::PopBack) => (s.sub_k(rb.count, 1), false),
         RbEv::Op(RbOp::PopFront) => {
-            for k in 0..n.saturating_sub(1) {
-                e[k] = rb.e[k + 1];
+            if n > 1 {
+                e[..n - 1].copy_from_slice(&rb.e[1..]);
             }
             (s.sub_k(rb.count, 1), false)
         }
@@ -952,8 +952,8 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
                 acked,
             };
             let found = s.explore(|l| {
-                let mut d = Journal::<Sym>::default();
-                d.stacks = view_stacks.iter().enumerate().map(|(k, r)| (l.word(k as u32), *r)).collect();
+                let stacks = view_stacks.iter().enumerate().map(|(k, r)| (l.word(k as u32), *r)).collect();
+                let mut d = Journal::<Sym> { stacks, ..Journal::<Sym>::default() };
                 cycle::plan(l, &Design, cfg, &wd, &view, &[(j, cmd)], &mut d);
                 plan_parts(l, j, q_slots, &view_stacks, lane.thread, &rb_after, (count, &slots), &d)
             });

@@ -65,7 +65,10 @@ impl Layout {
 
 /// The field a record's validity mask reads, and the condition (Verilog over the lane's
 /// signals `p…`; Rust over the other values by name).
-fn mask_of(name: &str) -> Option<(String, Box<dyn Fn(u64) -> bool>)> {
+/// A validity mask: the field it reads and the test on that field's value.
+type Mask = (String, Box<dyn Fn(u64) -> bool>);
+
+fn mask_of(name: &str) -> Option<Mask> {
     if let Some(k) = name.strip_prefix("rb").and_then(|x| x.parse::<u64>().ok()) {
         return Some(("rb_count".into(), Box::new(move |c| c > k)));
     }

@@ -159,7 +159,7 @@ pub fn parse_stat(stat: &str) -> Result<(u64, Vec<(String, u64)>)> {
             cells.push((kind.trim_start_matches('$').trim_matches('_').to_string(), n));
         }
     }
-    cells.sort_by(|a, b| b.1.cmp(&a.1));
+    cells.sort_by_key(|c| std::cmp::Reverse(c.1));
     Ok((ff, cells))
 }
 
@@ -167,7 +167,7 @@ pub fn parse_stat(stat: &str) -> Result<(u64, Vec<(String, u64)>)> {
 pub fn parse_levels(log: &str) -> Result<u64> {
     let levels = log.lines().filter_map(|l| {
         let at = l.find("lev =")?;
-        l[at + 5..].trim().split_whitespace().next()?.parse::<u64>().ok()
+        l[at + 5..].split_whitespace().next()?.parse::<u64>().ok()
     });
     levels.max().context("yosys log: ABC reported no logic levels")
 }
