@@ -27,7 +27,10 @@ fn readme_commands() -> (Vec<String>, Vec<String>) {
     let block = section.split("```sh\n").nth(1).and_then(|b| b.split("```").next()).expect("a sh block");
     let joined = block.replace("\\\n", " ");
     let line = |start: &str| {
-        joined.lines().find(|l| l.trim_start().starts_with(start)).unwrap_or_else(|| panic!("no {start} line"))
+        joined
+            .lines()
+            .find(|l| l.trim_start().starts_with(start))
+            .unwrap_or_else(|| panic!("no {start} line"))
     };
     let run = line("cargo run");
     let args = run.split(" -- ").nth(1).expect("sms arguments after --");
@@ -54,7 +57,11 @@ fn flag<'a>(args: &'a [String], name: &str) -> &'a str {
 fn readme_waveform_command_opens_on_a_spill_of_its_lanes() {
     let (mut args, gtkwave) = readme_commands();
     let dump = flag(&args, "--vcd").to_string();
-    assert_eq!(gtkwave, [dump.clone(), dump.replace(".vcd", ".gtkw")], "gtkwave opens the dump and its save file");
+    assert_eq!(
+        gtkwave,
+        [dump.clone(), dump.replace(".vcd", ".gtkw")],
+        "gtkwave opens the dump and its save file"
+    );
     assert_eq!(screenshot_command(), args, "the screenshot comes from README's command");
     let tmp = TmpDir::new("vcd-readme", "spill");
     let file = Path::new(&dump).file_name().unwrap();
@@ -79,8 +86,10 @@ fn readme_waveform_command_opens_on_a_spill_of_its_lanes() {
         .filter(|(_, s)| s.0.ends_with(".uop") && s.0.contains("stack_manager"))
         .map(|(i, s)| (i, s.0.as_str()))
         .collect();
-    let dumped: Vec<&str> =
-        uops.iter().map(|(_, p)| p.strip_prefix(&prefix).and_then(|t| t.split(']').next()).unwrap()).collect();
+    let dumped: Vec<&str> = uops
+        .iter()
+        .map(|(_, p)| p.strip_prefix(&prefix).and_then(|t| t.split(']').next()).unwrap())
+        .collect();
     assert_eq!(dumped, lanes, "the stack threads dumped");
 
     // The first RB → SH spill (a thread's sequencer storing to its SH stack) in the window, and
@@ -104,7 +113,8 @@ fn readme_waveform_command_opens_on_a_spill_of_its_lanes() {
     // The save file: its marker on that cycle, its time range around it, that thread open.
     let save = std::fs::read_to_string(tmp.path().join(file).with_extension("gtkw")).unwrap();
     let start: u64 = save.lines().find_map(|l| l.strip_prefix("[timestart] ")).unwrap().parse().unwrap();
-    let marker: u64 = save.lines().find(|l| l.starts_with('*')).unwrap().split(' ').nth(1).unwrap().parse().unwrap();
+    let marker: u64 =
+        save.lines().find(|l| l.starts_with('*')).unwrap().split(' ').nth(1).unwrap().parse().unwrap();
     assert_eq!(marker, cycle * GTKWAVE_UNITS_PER_CYCLE, "the marker is on the spill");
     let first = start / GTKWAVE_UNITS_PER_CYCLE;
     assert!(first <= cycle && cycle < first + FOCUS_CYCLES, "cycles {first}.. show the spill at {cycle}");
