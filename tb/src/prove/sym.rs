@@ -50,6 +50,27 @@ pub enum Node {
     Ite(Sort, u32, u32, u32),
 }
 
+impl Node {
+    /// Pushes this node's operands (term ids) onto `out`.
+    pub fn push_operands(&self, out: &mut Vec<u32>) {
+        match *self {
+            Node::Not(a) => out.push(a),
+            Node::And(a, b)
+            | Node::Or(a, b)
+            | Node::Add(a, b)
+            | Node::Sub(a, b)
+            | Node::Div(a, b)
+            | Node::Rem(a, b)
+            | Node::Mask(a, b)
+            | Node::Shr(a, b)
+            | Node::Eq(a, b)
+            | Node::Lt(a, b) => out.extend([a, b]),
+            Node::Ite(_, c, a, b) => out.extend([c, a, b]),
+            _ => {}
+        }
+    }
+}
+
 /// A term of sort Bool.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct B(pub u32);
@@ -238,21 +259,7 @@ impl Sym {
             if std::mem::replace(&mut need[i as usize], true) {
                 continue;
             }
-            match self.nodes[i as usize] {
-                Node::Not(a) => stack.push(a),
-                Node::And(a, b)
-                | Node::Or(a, b)
-                | Node::Add(a, b)
-                | Node::Sub(a, b)
-                | Node::Div(a, b)
-                | Node::Rem(a, b)
-                | Node::Mask(a, b)
-                | Node::Shr(a, b)
-                | Node::Eq(a, b)
-                | Node::Lt(a, b) => stack.extend([a, b]),
-                Node::Ite(_, c, a, b) => stack.extend([c, a, b]),
-                _ => {}
-            }
+            self.nodes[i as usize].push_operands(&mut stack);
         }
         let mut s = String::from("(set-logic QF_BV)\n(set-option :produce-models true)\n");
         for (i, n) in self.nodes.iter().enumerate() {

@@ -149,21 +149,7 @@ fn reachable(c: &Circuit, roots: &[u32]) -> Vec<bool> {
         if std::mem::replace(&mut need[i as usize], true) {
             continue;
         }
-        match *c.sym.node(i) {
-            Node::Not(a) => stack.push(a),
-            Node::And(a, b)
-            | Node::Or(a, b)
-            | Node::Add(a, b)
-            | Node::Sub(a, b)
-            | Node::Div(a, b)
-            | Node::Rem(a, b)
-            | Node::Mask(a, b)
-            | Node::Shr(a, b)
-            | Node::Eq(a, b)
-            | Node::Lt(a, b) => stack.extend([a, b]),
-            Node::Ite(_, k, a, b) => stack.extend([k, a, b]),
-            _ => {}
-        }
+        c.sym.node(i).push_operands(&mut stack);
     }
     need
 }
