@@ -14,6 +14,7 @@
 //! uses only the layers above it in the picture.
 
 pub mod cli;
+pub mod digest;
 pub mod error;
 pub mod hw;
 pub mod prereq;

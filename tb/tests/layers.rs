@@ -179,7 +179,8 @@ fn named_paths(code: &str, module: &str, children: &BTreeSet<String>) -> Vec<Str
     let mut out = Vec::new();
     let mut i = 0;
     while i < b.len() {
-        let word_start = i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_' || b[i - 1] == b':');
+        let word_start =
+            i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_' || b[i - 1] == b':');
         if !word_start || !(b[i].is_ascii_alphabetic() || b[i] == b'_') {
             i += 1;
             continue;
@@ -371,11 +372,10 @@ fn the_crate_root_draws_the_layers() {
         .lines()
         .filter_map(|l| l.strip_prefix("//!   "))
         .filter(|l| !l.trim().is_empty() && !l.trim_start().starts_with('│'))
-        .map(|l| {
-            l.split("  ").next().unwrap().split(',').map(|m| m.trim().to_string()).collect::<Vec<_>>()
-        })
+        .map(|l| l.split("  ").next().unwrap().split(',').map(|m| m.trim().to_string()).collect::<Vec<_>>())
         .collect();
-    let mut layers: Vec<Vec<String>> = LAYERS.iter().map(|l| l.iter().map(|m| m.to_string()).collect()).collect();
+    let mut layers: Vec<Vec<String>> =
+        LAYERS.iter().map(|l| l.iter().map(|m| m.to_string()).collect()).collect();
     layers.reverse();
     assert_eq!(picture, layers, "src/lib.rs's picture and LAYERS differ");
 }
@@ -407,7 +407,8 @@ fn planted_violations_are_found() {
         ("a/tests.rs".to_string(), "use crate::b::Y;\n".to_string()),
         (
             "b.rs".to_string(),
-            "// crate::a::Y\nuse rtl::a::Z;\n#[cfg(test)]\nmod tests {\n    use crate::a::Y;\n}\n".to_string(),
+            "// crate::a::Y\nuse rtl::a::Z;\n#[cfg(test)]\nmod tests {\n    use crate::a::Y;\n}\n"
+                .to_string(),
         ),
     ];
     let c = read(&files);

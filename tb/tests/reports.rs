@@ -65,7 +65,7 @@ fn run_json_states_provenance_and_the_hardware_hash_tells_presets_apart() {
     assert!(p["model"].get("commit").is_some());
     // The lock file the binary was built with, hashed as `sha256sum Cargo.lock` hashes it.
     let lock = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../Cargo.lock")).unwrap();
-    assert_eq!(p["model"]["cargo_lock"], tb::report::provenance::sha256_hex(&lock));
+    assert_eq!(p["model"]["cargo_lock"], tb::digest::sha256_hex(&lock));
     assert!(p.get("files").is_none(), "a named scene states no files");
 
     // Per-ray figures: what was simulated, divided by its rays.
@@ -86,7 +86,7 @@ fn run_json_states_provenance_and_the_hardware_hash_tells_presets_apart() {
 #[test]
 fn file_hashes_are_sha256() {
     assert_eq!(
-        tb::report::provenance::sha256_hex(b"abc"),
+        tb::digest::sha256_hex(b"abc"),
         "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
     );
 }
@@ -105,7 +105,7 @@ fn a_scene_given_by_path_states_its_files_and_their_hashes() {
     let run = |scene: &Path, more: &[&str]| {
         stdout(&sms(&[&args[..], &["--scene", scene.to_str().unwrap()], more].concat()))
     };
-    let sha = tb::report::provenance::sha256_hex(cube.as_bytes());
+    let sha = tb::digest::sha256_hex(cube.as_bytes());
     let json: Value = serde_json::from_str(&run(&mesh, &["--json"])).unwrap();
     let files = &json["provenance"]["files"];
     assert_eq!(files, &serde_json::json!([{ "path": mesh.to_str().unwrap(), "sha256": sha }]));

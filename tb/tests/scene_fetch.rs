@@ -13,7 +13,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 use std::sync::{Arc, Mutex};
 
-use tb::report::provenance::sha256_hex;
+use tb::digest::sha256_hex;
 
 /// A unit cube, as a gzip-compressed OBJ (the bunny's file name, so `bunny69k` loads it).
 fn cube_gz() -> Vec<u8> {

@@ -10,6 +10,7 @@
 
 use serde::Serialize;
 
+use crate::digest::{fnv1a64, sha256_hex};
 use crate::hw::Hardware;
 use crate::workload::scene::SourceFile;
 use crate::workload::traverse::ChildOrder;
@@ -32,17 +33,6 @@ pub struct ModelId {
 
 /// The workspace's lock file as it was when this binary was built.
 const CARGO_LOCK: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../Cargo.lock"));
-
-/// SHA-256 of `bytes`, as 64 lowercase hex digits.
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    use sha2::Digest;
-    hex(&sha2::Sha256::digest(bytes))
-}
-
-/// `bytes` as lowercase hex digits.
-pub fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
-}
 
 impl ModelId {
     pub fn current() -> Self {
@@ -88,11 +78,6 @@ impl HardwareId {
     pub fn new(name: String, hw: &Hardware) -> Self {
         HardwareId { name, hash: hardware_hash(hw) }
     }
-}
-
-/// FNV-1a, 64 bits: stable across builds and platforms (unlike `std`'s randomised hasher).
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf29ce484222325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100000001b3))
 }
 
 /// The hash of `hw`'s canonical text: every parameter by name (its `Debug` form: fields in

@@ -12,7 +12,8 @@ use std::path::{Path, PathBuf};
 
 use rtl::config::Config;
 
-use crate::report::provenance::{fnv1a64, ModelId};
+use crate::digest::fnv1a64;
+use crate::report::provenance::ModelId;
 
 /// Generated Verilog of one configuration.
 pub struct Generated {

@@ -22,7 +22,7 @@ use std::time::Duration;
 use sha2::{Digest, Sha256};
 
 use super::manifest::{Manifest, ManifestFile};
-use crate::report::provenance::hex;
+use crate::digest::hex;
 
 /// What happened to one file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -194,7 +194,7 @@ mod tests {
             file: file.into(),
             triangles: None,
             bytes: bytes.len() as u64,
-            sha256: crate::report::provenance::sha256_hex(bytes),
+            sha256: crate::digest::sha256_hex(bytes),
         }
     }
 

@@ -190,7 +190,7 @@ impl SourceFile {
             }
             hasher.update(&buf[..n]);
         }
-        let sha256 = crate::report::provenance::hex(&hasher.finalize());
+        let sha256 = crate::digest::hex(&hasher.finalize());
         Ok(SourceFile { path: path.display().to_string(), sha256 })
     }
 }
