@@ -5,7 +5,7 @@ use anyhow::Result;
 use super::stack_config::StackConfigArgs;
 use super::{Format, HardwareArgs, OutputArgs};
 use crate::report::cost::{comparison, fields_of_all, CostReport};
-use crate::report::provenance::{Provenance, WithProvenance};
+use crate::run::provenance::{Provenance, WithProvenance};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {

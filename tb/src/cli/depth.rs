@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::Context;
 
 use crate::cli::{guard, note, Format, OutputArgs, SceneArgs, WorkloadArgs};
-use crate::report::provenance::{Provenance, WithProvenance, WorkloadId};
+use crate::run::provenance::{Provenance, WithProvenance, WorkloadId};
 use crate::workload::depth::{DepthHistogram, DepthReport};
 use crate::workload::Workload;
 

@@ -490,8 +490,8 @@ impl HardwareArgs {
     }
 
     /// What reports state about this hardware: its name and a hash of `hw`, its resolution.
-    pub fn id(&self, hw: &crate::hw::Hardware) -> crate::report::provenance::HardwareId {
-        crate::report::provenance::HardwareId::new(self.name(), hw)
+    pub fn id(&self, hw: &crate::hw::Hardware) -> crate::run::provenance::HardwareId {
+        crate::run::provenance::HardwareId::new(self.name(), hw)
     }
 
     pub fn hardware(&self) -> anyhow::Result<crate::hw::Hardware> {

@@ -9,6 +9,5 @@ pub mod cost;
 pub mod depth;
 pub mod figures;
 pub mod plot;
-pub mod provenance;
 pub mod sweep;
 pub mod table;

@@ -13,8 +13,8 @@ use serde_json::{json, Value};
 
 use super::ablate::Ablation;
 use super::figures::{self, Figure};
-use super::provenance::Provenance;
 use crate::error::{Error, Result};
+use crate::run::provenance::Provenance;
 use crate::run::sweep::Sweep;
 
 /// Creates `dir` and checks that files can be written there.

@@ -1,11 +1,13 @@
 //! Running workloads on the model: the cycle-level simulation ([`sim`]), the functional level
 //! ([`functional`]) over the stack testbench ([`stack_tb`]), sampling ([`sampling`]), sweeps
-//! of configurations over scenes ([`sweep`]) and the measurements of `sms bench` ([`bench`]).
+//! of configurations over scenes ([`sweep`]), the measurements of `sms bench` ([`bench`]) and
+//! what produced a result, as every report states it ([`provenance`]).
 
 pub mod bench;
 pub mod functional;
 pub mod memory;
 pub mod pool;
+pub mod provenance;
 pub mod sampling;
 pub mod sim;
 pub mod stack_tb;

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use rtl::config::Config;
 
 use crate::digest::fnv1a64;
-use crate::report::provenance::ModelId;
+use crate::run::provenance::ModelId;
 
 /// Generated Verilog of one configuration.
 pub struct Generated {

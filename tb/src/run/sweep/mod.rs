@@ -348,8 +348,8 @@ impl Sweep {
     }
 
     /// What produced this sweep's reports: scenes and their workloads, hardware, model.
-    pub fn provenance(&self) -> crate::report::provenance::Provenance {
-        use crate::report::provenance::{HardwareId, Provenance, WorkloadId};
+    pub fn provenance(&self) -> crate::run::provenance::Provenance {
+        use crate::run::provenance::{HardwareId, Provenance, WorkloadId};
         let names = self.scenes.iter().map(|s| s.name.clone()).collect();
         let opts: Vec<WorkloadOpts> = self.scenes.iter().map(|s| s.opts).collect();
         Provenance::new(
