@@ -313,7 +313,7 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
     let rows: Vec<&str> =
         csv.lines().filter(|l| !l.starts_with('#')).skip(1).map(|l| l.split(',').next().unwrap()).collect();
     assert_eq!(rows[0], "all on");
-    let mechanisms = tb::report::ablate::MECHANISMS;
+    let mechanisms = tb::run::ablate::MECHANISMS;
     assert_eq!(rows.len(), 1 + mechanisms.len(), "{csv}");
     for (row, m) in rows[1..].iter().zip(mechanisms) {
         assert_eq!(*row, format!("{} off", m.name));
@@ -337,7 +337,7 @@ fn the_ablation_reference_is_the_sweep_and_every_mechanism_has_a_row() {
             compared += 1;
         }
     }
-    assert_eq!(compared, 2 * tb::report::ablate::HEADLINE.len());
+    assert_eq!(compared, 2 * tb::run::ablate::HEADLINE.len());
     let _ = std::fs::remove_dir_all(&abl);
     let _ = std::fs::remove_dir_all(&sw);
 }

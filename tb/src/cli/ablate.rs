@@ -1,6 +1,6 @@
 //! `sms ablate`: the headline speed-ups over RB_8 (RB_16, RB_FULL, RB_8+SH_8, +SK, SMS, RB_2)
 //! with each simulator mechanism turned off in turn, per scene and as the geometric mean. See
-//! [`crate::report::ablate`].
+//! [`crate::run::ablate`].
 //!
 //! A subcommand rather than `sms sweep --ablate`: its plan is fixed (the headline set on the
 //! base L1D, no RB or L1D sweeps), it runs one arm per mechanism and writes one table of
@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use crate::cli::sweep::{finish, print_figure, start, SweepArgs};
-use crate::report::ablate;
+use crate::run::ablate;
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {

@@ -1,8 +1,7 @@
 //! Reports: `sms bench` ([`bench`](mod@bench)), the thread-cycle breakdown ([`breakdown`]), storage cost ([`cost`]), stack depth
 //! ([`depth`](mod@depth)), tables ([`table`]), the sweep's figures ([`figures`]), ablation
-//! ([`ablate`]), report folder ([`sweep`]) and SVG charts ([`plot`]).
+//! ([`crate::run::ablate`]), report folder ([`sweep`]) and SVG charts ([`plot`]).
 
-pub mod ablate;
 pub mod bench;
 pub mod breakdown;
 pub mod cost;

@@ -11,9 +11,9 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-use super::ablate::Ablation;
 use super::figures::{self, Figure};
 use crate::error::{Error, Result};
+use crate::run::ablate::Ablation;
 use crate::run::provenance::Provenance;
 use crate::run::sweep::Sweep;
 

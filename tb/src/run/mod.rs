@@ -1,8 +1,10 @@
 //! Running workloads on the model: the cycle-level simulation ([`sim`]), the functional level
 //! ([`functional`]) over the stack testbench ([`stack_tb`]), sampling ([`sampling`]), sweeps
-//! of configurations over scenes ([`sweep`]), the measurements of `sms bench` ([`bench`]) and
-//! what produced a result, as every report states it ([`provenance`]).
+//! of configurations over scenes ([`sweep`]), the arms of `sms ablate` ([`ablate`]), the
+//! measurements of `sms bench` ([`bench`]) and what produced a result, as every report states
+//! it ([`provenance`]).
 
+pub mod ablate;
 pub mod bench;
 pub mod functional;
 pub mod memory;

@@ -17,9 +17,9 @@
 
 use serde_json::{json, Value};
 
-use super::figures::Figure;
-use super::plot::{Bars, Chart};
 use crate::error::{Error, Result};
+use crate::report::figures::Figure;
+use crate::report::plot::{Bars, Chart};
 use crate::report::table::Table;
 use crate::run::sim::Hardware;
 use crate::run::sweep::{Plan, Request, Sweep, Tweak, BASELINE};
