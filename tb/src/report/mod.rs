@@ -1,7 +1,8 @@
 //! Reports: `sms bench` ([`bench`](mod@bench)), the thread-cycle breakdown ([`breakdown`]), storage cost ([`cost`]), stack depth
 //! ([`depth`](mod@depth)), tables ([`table`]), the sweep's figures ([`figures`]), ablation
-//! ([`crate::run::ablate`]), report folder ([`sweep`]) and SVG charts ([`plot`]).
+//! ([`ablate`]), report folder ([`sweep`]) and SVG charts ([`plot`]).
 
+pub mod ablate;
 pub mod bench;
 pub mod breakdown;
 pub mod cost;

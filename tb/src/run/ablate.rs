@@ -9,20 +9,15 @@
 //!        │
 //!        ▼
 //!   table: rows = arm, columns = configuration (speed-up geomean, delta vs the reference);
-//!   per scene; chart
+//!   per scene; chart (drawn by crate::report::ablate)
 //! ```
 //!
 //! A mechanism is one entry of [`MECHANISMS`]: a name, a one-line description with its source,
 //! what "off" means and a function that turns it off. Adding a mechanism is adding one entry.
 
-use serde_json::{json, Value};
-
 use crate::error::{Error, Result};
-use crate::report::figures::Figure;
-use crate::report::plot::{Bars, Chart};
-use crate::report::table::Table;
 use crate::run::sim::Hardware;
-use crate::run::sweep::{Plan, Request, Sweep, Tweak, BASELINE};
+use crate::run::sweep::{Plan, Request, Sweep, Tweak};
 use crate::workload::scene::SceneLibrary;
 use crate::workload::traverse::ChildOrder;
 use crate::workload::{PathEnd, WorkloadOpts};
@@ -208,114 +203,6 @@ pub fn run(
     Ok(Ablation { reference, arms: mechanisms.iter().copied().zip(sweeps).collect() })
 }
 
-fn f4(v: Option<f64>) -> String {
-    v.map_or(String::new(), |v| format!("{v:.4}"))
-}
-
-/// The change from the reference, signed.
-fn delta(v: Option<f64>, reference: Option<f64>) -> String {
-    match (v, reference) {
-        (Some(v), Some(r)) => format!("{:+.4}", v - r),
-        _ => String::new(),
-    }
-}
-
-impl Ablation {
-    /// (row name, sweep) for the reference and every arm.
-    fn rows(&self) -> Vec<(String, &Sweep)> {
-        std::iter::once(("all on".to_string(), &self.reference))
-            .chain(self.arms.iter().map(|(m, s)| (format!("{} off", m.name), s)))
-            .collect()
-    }
-
-    /// The ablation table (geomeans), its per-scene table, JSON and chart, as one figure.
-    pub fn figure(&self) -> Figure {
-        let kb = self.reference.base_kb();
-        let mut table = Table::new(
-            std::iter::once("mechanism".to_string())
-                .chain(HEADLINE.iter().flat_map(|(_, short)| [short.to_string(), format!("{short} Δ")])),
-        );
-        let mut per_scene = Table::new(
-            ["mechanism".to_string(), "scene".to_string()]
-                .into_iter()
-                .chain(HEADLINE.iter().flat_map(|(_, short)| [short.to_string(), format!("{short} Δ")])),
-        );
-        let mut rows_json = Vec::new();
-        let rows = self.rows();
-        for (name, s) in &rows {
-            let arm_kb = s.base_kb();
-            let geo: Vec<Option<f64>> = HEADLINE.iter().map(|(c, _)| s.geomean_speedup(c, arm_kb)).collect();
-            let refs: Vec<Option<f64>> =
-                HEADLINE.iter().map(|(c, _)| self.reference.geomean_speedup(c, kb)).collect();
-            table.row(
-                std::iter::once(name.clone())
-                    .chain(geo.iter().zip(&refs).flat_map(|(&g, &r)| [f4(g), delta(g, r)])),
-            );
-            let mut scenes_json = Vec::new();
-            for sc in &s.scenes {
-                let v: Vec<Option<f64>> =
-                    HEADLINE.iter().map(|(c, _)| s.speedup(&sc.name, c, arm_kb)).collect();
-                let r: Vec<Option<f64>> =
-                    HEADLINE.iter().map(|(c, _)| self.reference.speedup(&sc.name, c, kb)).collect();
-                per_scene.row(
-                    [name.clone(), sc.name.clone()]
-                        .into_iter()
-                        .chain(v.iter().zip(&r).flat_map(|(&x, &y)| [f4(x), delta(x, y)])),
-                );
-                let cells: Vec<Value> =
-                    HEADLINE.iter().zip(&v).map(|((c, _), x)| json!({ "config": c, "speedup": x })).collect();
-                scenes_json.push(json!({ "scene": sc.name, "speedups": cells }));
-            }
-            let cells: Vec<Value> =
-                HEADLINE.iter().zip(&geo).map(|((c, _), g)| json!({ "config": c, "geomean": g })).collect();
-            rows_json.push(json!({ "arm": name, "geomean": cells, "per_scene": scenes_json }));
-        }
-        // Chart: one row per (configuration, arm), grouped by configuration; one colour per arm.
-        let mut labels = Vec::new();
-        let mut bars: Vec<Bars> =
-            rows.iter().map(|(name, _)| Bars { name: name.clone(), values: Vec::new() }).collect();
-        for (c, short) in HEADLINE {
-            for (a, (name, s)) in rows.iter().enumerate() {
-                labels.push(format!("{short} · {}", name.trim_end_matches(" off")));
-                for (b, set) in bars.iter_mut().enumerate() {
-                    set.values.push(if a == b { s.geomean_speedup(c, s.base_kb()) } else { None });
-                }
-            }
-        }
-        let mechanisms: Vec<Value> = self
-            .arms
-            .iter()
-            .map(|(m, _)| json!({ "name": m.name, "what": m.what, "off_means": m.off_means }))
-            .collect();
-        let list: String = self
-            .arms
-            .iter()
-            .map(|(m, _)| format!("\n- **{}**: {}. Off: {}.", m.name, m.what, m.off_means))
-            .collect();
-        Figure {
-            name: "ablation",
-            title: format!("Headline speed-ups over {BASELINE} with one mechanism off ({kb} KB L1D)"),
-            note: format!(
-                "Each row turns one simulator mechanism off, everything else as in the reference ('all on'); \
-                 cells are geometric means over the scenes of {BASELINE}'s whole-frame cycles over the \
-                 configuration's, Δ the change from the reference. A conclusion that holds in every row does not \
-                 rest on any of these mechanisms.{list}"
-            ),
-            table,
-            per_scene: Some(per_scene),
-            json: json!({ "baseline": BASELINE, "l1d_kb": kb, "mechanisms": mechanisms, "rows": rows_json }),
-            chart: Chart::HBars {
-                x_desc: format!("speed-up over {BASELINE} (geomean over scenes)"),
-                labels,
-                bars,
-                dots: Vec::new(),
-                rule: Some(1.0),
-                zoom: true,
-            },
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -363,7 +250,7 @@ mod tests {
     fn the_plan_is_the_headline_set() {
         let v = plan().unwrap().variants(64).unwrap();
         let names: Vec<String> = v.iter().map(|v| v.config.name()).collect();
-        assert_eq!(names[0], BASELINE);
+        assert_eq!(names[0], crate::run::sweep::BASELINE);
         assert_eq!(names.len(), 1 + HEADLINE.len());
     }
 }
