@@ -15,7 +15,7 @@ use std::path::Path;
 /// The layers, lowest first. A module may name modules of lower layers only.
 const LAYERS: &[&[&str]] = &[
     // Errors, and digests of bytes (file hashes, model and hardware identities).
-    &["error"],
+    &["error", "digest"],
     // Hardware descriptions and presets; waveform writing and checking.
     &["hw", "vcd"],
     // Scenes, BVHs, rays, recorded traversals, warps.

@@ -12,8 +12,8 @@ use std::process::Command;
 
 use rtl::config::Config;
 use tb::run::verify::harness::RunSummary;
+use tb::run::waves::{examples, write_examples, Example};
 use tb::vcd::check::{compare, read, Mode, Recorder, Waves};
-use tb::vcd::examples::{examples, write_examples, Example};
 use tb::vcd::{Selection, Tee, VcdError, VcdOptions, VcdSink};
 
 /// The first example's configuration (SMS on RB_2 + SH_4, 2 warp slots of 8 lanes) with a

@@ -1,8 +1,8 @@
 //! Running workloads on the model: the cycle-level simulation ([`sim`]), the functional level
 //! ([`functional`]) over the stack testbench ([`stack_tb`]), sampling ([`sampling`]), sweeps
 //! of configurations over scenes ([`sweep`]), the arms of `sms ablate` ([`ablate`]), the
-//! measurements of `sms bench` ([`bench`]) and what produced a result, as every report states
-//! it ([`provenance`]).
+//! measurements of `sms bench` ([`bench`]), small example waveforms of the stack unit
+//! ([`waves`]) and what produced a result, as every report states it ([`provenance`]).
 
 pub mod ablate;
 pub mod bench;
@@ -15,3 +15,4 @@ pub mod sim;
 pub mod stack_tb;
 pub mod sweep;
 pub mod verify;
+pub mod waves;

@@ -20,7 +20,6 @@
 //! reported by [`VcdSink::finish`], which the caller must call.
 
 pub mod check;
-pub mod examples;
 pub mod gtkw;
 
 use std::fmt;

@@ -14,7 +14,7 @@ use rtl::config::{Config, Realloc};
 use rtl::stack_unit::StandaloneStack;
 use rtl::trace::Sink;
 
-use super::{Selection, VcdOptions, VcdSink};
+use crate::vcd::{Selection, VcdOptions, VcdSink};
 
 /// Global-memory latency of the examples: short, so waits are visible without long dead spans.
 pub const LATENCY: u64 = 20;
@@ -100,10 +100,10 @@ pub fn examples() -> Vec<Example> {
 }
 
 /// Writes every example as `dir/NAME.vcd` with its `dir/NAME.gtkw`, and the translate filter
-/// file of every enumeration ([`super::gtkw::write_filters`]); returns the dump paths.
+/// file of every enumeration ([`crate::vcd::gtkw::write_filters`]); returns the dump paths.
 pub fn write_examples(dir: &Path) -> Result<Vec<PathBuf>, Box<dyn Error>> {
     std::fs::create_dir_all(dir)?;
-    super::gtkw::write_filters(dir)?;
+    crate::vcd::gtkw::write_filters(dir)?;
     let mut written = Vec::new();
     for ex in examples() {
         let opts = VcdOptions { path: dir.join(format!("{}.vcd", ex.name)), select: ex.select.clone() };
