@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{Format, HardwareArgs, OutputArgs, SceneArgs, WorkloadArgs};
-use crate::report::bench::Report;
+use crate::run::bench::data::Report;
 use crate::run::bench::{bench_scene, BenchOpts};
 use crate::run::sampling::SampleMode;
 

@@ -10,8 +10,10 @@
 //!                in every scene and configuration, is within the tolerance
 //! ```
 //!
-//! The data, its headline metrics and the choice of setting are in [`crate::report::bench`],
-//! which also renders them. Times include tracing the rays on demand, not building the BVH.
+//! The data, its headline metrics and the choice of setting are in [`data`]; they are drawn by
+//! [`crate::report::bench`]. Times include tracing the rays on demand, not building the BVH.
+
+pub mod data;
 
 use std::collections::BTreeMap;
 use std::hint::black_box;
@@ -21,7 +23,7 @@ use rtl::config::Config;
 use rtl::trace::{NullSink, Sink};
 
 use crate::error::{Error, Result};
-use crate::report::bench::{
+use crate::run::bench::data::{
     Errors, Report, Row, Sample, Saving, SceneInfo, Setting, Throughput, Values, Work, BASELINE,
 };
 use crate::run::functional;

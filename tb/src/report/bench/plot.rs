@@ -2,9 +2,9 @@
 
 use std::path::Path;
 
-use super::{by_setting, Headline, Report, Setting};
 use crate::error::Result;
 use crate::report::plot::{log_scatter, LabelledPoints};
+use crate::run::bench::data::{by_setting, Headline, Report, Setting};
 use crate::run::sim::Fidelity;
 
 impl Report {

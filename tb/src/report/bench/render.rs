@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use super::tables::pct;
-use super::{fastest_within, worse, Headline, Report, Setting};
 use crate::error::{Error, Result};
 use crate::report::table::Table;
+use crate::run::bench::data::{fastest_within, worse, Headline, Report, Setting};
 use crate::run::sim::Fidelity;
 
 impl Report {

@@ -1,8 +1,8 @@
 //! `sms bench`'s tables: one row per run, per setting, and the throughput, work and savings
 //! tables, rendered as text, Markdown or CSV by [`Table`].
 
-use super::{by_setting, worse, Errors, Headline, Report, Setting, Work};
 use crate::report::table::Table;
+use crate::run::bench::data::{by_setting, worse, Errors, Headline, Report, Setting, Work};
 
 /// A relative error as a percentage; `n/a` where not measured.
 pub(super) fn pct(e: Option<f64>) -> String {
