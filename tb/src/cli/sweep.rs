@@ -9,9 +9,9 @@ use anyhow::bail;
 
 use crate::cli::stack_config::StackConfigArgs;
 use crate::cli::{Format, HardwareArgs, OutputArgs, SampleArgs, SceneArgs, WorkloadArgs};
-use crate::report::figures::Figure;
-use crate::run::provenance::Provenance;
+use crate::report::figure::Figure;
 use crate::report::sweep::{figure_json, figure_markdown};
+use crate::run::provenance::Provenance;
 use crate::run::sweep::{self, Plan, Progress, Request, DEFAULT_SAMPLE, SAMPLE_ERROR};
 
 /// `--quick`: the built-in scenes, tiny.

@@ -3,7 +3,7 @@
 
 use serde_json::{json, Value};
 
-use super::figures::Figure;
+use super::figure::Figure;
 use super::plot::{Bars, Chart};
 use crate::report::table::Table;
 use crate::run::ablate::{Ablation, HEADLINE};

@@ -7,7 +7,7 @@ use rtl::thread_cycles::ThreadCycles;
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use super::figures::Figure;
+use super::figure::Figure;
 use plotters::style::RGBColor;
 
 use super::plot::{color, Bars, Chart};

@@ -7,27 +7,13 @@
 
 use serde_json::{json, Value};
 
+use super::figure::Figure;
 use super::plot::{family_shades, Bars, Chart, Line, Point};
 use crate::error::{Error, Result};
 use crate::report::cost::CostReport;
 use crate::report::table::Table;
 use crate::run::sim::Outcome;
 use crate::run::sweep::{geomean, with_sms, Sweep, Variant, BASELINE};
-
-/// One figure of the report.
-#[derive(Clone, Debug)]
-pub struct Figure {
-    /// File stem in the report folder.
-    pub name: &'static str,
-    pub title: String,
-    /// What the figure shows and how its numbers were computed.
-    pub note: String,
-    pub table: Table,
-    /// The figure's numbers scene by scene, when `table` does not already give them per scene.
-    pub per_scene: Option<Table>,
-    pub json: Value,
-    pub chart: Chart,
-}
 
 /// Every figure, in report order.
 pub fn all(s: &Sweep) -> Result<Vec<Figure>> {

@@ -1,5 +1,6 @@
-//! Reports: `sms bench` ([`bench`](mod@bench)), the thread-cycle breakdown ([`breakdown`]), storage cost ([`cost`]), stack depth
-//! ([`depth`](mod@depth)), tables ([`table`]), the sweep's figures ([`figures`]), ablation
+//! Reports: `sms bench` ([`bench`](mod@bench)), the thread-cycle breakdown ([`breakdown`]),
+//! storage cost ([`cost`]), stack depth ([`depth`](mod@depth)), tables ([`table`]), what a
+//! figure is ([`figure`]), the sweep's figures ([`figures`]), the ablation's figure
 //! ([`ablate`]), report folder ([`sweep`]) and SVG charts ([`plot`]).
 
 pub mod ablate;
@@ -7,6 +8,7 @@ pub mod bench;
 pub mod breakdown;
 pub mod cost;
 pub mod depth;
+pub mod figure;
 pub mod figures;
 pub mod plot;
 pub mod sweep;

@@ -11,7 +11,8 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-use super::figures::{self, Figure};
+use super::figure::Figure;
+use super::figures;
 use crate::error::{Error, Result};
 use crate::run::ablate::Ablation;
 use crate::run::provenance::Provenance;
