@@ -15,7 +15,7 @@ use base64::Engine;
 use glam::{Affine3A, Mat4, Vec3A};
 use gltf::{buffer::Source, mesh::Mode};
 
-use super::mesh::{checked_vertex, TriangleSink};
+use super::sink::{checked_vertex, TriangleSink};
 use super::{Instance, MeshGeometry};
 use crate::error::{Error, Result};
 

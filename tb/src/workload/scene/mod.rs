@@ -22,6 +22,7 @@ mod mesh;
 mod obj;
 mod ply;
 pub mod procedural;
+mod sink;
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -513,7 +514,7 @@ impl SceneLibrary {
     /// One mesh file, identity transform, camera framing its bounds, LumiBench render settings.
     fn load_mesh_file(&self, path: &Path) -> Result<Scene> {
         let mut triangles = Vec::new();
-        let mut sink = mesh::TriangleSink::new(&mut triangles);
+        let mut sink = sink::TriangleSink::new(&mut triangles);
         mesh::load_mesh(path, &Affine3A::IDENTITY, &mut sink)?;
         let (dropped_degenerate, objects) = (sink.dropped, std::mem::take(&mut sink.objects));
         let primitives = Primitives::Triangles(triangles);
@@ -570,7 +571,7 @@ impl SceneLibrary {
             return Err(Error::format(path, "mesh", "no [[mesh]] entries"));
         }
         let mut triangles = Vec::new();
-        let mut sink = mesh::TriangleSink::new(&mut triangles);
+        let mut sink = sink::TriangleSink::new(&mut triangles);
         for m in &desc.mesh {
             let xf = match m.transform {
                 Some(rows) => {

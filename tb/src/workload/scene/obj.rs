@@ -18,7 +18,7 @@ use std::io::BufRead;
 
 use glam::Vec3A;
 
-use super::mesh::{checked_vertex, MeshFile, TriangleSink};
+use super::sink::{checked_vertex, MeshFile, TriangleSink};
 use crate::error::{Error, Result};
 
 /// Reads the OBJ text in `reader` into `sink`.

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use glam::Vec3A;
 
-use super::mesh::{checked_vertex, MeshFile, TriangleSink};
+use super::sink::{checked_vertex, MeshFile, TriangleSink};
 use crate::error::{Error, Result};
 
 #[derive(Clone, Copy, Debug)]

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 use glam::{vec3a, Affine3A};
 
-use super::mesh::{load_mesh, TriangleSink};
+use super::mesh::load_mesh;
+use super::sink::TriangleSink;
 use super::*;
 
 /// A fresh folder for one test's files.
