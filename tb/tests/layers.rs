@@ -5,8 +5,10 @@
 //! The test reads the sources (no parser). A file's paths are those of its code outside comments
 //! and outside its `#[cfg(test)]` modules (inline, or files declared under `#[cfg(test)]`):
 //! `crate::a::b`, `super::a`, `self::a` and, in a module with child modules, `child::a`, with
-//! `{..}` groups expanded. Each names the deepest module file it reaches; `crate::a` names the
-//! top-level module `a`. The tests fail naming each offending file and path, or each circle.
+//! `{..}` groups expanded, and an item the crate root re-exports read as the path it comes from.
+//! Each names the deepest module file it reaches. A file naming a module that contains it
+//! (`super::Item`) makes no circle. The tests fail naming each offending file and path, or each
+//! circle.
 //! `planted_violations_are_found` shows each check catches a synthetic import.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -235,18 +237,37 @@ fn read(files: &[(String, String)]) -> Crate {
     }
     // A module declared under `#[cfg(test)]`, and everything inside it, is test code.
     let is_test = |m: &str| test_modules.iter().any(|t| m == t || m.starts_with(&format!("{t}::")));
+    let children_of = |m: &str| -> BTreeSet<String> {
+        modules
+            .keys()
+            .filter(|c| !c.is_empty() && parent(c) == m)
+            .map(|c| c.rsplit("::").next().unwrap().to_string())
+            .collect()
+    };
+    // What the crate root re-exports (`pub use workload::scene::Scene`): `Scene` → its path, so
+    // `crate::Scene` names the module it comes from.
+    let root_items: BTreeMap<String, String> = codes
+        .get("")
+        .map(|(_, code)| named_paths(code, "", &children_of("")))
+        .into_iter()
+        .flatten()
+        .filter(|p| !modules.contains_key(p))
+        .map(|p| (p.rsplit("::").next().unwrap().to_string(), p))
+        .collect();
     let mut out = Crate { files: BTreeMap::new() };
     for (m, (rel, code)) in &codes {
         if is_test(m) {
             continue;
         }
-        let children: BTreeSet<String> = modules
-            .keys()
-            .filter(|c| !c.is_empty() && parent(c) == *m)
-            .map(|c| c.rsplit("::").next().unwrap().to_string())
-            .collect();
         let mut named = BTreeSet::new();
-        for p in named_paths(code, m, &children) {
+        for p in named_paths(code, m, &children_of(m)) {
+            let (first, rest) = p.split_once("::").unwrap_or((&p, ""));
+            let p = match root_items.get(first) {
+                Some(item) if !m.is_empty() => {
+                    format!("{item}{}{rest}", if rest.is_empty() { "" } else { "::" })
+                }
+                _ => p.clone(),
+            };
             // The deepest module file the path reaches.
             let mut q = p.as_str();
             loop {
@@ -364,20 +385,25 @@ fn no_files_name_each_other_in_a_circle() {
     assert!(found.is_empty(), "files naming each other in a circle: {found:?}");
 }
 
+/// The layers a crate-root doc picture draws, top to bottom: each line of the picture that
+/// starts with a module name lists its layer's modules, comma-separated, up to two spaces.
+fn picture(lib: &str) -> Vec<Vec<String>> {
+    lib.lines()
+        .filter_map(|l| l.strip_prefix("//!   "))
+        .filter(|l| l.starts_with(|c: char| c.is_ascii_lowercase()))
+        .map(|l| l.split("  ").next().unwrap().split(',').map(|m| m.trim().to_string()).collect())
+        .collect()
+}
+
+/// `LAYERS` top to bottom, as the picture draws them.
+fn layers_top_down() -> Vec<Vec<String>> {
+    LAYERS.iter().rev().map(|l| l.iter().map(|m| m.to_string()).collect()).collect()
+}
+
 #[test]
 fn the_crate_root_draws_the_layers() {
-    // lib.rs's picture lists the layers top to bottom, one line each, as `LAYERS` has them.
     let lib = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/lib.rs")).unwrap();
-    let picture: Vec<Vec<String>> = lib
-        .lines()
-        .filter_map(|l| l.strip_prefix("//!   "))
-        .filter(|l| !l.trim().is_empty() && !l.trim_start().starts_with('│'))
-        .map(|l| l.split("  ").next().unwrap().split(',').map(|m| m.trim().to_string()).collect::<Vec<_>>())
-        .collect();
-    let mut layers: Vec<Vec<String>> =
-        LAYERS.iter().map(|l| l.iter().map(|m| m.to_string()).collect()).collect();
-    layers.reverse();
-    assert_eq!(picture, layers, "src/lib.rs's picture and LAYERS differ");
+    assert_eq!(picture(&lib), layers_top_down(), "src/lib.rs's picture and LAYERS differ");
 }
 
 #[test]
@@ -390,14 +416,38 @@ fn planted_violations_are_found() {
     // A layer's files naming each other: each is a circle of two.
     files.push(("workload/planted_a.rs".into(), "use super::planted_b::B;\npub struct A;\n".into()));
     files.push(("workload/planted_b.rs".into(), "pub struct B(crate::workload::planted_a::A);\n".into()));
+    // A module naming one beside it in its layer.
+    let vcd = files.iter_mut().find(|(rel, _)| rel == "vcd/mod.rs").unwrap();
+    vcd.1.push_str("\nfn planted(_: crate::hw::Hardware) {}\n");
+    // A module below workload naming a workload type through the crate root's re-export.
+    let hw = files.iter_mut().find(|(rel, _)| rel == "hw/mod.rs").unwrap();
+    hw.1.push_str("\nfn planted(_: &crate::Scene) {}\n");
+    // A module in no layer.
+    files.push(("planted.rs".into(), "pub struct P;\n".into()));
     let c = read(&files);
     let found: Vec<String> = layer_violations(&c).into_iter().filter(|v| !before.contains(v)).collect();
-    assert_eq!(found, vec!["run/sim.rs names report::table (run → report)".to_string()]);
+    assert_eq!(
+        found,
+        vec![
+            "hw/mod.rs names workload::scene (hw → workload)".to_string(),
+            "planted.rs: module `planted` is in no layer".to_string(),
+            "run/sim.rs names report::table (run → report)".to_string(),
+            "vcd/mod.rs names hw (vcd → hw)".to_string(),
+        ]
+    );
     assert!(
         circles(&c).contains(&vec!["workload::planted_a".to_string(), "workload::planted_b".to_string()]),
         "the planted circle is not found: {:?}",
         circles(&c)
     );
+
+    // A picture with two layers swapped, or a module left out, is not `LAYERS`.
+    let lib = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/lib.rs")).unwrap();
+    let swapped =
+        lib.replacen("//!   report ", "//!   REPORT ", 1).replacen("//!   run ", "//!   report ", 1);
+    let swapped = swapped.replacen("//!   REPORT ", "//!   run ", 1);
+    assert_ne!(picture(&swapped), layers_top_down());
+    assert_ne!(picture(&lib.replacen("hw, vcd", "hw", 1)), layers_top_down());
 
     // What is no edge: comments, unit tests (inline or a file declared under `#[cfg(test)]`),
     // other crates' paths.
