@@ -1,7 +1,7 @@
 //! Running workloads on the model: the cycle-level simulation ([`sim`]), the functional level
 //! ([`functional`]) over the stack testbench ([`stack_tb`]), sampling ([`sampling`]), sweeps
 //! of configurations over scenes ([`sweep`]), the arms of `sms ablate` ([`ablate`]), the
-//! measurements of `sms bench` ([`bench`]), small example waveforms of the stack unit
+//! measurements of `sms bench` ([`bench`](mod@bench)), small example waveforms of the stack unit
 //! ([`waves`]) and what produced a result, as every report states it ([`provenance`]).
 
 pub mod ablate;

@@ -1,5 +1,5 @@
-//! `sms bench`'s report: the verdict, tables and files ([`render`], [`tables`]) and the plot
-//! ([`plot`](mod@plot)) of the data in [`crate::run::bench::data`].
+//! `sms bench`'s report: the verdict, tables and files (`render`, `tables`) and the plot (`plot`)
+//! of the data in [`crate::run::bench::data`].
 
 mod plot;
 mod render;
