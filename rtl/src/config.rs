@@ -312,6 +312,25 @@ impl Config {
         if !(4..=32).contains(&self.spill_ptr_bits) {
             return Err(reject("spill_ptr_bits", self.spill_ptr_bits, "must be 4 to 32"));
         }
+        if let ShPolicy::Group { ra, lanes } = self.policy {
+            if lanes < 2 || !lanes.is_power_of_two() || lanes > self.warp_size {
+                return Err(reject(
+                    "lend_group",
+                    lanes,
+                    format!(
+                        "a lending group must be a power of two from 2 to the warp size ({})",
+                        self.warp_size
+                    ),
+                ));
+            }
+            if ra.borrow_limit >= lanes {
+                return Err(reject(
+                    "borrow_limit",
+                    ra.borrow_limit,
+                    format!("a group of {lanes} lanes lends at most {} stacks to one thread", lanes - 1),
+                ));
+            }
+        }
         if let Some(ra) = self.realloc() {
             if m == 0 {
                 return Err(reject(
@@ -336,25 +355,6 @@ impl Config {
             }
             if !(1..=15).contains(&ra.flush_limit) {
                 return Err(reject("flush_limit", ra.flush_limit, "must be 1 to 15"));
-            }
-        }
-        if let ShPolicy::Group { ra, lanes } = self.policy {
-            if lanes < 2 || !lanes.is_power_of_two() || lanes > self.warp_size {
-                return Err(reject(
-                    "lend_group",
-                    lanes,
-                    format!(
-                        "a lending group must be a power of two from 2 to the warp size ({})",
-                        self.warp_size
-                    ),
-                ));
-            }
-            if ra.borrow_limit >= lanes {
-                return Err(reject(
-                    "borrow_limit",
-                    ra.borrow_limit,
-                    format!("a group of {lanes} lanes lends at most {} stacks to one thread", lanes - 1),
-                ));
             }
         }
         if self.skew && m == 0 {
@@ -592,7 +592,9 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        for name in ["RB_8", "RB_FULL", "RB_8+SH_8", "RB_8+SH_8+SK", "RB_8+SH_8+SK+RA", "RB_2+SH_8+SK+RA"] {
+        for name in
+            ["RB_8", "RB_FULL", "RB_8+SH_8", "RB_8+SH_8+SK", "RB_8+SH_8+SK+RA", "RB_2+SH_8+SK+RA", "RB_8+SH_8+SK+RA_8"]
+        {
             let c: Config = name.parse().unwrap();
             assert_eq!(c.name(), name);
         }
@@ -624,6 +626,25 @@ mod tests {
             ..Config::sms()
         };
         assert_eq!(bad.validate().unwrap_err().parameter, "borrow_limit");
+    }
+
+    #[test]
+    fn a_lending_group_derives_its_limits() {
+        let g: Config = "RB_8+SH_8+SK+RA_4".parse().unwrap();
+        assert_eq!(g.policy, ShPolicy::Group { ra: Realloc { borrow_limit: 3, flush_limit: 3 }, lanes: 4 });
+        assert_eq!(g.policy.chain_bound(), 4);
+        assert_eq!(g.widths().unwrap().priority, 2, "ranks 0..=3");
+        assert_eq!(g.policy.lend_window(6, 32), (4, 4));
+        let wide: Config = "RB_8+SH_8+SK+RA_32".parse().unwrap();
+        assert_eq!(wide.realloc(), Config::sms().realloc(), "a warp-wide group keeps the paper's limits");
+        assert_eq!(wide.widths().unwrap(), Config::sms().widths().unwrap());
+        for bad in ["RB_8+SH_8+RA_3", "RB_8+SH_8+RA_1", "RB_8+SH_8+RA_64", "RB_8+SH_8+RA_x"] {
+            assert_eq!(bad.parse::<Config>().unwrap_err().parameter, "lend_group", "{bad}");
+        }
+        let narrow = Config { warp_size: 2, ..g };
+        assert_eq!(narrow.validate().unwrap_err().parameter, "lend_group", "a group wider than the warp");
+        let greedy = Config { policy: ShPolicy::Group { ra: Realloc::default(), lanes: 2 }, ..g };
+        assert_eq!(greedy.validate().unwrap_err().parameter, "borrow_limit");
     }
 
     #[test]

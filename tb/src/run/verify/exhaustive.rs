@@ -1575,7 +1575,26 @@ pub fn small_configs() -> Vec<Config> {
 pub fn full_configs() -> Vec<Config> {
     let mut out: Vec<Config> = small_configs().into_iter().collect();
     out.extend(skew_configs().into_iter().filter(|c| c.realloc().is_none()));
+    out.extend(group_configs());
     out
+}
+
+/// Reallocation within groups of 2 lanes (`+RA_2`) in a 4-thread warp: a lane's group holds
+/// one stack to lend, the other group's idle stacks are out of its reach.
+pub fn group_configs() -> Vec<Config> {
+    use rtl::config::{RbSize, Realloc, ShPolicy};
+    [(1, 2, true), (2, 1, false)]
+        .into_iter()
+        .map(|(n, m, skew)| Config {
+            rb: RbSize::Entries(n),
+            sh_entries: m,
+            skew,
+            policy: ShPolicy::Group { ra: Realloc { borrow_limit: 1, flush_limit: 1 }, lanes: 2 },
+            warp_size: 4,
+            warps: 1,
+            ..Config::default()
+        })
+        .collect()
 }
 
 /// One case of `sms check --full`: a configuration, the lanes active when its warp loads, and
