@@ -24,7 +24,13 @@ fn group_configurations_reach_their_fixpoint_with_every_cover() {
         assert!(matches!(c.policy, ShPolicy::Group { lanes: 2, .. }), "{}", c.name());
         let cov = check(*c, Bounds::fixpoint(default_cap(c)), |sm| sm)
             .unwrap_or_else(|e| panic!("{}: {e}", describe(c)));
-        println!("{:48} states {:8} depth {:3} in {:>7.2?}", describe(c), cov.states, cov.depth_reached, cov.elapsed);
+        println!(
+            "{:48} states {:8} depth {:3} in {:>7.2?}",
+            describe(c),
+            cov.states,
+            cov.depth_reached,
+            cov.elapsed
+        );
         assert!(cov.fixpoint, "{}: no fixpoint", describe(c));
         assert_eq!(cov.covers.missing(c), vec![], "{}: cover goals never reached", describe(c));
         assert!(cov.borrows > 0 && cov.flushes > 0, "{}: {cov:?}", describe(c));
@@ -66,7 +72,14 @@ fn the_group_policy_equals_its_specification_with_two_solvers() {
         for ob in obligations(&c) {
             for o in prove(&c, &Group, &ob, &sv, LIMIT).unwrap() {
                 println!("{:44} {:24} {:10} {:6.1} s", o.property, c.name(), o.solver.name(), o.seconds);
-                assert_eq!(o.verdict, Verdict::Proved, "{} at {} by {}", o.property, c.name(), o.solver.name());
+                assert_eq!(
+                    o.verdict,
+                    Verdict::Proved,
+                    "{} at {} by {}",
+                    o.property,
+                    c.name(),
+                    o.solver.name()
+                );
             }
         }
     }

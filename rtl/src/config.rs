@@ -592,9 +592,15 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        for name in
-            ["RB_8", "RB_FULL", "RB_8+SH_8", "RB_8+SH_8+SK", "RB_8+SH_8+SK+RA", "RB_2+SH_8+SK+RA", "RB_8+SH_8+SK+RA_8"]
-        {
+        for name in [
+            "RB_8",
+            "RB_FULL",
+            "RB_8+SH_8",
+            "RB_8+SH_8+SK",
+            "RB_8+SH_8+SK+RA",
+            "RB_2+SH_8+SK+RA",
+            "RB_8+SH_8+SK+RA_8",
+        ] {
             let c: Config = name.parse().unwrap();
             assert_eq!(c.name(), name);
         }

@@ -803,3 +803,87 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         }
     }
 }
+
+/// The paper's decisions, one by one, on a warp of 4 lanes with one RB and one SH entry per lane
+/// (every third push decides something), completing each command's micro-ops at once.
+#[cfg(test)]
+mod tests {
+    use crate::config::Config;
+    use crate::stack_manager::{Cmd, StackManager};
+
+    /// `name` on one 4-lane warp; with reallocation, a borrow limit of 2 (chains of three).
+    fn manager(name: &str) -> StackManager {
+        let mut cfg = Config { warp_size: 4, warps: 1, ..name.parse::<Config>().unwrap() };
+        if let Some(ra) = cfg.policy.realloc_mut() {
+            ra.borrow_limit = 2;
+        }
+        StackManager::new(cfg, 0).unwrap()
+    }
+
+    fn pushes(sm: &mut StackManager, t: u32, values: std::ops::RangeInclusive<u64>) {
+        for v in values {
+            sm.apply(t, Cmd::Push(v)).unwrap();
+        }
+    }
+
+    /// Pops thread `t` empty, newest first.
+    fn pop_all(sm: &mut StackManager, t: u32) -> Vec<u64> {
+        std::iter::from_fn(|| sm.apply(t, Cmd::Pop).ok().flatten()).collect()
+    }
+
+    #[test]
+    fn without_reallocation_a_full_chain_spills_its_oldest_entry_to_global() {
+        let mut sm = manager("RB_1+SH_1");
+        pushes(&mut sm, 0, 1..=3);
+        assert_eq!((sm.stats.rb_to_sh, sm.stats.sh_to_global), (2, 1));
+        assert_eq!(sm.global(0), [1], "the oldest entry left for global memory");
+        assert_eq!(pop_all(&mut sm, 0), [3, 2, 1]);
+        assert_eq!(sm.stats.global_to_sh, 1);
+    }
+
+    #[test]
+    fn a_full_top_borrows_the_lowest_idle_stack_then_flushes_the_oldest() {
+        let mut sm = manager("RB_1+SH_1+RA");
+        for t in [2, 3] {
+            sm.apply(t, Cmd::Finish).unwrap();
+            assert!(sm.stack(t).idle, "a finished thread's stack is free to lend");
+        }
+        pushes(&mut sm, 0, 1..=3);
+        assert_eq!(sm.chain(0), [0, 2], "the lowest Idle stack, linked after the owner");
+        assert!(!sm.stack(2).idle);
+        assert_eq!((sm.stack(0).priority, sm.stack(2).priority), (0, 1));
+        // The next full top borrows lane 3 (a chain of three is the limit); the one after
+        // flushes the oldest.
+        pushes(&mut sm, 0, 4..=4);
+        assert_eq!(sm.chain(0), [0, 3, 2]);
+        pushes(&mut sm, 0, 5..=5);
+        assert_eq!((sm.stats.borrows, sm.stats.flushes), (2, 1));
+        assert_eq!(sm.global(0), [1], "the flush wrote the oldest stack to global memory");
+        assert_eq!(pop_all(&mut sm, 0), [5, 4, 3, 2, 1]);
+    }
+
+    #[test]
+    fn a_drained_borrowed_top_is_given_back() {
+        let mut sm = manager("RB_1+SH_1+RA");
+        sm.apply(1, Cmd::Finish).unwrap();
+        pushes(&mut sm, 0, 1..=3);
+        assert_eq!(sm.chain(0), [0, 1]);
+        assert_eq!(sm.apply(0, Cmd::Pop).unwrap(), Some(3));
+        // The pop reloaded the RB from the borrowed top (entry 2), which drained it.
+        assert_eq!(sm.apply(0, Cmd::Pop).unwrap(), Some(2));
+        assert_eq!(sm.chain(0), [0], "released");
+        let s = sm.stack(1);
+        assert!(s.idle && s.priority == 0 && s.next_tid == 1, "back with its owner: {s:?}");
+        assert_eq!(sm.stats.releases, 1);
+    }
+
+    #[test]
+    fn finish_is_refused_with_entries_and_lends_only_with_reallocation() {
+        let mut sm = manager("RB_1+SH_1+RA");
+        sm.apply(0, Cmd::Push(7)).unwrap();
+        assert!(sm.apply(0, Cmd::Finish).is_err(), "a thread with entries cannot finish");
+        let mut plain = manager("RB_1+SH_1");
+        plain.apply(0, Cmd::Finish).unwrap();
+        assert!(plain.thread(0).done && !plain.stack(0).idle, "without RA nothing is lent");
+    }
+}
