@@ -475,12 +475,6 @@ impl RtUnit {
         self.warp_buffer.empty()
     }
 
-    /// The first cycle after the last commit in which this unit does something even if no
-    /// memory response arrives; `None` when it only waits for memory (or is empty).
-    pub fn next_event(&self) -> Option<u64> {
-        self.next_event
-    }
-
     /// Which source drives the port when it is ready (from registers): by `port_priority`, the
     /// stack's head request or the node fetch queue's head.
     fn port(&self) -> Port {
@@ -667,6 +661,12 @@ impl RtUnit {
 }
 
 impl Unit for RtUnit {
+    /// The first cycle after the last commit in which this unit does something even if no
+    /// memory response arrives; `None` when it only waits for memory (or is empty).
+    fn next_event(&self) -> Option<u64> {
+        self.next_event
+    }
+
     type In<'a> = RtIn<'a>;
     type Step = RtStep;
 
