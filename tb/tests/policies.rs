@@ -58,3 +58,11 @@ fn a_group_whose_search_spans_the_warp_is_caught() {
         other => panic!("a warp-wide search under RA_2 went unnoticed: {other:?}"),
     }
 }
+
+#[test]
+fn the_verilog_printer_refuses_a_group_policy_in_one_line() {
+    let e = tb::verilog::generate(&cfg("RB_2+SH_2+SK+RA_2"), false)
+        .err()
+        .expect("printed a policy it does not print");
+    assert!(e.contains("RA_2") && e.contains("not printed") && !e.contains('\n'), "{e}");
+}

@@ -66,8 +66,7 @@ pub fn generate(cfg: &Config, acked: bool) -> Result<Generated, String> {
     cfg.validate().map_err(|e| e.to_string())?;
     if let rtl::config::ShPolicy::Group { lanes, .. } = cfg.policy {
         return Err(format!(
-            "{}: the Verilog printer emits the paper's policy (RA); reallocation within groups of {lanes} lanes (RA_{lanes}) is simulated and proved but not printed",
-            cfg.name()
+            "the Verilog printer emits the paper's policy (RA); reallocation within groups of {lanes} lanes (RA_{lanes}) is simulated and proved but not printed"
         ));
     }
     let circuit = build::warp(cfg, acked)?;

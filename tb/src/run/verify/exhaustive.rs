@@ -1583,7 +1583,7 @@ pub fn full_configs() -> Vec<Config> {
 /// one stack to lend, the other group's idle stacks are out of its reach.
 pub fn group_configs() -> Vec<Config> {
     use rtl::config::{RbSize, Realloc, ShPolicy};
-    [(1, 2, true), (2, 1, false)]
+    [(1, 1, true), (2, 1, false)]
         .into_iter()
         .map(|(n, m, skew)| Config {
             rb: RbSize::Entries(n),
