@@ -1,6 +1,6 @@
 //! Exhaustive checks of the small configurations, and every mutant caught by them.
 
-use rtl::config::{Config, RbSize, Realloc};
+use rtl::config::{Config, RbSize, Realloc, ShPolicy};
 use rtl::stack_manager::Mutant;
 use tb::run::verify::exhaustive::{check, describe, run_bytes_on, small_configs, Bounds, Coverage, Model};
 use tb::run::verify::harness::mix;
@@ -43,7 +43,7 @@ fn small_configurations_keep_every_property() {
                 describe(&c)
             );
         }
-        if c.realloc.is_some() {
+        if c.realloc().is_some() {
             // The cover points: a borrow and a flush everywhere; a release (which needs the
             // borrowed stack filled and drained again) within the 2-thread warps' deeper bound.
             assert!(cov.borrows > 0 && cov.flushes > 0, "{}: {cov:?}", describe(&c));
@@ -76,12 +76,12 @@ fn every_mutant_is_caught() {
     let ra = |n, m| Config {
         rb: RbSize::Entries(n),
         sh_entries: m,
-        realloc: Some(Realloc { borrow_limit: 1, flush_limit: 1 }),
+        policy: ShPolicy::Realloc(Realloc { borrow_limit: 1, flush_limit: 1 }),
         warp_size: 2,
         warps: 1,
         ..Config::default()
     };
-    let plain = |n, m| Config { realloc: None, ..ra(n, m) };
+    let plain = |n, m| Config { policy: ShPolicy::Dedicated, ..ra(n, m) };
     let cases = [
         (plain(1, 2), Mutant::QueueWrapOffByOne, Property::Conservation),
         (plain(1, 2), Mutant::ReloadWrongEntry, Property::Conservation),
@@ -107,7 +107,7 @@ fn eager_release_loses_an_entry_under_some_interleaving() {
     let c = Config {
         rb: RbSize::Entries(1),
         sh_entries: 1,
-        realloc: Some(Realloc { borrow_limit: 1, flush_limit: 1 }),
+        policy: ShPolicy::Realloc(Realloc { borrow_limit: 1, flush_limit: 1 }),
         warp_size: 4,
         warps: 1,
         ..Config::default()
@@ -156,7 +156,7 @@ fn a_model_overwritten_by_clone_from_equals_its_source() {
         rb: RbSize::Entries(1),
         sh_entries: 2,
         warp_size: 4,
-        realloc: Some(Realloc { borrow_limit: 2, flush_limit: 1 }),
+        policy: ShPolicy::Realloc(Realloc { borrow_limit: 2, flush_limit: 1 }),
         ..Config::sms()
     };
     for seed in 0..40u64 {

@@ -3,7 +3,7 @@
 //! free of counters and stale words, and the skew placement property catching a planted bug.
 //! `sms check --full` runs the whole set.
 
-use rtl::config::{Config, RbSize, Realloc};
+use rtl::config::{Config, RbSize, Realloc, ShPolicy};
 use rtl::stack_manager::{Cmd, Mutant, StackRegs, POISON};
 use tb::run::verify::exhaustive::{
     check, corner_cases, default_cap, describe, full_cases, full_configs, is_large, large_cap, Action,
@@ -38,12 +38,18 @@ fn find(pred: impl Fn(&Config) -> bool) -> Config {
 #[test]
 fn representative_configurations_reach_their_fixpoint_with_every_cover() {
     let picks = [
-        find(|c| c.rb == RbSize::Entries(2) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_none()),
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some()),
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 4 && c.realloc.is_some()),
-        find(|c| c.banks == 8 && c.realloc.is_none()),
+        find(|c| {
+            c.rb == RbSize::Entries(2) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_none()
+        }),
+        find(|c| {
+            c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_some()
+        }),
+        find(|c| {
+            c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 4 && c.realloc().is_some()
+        }),
+        find(|c| c.banks == 8 && c.realloc().is_none()),
     ];
-    let three = picks[2].realloc.map(|r| r.borrow_limit);
+    let three = picks[2].realloc().map(|r| r.borrow_limit);
     assert_eq!(three, Some(2), "the rotated-release pick has chains of three stacks");
     for c in &picks {
         prove(c);
@@ -56,8 +62,9 @@ fn representative_configurations_reach_their_fixpoint_with_every_cover() {
 /// different reference stack gets a different one.
 #[test]
 fn counters_are_not_part_of_the_state() {
-    let c =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_none());
+    let c = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_none()
+    });
     let mut cov = Coverage::default();
     let mut a = Model::new(c).unwrap();
     for act in [Action::Cmd(0, Cmd::Push(1)), Action::Cmd(0, Cmd::Pop)] {
@@ -75,8 +82,9 @@ fn counters_are_not_part_of_the_state() {
 /// both leaves the same model — every dead SH word overwritten with POISON — and equal keys.
 #[test]
 fn stale_words_are_not_part_of_the_state() {
-    let c =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_none());
+    let c = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_none()
+    });
     let run = |v| {
         let mut m = Model::new(c).unwrap();
         let mut cov = Coverage::default();
@@ -104,8 +112,9 @@ fn stale_words_are_not_part_of_the_state() {
 /// with it the word reads POISON and Conservation fails.
 #[test]
 fn a_revived_dead_word_is_caught_only_with_the_scrub() {
-    let c =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 2 && c.warp_size == 2 && c.realloc.is_none());
+    let c = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 2 && c.warp_size == 2 && c.realloc().is_none()
+    });
     let run = |scrub: bool| {
         let mut m = Model::new(c).unwrap();
         m.scrub_dead = scrub;
@@ -140,7 +149,7 @@ fn skew_wrong_for_one_m_is_caught_by_placement() {
         sh_entries: 2,
         skew: true,
         banks: 8,
-        realloc: Some(Realloc { borrow_limit: 1, flush_limit: 1 }),
+        policy: ShPolicy::Realloc(Realloc { borrow_limit: 1, flush_limit: 1 }),
         warp_size: 4,
         warps: 1,
         ..Config::default()
@@ -157,9 +166,9 @@ fn skew_wrong_for_one_m_is_caught_by_placement() {
 /// The goals a configuration needs follow its features.
 #[test]
 fn cover_goals_follow_the_features() {
-    let plain = find(|c| c.sh_entries == 1 && c.realloc.is_none() && c.warp_size == 2);
+    let plain = find(|c| c.sh_entries == 1 && c.realloc().is_none() && c.warp_size == 2);
     assert!(Goal::ALL.iter().all(|g| !g.applies(&plain)));
-    let three = find(|c| c.sh_entries == 1 && c.warp_size == 4 && c.realloc.is_some());
+    let three = find(|c| c.sh_entries == 1 && c.warp_size == 4 && c.realloc().is_some());
     assert!(Goal::RotatedRelease.applies(&three) && Goal::Borrow.applies(&three));
     assert!(!Goal::SkewBase.applies(&three), "32 banks: every base is 0");
 }
@@ -169,12 +178,15 @@ fn cover_goals_follow_the_features() {
 /// with every property on).
 #[test]
 fn new_mutants_are_caught_by_the_fixpoint_search() {
-    let ra2 =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some());
-    let plain =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_none());
-    let three =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 4 && c.realloc.is_some());
+    let ra2 = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_some()
+    });
+    let plain = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_none()
+    });
+    let three = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 4 && c.realloc().is_some()
+    });
     let cases = [
         (ra2, default_cap(&ra2), Mutant::PriorityKeptOnRelease, Property::Chains),
         // Two global entries are needed to clear Overflow one pop early.
@@ -249,8 +261,9 @@ fn one_lane_case_rotates_its_chains_and_catches_release_assumes_adjacent() {
 /// Conservation alone.
 #[test]
 fn one_marked_push_per_run_proves_the_same_with_fewer_states() {
-    let c =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some());
+    let c = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_some()
+    });
     let cap = default_cap(&c);
     let one = check(c, Bounds::fixpoint(cap), |sm| sm).unwrap();
     let all = check(c, Bounds { one_mark: false, ..Bounds::fixpoint(cap) }, |sm| sm).unwrap();
@@ -258,8 +271,9 @@ fn one_marked_push_per_run_proves_the_same_with_fewer_states() {
     assert!(one.fixpoint && all.fixpoint);
     assert_eq!(one.covers.missing(&c), vec![]);
     assert!(one.states * 2 < all.states, "{} vs {}", one.states, all.states);
-    let sh2 =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 2 && c.warp_size == 2 && c.realloc.is_none());
+    let sh2 = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 2 && c.warp_size == 2 && c.realloc().is_none()
+    });
     let bounds = Bounds { request_sequence: false, ..Bounds::fixpoint(default_cap(&sh2)) };
     let cex = check(sh2, bounds, |sm| sm.with_mutant(Some(Mutant::ReloadWrongEntry)))
         .expect_err("ReloadWrongEntry survived one mark");
@@ -322,9 +336,13 @@ fn the_design_sizes_reach_their_fixpoint_with_every_cover() {
 #[test]
 fn depth_first_search_proves_what_breadth_first_proves() {
     let picks = [
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some()),
-        find(|c| c.rb == RbSize::Entries(2) && c.sh_entries == 1 && c.warp_size == 4 && c.realloc.is_some()),
-        find(|c| c.banks == 8 && c.realloc.is_none()),
+        find(|c| {
+            c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_some()
+        }),
+        find(|c| {
+            c.rb == RbSize::Entries(2) && c.sh_entries == 1 && c.warp_size == 4 && c.realloc().is_some()
+        }),
+        find(|c| c.banks == 8 && c.realloc().is_none()),
     ];
     for c in picks {
         let bfs = check(c, Bounds::fixpoint(default_cap(&c)), |sm| sm).unwrap();
@@ -395,7 +413,7 @@ fn a_release_completing_in_a_cycle_is_seen_by_that_cycles_plans() {
     let c = Config {
         rb: RbSize::Entries(1),
         sh_entries: 1,
-        realloc: Some(Realloc { borrow_limit: 2, flush_limit: 1 }),
+        policy: ShPolicy::Realloc(Realloc { borrow_limit: 2, flush_limit: 1 }),
         warp_size: 4,
         warps: 1,
         ..Config::default()
@@ -507,7 +525,7 @@ fn queues_of_16_and_32_entries_reach_their_fixpoint_and_catch_a_narrow_store_add
 #[test]
 fn flush_count_catches_a_flush_counted_twice_that_the_bounds_pass() {
     let case = corner("flush 3 lanes 0100");
-    assert_eq!(case.cfg.realloc.map(|r| r.flush_limit), Some(3));
+    assert_eq!(case.cfg.realloc().map(|r| r.flush_limit), Some(3));
     let twice = |sm: rtl::stack_manager::StackManager| sm.with_mutant(Some(Mutant::FlushCountedTwice));
     let cov = check(case.cfg, Bounds { flush_count: false, ..case.bounds() }, twice)
         .unwrap_or_else(|e| panic!("without FlushCount: {e}"));
@@ -516,8 +534,9 @@ fn flush_count_catches_a_flush_counted_twice_that_the_bounds_pass() {
     let cex = check(case.cfg, case.bounds(), twice).expect_err("FlushCountedTwice survived FlushCount");
     println!("FlushCountedTwice: {cex}");
     assert_eq!(cex.violation.property, Property::FlushCount);
-    let ra =
-        find(|c| c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc.is_some());
+    let ra = find(|c| {
+        c.rb == RbSize::Entries(1) && c.sh_entries == 1 && c.warp_size == 2 && c.realloc().is_some()
+    });
     check(ra, Bounds::fixpoint(default_cap(&ra)), twice).expect("with flush limit 1 twice is once");
     // The bounds still catch a count never reset, on their own, once the pop is done.
     let kept = check(ra, Bounds { flush_count: false, ..Bounds::fixpoint(default_cap(&ra)) }, |sm| {

@@ -49,7 +49,7 @@ fn case(p: Pick) -> Case {
 }
 
 fn config(p: Pick) -> Config {
-    let ra = |c: &Config| c.realloc.map(|r| r.borrow_limit);
+    let ra = |c: &Config| c.realloc().map(|r| r.borrow_limit);
     let is = |c: &Config, n, m, ws, borrow: Option<u32>, banks| {
         c.rb == RbSize::Entries(n)
             && c.sh_entries == m

@@ -32,7 +32,7 @@
 
 use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 
-use rtl::config::{Config, RbSize, Realloc};
+use rtl::config::{Config, RbSize, Realloc, ShPolicy};
 use tb::run::verify::exhaustive::{run_valued, Coverage};
 
 /// Input length: symbolic under Kani, longer random sequences otherwise.
@@ -46,7 +46,7 @@ fn small(n: u32, m: u32, ws: u32, borrow: u32) -> Config {
         rb: RbSize::Entries(n),
         sh_entries: m,
         skew: m > 0,
-        realloc: (borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 }),
+        policy: ShPolicy::from((borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 })),
         warp_size: ws,
         warps: 1,
         ..Config::default()

@@ -13,7 +13,7 @@ use std::collections::HashMap;
 use std::rc::Rc;
 use std::time::Duration;
 
-use rtl::config::{Config, RbSize, Realloc};
+use rtl::config::{Config, RbSize, Realloc, ShPolicy};
 use rtl::logic::{Int, Logic};
 use rtl::stack_manager::mutants::Mutated;
 use rtl::stack_manager::policy::{Design, Steps};
@@ -517,7 +517,7 @@ fn cfg(rb: u32, m: u32, ra: Option<(u32, u32)>, warp_size: u32, warps: u32) -> C
         rb: RbSize::Entries(rb),
         sh_entries: m,
         skew: false,
-        realloc: ra.map(|(borrow_limit, flush_limit)| Realloc { borrow_limit, flush_limit }),
+        policy: ShPolicy::from(ra.map(|(borrow_limit, flush_limit)| Realloc { borrow_limit, flush_limit })),
         warp_size,
         warps,
         ..Config::default()

@@ -31,7 +31,7 @@ fn every_paper_configuration_matches_the_reference() {
                 assert!(st.global_accesses() > 0, "{}: depth 130 must reach global memory", cfg.name())
             }
         }
-        if cfg.realloc.is_some() {
+        if cfg.realloc().is_some() {
             assert!(st.borrows > 0 && st.releases > 0, "{}: {st:?}", cfg.name());
             assert!(st.flushes > 0 && st.global_to_sh > 0, "{}: {st:?}", cfg.name());
             assert!(st.demotions > 0, "{}: {st:?}", cfg.name());
@@ -43,7 +43,7 @@ fn every_paper_configuration_matches_the_reference() {
 fn every_cycle_checks_hold_on_the_full_sms() {
     for cfg in [Config::sms(), "RB_2+SH_8+SK+RA".parse().unwrap(), "RB_8+SH_4".parse().unwrap()] {
         let s = run(cfg, 11, 4, true);
-        assert!(s.stats.stack.flushes_saturated > 0 || cfg.realloc.is_none() || s.stats.stack.flushes > 0);
+        assert!(s.stats.stack.flushes_saturated > 0 || cfg.realloc().is_none() || s.stats.stack.flushes > 0);
     }
 }
 

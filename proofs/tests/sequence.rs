@@ -3,7 +3,7 @@
 //! in `tb::run::verify::sequence::expected_program`. Checked on every accepted command of the
 //! exhaustive search and of the random runs (both drive `Model::act`).
 
-use rtl::config::{Config, RbSize, Realloc};
+use rtl::config::{Config, RbSize, Realloc, ShPolicy};
 use rtl::stack_manager::{Cmd, Mutant, Src, Uop};
 use tb::run::verify::exhaustive::{
     check, default_cap, describe, run_bytes_on, Action, Bounds, Coverage, Model,
@@ -15,7 +15,7 @@ fn config(m: u32, borrow: u32) -> Config {
     Config {
         rb: RbSize::Entries(1),
         sh_entries: m,
-        realloc: (borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 }),
+        policy: ShPolicy::from((borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 })),
         warp_size: 2,
         warps: 1,
         ..Config::default()

@@ -9,7 +9,7 @@
 
 use std::time::Duration;
 
-use rtl::config::{Config, RbSize, Realloc};
+use rtl::config::{Config, RbSize, Realloc, ShPolicy};
 use rtl::logic::Int;
 use rtl::stack_manager::mutants::Mutated;
 use rtl::stack_manager::policy::{Design, Thread};
@@ -25,7 +25,7 @@ fn cfg(rb: u32, m: u32, skew: bool, ra: Option<(u32, u32)>, warp_size: u32, warp
         rb: RbSize::Entries(rb),
         sh_entries: m,
         skew,
-        realloc: ra.map(|(borrow_limit, flush_limit)| Realloc { borrow_limit, flush_limit }),
+        policy: ShPolicy::from(ra.map(|(borrow_limit, flush_limit)| Realloc { borrow_limit, flush_limit })),
         warp_size,
         warps,
         ..Config::default()

@@ -24,7 +24,7 @@ const LIMIT: Duration = Duration::from_secs(300);
 fn cfg(name: &str, warp_size: u32, warps: u32) -> Config {
     let base: Config = name.parse().expect("a configuration name");
     let realloc = Some(Realloc { borrow_limit: 2, flush_limit: 1 });
-    let c = Config { realloc, warp_size, warps, ..base };
+    let c = Config { policy: realloc.into(), warp_size, warps, ..base };
     c.validate().expect("a valid test configuration");
     c
 }

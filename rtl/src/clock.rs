@@ -26,8 +26,10 @@ use crate::trace::Sink;
 ///   register file that a parent writes in its own commit (the warp buffer, the node fetch's
 ///   queues), or a whole design that keeps its steps itself, implements
 ///   [`crate::trace::Probe`] instead.
-/// - A unit that can act without an input also tells when (`next_event`, or `busy` and
-///   `pipe_due` for the bank arbiter, which does not count cycles): the runners' idle skip asks.
+/// - A unit that can act without an input also tells when ([`Unit::next_event`]; the bank
+///   arbiter, which does not count cycles, answers `busy` and `pipe_due` to its parent), and a
+///   unit with a clock of its own moves it over quiet cycles ([`Unit::skip_to`]): the runners'
+///   idle skip asks.
 ///
 /// A parent holds its children by value in its registers, its `In` and `Step` hold theirs, its
 /// `eval` calls theirs in dataflow order wiring outputs to inputs by hand, its `commit` calls
@@ -47,6 +49,18 @@ pub trait Unit {
 
     /// The registers and the cycle's signals from `step`, to `sink`.
     fn probe<S: Sink>(&self, step: &Self::Step, sink: &mut S);
+
+    /// The first cycle, from the last commit on, in which this unit does something with no new
+    /// input; `None` while it only waits for one. The runners' idle skip asks every unit. The
+    /// default is a unit that acts only on its inputs.
+    fn next_event(&self) -> Option<u64> {
+        None
+    }
+
+    /// Moves the unit's clock to `cycle` over cycles in which nothing happens (never past
+    /// [`Unit::next_event`]): all that committing a quiet step in each would do. The default is a
+    /// unit without a clock of its own.
+    fn skip_to(&mut self, _cycle: u64) {}
 
     /// [`Unit::eval`] into a fresh step: the pure form, for tests and one-off evaluations.
     fn step(&self, i: Self::In<'_>) -> Self::Step {

@@ -53,6 +53,69 @@ impl Default for Realloc {
     }
 }
 
+/// How a warp's threads share their SH stacks: the stack policy's one parameter. Each variant
+/// derives what depends on it (the chain bound, and through it the Priority width; whether Idle
+/// and Next TID exist); the stack manager's decision logic for each is one implementation of
+/// `stack_manager::policy::Steps`, chosen from this when the manager is built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ShPolicy {
+    /// Each thread uses only its own SH stack (the paper's `+SH`, `+SK`).
+    Dedicated,
+    /// Dynamic intra-warp reallocation, SPEC section 5 (`+RA`): a thread whose chain is full
+    /// borrows the lowest-numbered idle stack of its warp.
+    Realloc(Realloc),
+    /// Reallocation among neighbours (`+RA_G`): as [`ShPolicy::Realloc`], but a thread borrows
+    /// only from the `lanes` lanes of its own group (lanes `G·⌊lane / G⌋` to `G·⌊lane / G⌋ + G − 1`),
+    /// so the idle search is G inputs wide instead of the warp's width.
+    Group { ra: Realloc, lanes: u32 },
+}
+
+impl From<Option<Realloc>> for ShPolicy {
+    fn from(ra: Option<Realloc>) -> Self {
+        ra.map_or(ShPolicy::Dedicated, ShPolicy::Realloc)
+    }
+}
+
+impl ShPolicy {
+    /// The reallocation parameters, when stacks are lent at all.
+    pub fn realloc(&self) -> Option<Realloc> {
+        match *self {
+            ShPolicy::Dedicated => None,
+            ShPolicy::Realloc(ra) | ShPolicy::Group { ra, .. } => Some(ra),
+        }
+    }
+
+    pub fn realloc_mut(&mut self) -> Option<&mut Realloc> {
+        match self {
+            ShPolicy::Dedicated => None,
+            ShPolicy::Realloc(ra) | ShPolicy::Group { ra, .. } => Some(ra),
+        }
+    }
+
+    /// Most stacks one thread's chain holds: its own and the ones it may borrow.
+    pub fn chain_bound(&self) -> u32 {
+        self.realloc().map_or(1, |ra| ra.borrow_limit + 1)
+    }
+
+    /// The lanes an idle search of `lane`'s thread looks at, as (first lane, count), in a warp
+    /// of `warp_size` lanes.
+    pub fn lend_window(&self, lane: u32, warp_size: u32) -> (u32, u32) {
+        match *self {
+            ShPolicy::Group { lanes, .. } => (lane / lanes * lanes, lanes),
+            _ => (0, warp_size),
+        }
+    }
+
+    /// The name's part: `+RA`, `+RA_G`, or nothing.
+    fn token(&self) -> String {
+        match *self {
+            ShPolicy::Dedicated => String::new(),
+            ShPolicy::Realloc(_) => "+RA".into(),
+            ShPolicy::Group { lanes, .. } => format!("+RA_{lanes}"),
+        }
+    }
+}
+
 /// A stack design and the RT unit it sits in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Config {
@@ -62,8 +125,8 @@ pub struct Config {
     pub sh_entries: u32,
     /// Skewed bank access (SK).
     pub skew: bool,
-    /// Intra-warp reallocation (RA), or `None`.
-    pub realloc: Option<Realloc>,
+    /// How the warp's threads share SH stacks: dedicated, or reallocated (RA, RA_G).
+    pub policy: ShPolicy,
     /// Threads per warp (hardware: 32).
     pub warp_size: u32,
     /// Warps per RT unit (hardware: 4).
@@ -86,7 +149,7 @@ impl Default for Config {
             rb: RbSize::Entries(8),
             sh_entries: 0,
             skew: false,
-            realloc: None,
+            policy: ShPolicy::Dedicated,
             warp_size: 32,
             warps: 4,
             banks: 32,
@@ -172,7 +235,17 @@ pub const fn bits_for(max: u64) -> u32 {
 impl Config {
     /// The paper's proposed SMS: RB_8 + SH_8 + SK + RA.
     pub fn sms() -> Self {
-        Config { sh_entries: 8, skew: true, realloc: Some(Realloc::default()), ..Config::default() }
+        Config {
+            sh_entries: 8,
+            skew: true,
+            policy: ShPolicy::Realloc(Realloc::default()),
+            ..Config::default()
+        }
+    }
+
+    /// The reallocation parameters, when the policy lends stacks.
+    pub fn realloc(&self) -> Option<Realloc> {
+        self.policy.realloc()
     }
 
     /// The stack configurations of SPEC section 8: RB_N for N in {2, 4, 8, 16, 32, FULL};
@@ -239,7 +312,26 @@ impl Config {
         if !(4..=32).contains(&self.spill_ptr_bits) {
             return Err(reject("spill_ptr_bits", self.spill_ptr_bits, "must be 4 to 32"));
         }
-        if let Some(ra) = self.realloc {
+        if let ShPolicy::Group { ra, lanes } = self.policy {
+            if lanes < 2 || !lanes.is_power_of_two() || lanes > self.warp_size {
+                return Err(reject(
+                    "lend_group",
+                    lanes,
+                    format!(
+                        "a lending group must be a power of two from 2 to the warp size ({})",
+                        self.warp_size
+                    ),
+                ));
+            }
+            if ra.borrow_limit >= lanes {
+                return Err(reject(
+                    "borrow_limit",
+                    ra.borrow_limit,
+                    format!("a group of {lanes} lanes lends at most {} stacks to one thread", lanes - 1),
+                ));
+            }
+        }
+        if let Some(ra) = self.realloc() {
             if m == 0 {
                 return Err(reject(
                     "realloc",
@@ -317,9 +409,7 @@ impl Config {
         if self.skew {
             s += "+SK";
         }
-        if self.realloc.is_some() {
-            s += "+RA";
-        }
+        s += &self.policy.token();
         s
     }
 }
@@ -353,7 +443,14 @@ impl FromStr for Config {
             } else if upper == "SK" {
                 cfg.skew = true;
             } else if upper == "RA" {
-                cfg.realloc = Some(Realloc::default());
+                cfg.policy = ShPolicy::Realloc(Realloc::default());
+            } else if let Some(g) = upper.strip_prefix("RA_") {
+                let lanes: u32 =
+                    g.parse().map_err(|_| reject("lend_group", &part[3..], "expected a number of lanes"))?;
+                // A group of G lanes has G − 1 stacks to lend: the paper's limit of 4, or fewer.
+                let d = Realloc::default();
+                let ra = Realloc { borrow_limit: d.borrow_limit.min(lanes.max(2) - 1), ..d };
+                cfg.policy = ShPolicy::Group { ra, lanes };
             } else if upper == "SMS" {
                 return Err(reject(
                     "config",
@@ -364,13 +461,15 @@ impl FromStr for Config {
                 return Err(reject(
                     "config",
                     s,
-                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA",
+                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA or +RA_G",
                 ));
             } else {
                 return Err(reject(
                     "config",
                     s,
-                    format!("unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK or RA (or SMS alone)"),
+                    format!(
+                        "unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK, RA or RA_G (or SMS alone)"
+                    ),
                 ));
             }
         }
@@ -451,7 +550,7 @@ impl Widths {
     fn derive(c: &Config) -> Widths {
         let m = c.sh_entries;
         let log2m = if m == 0 { 0 } else { m.trailing_zeros() };
-        let ra = c.realloc;
+        let ra = c.realloc();
         Widths {
             entry: c.entry_bytes * 8,
             rb_count: c.rb.capacity().map_or(RB_FULL_COUNT_BITS, |n| bits_for(n as u64)),
@@ -461,7 +560,7 @@ impl Widths {
             overflow: 1,
             idle: u32::from(ra.is_some()),
             next_tid: ra.map_or(0, |_| bits_for(c.warp_size as u64 - 1)),
-            priority: ra.map_or(0, |r| bits_for(r.borrow_limit as u64)),
+            priority: ra.map_or(0, |_| bits_for(u64::from(c.policy.chain_bound() - 1))),
             flush: ra.map_or(0, |r| bits_for(r.flush_limit as u64)),
             spill_ptr: c.spill_ptr_bits,
             tid: bits_for(c.warp_size as u64 - 1),
@@ -493,7 +592,15 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        for name in ["RB_8", "RB_FULL", "RB_8+SH_8", "RB_8+SH_8+SK", "RB_8+SH_8+SK+RA", "RB_2+SH_8+SK+RA"] {
+        for name in [
+            "RB_8",
+            "RB_FULL",
+            "RB_8+SH_8",
+            "RB_8+SH_8+SK",
+            "RB_8+SH_8+SK+RA",
+            "RB_2+SH_8+SK+RA",
+            "RB_8+SH_8+SK+RA_8",
+        ] {
             let c: Config = name.parse().unwrap();
             assert_eq!(c.name(), name);
         }
@@ -520,8 +627,30 @@ mod tests {
         assert_eq!(e.parameter, "config");
         let bad = Config { warp_size: 12, ..Config::default() };
         assert_eq!(bad.validate().unwrap_err().parameter, "warp_size");
-        let bad = Config { realloc: Some(Realloc { borrow_limit: 0, flush_limit: 3 }), ..Config::sms() };
+        let bad = Config {
+            policy: ShPolicy::Realloc(Realloc { borrow_limit: 0, flush_limit: 3 }),
+            ..Config::sms()
+        };
         assert_eq!(bad.validate().unwrap_err().parameter, "borrow_limit");
+    }
+
+    #[test]
+    fn a_lending_group_derives_its_limits() {
+        let g: Config = "RB_8+SH_8+SK+RA_4".parse().unwrap();
+        assert_eq!(g.policy, ShPolicy::Group { ra: Realloc { borrow_limit: 3, flush_limit: 3 }, lanes: 4 });
+        assert_eq!(g.policy.chain_bound(), 4);
+        assert_eq!(g.widths().unwrap().priority, 2, "ranks 0..=3");
+        assert_eq!(g.policy.lend_window(6, 32), (4, 4));
+        let wide: Config = "RB_8+SH_8+SK+RA_32".parse().unwrap();
+        assert_eq!(wide.realloc(), Config::sms().realloc(), "a warp-wide group keeps the paper's limits");
+        assert_eq!(wide.widths().unwrap(), Config::sms().widths().unwrap());
+        for bad in ["RB_8+SH_8+RA_3", "RB_8+SH_8+RA_1", "RB_8+SH_8+RA_64", "RB_8+SH_8+RA_x"] {
+            assert_eq!(bad.parse::<Config>().unwrap_err().parameter, "lend_group", "{bad}");
+        }
+        let narrow = Config { warp_size: 2, ..g };
+        assert_eq!(narrow.validate().unwrap_err().parameter, "lend_group", "a group wider than the warp");
+        let greedy = Config { policy: ShPolicy::Group { ra: Realloc::default(), lanes: 2 }, ..g };
+        assert_eq!(greedy.validate().unwrap_err().parameter, "borrow_limit");
     }
 
     #[test]

@@ -25,7 +25,7 @@ use crate::mem::{Counters, MemParams, ReqKind};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtParams, RtStep, RtUnit, RunError};
 use crate::sim::{self, Parts};
-use crate::stack_manager::StackStats;
+use crate::stack_manager::{StackPolicy, StackStats};
 use crate::thread_cycles::ThreadCycles;
 use crate::trace::{Probe, Sink};
 
@@ -109,9 +109,15 @@ pub struct Gpu {
 impl Gpu {
     /// `mem.sms` SMs with stack configuration `cfg`.
     pub fn new(cfg: Config, rt: RtParams, mem: MemParams) -> Result<Gpu, ConfigError> {
+        Gpu::build(cfg, rt, mem, StackPolicy::of(&cfg))
+    }
+
+    /// As [`Gpu::new`], every stack manager running `policy` (an implementation of `cfg`'s
+    /// policy other than the one it names: a design under study, a test build's planted bug).
+    pub fn build(cfg: Config, rt: RtParams, mem: MemParams, policy: StackPolicy) -> Result<Gpu, ConfigError> {
         let sys = MemSystem::new(mem)?;
         let mut units = (0..mem.sms)
-            .map(|sm| RtUnit::new(sm, cfg, rt, mem.sector_bytes))
+            .map(|sm| RtUnit::new(sm, cfg, rt, mem.sector_bytes, policy.clone()))
             .collect::<Result<Vec<_>, _>>()?;
         for u in &mut units {
             u.stack_unit.manager.set_local_layout(mem.local_layout, mem.sms);
@@ -131,22 +137,18 @@ impl Gpu {
 
     /// SPEC 7 defaults: 8 SMs, the L1D is 64 KB less the SH stacks' shared memory.
     pub fn paper(cfg: Config) -> Result<Gpu, ConfigError> {
-        Gpu::new(cfg, RtParams::default(), carve_out(&cfg, MemParams::default()))
+        Gpu::paper_with(cfg, StackPolicy::of(&cfg))
+    }
+
+    /// [`Gpu::paper`] with every stack manager running `policy` (as [`Gpu::build`]).
+    pub fn paper_with(cfg: Config, policy: StackPolicy) -> Result<Gpu, ConfigError> {
+        Gpu::build(cfg, RtParams::default(), carve_out(&cfg, MemParams::default()), policy)
     }
 
     /// Every stack manager gets a scoreboard from `make`, checking each cycle it commits.
     pub fn with_scoreboard(mut self, make: &dyn Fn() -> Box<dyn crate::stack_manager::Scoreboard>) -> Self {
         for u in &mut self.units {
             u.stack_unit.manager.set_scoreboard(make());
-        }
-        self
-    }
-
-    /// Every stack manager gets a deliberately broken variant (test builds).
-    #[cfg(feature = "mutants")]
-    pub fn with_mutant(mut self, m: crate::stack_manager::Mutant) -> Self {
-        for u in &mut self.units {
-            u.stack_unit.manager.mutant = Some(m);
         }
         self
     }

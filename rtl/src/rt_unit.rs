@@ -67,7 +67,7 @@ use crate::ray_op::{NodeKind, RayOp, WarpJob};
 use crate::scheduler::WarpScheduler;
 pub use crate::scheduler::WarpSelect;
 pub use crate::stack_manager::StackTiming;
-use crate::stack_manager::{Cmd, StackError, StackStats, Uop};
+use crate::stack_manager::{Cmd, StackError, StackPolicy, StackStats, Uop};
 use crate::stack_unit::{StackUnit, StackUnitIn, StackUnitStep};
 use crate::thread_cycles::ThreadCycles;
 use crate::thread_fsm::{self, Thread, ThreadIn, ThreadState};
@@ -430,9 +430,15 @@ impl RtUnit {
         (self.stack_unit.stats(), self.fetch.requests, self.stack_unit.conflict_cycles())
     }
 
-    /// RT unit `id` (its SM) with stack configuration `cfg`; `sector_bytes` is the memory
-    /// system's fetch granularity.
-    pub fn new(id: u32, cfg: Config, rt: RtParams, sector_bytes: u32) -> Result<Self, ConfigError> {
+    /// RT unit `id` (its SM) with stack configuration `cfg`, its stack manager running `policy`;
+    /// `sector_bytes` is the memory system's fetch granularity.
+    pub fn new(
+        id: u32,
+        cfg: Config,
+        rt: RtParams,
+        sector_bytes: u32,
+        policy: StackPolicy,
+    ) -> Result<Self, ConfigError> {
         rt.validate()?;
         // The node fetch splits nodes into sectors with shifts and masks.
         if !sector_bytes.is_power_of_two() {
@@ -447,7 +453,7 @@ impl RtUnit {
             cfg,
             rt,
             w: cfg.widths()?,
-            stack_unit: StackUnit::with_stores(cfg, id, rt.acked_stores(), rt.sh_latency)?,
+            stack_unit: StackUnit::with_stores(cfg, id, rt.acked_stores(), rt.sh_latency, policy)?,
             fetch: NodeFetch::new(sector_bytes, cfg.threads()),
             warp_buffer: WarpBuffer::new(&cfg)?,
             scheduler: WarpScheduler::default(),
@@ -467,12 +473,6 @@ impl RtUnit {
     /// No warp resident.
     pub fn empty(&self) -> bool {
         self.warp_buffer.empty()
-    }
-
-    /// The first cycle after the last commit in which this unit does something even if no
-    /// memory response arrives; `None` when it only waits for memory (or is empty).
-    pub fn next_event(&self) -> Option<u64> {
-        self.next_event
     }
 
     /// Which source drives the port when it is ready (from registers): by `port_priority`, the
@@ -661,6 +661,12 @@ impl RtUnit {
 }
 
 impl Unit for RtUnit {
+    /// The first cycle after the last commit in which this unit does something even if no
+    /// memory response arrives; `None` when it only waits for memory (or is empty).
+    fn next_event(&self) -> Option<u64> {
+        self.next_event
+    }
+
     type In<'a> = RtIn<'a>;
     type Step = RtStep;
 
@@ -850,7 +856,7 @@ impl RtUnit {
             && !th.overflow
             && st.next_tid == lane
             && st.priority == 0
-            && (self.cfg.realloc.is_none() || st.idle)
+            && (self.cfg.realloc().is_none() || st.idle)
     }
 
     /// Puts `job` in slot `w` (clock edge): its rays start with the BVH-header latency.

@@ -19,7 +19,7 @@ use crate::clock::Unit;
 use crate::config::{Config, ConfigError, GM_POSTED_QUEUE_BITS};
 use crate::mem_sched::{FixedLatencyMem, FixedStep, GReq, MemSched, SchedIn, SchedStep};
 use crate::stack_manager::{
-    Cmd, Entry, StackError, StackIn, StackManager, StackStats, StackStep, StackTiming,
+    Cmd, Entry, StackError, StackIn, StackManager, StackPolicy, StackStats, StackStep, StackTiming,
 };
 use crate::trace::{Probe, Sink};
 
@@ -69,20 +69,21 @@ impl StackUnit {
     /// The stack subsystem of SM `sm`. With [`StackTiming::Blocking`] the sequencer waits for the
     /// acknowledgement of each global store; `sh_latency` as in [`BankArbiter::new`].
     pub fn new(cfg: Config, sm: u32, timing: StackTiming, sh_latency: u32) -> Result<Self, ConfigError> {
-        StackUnit::with_stores(cfg, sm, timing == StackTiming::Blocking, sh_latency)
+        StackUnit::with_stores(cfg, sm, timing == StackTiming::Blocking, sh_latency, StackPolicy::of(&cfg))
     }
 
     /// As [`StackUnit::new`], saying only whether global stores wait for their acknowledgement
-    /// (`acked_stores`) or are posted.
+    /// (`acked_stores`) or are posted, the manager running `policy`.
     pub fn with_stores(
         cfg: Config,
         sm: u32,
         acked_stores: bool,
         sh_latency: u32,
+        policy: StackPolicy,
     ) -> Result<Self, ConfigError> {
         let queue_bits = if acked_stores { cfg.widths()?.gm_queue } else { GM_POSTED_QUEUE_BITS };
         Ok(StackUnit {
-            manager: StackManager::new(cfg, sm)?.with_acked_stores(acked_stores),
+            manager: StackManager::new(cfg, sm)?.with_acked_stores(acked_stores).with_policy(policy),
             arb: BankArbiter::new(cfg.banks, sh_latency, cfg.widths()?.sh_requests),
             sched: MemSched::new(queue_bits, &cfg.widths()?),
         })

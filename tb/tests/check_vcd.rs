@@ -14,9 +14,8 @@ fn cfg() -> Config {
     Config { rb: RbSize::Entries(1), sh_entries: 2, warp_size: 2, warps: 1, ..Config::default() }
 }
 
-fn reload_wrong_entry(mut sm: StackManager) -> StackManager {
-    sm.mutant = Some(Mutant::ReloadWrongEntry);
-    sm
+fn reload_wrong_entry(sm: StackManager) -> StackManager {
+    sm.with_mutant(Some(Mutant::ReloadWrongEntry))
 }
 
 /// The registers after each action of `trace`, walked like the dump does.

@@ -37,10 +37,10 @@ fn the_scoreboard_catches_decisions_the_data_checks_miss() {
     for (m, cfg, what) in cases {
         let c: Config = cfg.parse().unwrap();
         // Every entry lands right: the data checks pass.
-        let r = Gpu::paper(c).unwrap().with_mutant(m).run(work.clone(), &mut NullSink);
+        let r = Gpu::paper_with(c, m.policy()).unwrap().run(work.clone(), &mut NullSink);
         assert!(r.is_ok(), "{m:?} on {cfg} without the scoreboard: {r:?}");
         let r =
-            Gpu::paper(c).unwrap().with_mutant(m).with_scoreboard(&board).run(work.clone(), &mut NullSink);
+            Gpu::paper_with(c, m.policy()).unwrap().with_scoreboard(&board).run(work.clone(), &mut NullSink);
         match r {
             Err(RunError::Decision { what: msg, .. }) => {
                 println!("{m:?} on {cfg}: {msg}");
@@ -58,7 +58,7 @@ fn a_design_that_addresses_past_its_registers_is_a_checked_error() {
     // warps 2 and 3 the chain then names stacks past the 128 the RT unit has.
     let work = synthetic_jobs(8, 16, 60);
     let c: Config = "RB_1+SH_1+SK+RA".parse().unwrap();
-    let gpu = Gpu::paper(c).unwrap().with_mutant(Mutant::LinkWithThreadId);
+    let gpu = Gpu::paper_with(c, Mutant::LinkWithThreadId.policy()).unwrap();
     let r = run_gpu_guarded(gpu, work).expect("a checked error, not a panic");
     assert!(r.is_err(), "the planted bug went unnoticed");
     println!("{r:?}");

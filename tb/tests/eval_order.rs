@@ -174,7 +174,10 @@ fn windows_fail_as_the_reference_loop() {
     for hw in [Hardware::default(), tb::hw::preset("legacy").unwrap()] {
         for m in Mutant::ALL {
             let attempt = |windows: bool, parallel: bool| {
-                let g = gpu(cfg, &hw).with_mutant(m).with_windows(windows).with_helper_thread(parallel);
+                let g = Gpu::build(cfg, hw.rt, hw.mem_for(&cfg), m.policy())
+                    .unwrap()
+                    .with_windows(windows)
+                    .with_helper_thread(parallel);
                 guarded(g, jobs.clone()).unwrap_or_else(|p| panic!("{m:?}, windows: {windows}: {p}"))
             };
             let plain = attempt(false, false);

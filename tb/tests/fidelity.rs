@@ -31,7 +31,7 @@ fn for_each_workload(mut f: impl FnMut(&str, &Workload)) -> bool {
 
 #[test]
 fn functional_equals_cycle_without_reallocation() {
-    let configs: Vec<Config> = Config::paper_set().into_iter().filter(|c| c.realloc.is_none()).collect();
+    let configs: Vec<Config> = Config::paper_set().into_iter().filter(|c| c.realloc().is_none()).collect();
     assert_eq!(configs.len(), 10);
     for_each_workload(|tag, w| {
         let (mut spilled, mut shared) = (false, false);
@@ -63,7 +63,7 @@ fn balanced(s: &StackStats) -> bool {
 
 #[test]
 fn reallocation_difference_between_levels_is_measured() {
-    let configs: Vec<Config> = Config::paper_set().into_iter().filter(|c| c.realloc.is_some()).collect();
+    let configs: Vec<Config> = Config::paper_set().into_iter().filter(|c| c.realloc().is_some()).collect();
     assert_eq!(configs.len(), 4);
     let mut borrowed = false;
     println!("RA, functional − cycle: stack_global, borrows, flushes, demotions (functional / cycle)");

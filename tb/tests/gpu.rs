@@ -368,7 +368,7 @@ fn planted_stack_bugs_stop_the_run() {
         let c: Config = cfg.parse().unwrap();
         let clean = Gpu::paper(c).unwrap().run(work.clone(), &mut NullSink);
         assert!(clean.is_ok(), "{cfg}: {clean:?}");
-        let r = Gpu::paper(c).unwrap().with_mutant(m).run(work.clone(), &mut NullSink);
+        let r = Gpu::paper_with(c, m.policy()).unwrap().run(work.clone(), &mut NullSink);
         assert!(
             matches!(
                 r,

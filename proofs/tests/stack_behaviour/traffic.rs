@@ -63,7 +63,7 @@ fn full_rb_never_spills() {
 #[test]
 fn functional_level_counts_equal_the_cycle_level_without_reallocation() {
     let work = warps(5, 6, 32, 120);
-    for c in Config::paper_set().into_iter().filter(|c| c.realloc.is_none()) {
+    for c in Config::paper_set().into_iter().filter(|c| c.realloc().is_none()) {
         let mut unit = StandaloneStack::new(c, 50).unwrap();
         let cycle = run_stack(&mut unit, work.clone(), stack_opts(3)).stats.stack;
         let mut sm = StackManager::new(c, 0).unwrap();

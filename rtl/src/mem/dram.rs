@@ -97,9 +97,16 @@ impl Dram {
     pub fn counters(&self) -> &Counters {
         &self.counters
     }
+}
+
+impl Unit for Dram {
+    /// Moves the clock to `cycle` over cycles with no event.
+    fn skip_to(&mut self, cycle: u64) {
+        self.now = cycle;
+    }
 
     /// Next cycle whose commit changes something visible; `None` when idle.
-    pub fn next_event(&self) -> Option<u64> {
+    fn next_event(&self) -> Option<u64> {
         if !self.out.is_empty() {
             return Some(self.now);
         }
@@ -108,13 +115,6 @@ impl Dram {
         response.into_iter().chain(start).min()
     }
 
-    /// Moves the clock to `cycle` over cycles with no event.
-    pub fn skip_to(&mut self, cycle: u64) {
-        self.now = cycle;
-    }
-}
-
-impl Unit for Dram {
     type In<'a> = DramIn;
     type Step = DramStep;
 

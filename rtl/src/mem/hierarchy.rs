@@ -29,7 +29,7 @@
 //! evaluates the siblings in a seeded random order every cycle, or every kernel twice, and the
 //! tests below show both give the same responses, counters and cycle counts as the dataflow order.
 //!
-//! When no SM has anything to offer, [`MemSystem::next_event_cycle`] tells the first cycle in
+//! When no SM has anything to offer, [`MemSystem::next_event`] tells the first cycle in
 //! which anything happens, and [`MemSystem::skip_to`] jumps there: the skipped cycles would have
 //! changed nothing (tested against stepping every cycle).
 
@@ -218,31 +218,10 @@ impl MemSystem {
         }
     }
 
-    /// The first cycle, from now on, whose `eval`/`commit` does anything if no SM offers a
-    /// request before it; `None` when everything is idle.
-    pub fn next_event_cycle(&self) -> Option<u64> {
-        self.l1d
-            .iter()
-            .filter_map(L1d::next_event)
-            .chain(self.l2.next_event())
-            .chain(self.dram.next_event())
-            .min()
-    }
-
-    /// [`MemSystem::next_event_cycle`] of the L2 and DRAM alone (the L1Ds' part is theirs to
+    /// [`MemSystem::next_event`] of the L2 and DRAM alone (the L1Ds' part is theirs to
     /// tell).
     pub fn shared_next_event(&self) -> Option<u64> {
         self.l2.next_event().into_iter().chain(self.dram.next_event()).min()
-    }
-
-    /// Jumps to `cycle`, skipping cycles in which nothing would happen. Panics if that would skip
-    /// an event (a caller bug).
-    pub fn skip_to(&mut self, cycle: u64) {
-        assert!(cycle >= self.now, "cannot go back to cycle {cycle}");
-        if let Some(event) = self.next_event_cycle() {
-            assert!(cycle <= event, "skipping to {cycle} would miss the event at {event}");
-        }
-        self.set_now(cycle);
     }
 
     /// The children, lent to a runner that clocks them apart instead of through
@@ -288,6 +267,27 @@ impl MemSystem {
 }
 
 impl Unit for MemSystem {
+    /// Jumps to `cycle`, skipping cycles in which nothing would happen. Panics if that would skip
+    /// an event (a caller bug).
+    fn skip_to(&mut self, cycle: u64) {
+        assert!(cycle >= self.now, "cannot go back to cycle {cycle}");
+        if let Some(event) = self.next_event() {
+            assert!(cycle <= event, "skipping to {cycle} would miss the event at {event}");
+        }
+        self.set_now(cycle);
+    }
+
+    /// The first cycle, from now on, whose `eval`/`commit` does anything if no SM offers a
+    /// request before it; `None` when everything is idle.
+    fn next_event(&self) -> Option<u64> {
+        self.l1d
+            .iter()
+            .filter_map(L1d::next_event)
+            .chain(self.l2.next_event())
+            .chain(self.dram.next_event())
+            .min()
+    }
+
     type In<'a> = &'a [Option<MemReq>];
     type Step = MemStep;
 
@@ -434,7 +434,7 @@ mod tests {
             }
             sys.commit(&d);
             let arrival = traffic.iter().filter_map(|q| q.front().map(|x| x.0)).min();
-            let event = sys.next_event_cycle();
+            let event = sys.next_event();
             if arrival.is_none() && event.is_none() {
                 return (log, evals);
             }
@@ -648,7 +648,7 @@ mod tests {
         reqs[0] = Some(MemReq::read(1, 0, 8, ReqKind::NodeFetch));
         let d = sys.step(&reqs);
         sys.commit(&d);
-        let e = sys.next_event_cycle().unwrap();
+        let e = sys.next_event().unwrap();
         sys.skip_to(e + 1);
     }
 
@@ -886,7 +886,7 @@ mod tests {
         let mut sys = system(small(), check);
         let mut t = traffic(2, 4, 300);
         let mut d = MemStep::default();
-        while t.iter().any(|q| !q.is_empty()) || sys.next_event_cycle().is_some() {
+        while t.iter().any(|q| !q.is_empty()) || sys.next_event().is_some() {
             assert!(sys.cycle() < 100_000, "runaway");
             let c = sys.cycle();
             let offers: Vec<Option<MemReq>> =

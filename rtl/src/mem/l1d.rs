@@ -358,23 +358,23 @@ impl L1d {
         }
         self.now = next;
     }
+}
+
+impl Unit for L1d {
+    /// Moves the clock to `cycle` over cycles in which nothing happens (a runner's idle skip):
+    /// all that committing a quiet step in each would do.
+    fn skip_to(&mut self, cycle: u64) {
+        self.now = cycle;
+    }
 
     /// Next cycle whose commit changes something, ignoring L2 responses; `None` when idle.
-    pub fn next_event(&self) -> Option<u64> {
+    fn next_event(&self) -> Option<u64> {
         if self.parked.is_some() || !self.out.is_empty() || (!self.detached && !self.miss_queue.is_empty()) {
             return Some(self.now);
         }
         self.hit_pipe.front().map(|&(visible, _)| visible - 1)
     }
 
-    /// Moves the clock to `cycle` over cycles in which nothing happens (a runner's idle skip):
-    /// all that committing a quiet step in each would do.
-    pub fn skip_to(&mut self, cycle: u64) {
-        self.now = cycle;
-    }
-}
-
-impl Unit for L1d {
     type In<'a> = L1dIn<'a>;
     type Step = L1dStep;
 

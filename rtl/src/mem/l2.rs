@@ -288,27 +288,27 @@ impl L2 {
         }
     }
 
+    /// The cycle the L2 (the back end, when split) evaluates next.
+    pub fn cycle(&self) -> u64 {
+        self.now
+    }
+}
+
+impl Unit for L2 {
+    /// Moves the clock (the back end's, when split) to `cycle` over cycles with no event.
+    fn skip_to(&mut self, cycle: u64) {
+        self.now = cycle;
+    }
+
     /// Next cycle whose commit changes something, ignoring new requests and DRAM responses;
     /// `None` when idle.
-    pub fn next_event(&self) -> Option<u64> {
+    fn next_event(&self) -> Option<u64> {
         if self.out.iter().any(|o| !o.is_empty()) || !self.dram_queue.is_empty() {
             return Some(self.now);
         }
         self.banks.iter().filter_map(|b| b.front().map(|l| l.due.max(self.now))).min()
     }
 
-    /// The cycle the L2 (the back end, when split) evaluates next.
-    pub fn cycle(&self) -> u64 {
-        self.now
-    }
-
-    /// Moves the clock (the back end's, when split) to `cycle` over cycles with no event.
-    pub fn skip_to(&mut self, cycle: u64) {
-        self.now = cycle;
-    }
-}
-
-impl Unit for L2 {
     type In<'a> = L2In<'a>;
     type Step = L2Step;
 

@@ -47,15 +47,18 @@ use crate::mem_sched::GReq;
 use crate::trace::Sink;
 
 pub mod cycle;
+pub mod group;
 pub mod mutants;
 pub mod policy;
 mod probe;
 pub mod regs;
+pub mod select;
 
 use cycle::{CycleIn, CycleSteps, Journal, Overlay, Registers, Store, WriteOf};
 pub use mutants::Mutant;
 use policy::{Design, Plan, RbOp, Regs, Thread};
 pub use regs::*;
+pub use select::StackPolicy;
 
 #[derive(Debug, Default, PartialEq, Eq, Hash)]
 struct Sequencer {
@@ -203,8 +206,9 @@ pub struct StackManager {
     acked_stores: bool,
     pub stats: StackStats,
     board: Board,
-    #[cfg(feature = "mutants")]
-    pub mutant: Option<Mutant>,
+    /// The policy's implementation this manager runs ([`StackPolicy::of`] its configuration's,
+    /// unless built with another).
+    policy: StackPolicy,
     /// Reused by the one-command entry points ([`StackManager::accept`], `apply`); always empty
     /// between calls.
     scratch: StackStep,
@@ -232,8 +236,7 @@ impl Clone for StackManager {
             acked_stores: self.acked_stores,
             stats: self.stats,
             board: self.board.clone(),
-            #[cfg(feature = "mutants")]
-            mutant: self.mutant,
+            policy: self.policy.clone(),
             scratch: self.scratch.clone(),
         }
     }
@@ -255,8 +258,7 @@ impl Clone for StackManager {
             acked_stores,
             stats,
             board,
-            #[cfg(feature = "mutants")]
-            mutant,
+            policy,
             scratch,
         } = src;
         self.cfg = *cfg;
@@ -274,9 +276,8 @@ impl Clone for StackManager {
         self.acked_stores = *acked_stores;
         self.stats = *stats;
         self.board = board.clone();
-        #[cfg(feature = "mutants")]
-        {
-            self.mutant = *mutant;
+        if !self.policy.same(policy) {
+            self.policy = policy.clone();
         }
         // Empty between calls on both sides; keeping ours keeps its capacity.
         debug_assert_eq!(*scratch, StackStep::default());
@@ -312,8 +313,7 @@ impl StackManager {
             acked_stores: false,
             stats: StackStats::default(),
             board: Board::default(),
-            #[cfg(feature = "mutants")]
-            mutant: None,
+            policy: StackPolicy::of(&cfg),
             scratch: StackStep::default(),
         };
         for wp in 0..cfg.warps {
@@ -483,7 +483,7 @@ impl StackManager {
                 top: base,
                 bottom: base,
                 empty: true,
-                idle: !on && self.cfg.realloc.is_some(),
+                idle: !on && self.cfg.realloc().is_some(),
                 next_tid: lane,
                 priority: 0,
                 flush: 0,
@@ -526,14 +526,10 @@ impl StackManager {
     /// The base entry of `lane`'s stack (the policy's skew step; [`Config::skew_base`] in the
     /// design).
     fn skew_base(&self, lane: u32) -> u32 {
-        #[cfg(feature = "mutants")]
-        if let Some(m) = self.mutant {
-            return self.base_with(&mutants::Mutated(m), lane);
-        }
-        self.base_with(&Design, lane)
+        self.policy.skew_base(self, lane)
     }
 
-    fn base_with<P: CycleSteps>(&self, steps: &P, lane: u32) -> u32 {
+    pub(crate) fn base_with<P: CycleSteps>(&self, steps: &P, lane: u32) -> u32 {
         let mut d = Journal::<Int>::default();
         let mut rf = Overlay { q: self, d: &mut d, t: 0 };
         let th = self.threads[0];
@@ -556,18 +552,9 @@ impl StackManager {
         (stack * self.cfg.sh_entries + entry) as usize
     }
 
-    /// One cycle of the whole description ([`cycle::eval`]) with the design's steps (or, in a
-    /// test build, a planted bug's), into `d`.
+    /// One cycle of the whole description ([`cycle::eval`]) with the manager's policy, into `d`.
     fn cycle(&self, i: &CycleIn<'_, Entry>, d: &mut StackStep) {
-        #[cfg(feature = "mutants")]
-        if let Some(m) = self.mutant {
-            return self.cycle_with(&mutants::Mutated(m), i, d);
-        }
-        self.cycle_with(&Design, i, d)
-    }
-
-    fn cycle_with<P: CycleSteps>(&self, steps: &P, i: &CycleIn<'_, Entry>, d: &mut StackStep) {
-        cycle::eval(&mut Int, steps, &self.cfg, &self.w, self, i, &mut d.j);
+        self.policy.eval(&self.cfg, &self.w, self, i, &mut d.j);
         d.sh_req.clear();
         d.g_req.clear();
         if let Err(e) = self.addressed(&d.j) {
@@ -631,11 +618,7 @@ impl StackManager {
     }
 
     fn complete_with(&self, t: u32, u: Uop, latch: &mut Option<Entry>, d: &mut StackStep) {
-        #[cfg(feature = "mutants")]
-        if let Some(m) = self.mutant {
-            return cycle::complete(&mut Int, &mutants::Mutated(m), &self.cfg, self, t, u, latch, &mut d.j);
-        }
-        cycle::complete(&mut Int, &Design, &self.cfg, self, t, u, latch, &mut d.j)
+        self.policy.complete(&self.cfg, self, t, u, latch, &mut d.j)
     }
 
     /// Completes thread `t`'s next micro-op at once (for exploring every interleaving of
@@ -752,11 +735,7 @@ impl StackManager {
                 "two commands of thread {t}"
             );
         }
-        #[cfg(feature = "mutants")]
-        if let Some(m) = self.mutant {
-            return cycle::plan(&mut Int, &mutants::Mutated(m), &self.cfg, &self.w, self, cmds, &mut d.j);
-        }
-        cycle::plan(&mut Int, &Design, &self.cfg, &self.w, self, cmds, &mut d.j)
+        self.policy.plan(&self.cfg, &self.w, self, cmds, &mut d.j)
     }
 
     /// Threads with work in flight or queued.
@@ -764,11 +743,15 @@ impl StackManager {
         self.busy.iter().map(|w| w.count_ones() as usize).sum()
     }
 
-    /// Sets a mutant (test builds).
-    #[cfg(feature = "mutants")]
-    pub fn with_mutant(mut self, m: Option<Mutant>) -> Self {
-        self.mutant = m;
+    /// The manager with policy implementation `policy` in place of its configuration's.
+    pub fn with_policy(mut self, policy: StackPolicy) -> Self {
+        self.policy = policy;
         self
+    }
+
+    /// The policy's implementation this manager runs.
+    pub fn policy(&self) -> &StackPolicy {
+        &self.policy
     }
 
     /// Brings thread `t`'s bits of `queued` and `busy` in line with its sequencer (after any

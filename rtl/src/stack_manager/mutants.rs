@@ -167,6 +167,27 @@ named_enum!(
 pub use planted::Mutated;
 
 #[cfg(feature = "mutants")]
+impl Mutant {
+    /// The paper's design with this bug planted, as a stack manager's policy.
+    pub fn policy(self) -> super::StackPolicy {
+        super::StackPolicy::new(Mutated(self))
+    }
+}
+
+#[cfg(feature = "mutants")]
+impl super::StackManager {
+    /// The manager running the paper's design with bug `m` planted (none: its configuration's
+    /// policy).
+    pub fn with_mutant(self, m: Option<Mutant>) -> Self {
+        let policy = match m {
+            Some(m) => m.policy(),
+            None => super::StackPolicy::of(self.config()),
+        };
+        self.with_policy(policy)
+    }
+}
+
+#[cfg(feature = "mutants")]
 mod planted {
     use super::super::cycle::{merge_stack, CycleIn, CycleSteps, Journal, Registers};
     use super::super::policy::{Chain, Plan, Regfile, Regs, Steps};
@@ -258,6 +279,10 @@ mod planted {
     }
 
     impl Steps for Mutated {
+        fn name(&self) -> &'static str {
+            self.0.name()
+        }
+
         fn refuse<L: Logic, R: Regfile<L>>(
             p: &mut P<L, R>,
             cmd: &CmdOf<L::Val>,
@@ -398,7 +423,7 @@ mod planted {
         }
 
         fn spill_into<L: Logic, R: Regfile<L>>(p: &mut P<L, R>, s: L::Word, v: L::Val) {
-            if let (true, Some(ra)) = (is(p, Mutant::FlushCountedTwice), p.cfg.realloc) {
+            if let (true, Some(ra)) = (is(p, Mutant::FlushCountedTwice), p.cfg.realloc()) {
                 // The plan flushed `s` when its count moved since the cycle began (nothing else
                 // in a push's plan writes Flush but a borrow, which writes 0 over 0).
                 let now = p.stack(s);

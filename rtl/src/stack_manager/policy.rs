@@ -64,9 +64,55 @@ pub struct Chain<L: Logic> {
     pub len: usize,
 }
 
-/// The replaceable pieces of the policy. Every method has the design's behaviour by default
-/// (the `Plan` method of the same name); an implementation overrides the pieces it changes.
+/// The policy, as the pieces a design (or a planted bug) replaces. Every method has the paper's
+/// behaviour by default (the [`Plan`] method of the same name); an implementation overrides the
+/// pieces it changes.
+///
+/// The first group are the decisions where designs differ: what a push does when the chain's
+/// top stack is full, which idle stack it borrows, what the last level does when no stack takes
+/// the entry, what a pop does when it drains the top stack, what a finish leaves behind. The
+/// rest are the datapath's pieces (pointer arithmetic, comparators, register writes), the
+/// places a slip in the hardware would sit.
 pub trait Steps: Sized {
+    /// The design's name in reports and errors.
+    fn name(&self) -> &'static str {
+        "paper"
+    }
+
+    // ---- decisions ----------------------------------------------------------------------------
+
+    /// A push found the chain's top stack full: place `v` in another SH stack (`true`), or leave
+    /// it to [`Steps::on_full_chain`] (`false`).
+    fn on_full_top<L: Logic, R: Regfile<L>>(
+        p: &mut Plan<L, Self, R>,
+        chain: &Chain<L>,
+        v: L::Val,
+    ) -> Result<bool, StackError> {
+        p.on_full_top(chain, v)
+    }
+    /// No stack of the chain takes `v`: the last level's spill from the top stack `top`.
+    fn on_full_chain<L: Logic, R: Regfile<L>>(
+        p: &mut Plan<L, Self, R>,
+        top: L::Word,
+        v: L::Val,
+    ) -> Result<(), StackError> {
+        p.on_full_chain(top, v)
+    }
+    /// The idle stack a full chain borrows: (found, stack).
+    fn first_idle<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) -> (L::Bit, L::Word) {
+        p.first_idle()
+    }
+    /// A pop drained the chain's top stack `top`.
+    fn on_drained<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, chain: &Chain<L>, top: L::Word) {
+        p.on_drained(chain, top)
+    }
+    /// An accepted Finish (the thread is done).
+    fn on_finish<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) {
+        p.on_finish()
+    }
+
+    // ---- datapath pieces ----------------------------------------------------------------------
+
     /// Refuses a command the thread may not take now: busy sequencer, or after its finish.
     fn refuse<L: Logic, R: Regfile<L>>(
         p: &mut Plan<L, Self, R>,
@@ -99,10 +145,6 @@ pub trait Steps: Sized {
     /// stacks, so a chain holds at most 1 + limit).
     fn may_borrow<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, len: L::Word, limit: L::Word) -> L::Bit {
         p.l.le(len, limit)
-    }
-    /// The idle stack a full chain borrows: (found, stack).
-    fn first_idle<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) -> (L::Bit, L::Word) {
-        p.first_idle()
     }
     /// Links idle stack `s` into the thread's chain at rank `rank`.
     fn borrow<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, s: L::Word, rank: L::Word) {
@@ -308,7 +350,7 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         let mut on = self.l.bit(true);
         let mut c = Chain { ids: [t; 32], on: [on; 32], len: 0 };
         let mut s = t;
-        let bound = self.cfg.realloc.map_or(1, |ra| ra.borrow_limit as usize + 1).min(32);
+        let bound = (self.cfg.policy.chain_bound() as usize).min(32);
         loop {
             c.ids[c.len] = s;
             c.on[c.len] = on;
@@ -413,10 +455,17 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         self.set(s, StackRegsOf { flush, ..r });
     }
 
+    /// The lowest-numbered Idle stack of the warp: (found, stack).
     pub fn first_idle(&mut self) -> (L::Bit, L::Word) {
+        self.first_idle_among(0, self.cfg.warp_size)
+    }
+
+    /// The lowest-numbered Idle stack among the `count` lanes from `first`: (found, stack).
+    pub fn first_idle_among(&mut self, first: u32, count: u32) -> (L::Bit, L::Word) {
         let mut found = self.l.bit(false);
-        let mut id = self.l.word(self.base);
-        for s in self.base..self.base + self.cfg.warp_size {
+        let from = self.base + first;
+        let mut id = self.l.word(from);
+        for s in from..from + count {
             let sw = self.l.word(s);
             let idle = self.stack(sw).idle;
             let fresh = self.l.not(found);
@@ -531,39 +580,54 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
             P::spill_into(self, top, v);
             return Ok(());
         }
-        if let Some(ra) = self.cfg.realloc {
-            let len = self.chain_len(&chain);
-            let rank = self.l.sub_k(len, 1);
-            let (some_empty, e) = self.first_empty(&chain);
-            if self.l.decide(some_empty) {
-                self.move_to_rank(&chain, e, rank);
-                P::spill_into(self, e, v);
-                return Ok(());
-            }
-            let limit = self.l.word(ra.borrow_limit);
-            let may_borrow = P::may_borrow(self, len, limit);
-            if self.l.decide(may_borrow) {
-                let (some_idle, s) = P::first_idle(self);
-                if self.l.decide(some_idle) {
-                    P::borrow(self, s, len);
-                    P::spill_into(self, s, v);
-                    return Ok(());
-                }
-            }
-            let oldest = self.by_priority(&chain, false);
-            let one = self.l.word(1);
-            let several = self.l.lt(one, len);
-            let f = self.stack(oldest).flush;
-            let below_limit = self.l.lt_k(f, ra.flush_limit);
-            let may_flush = self.l.or(several, below_limit);
-            if self.l.decide(may_flush) {
-                self.flush(oldest, ra.flush_limit)?;
-                self.move_to_rank(&chain, oldest, rank);
-                P::spill_into(self, oldest, v);
-                return Ok(());
+        if P::on_full_top(self, &chain, v)? {
+            return Ok(());
+        }
+        P::on_full_chain(self, top, v)
+    }
+
+    /// The paper's answer to a full top stack (SPEC 5): an empty member of the chain takes the
+    /// entry; else a chain shorter than the limit borrows an idle stack; else the oldest member
+    /// is flushed to global memory (when the chain has several members or its flush count is
+    /// below the limit). Without reallocation, none of these: `false`.
+    pub fn on_full_top(&mut self, chain: &Chain<L>, v: L::Val) -> Result<bool, StackError> {
+        let Some(ra) = self.cfg.realloc() else { return Ok(false) };
+        let len = self.chain_len(chain);
+        let rank = self.l.sub_k(len, 1);
+        let (some_empty, e) = self.first_empty(chain);
+        if self.l.decide(some_empty) {
+            self.move_to_rank(chain, e, rank);
+            P::spill_into(self, e, v);
+            return Ok(true);
+        }
+        let limit = self.l.word(ra.borrow_limit);
+        let may_borrow = P::may_borrow(self, len, limit);
+        if self.l.decide(may_borrow) {
+            let (some_idle, s) = P::first_idle(self);
+            if self.l.decide(some_idle) {
+                P::borrow(self, s, len);
+                P::spill_into(self, s, v);
+                return Ok(true);
             }
         }
-        // SPEC 3, push case 3: SH load (Bottom) → global store → SH store (Top + 1).
+        let oldest = self.by_priority(chain, false);
+        let one = self.l.word(1);
+        let several = self.l.lt(one, len);
+        let f = self.stack(oldest).flush;
+        let below_limit = self.l.lt_k(f, ra.flush_limit);
+        let may_flush = self.l.or(several, below_limit);
+        if self.l.decide(may_flush) {
+            self.flush(oldest, ra.flush_limit)?;
+            self.move_to_rank(chain, oldest, rank);
+            P::spill_into(self, oldest, v);
+            return Ok(true);
+        }
+        Ok(false)
+    }
+
+    /// The last level's spill (SPEC 3, push case 3): the top stack's oldest entry goes to global
+    /// memory and `v` takes its place: SH load (Bottom) → global store → SH store (Top + 1).
+    pub fn on_full_chain(&mut self, top: L::Word, v: L::Val) -> Result<(), StackError> {
         let one = self.l.word(1);
         let slot = self.claim_spill_slots(one)?;
         let b = self.pop_bottom(top);
@@ -659,28 +723,35 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
             self.stats.sh_to_rb += 1;
             let drained = P::drained(self, top);
             if self.l.decide(drained) {
-                P::reset_flush(self, top);
-                let len = self.chain_len(&chain);
-                let one = self.l.word(1);
-                let several = self.l.lt(one, len);
-                if self.l.decide(several) {
-                    let t = self.tw();
-                    let own = self.l.eq(top, t);
-                    let borrowed = self.l.not(own);
-                    if self.l.decide(borrowed) {
-                        self.unlink(top);
-                        P::release(self, top);
-                        self.stats.releases += 1;
-                    } else {
-                        let zero = self.l.word(0);
-                        self.move_to_rank(&chain, t, zero);
-                        self.stats.demotions += 1;
-                    }
-                }
+                P::on_drained(self, &chain, top);
             }
         }
         P::global_reload(self);
         Ok(v)
+    }
+
+    /// The paper's answer to a pop that drained the chain's top stack: its flush count
+    /// restarts; in a chain of several, a borrowed top leaves the ring and is given back, the
+    /// thread's own stack takes the lowest rank.
+    pub fn on_drained(&mut self, chain: &Chain<L>, top: L::Word) {
+        P::reset_flush(self, top);
+        let len = self.chain_len(chain);
+        let one = self.l.word(1);
+        let several = self.l.lt(one, len);
+        if self.l.decide(several) {
+            let t = self.tw();
+            let own = self.l.eq(top, t);
+            let borrowed = self.l.not(own);
+            if self.l.decide(borrowed) {
+                self.unlink(top);
+                P::release(self, top);
+                self.stats.releases += 1;
+            } else {
+                let zero = self.l.word(0);
+                self.move_to_rank(chain, t, zero);
+                self.stats.demotions += 1;
+            }
+        }
     }
 
     pub fn global_reload(&mut self) {
@@ -717,12 +788,102 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
             return Err(StackError::FinishNonEmpty { thread: self.t });
         }
         self.th.done = self.l.bit(true);
-        if self.cfg.realloc.is_some() {
+        P::on_finish(self);
+        Ok(())
+    }
+
+    /// The paper's answer to an accepted Finish: with reallocation, the thread's own stack turns
+    /// Idle, free to lend.
+    pub fn on_finish(&mut self) {
+        if self.cfg.realloc().is_some() {
             let t = self.tw();
             let r = self.stack(t);
             let idle = self.l.bit(true);
             self.set(t, StackRegsOf { idle, ..r });
         }
-        Ok(())
+    }
+}
+
+/// The paper's decisions, one by one, on a warp of 4 lanes with one RB and one SH entry per lane
+/// (every third push decides something), completing each command's micro-ops at once.
+#[cfg(test)]
+mod tests {
+    use crate::config::Config;
+    use crate::stack_manager::{Cmd, StackManager};
+
+    /// `name` on one 4-lane warp; with reallocation, a borrow limit of 2 (chains of three).
+    fn manager(name: &str) -> StackManager {
+        let mut cfg = Config { warp_size: 4, warps: 1, ..name.parse::<Config>().unwrap() };
+        if let Some(ra) = cfg.policy.realloc_mut() {
+            ra.borrow_limit = 2;
+        }
+        StackManager::new(cfg, 0).unwrap()
+    }
+
+    fn pushes(sm: &mut StackManager, t: u32, values: std::ops::RangeInclusive<u64>) {
+        for v in values {
+            sm.apply(t, Cmd::Push(v)).unwrap();
+        }
+    }
+
+    /// Pops thread `t` empty, newest first.
+    fn pop_all(sm: &mut StackManager, t: u32) -> Vec<u64> {
+        std::iter::from_fn(|| sm.apply(t, Cmd::Pop).ok().flatten()).collect()
+    }
+
+    #[test]
+    fn without_reallocation_a_full_chain_spills_its_oldest_entry_to_global() {
+        let mut sm = manager("RB_1+SH_1");
+        pushes(&mut sm, 0, 1..=3);
+        assert_eq!((sm.stats.rb_to_sh, sm.stats.sh_to_global), (2, 1));
+        assert_eq!(sm.global(0), [1], "the oldest entry left for global memory");
+        assert_eq!(pop_all(&mut sm, 0), [3, 2, 1]);
+        assert_eq!(sm.stats.global_to_sh, 1);
+    }
+
+    #[test]
+    fn a_full_top_borrows_the_lowest_idle_stack_then_flushes_the_oldest() {
+        let mut sm = manager("RB_1+SH_1+RA");
+        for t in [2, 3] {
+            sm.apply(t, Cmd::Finish).unwrap();
+            assert!(sm.stack(t).idle, "a finished thread's stack is free to lend");
+        }
+        pushes(&mut sm, 0, 1..=3);
+        assert_eq!(sm.chain(0), [0, 2], "the lowest Idle stack, linked after the owner");
+        assert!(!sm.stack(2).idle);
+        assert_eq!((sm.stack(0).priority, sm.stack(2).priority), (0, 1));
+        // The next full top borrows lane 3 (a chain of three is the limit); the one after
+        // flushes the oldest.
+        pushes(&mut sm, 0, 4..=4);
+        assert_eq!(sm.chain(0), [0, 3, 2]);
+        pushes(&mut sm, 0, 5..=5);
+        assert_eq!((sm.stats.borrows, sm.stats.flushes), (2, 1));
+        assert_eq!(sm.global(0), [1], "the flush wrote the oldest stack to global memory");
+        assert_eq!(pop_all(&mut sm, 0), [5, 4, 3, 2, 1]);
+    }
+
+    #[test]
+    fn a_drained_borrowed_top_is_given_back() {
+        let mut sm = manager("RB_1+SH_1+RA");
+        sm.apply(1, Cmd::Finish).unwrap();
+        pushes(&mut sm, 0, 1..=3);
+        assert_eq!(sm.chain(0), [0, 1]);
+        assert_eq!(sm.apply(0, Cmd::Pop).unwrap(), Some(3));
+        // The pop reloaded the RB from the borrowed top (entry 2), which drained it.
+        assert_eq!(sm.apply(0, Cmd::Pop).unwrap(), Some(2));
+        assert_eq!(sm.chain(0), [0], "released");
+        let s = sm.stack(1);
+        assert!(s.idle && s.priority == 0 && s.next_tid == 1, "back with its owner: {s:?}");
+        assert_eq!(sm.stats.releases, 1);
+    }
+
+    #[test]
+    fn finish_is_refused_with_entries_and_lends_only_with_reallocation() {
+        let mut sm = manager("RB_1+SH_1+RA");
+        sm.apply(0, Cmd::Push(7)).unwrap();
+        assert!(sm.apply(0, Cmd::Finish).is_err(), "a thread with entries cannot finish");
+        let mut plain = manager("RB_1+SH_1");
+        plain.apply(0, Cmd::Finish).unwrap();
+        assert!(plain.thread(0).done && !plain.stack(0).idle, "without RA nothing is lent");
     }
 }

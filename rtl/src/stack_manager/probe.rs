@@ -55,7 +55,7 @@ impl StackManager {
                     s.signal("sh_empty", w.sh_empty, u64::from(st.empty));
                 }
                 s.signal("overflow", w.overflow, u64::from(th.overflow));
-                if self.cfg.realloc.is_some() {
+                if self.cfg.realloc().is_some() {
                     s.signal("idle", w.idle, u64::from(st.idle));
                     s.signal("next_tid", w.next_tid, st.next_tid as u64);
                     s.signal("priority", w.priority, st.priority as u64);

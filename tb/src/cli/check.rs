@@ -16,7 +16,7 @@ use crate::run::verify::exhaustive::{
     check, describe, full_cases, is_large, large_cap, Action, Bounds, Case, Coverage, Model,
 };
 use anyhow::{bail, Result};
-use rtl::config::{Config, RbSize, Realloc};
+use rtl::config::{Config, RbSize, Realloc, ShPolicy};
 use rtl::stack_manager::{Mutant, StackManager};
 use rtl::trace::{Probe, Sink};
 
@@ -205,13 +205,15 @@ fn grid(a: &Args) -> Result<Vec<Config>> {
                     let c = stack.apply(Config {
                         rb: RbSize::Entries(n),
                         sh_entries: m,
-                        realloc: (borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 }),
+                        policy: ShPolicy::from(
+                            (borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 }),
+                        ),
                         warp_size,
                         warps: 1,
                         ..Config::default()
                     });
                     let c = Config { skew: m > 0 && c.warp_size > 2, ..c };
-                    if c.realloc.is_some_and(|ra| m == 0 || ra.borrow_limit >= c.warp_size) {
+                    if c.realloc().is_some_and(|ra| m == 0 || ra.borrow_limit >= c.warp_size) {
                         continue;
                     }
                     c.validate()?;
@@ -585,7 +587,7 @@ mod grid_tests {
         let mut want = "RB_2+SH_1+RA".parse::<Config>().unwrap();
         want.warps = 1;
         want.warp_size = 2;
-        want.realloc = Some(Realloc { borrow_limit: 1, flush_limit: 3 });
+        want.policy = ShPolicy::Realloc(Realloc { borrow_limit: 1, flush_limit: 3 });
         assert_eq!(named.unwrap(), [describe(&want)]);
         for (argv, flag) in [
             (&["-c", "RB_2"][..], "--config"),

@@ -3,13 +3,14 @@
 use std::time::Duration;
 
 use anyhow::{bail, Result};
-use rtl::stack_manager::policy::Design;
+use rtl::config::Config;
+use rtl::stack_manager::select::{for_policy, Implementation, Visit};
 use rtl::stack_manager::Mutant;
 
 use super::stack_config::StackConfigArgs;
 use crate::prove::replay::replay;
 use crate::prove::solver::{Solver, Verdict};
-use crate::prove::{obligations, prove, Outcome};
+use crate::prove::{obligations, prove, Obligation, Outcome};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -70,7 +71,7 @@ pub fn run(args: Args) -> Result<()> {
             }
             crate::cli::note(format!("proving {} at {} ...", ob.name, cfg.name()));
             let outs = match args.mutant.as_deref() {
-                None => prove(cfg, &Design, &ob, &solvers, limit)?,
+                None => for_policy(&cfg.policy, Prove { cfg, ob: &ob, solvers: &solvers, limit })?,
                 Some(name) => prove_mutant(name, cfg, &ob, &solvers, limit)?,
             };
             for o in &outs {
@@ -95,6 +96,21 @@ pub fn run(args: Args) -> Result<()> {
         bail!("{failed} of {} proofs not proved", all.len());
     }
     Ok(())
+}
+
+/// `prove` with the implementation of the configuration's policy.
+struct Prove<'a> {
+    cfg: &'a Config,
+    ob: &'a Obligation,
+    solvers: &'a [Solver],
+    limit: Duration,
+}
+
+impl Visit for Prove<'_> {
+    type Out = Result<Vec<Outcome>>;
+    fn visit<P: Implementation>(self, steps: &P) -> Self::Out {
+        prove(self.cfg, steps, self.ob, self.solvers, self.limit)
+    }
 }
 
 fn counterexample(o: &Outcome) -> Option<&Vec<(String, u64)>> {

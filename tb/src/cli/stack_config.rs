@@ -66,7 +66,7 @@ impl StackConfigArgs {
                 let mut c = self.apply(c);
                 // The names' borrow limit (4) is for 32-thread warps: a smaller warp without
                 // --borrow-limit takes the most it allows.
-                if let (None, Some(ra)) = (self.borrow_limit, c.realloc.as_mut()) {
+                if let (None, Some(ra)) = (self.borrow_limit, c.policy.realloc_mut()) {
                     if c.warp_size >= 2 && ra.borrow_limit >= c.warp_size {
                         crate::cli::note(format!(
                             "--config {name}: borrow limit {} (the most a {}-thread warp allows; --borrow-limit sets it)",
@@ -87,7 +87,7 @@ impl StackConfigArgs {
     pub fn apply(&self, mut c: Config) -> Config {
         c.warps = self.warps.unwrap_or(c.warps);
         c.warp_size = self.warp_size.unwrap_or(c.warp_size);
-        if let Some(ra) = c.realloc.as_mut() {
+        if let Some(ra) = c.policy.realloc_mut() {
             let Realloc { borrow_limit, flush_limit } = ra;
             *borrow_limit = self.borrow_limit.unwrap_or(*borrow_limit);
             *flush_limit = self.flush_limit.unwrap_or(*flush_limit);

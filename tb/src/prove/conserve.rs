@@ -78,7 +78,7 @@ fn layout(
     let mut members = Vec::new();
     let mut sh = s.word(0);
     if m > 0 {
-        let most = cfg.realloc.map_or(1, |ra| ra.borrow_limit + 1).min(cfg.warp_size);
+        let most = cfg.policy.chain_bound().min(cfg.warp_size);
         let me = s.word(lane);
         let mut cur = me;
         let mut on = s.bit(true);

@@ -164,9 +164,9 @@ pub fn well_formed_parts<L: Logic>(
         let alone = l.eq(r.next_tid, jw);
         let rank0 = l.eq_k(r.priority, 0);
         let count0 = l.eq_k(r.flush, 0);
-        match cfg.realloc {
+        match cfg.realloc() {
             Some(ra) => {
-                let p = l.lt_k(r.priority, ra.borrow_limit + 1);
+                let p = l.lt_k(r.priority, cfg.policy.chain_bound());
                 need(&mut parts, who, "Priority within the borrow limit", p);
                 let f = l.lt_k(r.flush, ra.flush_limit + 1);
                 need(&mut parts, who, "Flush within its limit", f);
@@ -195,7 +195,7 @@ pub fn well_formed_parts<L: Logic>(
         }
     }
     let limit = (1u32 << cfg.spill_ptr_bits.min(31)) - 1;
-    let max_ring = cfg.realloc.map_or(1, |ra| ra.borrow_limit + 1) as usize;
+    let max_ring = cfg.policy.chain_bound() as usize;
     for &(lane, th, rb_len, busy) in lanes {
         let who = Who::Lane(lane);
         if let Some(n) = cfg.rb.capacity() {
@@ -298,7 +298,7 @@ pub fn well_formed_parts<L: Logic>(
                 let one = l.eq_k(len, 1);
                 let imp = implies(l, c, one);
                 need(&mut parts, who, "quiescent: the top is empty only on a ring of one", imp);
-                if cfg.realloc.is_some() {
+                if cfg.realloc().is_some() {
                     let c = l.and(here, e);
                     let f = select(l, regs, x, |r| r.flush);
                     let zero = l.eq_k(f, 0);

@@ -11,6 +11,7 @@
 //! | push | top stack not full | SH store at Top + 1 (at Top if empty) | Top |
 //! | push | RA, an empty member | SH store at its Top | it becomes the top rank, the ranks above it move down |
 //! | push | RA, chain shorter than 1 + borrow limit, an Idle stack | SH store at the lowest Idle stack's skewed base | it joins the ring after the owner, at the top rank |
+//! | push | RA_G, chain shorter than 1 + borrow limit, an Idle stack among the G lanes of the thread's group | SH store at the lowest such stack's skewed base | as with RA |
 //! | push | RA, several members or flush count below the limit: flush the oldest | (SH load → global store) × its count from Bottom, then SH store at its old Top | it becomes the top rank holding one entry, flush count + 1 (saturating), spill pointer + count |
 //! | push | otherwise | SH load (Bottom) → global store → SH store at Top + 1 | Top and Bottom advance, spill pointer + 1 |
 //! | pop | RB empty | refused | — |
@@ -20,7 +21,7 @@
 //! | finish | RB not empty | refused | — |
 //! | finish | | — | done; with RA its stack turns Idle |
 
-use rtl::config::Config;
+use rtl::config::{Config, ShPolicy};
 use rtl::logic::Logic;
 use rtl::stack_manager::policy::{RbOp, Regfile, Regs, Thread};
 use rtl::stack_manager::{CmdOf, SrcOf, StackError, StackRegsOf, UopOf};
@@ -79,7 +80,7 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
                     return Err(StackError::FinishNonEmpty { thread: t });
                 }
                 self.th.done = self.l.bit(true);
-                if self.cfg.realloc.is_some() {
+                if self.cfg.realloc().is_some() {
                     let me = self.l.word(t);
                     let r = self.get(me);
                     let idle = self.l.bit(true);
@@ -130,7 +131,7 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
         let mut at = vec![(self.l.bit(true), me)];
         let mut s = me;
         let mut on = self.l.bit(true);
-        let most = self.cfg.realloc.map_or(1, |ra| ra.borrow_limit + 1).min(self.cfg.warp_size);
+        let most = self.cfg.policy.chain_bound().min(self.cfg.warp_size);
         for _ in 1..most {
             let next = self.get(s).next_tid;
             s = self.l.add_k(next, self.base);
@@ -246,7 +247,7 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
             self.put(top, StackRegsOf { top: entry, empty: no, ..r });
             return Ok(());
         }
-        if let Some(ra) = self.cfg.realloc {
+        if let Some(ra) = self.cfg.realloc() {
             let len = self.len(&ring);
             let rank = self.l.sub_k(len, 1);
             // The first empty member in ring order.
@@ -270,9 +271,15 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
             }
             let short = self.l.lt_k(len, ra.borrow_limit + 1);
             if self.l.decide(short) {
+                // The lanes a thread may borrow from: the whole warp with RA; with RA_G the
+                // G lanes of its own group.
+                let (first, lanes) = match self.cfg.policy {
+                    ShPolicy::Group { lanes, .. } => ((self.t - self.base) / lanes * lanes, lanes),
+                    _ => (0, self.cfg.warp_size),
+                };
                 let mut found = self.l.bit(false);
-                let mut lane = self.l.word(0);
-                for j in 0..self.cfg.warp_size {
+                let mut lane = self.l.word(first);
+                for j in first..first + lanes {
                     let s = self.l.word(self.base + j);
                     let idle = self.get(s).idle;
                     let fresh = self.l.not(found);

@@ -84,7 +84,7 @@ impl CostReport {
         let w = cfg.widths()?;
         let t = cfg.threads();
         let m = cfg.sh_entries;
-        let ra = cfg.realloc;
+        let ra = cfg.realloc();
         let n = cfg.rb.capacity().unwrap_or(full_depth);
         let rb_count_bits = match cfg.rb {
             RbSize::Entries(_) => w.rb_count,

@@ -154,7 +154,7 @@ fn ratio(a: Option<u64>, b: Option<u64>) -> Option<f64> {
 /// stack), SH sizes (SH stacks, no skew or reallocation), the SMS steps (skew, reallocation, and
 /// SMS at other RB sizes).
 fn family(c: &rtl::config::Config) -> usize {
-    match (c.sh_entries, c.skew || c.realloc.is_some()) {
+    match (c.sh_entries, c.skew || c.realloc().is_some()) {
         (0, _) => 0,
         (_, false) => 1,
         (_, true) => 2,

@@ -94,7 +94,7 @@ impl BenchOpts {
 
     /// The configuration the savings are measured on: the first with reallocation, else the last.
     fn focus(configs: &[Config]) -> Config {
-        *configs.iter().find(|c| c.realloc.is_some()).unwrap_or(&configs[configs.len() - 1])
+        *configs.iter().find(|c| c.realloc().is_some()).unwrap_or(&configs[configs.len() - 1])
     }
 }
 
@@ -354,7 +354,7 @@ pub fn bench_scene(
     });
     log(format!("  {} bounces {more_wall:.2} s", more.max_bounces));
 
-    for &config in configs.iter().filter(|c| c.realloc.is_none()) {
+    for &config in configs.iter().filter(|c| c.realloc().is_none()) {
         let time = |fast| {
             let t = Instant::now();
             functional::run_with(config, w.warps(), fast).map(|r| (r, secs(t.elapsed())))

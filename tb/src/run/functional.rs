@@ -47,7 +47,8 @@ where
     I: IntoIterator<Item = Vec<WarpTraces>>,
 {
     // Deepest stack a ray may reach and still never leave the RB (FULL: any).
-    let shallow = (shallow_fast_path && cfg.realloc.is_none()).then(|| cfg.rb.capacity().unwrap_or(u32::MAX));
+    let shallow =
+        (shallow_fast_path && cfg.realloc().is_none()).then(|| cfg.rb.capacity().unwrap_or(u32::MAX));
     let mut sm = StackManager::new(cfg, 0)?;
     let mut out = FunctionalRun::default();
     let mut fast = StackStats::default();
@@ -133,7 +134,7 @@ mod tests {
                 assert_eq!(fast.total, full.total, "{what}");
                 assert_eq!(fast.per_warp, full.per_warp, "{what}");
                 assert_eq!(full.rays_fast, 0, "{what}: the fast path is opt-in");
-                if cfg.realloc.is_some() {
+                if cfg.realloc().is_some() {
                     assert_eq!(fast.rays_fast, 0, "{what}: lanes lend their stacks, so all run");
                     assert_eq!(fast.pops_checked, full.pops_checked, "{what}");
                 } else {

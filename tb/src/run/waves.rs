@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use crate::run::verify::harness::{run_cycle, CycleOpts, RunSummary};
 use crate::run::verify::streams::warps;
-use rtl::config::{Config, Realloc};
+use rtl::config::{Config, Realloc, ShPolicy};
 use rtl::stack_unit::StandaloneStack;
 use rtl::trace::Sink;
 
@@ -57,7 +57,7 @@ fn small(name: &str, warp_size: u32, warps: u32) -> Config {
 /// so shallow streams already borrow and flush.
 pub fn sms_small() -> Config {
     let mut cfg = small("RB_2+SH_4+SK+RA", 8, 2);
-    cfg.realloc = Some(Realloc { borrow_limit: 1, flush_limit: 3 });
+    cfg.policy = ShPolicy::Realloc(Realloc { borrow_limit: 1, flush_limit: 3 });
     cfg
 }
 

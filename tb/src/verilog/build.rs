@@ -514,7 +514,7 @@ impl Lane {
         let base = s.word(cfg.skew_base(j));
         let (z, no, yes, zv) = (s.word(0), s.bit(false), s.bit(true), s.val(0));
         let finished = s.not(active);
-        let idle = if cfg.realloc.is_some() { finished } else { no };
+        let idle = if cfg.realloc().is_some() { finished } else { no };
         let lane = s.word(j);
         let stack =
             StackRegsOf { top: base, bottom: base, empty: yes, idle, next_tid: lane, priority: z, flush: z };

@@ -50,7 +50,7 @@ impl Generated {
 
 /// The configuration in one line, as the header and reports state it.
 pub fn describe(cfg: &Config, acked: bool) -> String {
-    let ra = cfg.realloc.map_or(String::new(), |r| {
+    let ra = cfg.realloc().map_or(String::new(), |r| {
         format!(", borrow limit {}, flush limit {}", r.borrow_limit, r.flush_limit)
     });
     format!(
@@ -65,6 +65,11 @@ pub fn describe(cfg: &Config, acked: bool) -> String {
 /// Generates the stack manager of `cfg` (global stores acknowledged when `acked`).
 pub fn generate(cfg: &Config, acked: bool) -> Result<Generated, String> {
     cfg.validate().map_err(|e| e.to_string())?;
+    if let rtl::config::ShPolicy::Group { lanes, .. } = cfg.policy {
+        return Err(format!(
+            "the Verilog printer emits the paper's policy (RA); reallocation within groups of {lanes} lanes (RA_{lanes}) is simulated and proved but not printed"
+        ));
+    }
     let circuit = build::warp(cfg, acked)?;
     let body = format!("{}\n{}", print::warp_module(&circuit), print::top_module(cfg, &circuit));
     let hash = format!("{:016x}", fnv1a64(body.as_bytes()));

@@ -241,8 +241,8 @@ impl Bounds {
 /// three entries). Two-thread warps with reallocation and M = 1 get 2 more, so the chain's two
 /// stacks are each flushed once and the first a second time (flush saturation).
 pub fn default_cap(c: &Config) -> u32 {
-    let chain = 1 + c.realloc.map_or(0, |r| r.borrow_limit);
-    let extra = if c.realloc.is_some() && c.warp_size == 2 && c.sh_entries == 1 { 2 } else { 0 };
+    let chain = 1 + c.realloc().map_or(0, |r| r.borrow_limit);
+    let extra = if c.realloc().is_some() && c.warp_size == 2 && c.sh_entries == 1 { 2 } else { 0 };
     match c.rb.capacity() {
         Some(n) => n + c.sh_entries * chain + 1 + extra,
         None => 3,
@@ -251,7 +251,7 @@ pub fn default_cap(c: &Config) -> u32 {
 
 /// The 4-thread warps with M = 2 and reallocation: the largest state spaces of the full set.
 pub fn is_large(c: &Config) -> bool {
-    c.warp_size == 4 && c.sh_entries == 2 && c.realloc.is_some()
+    c.warp_size == 4 && c.sh_entries == 2 && c.realloc().is_some()
 }
 
 /// A smaller cap for the [`is_large`] configurations (`sms check --full --small-cap`): one
@@ -334,16 +334,16 @@ impl Goal {
 
     /// Whether `c` has the feature the goal needs (so it must be reached).
     pub fn applies(self, c: &Config) -> bool {
-        let ra = c.realloc.is_some();
+        let ra = c.realloc().is_some();
         let finite = c.rb.capacity().is_some();
         match self {
             Goal::Borrow | Goal::FullChain | Goal::Demotion | Goal::ExitAfterBorrow => ra && finite,
             Goal::Flush | Goal::FlushSaturation | Goal::PerEntryFallback | Goal::OldestReload => ra && finite,
             // With one borrowed stack it always sits right after its owner, and the priorities
             // then follow the ring at every release.
-            Goal::RotatedRelease => finite && c.realloc.is_some_and(|r| r.borrow_limit >= 2),
+            Goal::RotatedRelease => finite && c.realloc().is_some_and(|r| r.borrow_limit >= 2),
             Goal::SkewBase => finite && (0..c.warp_size).any(|l| c.skew_base(l) != 0),
-            Goal::FlushAtLimit => finite && c.realloc.is_some_and(|r| r.flush_limit >= 2),
+            Goal::FlushAtLimit => finite && c.realloc().is_some_and(|r| r.flush_limit >= 2),
             Goal::NonAdjacentRelease
             | Goal::BusyRefusal
             | Goal::SameCycleBorrow
@@ -875,7 +875,7 @@ impl Model {
         let base = self.warp * self.sm.config().warp_size;
         let sm = &mut self.sm;
         let before = sm.stats;
-        let ra = sm.config().realloc;
+        let ra = sm.config().realloc();
         // The chain before a pop, in ring order with each member's Priority then, for the
         // rotated-release cover.
         let ring_before: Option<Vec<(u32, u32)>> = match a {
@@ -1183,7 +1183,7 @@ fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[(u32
     if d.flushes_saturated > 0 {
         c.hit(Goal::FlushSaturation);
     }
-    if let Some(ra) = cfg.realloc.filter(|r| r.flush_limit >= 2) {
+    if let Some(ra) = cfg.realloc().filter(|r| r.flush_limit >= 2) {
         if sm.warp_threads(sm.warp_of(t)).any(|s| sm.stack(s).flush == ra.flush_limit) {
             c.hit(Goal::FlushAtLimit);
         }
@@ -1191,11 +1191,11 @@ fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[(u32
     if d.demotions > 0 {
         c.hit(Goal::Demotion);
     }
-    if cfg.realloc.is_some() && d.sh_to_global > 0 && d.flushes == 0 {
+    if cfg.realloc().is_some() && d.sh_to_global > 0 && d.flushes == 0 {
         c.hit(Goal::PerEntryFallback);
     }
     let chain = sm.chain(t);
-    if let Some(ra) = cfg.realloc {
+    if let Some(ra) = cfg.realloc() {
         if chain.len() as u32 == 1 + ra.borrow_limit {
             c.hit(Goal::FullChain);
         }
@@ -1557,7 +1557,7 @@ pub fn small_configs() -> Vec<Config> {
                     rb: RbSize::Entries(n),
                     sh_entries: m,
                     skew: m > 0 && ws == 4,
-                    realloc,
+                    policy: realloc.into(),
                     warp_size: ws,
                     warps: 1,
                     ..Config::default()
@@ -1574,8 +1574,27 @@ pub fn small_configs() -> Vec<Config> {
 /// small configuration has k = 32 / (2M) ≥ warp size, so all bases are 0).
 pub fn full_configs() -> Vec<Config> {
     let mut out: Vec<Config> = small_configs().into_iter().collect();
-    out.extend(skew_configs().into_iter().filter(|c| c.realloc.is_none()));
+    out.extend(skew_configs().into_iter().filter(|c| c.realloc().is_none()));
+    out.extend(group_configs());
     out
+}
+
+/// Reallocation within groups of 2 lanes (`+RA_2`) in a 4-thread warp: a lane's group holds
+/// one stack to lend, the other group's idle stacks are out of its reach.
+pub fn group_configs() -> Vec<Config> {
+    use rtl::config::{RbSize, Realloc, ShPolicy};
+    [(1, 1, true), (2, 1, false)]
+        .into_iter()
+        .map(|(n, m, skew)| Config {
+            rb: RbSize::Entries(n),
+            sh_entries: m,
+            skew,
+            policy: ShPolicy::Group { ra: Realloc { borrow_limit: 1, flush_limit: 1 }, lanes: 2 },
+            warp_size: 4,
+            warps: 1,
+            ..Config::default()
+        })
+        .collect()
 }
 
 /// One case of `sms check --full`: a configuration, the lanes active when its warp loads, and
@@ -1641,7 +1660,7 @@ impl Case {
         let mut g: Vec<Goal> = Goal::ALL.into_iter().filter(|g| g.applies(&self.cfg)).collect();
         if self.partial() {
             g.retain(|&g| g != Goal::PerEntryFallback);
-            let three = self.cfg.realloc.is_some_and(|r| r.borrow_limit >= 2);
+            let three = self.cfg.realloc().is_some_and(|r| r.borrow_limit >= 2);
             match self.active.count_ones() {
                 1 if three => g.push(Goal::NonAdjacentRelease),
                 1 => {}
@@ -1652,12 +1671,12 @@ impl Case {
         if self.busy_cmds {
             g.push(Goal::BusyRefusal);
         }
-        if self.pairs && self.cfg.realloc.is_some() {
+        if self.pairs && self.cfg.realloc().is_some() {
             g.push(Goal::SameCycleBorrow);
         }
         if self.uop_cmds {
             g.push(Goal::BusyAsLastUopCompletes);
-            if self.cfg.realloc.is_some() {
+            if self.cfg.realloc().is_some() {
                 g.push(Goal::ReleaseMeetsBorrow);
             }
         }
@@ -1701,7 +1720,7 @@ impl Case {
 /// racing to borrow the two Idle stacks, under [`default_cap`]. (Two lanes with the one-lane
 /// cap 14 pass 8 · 10⁶ states.)
 pub fn full_cases() -> Vec<Case> {
-    use rtl::config::{RbSize, Realloc};
+    use rtl::config::{RbSize, Realloc, ShPolicy};
     let mut out: Vec<Case> = full_configs().into_iter().map(Case::full).collect();
     for (m, banks) in [(1, 32), (2, 8)] {
         let cfg = Config {
@@ -1709,7 +1728,7 @@ pub fn full_cases() -> Vec<Case> {
             sh_entries: m,
             skew: true,
             banks,
-            realloc: Some(Realloc { borrow_limit: 2, flush_limit: 1 }),
+            policy: ShPolicy::Realloc(Realloc { borrow_limit: 2, flush_limit: 1 }),
             warp_size: 4,
             warps: 1,
             ..Config::default()
@@ -1719,7 +1738,7 @@ pub fn full_cases() -> Vec<Case> {
         let cap = 1 + 2 * m * 3 + 1;
         out.push(Case { active: 1, cap, ..Case::new(cfg) });
     }
-    for c in skew_configs().into_iter().filter(|c| c.realloc.is_some()) {
+    for c in skew_configs().into_iter().filter(|c| c.realloc().is_some()) {
         out.push(Case { active: 0b0011, ..Case::new(c) });
     }
     out.extend(corner_cases());
@@ -1744,13 +1763,13 @@ pub fn full_cases() -> Vec<Case> {
 /// - M = 16 and M = 32 (4- and 5-bit Top and Bottom, skew base lane mod M) on one lane of a
 ///   32-lane warp, through a full chain of two stacks, a flush and the global reload.
 pub fn corner_cases() -> Vec<Case> {
-    use rtl::config::{RbSize, Realloc};
+    use rtl::config::{RbSize, Realloc, ShPolicy};
     let ra = |borrow_limit, flush_limit| Some(Realloc { borrow_limit, flush_limit });
     let cfg = |n, m, ws, realloc| Config {
         rb: RbSize::Entries(n),
         sh_entries: m,
         skew: m > 0,
-        realloc,
+        policy: ShPolicy::from(realloc),
         warp_size: ws,
         warps: 1,
         ..Config::default()
@@ -1804,7 +1823,7 @@ pub fn corner_cases() -> Vec<Case> {
 /// Small skewed configurations with few banks: RB_1+SH_2 on 4-thread warps with 4 banks (bases
 /// 0 1 0 1) and 8 banks (bases 0 0 1 1), without and with reallocation (borrow limit 2).
 pub fn skew_configs() -> Vec<Config> {
-    use rtl::config::{RbSize, Realloc};
+    use rtl::config::{RbSize, Realloc, ShPolicy};
     let mut out = Vec::new();
     for banks in [4, 8] {
         for borrow in [0, 2] {
@@ -1813,7 +1832,9 @@ pub fn skew_configs() -> Vec<Config> {
                 sh_entries: 2,
                 skew: true,
                 banks,
-                realloc: (borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 }),
+                policy: ShPolicy::from(
+                    (borrow > 0).then_some(Realloc { borrow_limit: borrow, flush_limit: 1 }),
+                ),
                 warp_size: 4,
                 warps: 1,
                 ..Config::default()
@@ -1826,7 +1847,7 @@ pub fn skew_configs() -> Vec<Config> {
 /// A configuration's short description for reports.
 pub fn describe(c: &Config) -> String {
     let ra =
-        c.realloc.map_or(String::new(), |r| format!(" borrow {} flush {}", r.borrow_limit, r.flush_limit));
+        c.realloc().map_or(String::new(), |r| format!(" borrow {} flush {}", r.borrow_limit, r.flush_limit));
     let banks = if c.banks == 32 { String::new() } else { format!(" banks {}", c.banks) };
     format!("{} warp {}{}{}", c.name(), c.warp_size, ra, banks)
 }

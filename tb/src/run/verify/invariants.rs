@@ -156,7 +156,7 @@ pub fn check_warp_fields(sm: &StackManager, w: u32, quiescent: bool) -> Result<(
     // Chains are walked from active threads only: a lent stack's ring is its borrower's.
     for t in sm.warp_threads(w).filter(|&t| !sm.thread(t).done) {
         let chain = sm.chain(t);
-        let limit = 1 + cfg.realloc.map_or(0, |r| r.borrow_limit) as usize;
+        let limit = 1 + cfg.realloc().map_or(0, |r| r.borrow_limit) as usize;
         if chain.len() > limit {
             return fail(Property::Chains, format!("thread {t}: chain {chain:?} longer than {limit}"));
         }
@@ -181,6 +181,14 @@ pub fn check_warp_fields(sm: &StackManager, w: u32, quiescent: bool) -> Result<(
         }
         for &s in &chain {
             let lane = (s - base) as usize;
+            if let rtl::config::ShPolicy::Group { lanes, .. } = cfg.policy {
+                if (s - base) / lanes != (t - base) / lanes {
+                    return fail(
+                        Property::Chains,
+                        format!("thread {t} holds stack {s} from outside its group of {lanes} lanes"),
+                    );
+                }
+            }
             if let Some(other) = holder[lane] {
                 return fail(Property::Chains, format!("stack {s} in the chains of threads {other} and {t}"));
             }
@@ -212,14 +220,14 @@ pub fn check_warp_fields(sm: &StackManager, w: u32, quiescent: bool) -> Result<(
             );
         }
         let lent = holder[(s - base) as usize].is_some_and(|h| h != s);
-        let want_idle = cfg.realloc.is_some() && sm.thread(s).done && !lent;
+        let want_idle = cfg.realloc().is_some() && sm.thread(s).done && !lent;
         if quiescent && st.idle != want_idle {
             return fail(
                 Property::Idle,
                 format!("stack {s}: idle {} but done {} lent {lent}", st.idle, sm.thread(s).done),
             );
         }
-        if let Some(ra) = cfg.realloc {
+        if let Some(ra) = cfg.realloc() {
             if st.flush > ra.flush_limit || (quiescent && st.empty && st.flush != 0) {
                 return fail(
                     Property::Flush,
