@@ -242,7 +242,10 @@ impl Bounds {
 /// stacks are each flushed once and the first a second time (flush saturation).
 pub fn default_cap(c: &Config) -> u32 {
     let chain = 1 + c.realloc().map_or(0, |r| r.borrow_limit);
-    let extra = if c.realloc().is_some() && c.warp_size == 2 && c.sh_entries == 1 { 2 } else { 0 };
+    // A thread that can borrow from one other lane only (a 2-thread warp, or groups of 2 lanes)
+    // needs two entries more to flush a stack at its limit: the two stacks take turns.
+    let pairs = c.policy.lend_window(0, c.warp_size).1 == 2;
+    let extra = if c.realloc().is_some() && pairs && c.sh_entries == 1 { 2 } else { 0 };
     match c.rb.capacity() {
         Some(n) => n + c.sh_entries * chain + 1 + extra,
         None => 3,
