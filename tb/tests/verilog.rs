@@ -14,13 +14,18 @@ fn cosim_config() -> Config {
 }
 
 /// `cycles` cycles of SM 0's stack manager on the `clutter` scene, recorded for co-simulation.
+/// The scene's 32-ray warps are regrouped into warps of `cfg.warp_size` rays, in order.
 fn record(cfg: Config, cycles: usize) -> (Generated, Vec<cosim::Cycle>) {
     let g = generate(&cfg, true).unwrap();
     let rec = Recorder::new(Layout::of(&g), cycles);
     let out = rec.out.clone();
     let hw = tb::hw::preset("paper").unwrap();
     let gpu = tb::testing::gpu(cfg, &hw).with_scoreboard(&|| Box::new(rec.clone()));
-    tb::testing::report(gpu, tb::testing::scene_jobs("clutter", 16), "co-simulated run");
+    let jobs = tb::testing::scene_jobs("clutter", 16).into_iter().flat_map(|j| {
+        let lanes: Vec<_> = j.lanes.chunks(cfg.warp_size as usize).map(|c| c.to_vec()).collect();
+        lanes.into_iter().map(|lanes| rtl::ray_op::WarpJob { lanes })
+    });
+    tb::testing::report(gpu, jobs, "co-simulated run");
     let cycles = std::mem::take(&mut out.lock().unwrap().cycles);
     (g, cycles)
 }
@@ -109,31 +114,52 @@ fn yosys_flip_flops_equal_the_bit_accounting_and_a_dropped_register_is_caught() 
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-#[test]
-fn cosimulation_agrees_every_cycle_and_catches_a_planted_difference() {
-    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
-        return;
-    }
-    let (g, cycles) = record(cosim_config(), 2000);
-    assert_eq!(cycles.len(), 2000, "the run is long enough");
-    let dir = std::env::temp_dir().join(format!("sms-cosim-{}", std::process::id()));
+/// Co-simulates `n` cycles of `cfg` and plants a difference: the first lane to make a request
+/// of `signal`'s kind (`g_req` or `sh_req`) says read where it writes; the report must name that
+/// cycle, thread and signal.
+fn cosimulate_and_plant(cfg: Config, n: usize, signal: &str) {
+    let (g, cycles) = record(cfg, n);
+    assert_eq!(cycles.len(), n, "the run is long enough");
+    let dir = std::env::temp_dir().join(format!("sms-cosim-{}-{signal}", std::process::id()));
     let r = cosim::run(&g, &g.text, &cycles, &dir.join("design")).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(r.cycles, 2000);
+    assert_eq!(r.cycles, n);
 
-    // Plant a difference: the first lane to make a global request says read where it writes.
     let layout = Layout::of(&g);
-    let valid = layout.fields.iter().position(|f| f.name == "g_req_valid").unwrap();
+    let valid = layout.fields.iter().position(|f| f.name == format!("{signal}_valid")).unwrap();
     let (first, lane) = cycles
         .iter()
         .enumerate()
         .find_map(|(k, c)| c.records.iter().position(|r| r[valid] != 0).map(|t| (k, t)))
-        .expect("a global request");
-    let line = format!("    assign lane{lane}_g_req_write = ");
+        .unwrap_or_else(|| panic!("a {signal} request"));
+    let (warp, lane_in_warp) = (lane as u32 / cfg.warp_size, lane as u32 % cfg.warp_size);
+    assert_eq!(warp, 0, "one warp slot");
+    let line = format!("    assign lane{lane_in_warp}_{signal}_write = ");
     let at = g.text.find(&line).expect("the assign to plant in");
     let mut bad = g.text.clone();
     bad.insert(at + line.len(), '~');
     let e = cosim::run(&g, &bad, &cycles, &dir.join("planted")).unwrap_err();
     assert!(e.starts_with(&format!("cycle {first} ")), "{e}");
-    assert!(e.contains(&format!("thread {lane} ")) && e.contains("g_req_write"), "{e}");
+    assert!(e.contains(&format!("thread {lane} ")) && e.contains(&format!("{signal}_write")), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn cosimulation_agrees_every_cycle_and_catches_a_planted_difference() {
+    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+        return;
+    }
+    cosimulate_and_plant(cosim_config(), 2000, "g_req");
+}
+
+/// An SH design with reallocation at 4-lane warps (the scene's rays regrouped): spills to SH and
+/// to global memory, refills, borrowing and releases on a real scene.
+#[test]
+fn sh_design_cosimulation_agrees_every_cycle_and_catches_a_planted_difference() {
+    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+        return;
+    }
+    let cfg: Config = "RB_2+SH_8+SK+RA".parse().unwrap();
+    let realloc = cfg.realloc.map(|r| rtl::config::Realloc { borrow_limit: 2, ..r });
+    let cfg = Config { warp_size: 4, warps: 1, realloc, ..cfg };
+    cosimulate_and_plant(cfg, 3000, "sh_req");
 }
