@@ -525,6 +525,15 @@ pub struct Widths {
     /// Sequencer step: position in the longest micro-op program a command loads (a flush of M
     /// entries, 2M micro-ops, with the spill and the refill around it): 2M + 4 states.
     pub seq_step: u32,
+    /// Micro-op slots of a sequencer's program: the longest program a command loads (a flush of
+    /// M entries, 2M micro-ops, and the spill after it; or a pop's five) fits, 2M + 4, and the
+    /// occupancy fits [`Widths::seq_step`].
+    pub seq_slots: u32,
+    /// A held micro-op's operands: `uop_a` a stack's lane or a spill slot, `uop_b` an SH entry.
+    /// With its kind ([`UOP_CODE_BITS`]), a from-the-latch flag and an immediate entry value they
+    /// make one program slot ([`Widths::uop_bits`]).
+    pub uop_a: u32,
+    pub uop_b: u32,
     /// Occupancy of the response FIFO of the memory scheduler, 0..=threads: a thread has at most
     /// one global request that waits for a response (a load, or an acknowledged store).
     pub gm_responses: u32,
@@ -532,6 +541,17 @@ pub struct Widths {
     /// response (acknowledged stores, `StackTiming::Blocking`): 0..=threads, one each. Posted
     /// stores (`Overlapped`) have no such bound; see [`GM_POSTED_QUEUE_BITS`].
     pub gm_queue: u32,
+}
+
+/// Bits of a micro-op's kind code (none and the six kinds of `stack_manager::Uop`).
+pub const UOP_CODE_BITS: u32 = 3;
+
+impl Widths {
+    /// One micro-op as a sequencer holds it: kind, `a`, `b`, the flag that takes the stored data
+    /// from the latch, and the immediate entry value.
+    pub fn uop_bits(&self) -> [u32; 5] {
+        [UOP_CODE_BITS, self.uop_a, self.uop_b, 1, self.entry]
+    }
 }
 
 /// States of a thread's traversal state machine (`thread_fsm::ThreadState`: done, busy, fetch,
@@ -570,6 +590,9 @@ impl Widths {
             live: bits_for(c.warp_size as u64),
             thread_state: bits_for(THREAD_STATES - 1),
             seq_step: bits_for(u64::from(2 * m + 4)),
+            seq_slots: 2 * m + 4,
+            uop_a: bits_for(c.warp_size as u64 - 1).max(c.spill_ptr_bits),
+            uop_b: log2m,
             gm_responses: bits_for(c.threads() as u64),
             gm_queue: bits_for(c.threads() as u64),
         }

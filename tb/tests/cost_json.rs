@@ -39,6 +39,19 @@ fn cost_json_round_trips_and_has_the_texts_totals() {
             let line = text.lines().find(|l| l.split_whitespace().next() == Some(name)).expect(name);
             assert!(line.split_whitespace().any(|w| w == bits_per_sm.to_string()), "{config} {name}: {line}");
         }
+        // The control registers: their own rows and total, outside `bits_per_sm`.
+        let control = r["control"].as_array().unwrap();
+        assert!(!control.is_empty(), "{config}");
+        let mut control_bits = 0;
+        for f in control {
+            assert_eq!(f["origin"].as_str(), Some("control"), "{config}");
+            let bits_per_sm = f["bits"].as_u64().unwrap() * f["copies_per_sm"].as_u64().unwrap();
+            control_bits += bits_per_sm;
+            let name = f["name"].as_str().unwrap();
+            let line = text.lines().find(|l| l.split_whitespace().next() == Some(name)).expect(name);
+            assert!(line.split_whitespace().any(|w| w == bits_per_sm.to_string()), "{config} {name}: {line}");
+        }
+        assert_eq!(totals["control_bits_per_sm"].as_u64(), Some(control_bits), "{config}");
         assert_eq!(
             totals["added_bytes_per_sm"].as_u64(),
             Some(text_value(&text, "RTL: total added over the short stack")),

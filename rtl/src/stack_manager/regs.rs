@@ -209,7 +209,7 @@ impl Uop {
     /// How a waveform shows the micro-op in flight (3 bits).
     pub const KIND: Kind = Kind::Enum { name: "uop", names: Uop::NAMES };
     /// Width of the waveform encoding.
-    pub const CODE_BITS: u32 = 3;
+    pub const CODE_BITS: u32 = crate::config::UOP_CODE_BITS;
 
     /// Waveform encoding of `uop` (0: none): an index into [`Uop::NAMES`].
     pub fn code(uop: Option<Uop>) -> u64 {

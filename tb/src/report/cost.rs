@@ -6,10 +6,16 @@
 //! - *paper*: the fields SPEC section 6 counts (Top, Bottom, Overflow, Idle, Next TID, Priority,
 //!   Flush);
 //! - *rtl*: bits the verified RTL needs that the paper's accounting omits (the empty bit, the
-//!   extra Priority bit, the sequencer).
+//!   extra Priority bit, the sequencer's step and data latch).
 //!
 //! The paper's own figures are derived separately ([`PaperAccounting`]) from the same widths,
 //! and every difference is named.
+//!
+//! Apart from those, [`CostReport::control`] lists the control registers of the sequencer as the
+//! model builds it (origin *control*): the micro-op program a command loads, the micro-op in
+//! flight, the latch's valid bit and each thread's done bit, in every configuration, the short
+//! stack's too. They are in no total of the accounting above (docs/hardware.md, "Cost"), and they
+//! are what the generated Verilog's flip-flops add to it (`sms verilog --synth` checks both).
 
 use rtl::config::{bits_for, Config, ConfigError, RbSize};
 use serde::Serialize;
@@ -23,6 +29,7 @@ pub enum Origin {
     Baseline,
     Paper,
     Rtl,
+    Control,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -61,6 +68,8 @@ pub struct CostReport {
     pub sms: u32,
     pub threads_per_sm: u32,
     pub fields: Vec<Field>,
+    /// The model's sequencer control registers, outside every total of `fields`.
+    pub control: Vec<Field>,
     pub paper: PaperAccounting,
     /// Shared memory the SH stacks take, per SM.
     pub sh_bytes: u64,
@@ -204,6 +213,7 @@ impl CostReport {
             config: cfg.name(),
             sms,
             threads_per_sm: t,
+            control: control_fields(cfg)?,
             fields,
             paper,
             sh_bytes,
@@ -262,7 +272,44 @@ impl CostReport {
         ]);
         tbl.row(["shared memory for SH stacks".to_string(), self.sh_bytes.to_string()]);
         tbl.row(["L1D left of 64 KB".to_string(), self.l1d_bytes.to_string()]);
+        tbl.row([
+            "control: the model's sequencer program and flags (in no total above)".to_string(),
+            bytes(self.control_bits_per_sm()).to_string(),
+        ]);
         tbl
+    }
+
+    /// The control registers' table, with the columns of [`CostReport::fields_table`].
+    pub fn control_table(&self) -> Table {
+        let mut tbl = Table::new([
+            "register",
+            "origin",
+            "bits",
+            "copies/SM",
+            "bits/SM",
+            "bytes/SM",
+            "bytes/GPU",
+            "note",
+        ]);
+        for f in &self.control {
+            let b = f.bits_per_sm();
+            tbl.row([
+                f.name.to_string(),
+                "control".to_string(),
+                f.bits.to_string(),
+                f.copies_per_sm.to_string(),
+                b.to_string(),
+                bytes(b).to_string(),
+                bytes(b * self.sms as u64).to_string(),
+                f.note.to_string(),
+            ]);
+        }
+        tbl
+    }
+
+    /// Bits per SM of the control registers.
+    pub fn control_bits_per_sm(&self) -> u64 {
+        self.control.iter().map(Field::bits_per_sm).sum()
     }
 
     /// The whole report as terminal text or Markdown.
@@ -284,6 +331,9 @@ impl CostReport {
                 out += &format!("- {d}\n");
             }
         }
+        out += "\nControl registers of the model's sequencer (every configuration; in no total above: the \
+                accounting counts a sequencer as its step and data latch):\n\n";
+        out += &t(self.control_table());
         out
     }
 }
@@ -297,6 +347,8 @@ pub struct CostTotals {
     pub rtl_bits_per_sm: u64,
     /// Every field's bits per SM.
     pub bits_per_sm: u64,
+    /// The control registers' bits per SM ([`CostReport::control`]), apart from `bits_per_sm`.
+    pub control_bits_per_sm: u64,
     pub bits_per_gpu: u64,
     pub added_bytes_per_sm: u64,
     pub on_chip_bytes_per_sm: u64,
@@ -318,6 +370,7 @@ impl CostReport {
             paper_bits_per_sm: self.bits_per_sm(Origin::Paper),
             rtl_bits_per_sm: self.bits_per_sm(Origin::Rtl),
             bits_per_sm,
+            control_bits_per_sm: self.control_bits_per_sm(),
             bits_per_gpu: bits_per_sm * self.sms as u64,
             added_bytes_per_sm: self.added_bytes_per_sm(),
             on_chip_bytes_per_sm: self.on_chip_bytes_per_sm(),
@@ -343,6 +396,33 @@ pub fn fields_of_all(reports: &[CostReport]) -> Table {
         }
     }
     out.unwrap_or_else(|| Table::new(["config"]))
+}
+
+/// The control registers of a thread's sequencer as the model builds it: a command loads its
+/// whole micro-op program (up to `2M + 4` micro-ops, each with its operands and immediate), one
+/// micro-op is in flight, the latch has a valid bit and the thread a done bit. With an SH level
+/// the accounting counts the step and the latch (origin *rtl*); without one they are here too.
+fn control_fields(cfg: &Config) -> Result<Vec<Field>, ConfigError> {
+    let w = cfg.widths()?;
+    let t = cfg.threads();
+    let uop: u32 = w.uop_bits().iter().sum();
+    let row =
+        |name, what, bits, note| Field { name, what, origin: Origin::Control, bits, copies_per_sm: t, note };
+    let mut out = Vec::new();
+    if cfg.sh_entries == 0 {
+        out.push(row("seq_step", "sequencer program occupancy", w.seq_step, "0..=4 micro-ops"));
+        out.push(row("seq_latch", "sequencer data latch", w.entry, "the entry a load brings back"));
+    }
+    out.push(row(
+        "seq_program",
+        "micro-op program slots",
+        w.seq_slots * uop,
+        "2M + 4 slots of (kind 3, lane or spill slot, SH entry, latch flag 1, entry value)",
+    ));
+    out.push(row("seq_inflight", "micro-op in flight", uop, "one slot's fields"));
+    out.push(row("seq_latch_valid", "data latch holds a value", 1, ""));
+    out.push(row("done", "thread finished", 1, ""));
+    Ok(out)
 }
 
 /// The paper's Priority width: the order of the borrowed stacks only.

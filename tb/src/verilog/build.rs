@@ -119,12 +119,12 @@ impl T {
     }
 }
 
-/// A register: its Verilog name, the cost report's field it implements (`None`: a register the
-/// report does not count), its width, the variable it is now and its next value.
+/// A register: its Verilog name, the row of the cost report (`sms cost`) it is part of, its
+/// width, the variable it is now and its next value.
 #[derive(Clone, Debug)]
 pub struct Reg {
     pub name: String,
-    pub field: Option<&'static str>,
+    pub field: &'static str,
     pub bits: u32,
     pub q: T,
     pub d: T,
@@ -152,17 +152,9 @@ pub struct Circuit {
     pub max_plan_paths: usize,
 }
 
-/// Micro-op program slots of a sequencer: the longest program (a flush of M entries, 2M
-/// micro-ops, and the spill after it; or a pop's five) fits, and the occupancy fits the
-/// `seq_step` register (`bits_for(2M + 4)`).
+/// Micro-op program slots of a sequencer ([`Widths::seq_slots`]).
 pub fn queue_slots(cfg: &Config) -> usize {
-    2 * cfg.sh_entries as usize + 4
-}
-
-/// Widths of a micro-op register's fields: kind, `a` (stack lane or spill slot), `b` (entry),
-/// the latch flag and the immediate.
-pub fn uop_bits(w: &Widths) -> [u32; 5] {
-    [3, w.tid.max(w.spill_ptr), w.top, 1, w.entry]
+    cfg.widths().expect("a valid configuration").seq_slots as usize
 }
 
 /// A lane's RB: occupancy and entries, oldest first.
@@ -414,7 +406,7 @@ impl Decl {
         &mut self,
         s: &mut Sym,
         name: String,
-        field: Option<&'static str>,
+        field: &'static str,
         bits: u32,
         sort: Sort,
         reset: u64,
@@ -431,11 +423,11 @@ impl Decl {
         q
     }
 
-    fn uop(&mut self, s: &mut Sym, name: &str, bits: [u32; 5]) -> Enc {
+    fn uop(&mut self, s: &mut Sym, name: &str, field: &'static str, bits: [u32; 5]) -> Enc {
         let f = ["kind", "a", "b", "latch", "value"];
         let sorts = [Sort::Word, Sort::Word, Sort::Word, Sort::Bool, Sort::Val];
         let parts: Vec<T> =
-            (0..5).map(|i| self.add(s, format!("{name}_{}", f[i]), None, bits[i], sorts[i], 0)).collect();
+            (0..5).map(|i| self.add(s, format!("{name}_{}", f[i]), field, bits[i], sorts[i], 0)).collect();
         enc_from(&mut parts.into_iter())
     }
 }
@@ -481,24 +473,23 @@ impl Lane {
             ("spill_ptr", wd.spill_ptr, Sort::Word, 0),
         ];
         let mut p: Vec<T> =
-            stack.iter().map(|&(n, bits, sort, r)| d.add(s, f(n), Some(n), bits, sort, r)).collect();
-        p.push(d.add(s, f("done"), None, 1, Sort::Bool, 0));
-        p.push(d.add(s, f("rb_count"), Some("rb_count"), wd.rb_count, Sort::Word, 0));
+            stack.iter().map(|&(n, bits, sort, r)| d.add(s, f(n), n, bits, sort, r)).collect();
+        p.push(d.add(s, f("done"), "done", 1, Sort::Bool, 0));
+        p.push(d.add(s, f("rb_count"), "rb_count", wd.rb_count, Sort::Word, 0));
         let mut it = p.into_iter();
         let stack = stack_from(&mut it);
         let thread = ThreadRegsOf { overflow: b(&mut it), spill_ptr: w(&mut it), done: b(&mut it) };
         let count = w(&mut it);
-        let e = (0..n_rb).map(|k| d.add(s, f(&format!("rb{k}")), Some("rb_entries"), wd.entry, Sort::Val, 0));
+        let e = (0..n_rb).map(|k| d.add(s, f(&format!("rb{k}")), "rb_entries", wd.entry, Sort::Val, 0));
         let e: Vec<V> = e.collect::<Vec<_>>().into_iter().map(|t| v(&mut [t].into_iter())).collect();
         let rb = Rb { count, e };
-        // The accounting counts a sequencer only beside an SH level (M > 0).
-        let seq_field = |n| (cfg.sh_entries > 0).then_some(n);
-        let sc = d.add(s, f("seq_step"), seq_field("seq_step"), wd.seq_step, Sort::Word, 0);
-        let ub = uop_bits(wd);
-        let slots = (0..queue_slots(cfg)).map(|k| d.uop(s, &f(&format!("seq{k}")), ub)).collect();
-        let inflight = d.uop(s, &f("inflight"), ub);
-        let lv = d.add(s, f("latch_valid"), None, 1, Sort::Bool, 0);
-        let lx = d.add(s, f("latch"), seq_field("seq_latch"), wd.entry, Sort::Val, 0);
+        let sc = d.add(s, f("seq_step"), "seq_step", wd.seq_step, Sort::Word, 0);
+        let ub = wd.uop_bits();
+        let slots =
+            (0..queue_slots(cfg)).map(|k| d.uop(s, &f(&format!("seq{k}")), "seq_program", ub)).collect();
+        let inflight = d.uop(s, &f("inflight"), "seq_inflight", ub);
+        let lv = d.add(s, f("latch_valid"), "seq_latch_valid", 1, Sort::Bool, 0);
+        let lx = d.add(s, f("latch"), "seq_latch", wd.entry, Sort::Val, 0);
         let seq = Seq {
             count: w(&mut [sc].into_iter()),
             slots,

@@ -28,10 +28,9 @@ pub struct Generated {
 }
 
 impl Generated {
-    /// Register bits the top module declares, by the cost report's field name (`None`:
-    /// registers the report does not count), over every warp.
-    pub fn register_bits(&self) -> Vec<(Option<&'static str>, u64)> {
-        let mut out: Vec<(Option<&'static str>, u64)> = Vec::new();
+    /// Register bits the top module declares, by the cost report's row, over every warp.
+    pub fn register_bits(&self) -> Vec<(&'static str, u64)> {
+        let mut out: Vec<(&'static str, u64)> = Vec::new();
         for r in &self.circuit.regs {
             let bits = u64::from(r.bits) * u64::from(self.cfg.warps);
             match out.iter_mut().find(|x| x.0 == r.field) {

@@ -15,7 +15,7 @@ use anyhow::{bail, Context, Result};
 
 use super::print::TOP;
 use super::Generated;
-use crate::report::cost::CostReport;
+use crate::report::cost::{CostReport, Origin};
 use crate::report::table::Table;
 
 /// The yosys script for `file`.
@@ -36,10 +36,8 @@ pub struct SynthReport {
     pub cells: Vec<(String, u64)>,
     /// Logic levels of the mapped warp module (ABC's `lev`).
     pub depth: u64,
-    /// Register bits of the accounting's fields (`sms cost`) and of the registers it does not
-    /// count, by name.
-    pub accounted: u64,
-    pub unaccounted: Vec<(String, u64)>,
+    /// Register bits of the accounting's fields (`sms cost`) and of its control registers.
+    pub accounting: Accounting,
 }
 
 impl SynthReport {
@@ -48,65 +46,79 @@ impl SynthReport {
     }
 }
 
-/// The Verilog register an accounting field is part of: the cost report counts the bit the RTL
-/// adds to Priority (`priority_msb`) apart from the paper's bits, the register holds both.
-fn register_of(field: &str) -> &str {
-    match field {
+/// The row of the accounting a cost report row's bits go to in the Verilog: the cost report
+/// counts the bit the RTL adds to Priority (`priority_msb`) apart from the paper's bits, the
+/// register holds both.
+fn register_of(row: &str) -> &str {
+    match row {
         "priority_msb" => "priority",
-        f => f,
+        r => r,
     }
 }
 
-/// The flip-flop cross-check: every register field the cost report counts is declared with the
-/// report's bits, and yosys's flip-flops are exactly the declared register bits. The error
-/// names the field that differs.
-pub fn cross_check(g: &Generated, flip_flops: u64) -> Result<(u64, Vec<(String, u64)>)> {
-    let cost = CostReport::new(&g.cfg, 1, 0)?;
+/// Register bits by row of the accounting, and the rows' total: the accounted ones (`fields`)
+/// and the control registers (`control`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Accounting {
+    pub accounted: u64,
+    pub control: Vec<(String, u64)>,
+}
+
+impl Accounting {
+    pub fn total(&self) -> u64 {
+        self.accounted + self.control.iter().map(|x| x.1).sum::<u64>()
+    }
+}
+
+/// The flip-flop cross-check against `sms cost`'s report of the generated configuration: see
+/// [`cross_check_with`].
+pub fn cross_check(g: &Generated, flip_flops: u64) -> Result<Accounting> {
+    cross_check_with(g, &CostReport::new(&g.cfg, 1, 0)?, flip_flops)
+}
+
+/// The flip-flop cross-check: every row of the cost report (its accounted fields and its control
+/// registers) has exactly its bits in the Verilog's registers of that row, every Verilog
+/// register belongs to a row, and yosys's flip-flops are exactly the report's bits. The error
+/// names the row or the counts that differ.
+pub fn cross_check_with(g: &Generated, cost: &CostReport, flip_flops: u64) -> Result<Accounting> {
+    let name = g.cfg.name();
     let declared = g.register_bits();
+    let rows = cost.fields.iter().chain(&cost.control);
     let mut accounted = 0;
-    for f in &cost.fields {
+    let mut control = Vec::new();
+    let mut regs: Vec<&str> = Vec::new();
+    for f in rows.clone() {
         let reg = register_of(f.name);
-        let want: u64 =
-            cost.fields.iter().filter(|x| register_of(x.name) == reg).map(|x| x.bits_per_sm()).sum();
-        let have = declared.iter().find(|x| x.0 == Some(reg)).map_or(0, |x| x.1);
+        if regs.contains(&reg) {
+            continue;
+        }
+        regs.push(reg);
+        let want: u64 = rows.clone().filter(|x| register_of(x.name) == reg).map(|x| x.bits_per_sm()).sum();
+        let have = declared.iter().find(|x| x.0 == reg).map_or(0, |x| x.1);
         if want != have {
-            bail!(
-                "{}: register {reg} has {have} bits in the Verilog, {want} in the bit accounting (sms cost)",
-                g.cfg.name()
-            );
+            bail!("{name}: register {reg} has {have} bits in the Verilog, {want} in the bit accounting (sms cost)");
+        }
+        if f.origin == Origin::Control {
+            control.push((reg.to_string(), want));
+        } else {
+            accounted += want;
         }
     }
-    for (name, bits) in &declared {
-        let Some(name) = name else { continue };
-        if *bits > 0 && !cost.fields.iter().any(|f| register_of(f.name) == *name) {
-            bail!("{}: register {name} ({bits} bits) is not in the bit accounting (sms cost)", g.cfg.name());
-        }
-        accounted += bits;
-    }
-    let total = g.total_register_bits();
-    if flip_flops != total {
-        bail!("{}: yosys kept {flip_flops} flip-flops of the {total} register bits declared", g.cfg.name());
-    }
-    Ok((accounted, unaccounted_by_name(g)))
-}
-
-/// Register bits the accounting does not count, by register (lane prefix and slot number
-/// dropped), over every warp.
-fn unaccounted_by_name(g: &Generated) -> Vec<(String, u64)> {
-    let mut out: Vec<(String, u64)> = Vec::new();
-    for r in g.circuit.regs.iter().filter(|r| r.field.is_none() && r.bits > 0) {
-        let name = r.name.split_once('_').map_or(r.name.as_str(), |x| x.1);
-        let name = match name.strip_prefix("seq").and_then(|x| x.split_once('_')) {
-            Some((_, f)) => format!("seq_slot_{f}"),
-            None => name.to_string(),
-        };
-        let bits = u64::from(r.bits) * u64::from(g.cfg.warps);
-        match out.iter_mut().find(|x| x.0 == name) {
-            Some(x) => x.1 += bits,
-            None => out.push((name, bits)),
+    for (reg, bits) in &declared {
+        if *bits > 0 && !regs.contains(reg) {
+            bail!("{name}: register {reg} ({bits} bits) is not in the bit accounting (sms cost)");
         }
     }
-    out
+    let report = cost.totals().bits_per_sm + cost.control_bits_per_sm();
+    if flip_flops != report {
+        bail!(
+            "{name}: yosys kept {flip_flops} flip-flops, the bit accounting (sms cost) has {report} register bits \
+             ({} accounted, {} control)",
+            cost.totals().bits_per_sm,
+            cost.control_bits_per_sm()
+        );
+    }
+    Ok(Accounting { accounted, control })
 }
 
 /// Runs yosys on `path` (in its folder) and checks the flip-flops.
@@ -137,15 +149,8 @@ pub fn synthesize(g: &Generated, path: &Path) -> Result<SynthReport> {
     let log = std::fs::read_to_string(dir.join("synth.log"))?;
     let (flip_flops, cells) = parse_stat(&stat)?;
     let depth = parse_levels(&log)?;
-    let (accounted, unaccounted) = cross_check(g, flip_flops)?;
-    Ok(SynthReport {
-        config: super::describe(&g.cfg, g.acked),
-        flip_flops,
-        cells,
-        depth,
-        accounted,
-        unaccounted,
-    })
+    let accounting = cross_check(g, flip_flops)?;
+    Ok(SynthReport { config: super::describe(&g.cfg, g.acked), flip_flops, cells, depth, accounting })
 }
 
 /// Flip-flops and logic cells by type from `stat -top`'s hierarchy summary (its last cell
@@ -187,20 +192,20 @@ pub fn render(reports: &[SynthReport]) -> String {
     let mut t = Table::new([
         "configuration",
         "flip-flops",
-        "of which sms cost counts",
-        "registers sms cost omits",
+        "accounted (sms cost fields)",
+        "control (sms cost control)",
         "logic cells",
         "largest kinds",
         "depth (levels)",
     ]);
     for r in reports {
-        let omit: Vec<String> = r.unaccounted.iter().map(|(n, b)| format!("{n} {b}")).collect();
+        let control: Vec<String> = r.accounting.control.iter().map(|(n, b)| format!("{n} {b}")).collect();
         let kinds: Vec<String> = r.cells.iter().take(3).map(|(k, n)| format!("{k} {n}")).collect();
         t.row([
             r.config.clone(),
             r.flip_flops.to_string(),
-            r.accounted.to_string(),
-            omit.join(", "),
+            r.accounting.accounted.to_string(),
+            control.join(", "),
             r.logic_cells().to_string(),
             kinds.join(", "),
             r.depth.to_string(),
@@ -208,8 +213,8 @@ pub fn render(reports: &[SynthReport]) -> String {
     }
     format!(
         "{}\nyosys generic flow (techmap, abc map; no share/opt_muxtree/opt_dff): a technology-independent \
-         estimate in generic gates, not a process node's area. Flip-flops are exact and checked against the \
-         declared registers and, field by field, against the bit accounting of `sms cost`.\n",
+         estimate in generic gates, not a process node's area. Flip-flops are exact and equal, row by row, \
+         the bit accounting of `sms cost`: its fields and its control registers.\n",
         t.to_text()
     )
 }
