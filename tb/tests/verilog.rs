@@ -159,7 +159,9 @@ fn sh_design_cosimulation_agrees_every_cycle_and_catches_a_planted_difference() 
         return;
     }
     let cfg: Config = "RB_2+SH_8+SK+RA".parse().unwrap();
-    let realloc = cfg.realloc.map(|r| rtl::config::Realloc { borrow_limit: 2, ..r });
-    let cfg = Config { warp_size: 4, warps: 1, realloc, ..cfg };
+    let mut cfg = Config { warp_size: 4, warps: 1, ..cfg };
+    if let Some(ra) = cfg.policy.realloc_mut() {
+        ra.borrow_limit = 2;
+    }
     cosimulate_and_plant(cfg, 3000, "sh_req");
 }
