@@ -1,6 +1,6 @@
 //! Reports: `sms bench` ([`bench`](mod@bench)), the thread-cycle breakdown ([`breakdown`]), storage cost ([`cost`]), stack depth
 //! ([`depth`](mod@depth)), tables ([`table`]), the sweep's figures ([`figures`]), ablation
-//! ([`ablate`]), report folder ([`sweep`]) and SVG charts ([`plot`]).
+//! ([`ablate`]), report folder ([`sweep`]), SVG charts ([`plot`]) and their layout check ([`layout`]).
 
 pub mod ablate;
 pub mod bench;
@@ -8,6 +8,7 @@ pub mod breakdown;
 pub mod cost;
 pub mod depth;
 pub mod figures;
+pub mod layout;
 pub mod plot;
 pub mod provenance;
 pub mod sweep;

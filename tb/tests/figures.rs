@@ -1,0 +1,138 @@
+//! Every chart the reports write reads cleanly: rendered from a tiny sweep and a tiny bench, and
+//! as shipped in docs/figures, no text overlaps other text, is struck through by a line or
+//! covers a point, no point hides under a legend, and the bars of one family of configurations
+//! in the performance figure are told apart by colour. The check itself catches a planted
+//! overlap.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use tb::report::layout::{delta_e, faults, read};
+
+const SWEEP_FIGURES: [&str; 9] = [
+    "performance",
+    "offchip",
+    "bank_conflicts",
+    "skew",
+    "rb_sweep",
+    "l1d_sweep",
+    "depth",
+    "cost",
+    "thread_cycles",
+];
+
+/// Two colours side by side this far apart (CIE76) read as different at a glance.
+const MIN_DELTA_E: f64 = 10.0;
+
+fn svg(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn assert_clean(path: &Path) {
+    let f = faults(&read(&svg(path)));
+    assert!(f.is_empty(), "{}:\n{}", path.display(), f.join("\n"));
+}
+
+/// The performance figure's family of a configuration, read from its name: RB sizes alone, SH
+/// stacks alone, or with skew or reallocation.
+fn family(name: &str) -> usize {
+    match (name.contains("SH_"), name.contains("+SK") || name.contains("+RA")) {
+        (false, _) => 0,
+        (true, false) => 1,
+        (true, true) => 2,
+    }
+}
+
+/// The legend of a grouped-bar chart: each entry's name and its key's fill, in order.
+fn legend(svg: &str) -> Vec<(String, (u8, u8, u8))> {
+    let texts: Vec<_> = read(svg).labels;
+    let keys: Vec<((f64, f64), (u8, u8, u8))> = svg
+        .split("<rect ")
+        .skip(1)
+        .filter_map(|r| {
+            let get = |a: &str| r.split(&format!(" {a}=\"")).nth(1)?.split('"').next();
+            let (w, h) = (get("width")?.parse::<f64>().ok()?, get("height")?.parse::<f64>().ok()?);
+            let fill = get("fill")?.strip_prefix('#')?;
+            let byte = |i: usize| u8::from_str_radix(&fill[i..i + 2], 16).ok();
+            // Legend keys are the 14 × 10 swatches.
+            ((w, h) == (14.0, 10.0)).then_some(())?;
+            let (x, y) = (get("x")?.parse().ok()?, get("y")?.parse().ok()?);
+            Some(((x, y), (byte(0)?, byte(2)?, byte(4)?)))
+        })
+        .collect();
+    keys.iter()
+        .map(|&((x, y), c)| {
+            let name = texts
+                .iter()
+                .filter(|t| t.rect.x0 > x && t.rect.x0 < x + 30.0 && (t.rect.y0 - y).abs() < 4.0)
+                .map(|t| t.text.clone())
+                .next()
+                .unwrap_or_else(|| panic!("no name beside the key at ({x}, {y})"));
+            (name, c)
+        })
+        .collect()
+}
+
+fn assert_families_distinct(path: &Path) {
+    let entries = legend(&svg(path));
+    assert!(entries.len() >= 3, "{}: legend {entries:?}", path.display());
+    for (i, (a, ca)) in entries.iter().enumerate() {
+        for (b, cb) in entries[i + 1..].iter().filter(|(b, _)| family(b) == family(a)) {
+            let de = delta_e(*ca, *cb);
+            assert!(de >= MIN_DELTA_E, "{}: {a} {ca:?} and {b} {cb:?} differ by {de:.1}", path.display());
+        }
+    }
+}
+
+fn tiny_reports() -> (common::TmpDir, PathBuf, PathBuf) {
+    let dir = common::TmpDir::new("figures", "render");
+    let (sweep, bench) = (dir.path().join("sweep"), dir.path().join("bench"));
+    let out = |p: &Path| p.to_str().unwrap().to_string();
+    let sweep_args = ["sweep", "--scenes", "wknd,clutter", "--quiet", "--no-cache", "--out", &out(&sweep)];
+    common::sms(&[&sweep_args[..], &common::TINY].concat(), &[]);
+    let bench_args = ["bench", "--scenes", "wknd,clutter", "--fractions", "1,0.5", "--batches", "2", "--out"];
+    common::sms(&[&bench_args[..], &[out(&bench).as_str()], &common::TINY].concat(), &["--quiet"]);
+    (dir, sweep, bench)
+}
+
+#[test]
+fn every_figure_reads_cleanly() {
+    let (_dir, sweep, bench) = tiny_reports();
+    for f in SWEEP_FIGURES {
+        assert_clean(&sweep.join(format!("{f}.svg")));
+    }
+    assert_clean(&bench.join("time-vs-error.svg"));
+    assert_families_distinct(&sweep.join("performance.svg"));
+    // The figures README shows.
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/figures");
+    for f in ["performance", "thread_cycles"] {
+        assert_clean(&docs.join(format!("{f}.svg")));
+    }
+    assert_families_distinct(&docs.join("performance.svg"));
+}
+
+#[test]
+fn the_check_catches_a_planted_overlap() {
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/figures");
+    let text = svg(&docs.join("performance.svg"));
+    assert!(faults(&read(&text)).is_empty());
+    // A copy of the first legend name, moved down by half a line onto the next one.
+    let start = text.find("<text").unwrap();
+    let legend_text = text[start..]
+        .match_indices("<text")
+        .map(|(i, _)| &text[start + i..])
+        .find(|t| t.contains(">\nRB_8\n"))
+        .expect("RB_8's legend entry");
+    let element = &legend_text[..legend_text.find("</text>").unwrap() + "</text>".len()];
+    let y: i32 = element.split(" y=\"").nth(1).unwrap().split('"').next().unwrap().parse().unwrap();
+    let moved = element.replace(&format!(" y=\"{y}\""), &format!(" y=\"{}\"", y + 9)).replace("RB_8\n", "RB_2x\n");
+    let planted = text.replacen("</svg>", &format!("{moved}\n</svg>"), 1);
+    let f = faults(&read(&planted));
+    assert!(f.iter().any(|f| f.contains("'RB_2x' overlaps") || f.contains("overlaps 'RB_2x'")), "{f:?}");
+    // Two shades of a family too close to tell apart.
+    let entries = legend(&text);
+    let (name, c) = entries.iter().find(|(n, _)| n == "RB_16").unwrap().clone();
+    let near = (c.0.saturating_add(3), c.1.saturating_add(3), c.2.saturating_add(3));
+    assert!(family(&name) == 0 && delta_e(c, near) < MIN_DELTA_E);
+}
