@@ -9,6 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use tb::report::layout::{delta_e, faults, read};
+use tb::report::plot::{family_shades, grouped_bars, Bars};
 
 const SWEEP_FIGURES: [&str; 9] = [
     "performance",
@@ -114,19 +115,31 @@ fn every_figure_reads_cleanly() {
 
 #[test]
 fn the_check_catches_a_planted_overlap() {
-    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/figures");
-    let text = svg(&docs.join("performance.svg"));
-    assert!(faults(&read(&text)).is_empty());
-    // A copy of the first legend name, moved down by half a line onto the next one.
+    // A performance chart of three families, drawn as the sweep draws it.
+    let dir = common::TmpDir::new("figures", "planted");
+    let names = ["RB_8", "RB_2", "RB_16", "RB_8+SH_8", "RB_8+SH_16", "RB_8+SH_8+SK", "RB_8+SH_8+SK+RA"];
+    let series: Vec<Bars> = names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| Bars { name: n.to_string(), values: vec![Some(1.0 + i as f64 / 50.0); 3] })
+        .collect();
+    let groups: Vec<String> = ["wknd", "clutter", "geomean"].map(String::from).to_vec();
+    let colors = family_shades(&names.map(family));
+    let path = dir.path().join("performance.svg");
+    grouped_bars(&path, "Performance", "speed-up", &groups, &series, &colors, Some(1.0), true).unwrap();
+    let text = svg(&path);
+    assert_eq!(faults(&read(&text)), Vec::<String>::new());
+    // A copy of the first legend name, moved down by half its height onto itself.
     let start = text.find("<text").unwrap();
     let legend_text = text[start..]
         .match_indices("<text")
         .map(|(i, _)| &text[start + i..])
-        .find(|t| t.contains(">\nRB_8\n"))
+        .find(|t| t[..t.find("</text>").unwrap()].ends_with(">\nRB_8\n"))
         .expect("RB_8's legend entry");
     let element = &legend_text[..legend_text.find("</text>").unwrap() + "</text>".len()];
     let y: i32 = element.split(" y=\"").nth(1).unwrap().split('"').next().unwrap().parse().unwrap();
-    let moved = element.replace(&format!(" y=\"{y}\""), &format!(" y=\"{}\"", y + 9)).replace("RB_8\n", "RB_2x\n");
+    let moved =
+        element.replace(&format!(" y=\"{y}\""), &format!(" y=\"{}\"", y + 5)).replace("RB_8\n", "RB_2x\n");
     let planted = text.replacen("</svg>", &format!("{moved}\n</svg>"), 1);
     let f = faults(&read(&planted));
     assert!(f.iter().any(|f| f.contains("'RB_2x' overlaps") || f.contains("overlaps 'RB_2x'")), "{f:?}");

@@ -123,7 +123,11 @@ fn num(tag: &str, name: &str) -> f64 {
 }
 
 fn unescape(s: &str) -> String {
-    s.replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", "\"").replace("&apos;", "'").replace("&amp;", "&")
+    s.replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&quot;", "\"")
+        .replace("&apos;", "'")
+        .replace("&amp;", "&")
 }
 
 /// The box of a text drawn at `(x, y)` as plotters' SVG backend writes it: `text-anchor` for
@@ -173,10 +177,10 @@ pub fn read(svg: &str) -> Drawing {
         let tag = rest.split('>').next().unwrap_or("");
         let opacity = attr(tag, "opacity").and_then(|v| v.parse::<f64>().ok()).unwrap_or(1.0);
         // A grid line: faint, or light grey (every channel at least 0xC8).
-        let light = attr(tag, "stroke")
-            .and_then(|c| c.strip_prefix('#'))
-            .filter(|c| c.len() == 6)
-            .is_some_and(|c| (0..3).all(|i| u8::from_str_radix(&c[2 * i..2 * i + 2], 16).is_ok_and(|v| v >= 0xC8)));
+        let light =
+            attr(tag, "stroke").and_then(|c| c.strip_prefix('#')).filter(|c| c.len() == 6).is_some_and(|c| {
+                (0..3).all(|i| u8::from_str_radix(&c[2 * i..2 * i + 2], 16).is_ok_and(|v| v >= 0xC8))
+            });
         let drawn = opacity >= 0.5 && !light;
         match name {
             "svg" => (d.width, d.height) = (num(tag, "width"), num(tag, "height")),
@@ -187,7 +191,8 @@ pub fn read(svg: &str) -> Drawing {
                     .and_then(|t| t.strip_prefix("rotate(")?.split(',').next()?.trim().parse().ok())
                     .unwrap_or(0.0);
                 let (x, y) = (num(tag, "x"), num(tag, "y"));
-                let (anchor, dy) = (attr(tag, "text-anchor").unwrap_or("start"), attr(tag, "dy").unwrap_or(""));
+                let (anchor, dy) =
+                    (attr(tag, "text-anchor").unwrap_or("start"), attr(tag, "dy").unwrap_or(""));
                 if !text.is_empty() {
                     d.labels.push(Label { rect: label_rect(&text, x, y, size, anchor, dy, rotate), text });
                 }
@@ -209,7 +214,10 @@ pub fn read(svg: &str) -> Drawing {
             "circle" => d.dots.push(((num(tag, "cx"), num(tag, "cy")), num(tag, "r"), order)),
             "rect" if order > 2 && attr(tag, "fill") == Some("#FFFFFF") && opacity >= 0.5 => {
                 let (x, y) = (num(tag, "x"), num(tag, "y"));
-                d.covers.push((Rect { x0: x, y0: y, x1: x + num(tag, "width"), y1: y + num(tag, "height") }, order));
+                d.covers.push((
+                    Rect { x0: x, y0: y, x1: x + num(tag, "width"), y1: y + num(tag, "height") },
+                    order,
+                ));
             }
             _ => {}
         }

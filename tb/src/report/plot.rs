@@ -27,7 +27,13 @@ fn value_range(values: impl Iterator<Item = f64> + Clone, zoom: bool) -> (f64, f
         return (0.0, 1.0);
     }
     let pad = (hi - lo).max(hi.abs() * 1e-3) * 0.08;
-    let bottom = if zoom { (lo - pad).max(0.0) } else if lo < 0.0 { lo - pad } else { 0.0 };
+    let bottom = if zoom {
+        (lo - pad).max(0.0)
+    } else if lo < 0.0 {
+        lo - pad
+    } else {
+        0.0
+    };
     (bottom, hi + pad)
 }
 
@@ -89,7 +95,11 @@ fn legend_width<'n>(names: impl Iterator<Item = &'n str>, extra: u32) -> u32 {
 
 /// A white canvas of `size` plus a legend column `legend_w` wide at its right, where the legend
 /// can hide no data: the whole canvas, the plot's part and the legend's.
-fn canvas_with_legend(path: &Path, size: (u32, u32), legend_w: u32) -> Result<(Area<'_>, Area<'_>, Area<'_>)> {
+fn canvas_with_legend(
+    path: &Path,
+    size: (u32, u32),
+    legend_w: u32,
+) -> Result<(Area<'_>, Area<'_>, Area<'_>)> {
     let root = canvas(path, (size.0 + legend_w, size.1))?;
     let (plot, legend) = root.split_horizontally(size.0);
     Ok((root, plot, legend))
@@ -335,9 +345,13 @@ pub fn grouped_bars(
             legend.draw(&Text::new(format!("{v:.3}"), at, font)).map_err(|e| to_err(path, e))?;
         }
     }
-    if let Some(last) = groups.last().filter(|_| series.iter().any(|b| matches!(b.values.get(n - 1), Some(Some(_))))) {
+    if let Some(last) =
+        groups.last().filter(|_| series.iter().any(|b| matches!(b.values.get(n - 1), Some(Some(_)))))
+    {
         let font = TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(HPos::Right, VPos::Top));
-        legend.draw(&Text::new(last.clone(), (legend_w as i32 - 8, 22), font)).map_err(|e| to_err(path, e))?;
+        legend
+            .draw(&Text::new(last.clone(), (legend_w as i32 - 8, 22), font))
+            .map_err(|e| to_err(path, e))?;
     }
     if let Some(r) = rule {
         chart
@@ -472,6 +486,19 @@ pub fn place_labels(
                 candidates.push((side, y - text_h / 2 + dy));
             }
         }
+        // Then out along the diagonals, so that a leader line passes beside the labels stacked
+        // over the point rather than through them.
+        for k in 1..=6 {
+            let (dx, dy) = (k * (text_h + 2) + g, k * (text_h + 2));
+            for (cx, cy) in [
+                (x + dx, y - dy - text_h),
+                (x - dx - w, y - dy - text_h),
+                (x + dx, y + dy),
+                (x - dx - w, y + dy),
+            ] {
+                candidates.push((cx, cy));
+            }
+        }
         let cost = |&(cx, cy): &(i32, i32)| {
             let b = (cx, cy, cx + w, cy + text_h);
             // Outside the plot area costs more than any overlap inside it.
@@ -559,7 +586,9 @@ pub fn lines(
     for (i, s) in series.iter().enumerate() {
         let c = series_color(i, series.len());
         let pts: Vec<(f64, f64)> = s.points.iter().map(|&(x, y)| (tx(x), y)).collect();
-        chart.draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2))).map_err(|e| to_err(path, e))?;
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+            .map_err(|e| to_err(path, e))?;
         chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| to_err(path, e))?;
         legend_entry(&legend, path, i, &s.name, Key::Line(c))?;
     }
@@ -622,7 +651,9 @@ pub fn scatter(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[P
     front.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let steps = front.windows(2).flat_map(|w| [w[0], (w[1].0, w[0].1), w[1]]).collect::<Vec<_>>();
     let line = if front.len() > 1 { steps } else { front };
-    chart.draw_series(LineSeries::new(line.iter().copied(), red.stroke_width(1))).map_err(|e| to_err(path, e))?;
+    chart
+        .draw_series(LineSeries::new(line.iter().copied(), red.stroke_width(1)))
+        .map_err(|e| to_err(path, e))?;
     legend_entry(&legend, path, 0, "Pareto front", Key::Line(red))?;
     legend_entry(&legend, path, 1, "other designs", Key::Dot(grey, 4))?;
     for p in points {
@@ -648,7 +679,11 @@ pub fn scatter(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[P
 fn tidy(v: f64) -> String {
     let s = format!("{v:.6}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".into() } else { s.into() }
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.into()
+    }
 }
 
 /// A named set of labelled `(x, y, label)` points.
@@ -843,13 +878,21 @@ mod tests {
         // Each series' geomean stands in the legend, right of its name, under the group's name.
         let at = |t: &str| texts.iter().find(|l| l.text == t).unwrap_or_else(|| panic!("no {t}")).rect;
         // The group's name is also on the x axis: the legend's heading is the rightmost.
-        let head = texts.iter().filter(|l| l.text == "geomean").map(|l| l.rect).max_by(|a, b| a.x0.total_cmp(&b.x0)).unwrap();
+        let head = texts
+            .iter()
+            .filter(|l| l.text == "geomean")
+            .map(|l| l.rect)
+            .max_by(|a, b| a.x0.total_cmp(&b.x0))
+            .unwrap();
         for i in 0..17 {
             let (name, value) = (at(&format!("C{i}")), at(&format!("{:.3}", 1.0 + i as f64 / 1000.0)));
             assert!(value.x0 > name.x1 && (value.y0 - name.y0).abs() < 1e-9, "C{i}: {name:?} {value:?}");
             assert!((value.x1 - head.x1).abs() < 1e-9 && value.y0 > head.y1);
         }
-        assert_eq!(crate::report::layout::faults(&crate::report::layout::read(&zoomed)), Vec::<String>::new());
+        assert_eq!(
+            crate::report::layout::faults(&crate::report::layout::read(&zoomed)),
+            Vec::<String>::new()
+        );
         assert!(zoomed.contains("axis broken: starts at 0.9"), "a zoomed axis says where it starts");
         assert!(!full.contains("axis broken"), "an axis from zero is not broken");
         // The break: two strokes, the only lines two pixels wide in this chart.
