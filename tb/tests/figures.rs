@@ -1,8 +1,8 @@
 //! Every chart the reports write reads cleanly: rendered from a tiny sweep and a tiny bench, and
 //! as shipped in docs/figures, no text overlaps other text, is struck through by a line or
 //! covers a point, no point hides under a legend, and the bars of one family of configurations
-//! in the performance figure are told apart by colour. The check itself catches a planted
-//! overlap.
+//! in the performance figure are told apart by colour. The checks themselves catch a planted
+//! overlap and a planted shade too close to its neighbour's.
 
 mod common;
 
@@ -52,7 +52,10 @@ fn legend(svg: &str) -> Vec<(String, (u8, u8, u8))> {
         .split("<rect ")
         .skip(1)
         .filter_map(|r| {
-            let get = |a: &str| r.split(&format!(" {a}=\"")).nth(1)?.split('"').next();
+            // The rect's own attributes only: the text after its tag has attributes of the same
+            // names. A leading space makes the first attribute match like the others.
+            let tag = format!(" {}", r.split('>').next()?);
+            let get = |a: &str| tag.split(&format!(" {a}=\"")).nth(1)?.split('"').next();
             let (w, h) = (get("width")?.parse::<f64>().ok()?, get("height")?.parse::<f64>().ok()?);
             let fill = get("fill")?.strip_prefix('#')?;
             let byte = |i: usize| u8::from_str_radix(&fill[i..i + 2], 16).ok();
@@ -75,15 +78,27 @@ fn legend(svg: &str) -> Vec<(String, (u8, u8, u8))> {
         .collect()
 }
 
-fn assert_families_distinct(path: &Path) {
-    let entries = legend(&svg(path));
-    assert!(entries.len() >= 3, "{}: legend {entries:?}", path.display());
+/// Every two entries of one family whose key colours are too close to tell apart.
+fn family_clashes(svg: &str) -> Vec<String> {
+    let entries = legend(svg);
+    let mut out = Vec::new();
     for (i, (a, ca)) in entries.iter().enumerate() {
         for (b, cb) in entries[i + 1..].iter().filter(|(b, _)| family(b) == family(a)) {
             let de = delta_e(*ca, *cb);
-            assert!(de >= MIN_DELTA_E, "{}: {a} {ca:?} and {b} {cb:?} differ by {de:.1}", path.display());
+            if de < MIN_DELTA_E {
+                out.push(format!("{a} {ca:?} and {b} {cb:?} differ by {de:.1}"));
+            }
         }
     }
+    out
+}
+
+fn assert_families_distinct(path: &Path) {
+    let text = svg(path);
+    let entries = legend(&text);
+    assert!(entries.len() >= 3, "{}: legend {entries:?}", path.display());
+    let clashes = family_clashes(&text);
+    assert!(clashes.is_empty(), "{}:\n{}", path.display(), clashes.join("\n"));
 }
 
 fn tiny_reports() -> (common::TmpDir, PathBuf, PathBuf) {
@@ -114,7 +129,7 @@ fn every_figure_reads_cleanly() {
 }
 
 #[test]
-fn the_check_catches_a_planted_overlap() {
+fn the_checks_catch_a_planted_overlap_and_a_planted_shade() {
     // A performance chart of three families, drawn as the sweep draws it.
     let dir = common::TmpDir::new("figures", "planted");
     let names = ["RB_8", "RB_2", "RB_16", "RB_8+SH_8", "RB_8+SH_16", "RB_8+SH_8+SK", "RB_8+SH_8+SK+RA"];
@@ -143,9 +158,19 @@ fn the_check_catches_a_planted_overlap() {
     let planted = text.replacen("</svg>", &format!("{moved}\n</svg>"), 1);
     let f = faults(&read(&planted));
     assert!(f.iter().any(|f| f.contains("'RB_2x' overlaps") || f.contains("overlaps 'RB_2x'")), "{f:?}");
-    // Two shades of a family too close to tell apart.
+    // The legend reader finds every entry, in order, with its bar's colour.
     let entries = legend(&text);
-    let (name, c) = entries.iter().find(|(n, _)| n == "RB_16").unwrap().clone();
-    let near = (c.0.saturating_add(3), c.1.saturating_add(3), c.2.saturating_add(3));
-    assert!(family(&name) == 0 && delta_e(c, near) < MIN_DELTA_E);
+    let read_names: Vec<&str> = entries.iter().map(|e| e.0.as_str()).collect();
+    assert_eq!(read_names, names);
+    for ((_, c), want) in entries.iter().zip(&colors) {
+        assert_eq!(*c, (want.0, want.1, want.2));
+    }
+    assert_eq!(family_clashes(&text), Vec::<String>::new());
+    // RB_16's key planted three steps off RB_2's shade: too close to tell apart.
+    let hex = |c: (u8, u8, u8)| format!("fill=\"#{:02X}{:02X}{:02X}\"", c.0, c.1, c.2);
+    let (rb2, rb16) = (entries[1].1, entries[2].1);
+    let near = (rb2.0.saturating_add(3), rb2.1.saturating_add(3), rb2.2.saturating_add(3));
+    let clashes = family_clashes(&text.replace(&hex(rb16), &hex(near)));
+    assert_eq!(clashes.len(), 1, "{clashes:?}");
+    assert!(clashes[0].starts_with("RB_2 ") && clashes[0].contains("RB_16"), "{clashes:?}");
 }

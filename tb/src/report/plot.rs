@@ -438,13 +438,17 @@ fn segment_box((x0, y0): (i32, i32), (x1, y1): (i32, i32)) -> Box4 {
     (x0.min(x1) - 1, y0.min(y1) - 1, x0.max(x1) + 1, y0.max(y1) + 1)
 }
 
-/// Where labels go beside their points (pixel boxes `(x0, y0, x1, y1)`), placed in the order
-/// given: each label takes the first of its candidate positions around its point whose box
-/// stays inside `bounds` (the plot area) and overlaps no label placed before it, no point and
-/// no `obstacle` (e.g. the boxes of a line's segments), and whose leader line (drawn when it sits
-/// far from its point) crosses no label and is crossed by none, or, if every one does, the least
-/// overlapping. A text is `size` font units (its width from [`text_px`]) and `text_h` pixels
-/// high. Deterministic: the same input, the same places.
+/// Where labels go beside their points (pixel boxes `(x0, y0, x1, y1)`). Each label has
+/// candidate positions around its point, nearest first; a position costs by how much of its box
+/// lies outside `bounds` (the plot area), then by how much it overlaps other labels, points and
+/// `obstacles` (e.g. the boxes of a line's segments) plus, for a leader line (drawn when the label
+/// sits far from its point) through a label or a label on one, as much as half the label
+/// covered. Labels are placed in the order given, each at its cheapest position (the nearest of
+/// equals) among those placed before it; then each in turn moves to its cheapest position among
+/// all the others, until none moves, so that an early label does not keep the only place a later
+/// one has. That runs in the order given and, unless it leaves nothing in the way, in three more
+/// (by x both ways, and reversed), and the cheapest result wins. A text is `size` font units (its width from [`text_px`]) and `text_h` pixels high.
+/// Deterministic: the same input, the same places.
 pub fn place_labels(
     points: &[(i32, i32)],
     texts: &[String],
@@ -454,6 +458,9 @@ pub fn place_labels(
     bounds: Box4,
     obstacles: &[Box4],
 ) -> Vec<(i32, i32)> {
+    /// Rounds of moving labels after the first placement: a bound on the time for crowds where
+    /// moves go on trading one collision for another (the layout check reports what is left).
+    const ROUNDS: usize = 8;
     let overlap = |a: Box4, b: Box4| {
         let w = (a.2.min(b.2) - a.0.max(b.0)).max(0);
         let h = (a.3.min(b.3) - a.1.max(b.1)).max(0);
@@ -461,70 +468,127 @@ pub fn place_labels(
     };
     let dots: Vec<Box4> =
         points.iter().map(|&(x, y)| (x - radius, y - radius, x + radius, y + radius)).collect();
-    let mut placed: Vec<Box4> = Vec::new();
-    let mut leaders = Vec::new();
-    let mut out = Vec::new();
-    for (&(x, y), text) in points.iter().zip(texts) {
-        let w = text_px(text, size);
-        let g = radius + 3;
-        // Top-left corners: right, left, above, below, the diagonals, then further up and down
-        // on either side, a line of text at a time.
-        let mut candidates = vec![
-            (x + g, y - text_h / 2),
-            (x - g - w, y - text_h / 2),
-            (x - w / 2, y - g - text_h),
-            (x - w / 2, y + g),
-            (x + g, y - g - text_h),
-            (x + g, y + g),
-            (x - g - w, y - g - text_h),
-            (x - g - w, y + g),
-        ];
-        for k in 1..=6 {
-            let dy = k * (text_h + 2);
-            for side in [x + g, x - g - w] {
-                candidates.push((side, y - text_h / 2 - dy));
-                candidates.push((side, y - text_h / 2 + dy));
-            }
-        }
-        // Then out along the diagonals, so that a leader line passes beside the labels stacked
-        // over the point rather than through them.
-        for k in 1..=6 {
-            let (dx, dy) = (k * (text_h + 2) + g, k * (text_h + 2));
-            for (cx, cy) in [
-                (x + dx, y - dy - text_h),
-                (x - dx - w, y - dy - text_h),
-                (x + dx, y + dy),
-                (x - dx - w, y + dy),
-            ] {
-                candidates.push((cx, cy));
-            }
-        }
-        let cost = |&(cx, cy): &(i32, i32)| {
-            let b = (cx, cy, cx + w, cy + text_h);
-            // Outside the plot area costs more than any overlap inside it.
-            let outside = i64::from(w * text_h) - overlap(b, bounds);
-            let crowd: i64 = placed.iter().chain(&dots).chain(obstacles).map(|&o| overlap(b, o)).sum();
-            // Leader lines through labels: this one's through those placed, theirs through it.
-            let own = leader((x, y), (cx, cy), w, text_h);
-            let crossed = placed.iter().filter(|&&o| own.is_some_and(|(p, q)| crosses_box(p, q, o))).count()
-                + leaders.iter().filter(|&&(p, q)| crosses_box(p, q, b)).count();
-            // Outside the plot is worst, then overlaps, then crossed leader lines.
-            outside * 1_000_000_000_000 + crowd * 100_000 + 1_000 * crossed as i64
+    let widths: Vec<i32> = texts.iter().map(|t| text_px(t, size)).collect();
+    let candidates: Vec<Vec<(i32, i32)>> =
+        points.iter().zip(&widths).map(|(&p, &w)| label_candidates(p, w, text_h, radius)).collect();
+    // Label `i` at `c`, against the labels placed in `at` (other than `i`) and their leaders.
+    let cost = |i: usize, c: (i32, i32), at: &[Option<(i32, i32)>]| {
+        let (w, p) = (widths[i], points[i]);
+        let b = (c.0, c.1, c.0 + w, c.1 + text_h);
+        let others = || {
+            at.iter().enumerate().filter(move |&(j, _)| j != i).filter_map(|(j, a)| {
+                let a = (*a)?;
+                Some(((a.0, a.1, a.0 + widths[j], a.1 + text_h), leader(points[j], a, widths[j], text_h)))
+            })
         };
-        // The first free place, else the least crowded (the earliest of equals).
-        let best = candidates.iter().copied().min_by_key(|c| cost(c)).unwrap_or((x + g, y));
-        placed.push((best.0, best.1, best.0 + w, best.1 + text_h));
-        leaders.extend(leader((x, y), best, w, text_h));
-        out.push(best);
+        // Outside the plot costs more than any overlap inside it.
+        let outside = i64::from(w * text_h) - overlap(b, bounds);
+        let crowd: i64 = others().map(|o| o.0).chain(dots.iter().copied()).chain(obstacles.iter().copied())
+            .map(|o| overlap(b, o))
+            .sum();
+        let own = leader(p, c, w, text_h);
+        let crossed = others().filter(|o| own.is_some_and(|(p, q)| crosses_box(p, q, o.0))).count()
+            + others().filter(|o| o.1.is_some_and(|(p, q)| crosses_box(p, q, b))).count();
+        let half = i64::from(w * text_h) / 2;
+        outside * 1_000_000_000_000 + crowd + half * crossed as i64
+    };
+    // The cheapest candidate of label `i`, the earliest of equals.
+    let best = |i: usize, at: &[Option<(i32, i32)>]| {
+        candidates[i].iter().map(|&c| (cost(i, c, at), c)).min_by_key(|x| x.0).expect("candidates")
+    };
+    // Places the labels in `order`, then moves them in that order; the places and their cost.
+    let place = |order: &[usize]| {
+        let mut at: Vec<Option<(i32, i32)>> = vec![None; points.len()];
+        for &i in order {
+            at[i] = Some(best(i, &at).1);
+        }
+        for _ in 0..ROUNDS {
+            let mut moved = false;
+            for &i in order {
+                let now = cost(i, at[i].expect("placed"), &at);
+                let (c, to) = best(i, &at);
+                if c < now {
+                    at[i] = Some(to);
+                    moved = true;
+                }
+            }
+            if !moved {
+                break;
+            }
+        }
+        let total: i64 = (0..points.len()).map(|i| cost(i, at[i].expect("placed"), &at)).sum();
+        (total, at.into_iter().map(|a| a.expect("placed")).collect::<Vec<_>>())
+    };
+    // The order given first, then others that hand a cluster's first places to other members
+    // (from the left, from the right, last first); the cheapest wins, the earliest of equals.
+    let given: Vec<usize> = (0..points.len()).collect();
+    let mut left = given.clone();
+    left.sort_by_key(|&i| points[i].0);
+    let mut right = left.clone();
+    right.reverse();
+    let last_first: Vec<usize> = given.iter().rev().copied().collect();
+    let mut best_total: Option<(i64, Vec<(i32, i32)>)> = None;
+    for order in [given, left, right, last_first] {
+        let (total, at) = place(&order);
+        if best_total.as_ref().is_none_or(|b| total < b.0) {
+            best_total = Some((total, at));
+        }
+        if total == 0 {
+            break;
+        }
     }
-    out
+    best_total.map(|b| b.1).unwrap_or_default()
+}
+
+/// Top-left corners for a `w` × `text_h` label of the point `(x, y)` drawn `radius` wide,
+/// nearest first: right, left, above, below, the diagonals, then further up and down on either
+/// side a line of text at a time, then out along the diagonals (so that a leader line passes
+/// beside labels stacked over the point rather than through them) and straight up and down.
+fn label_candidates((x, y): (i32, i32), w: i32, text_h: i32, radius: i32) -> Vec<(i32, i32)> {
+    let g = radius + 3;
+    let mut candidates = vec![
+        (x + g, y - text_h / 2),
+        (x - g - w, y - text_h / 2),
+        (x - w / 2, y - g - text_h),
+        (x - w / 2, y + g),
+        (x + g, y - g - text_h),
+        (x + g, y + g),
+        (x - g - w, y - g - text_h),
+        (x - g - w, y + g),
+    ];
+    for k in 1..=6 {
+        let dy = k * (text_h + 2);
+        for side in [x + g, x - g - w] {
+            candidates.push((side, y - text_h / 2 - dy));
+            candidates.push((side, y - text_h / 2 + dy));
+        }
+    }
+    for k in 1..=8 {
+        let (dx, dy) = (k * (text_h + 2) + g, k * (text_h + 2));
+        candidates.extend([
+            (x + dx, y - dy - text_h),
+            (x - dx - w, y - dy - text_h),
+            (x + dx, y + dy),
+            (x - dx - w, y + dy),
+            (x - w / 2, y - g - text_h - dy),
+            (x - w / 2, y + g + dy),
+        ]);
+    }
+    candidates
 }
 
 /// The leader line from a point to its label placed at `at` (`w` × `text_h`), if the label sits
-/// too far from the point to read as its own without one.
+/// too far from the point to read as its own without one. It ends on the label's box: at the
+/// middle of its near side, or, when the label stands straight above or below the point, at the
+/// middle of its near edge, never inside the text.
 fn leader((px, py): (i32, i32), at: (i32, i32), w: i32, text_h: i32) -> Option<((i32, i32), (i32, i32))> {
-    let (lx, ly) = (px.clamp(at.0, at.0 + w), at.1 + text_h / 2);
-    ((ly - py).abs() > text_h + 2).then_some(((px, py), (lx, ly)))
+    let mid = at.1 + text_h / 2;
+    let end = if px > at.0 && px < at.0 + w {
+        (at.0 + w / 2, if py > mid { at.1 + text_h } else { at.1 })
+    } else {
+        (px.clamp(at.0, at.0 + w), mid)
+    };
+    ((mid - py).abs() > text_h + 2).then_some(((px, py), end))
 }
 
 /// Whether segment `p`–`q` passes through box `b`, its end on the box's edge not counted.
@@ -693,8 +757,10 @@ pub struct LabelledPoints {
     pub points: Vec<(f64, f64, String)>,
 }
 
-/// Scatter of labelled points on logarithmic axes (y from `y_floor`), one colour per set, labels
-/// placed by [`place_labels`]; `hline` a labelled horizontal line (e.g. a tolerance).
+/// Scatter of labelled points on logarithmic axes, one colour per set, labels placed by
+/// [`place_labels`]; `hline` a labelled horizontal line (e.g. a tolerance). The y axis starts
+/// below `y_floor` (where zeros are drawn), so that points on the floor stand clear of the x axis
+/// with room for labels under them.
 pub fn log_scatter(
     path: &Path,
     title: &str,
@@ -715,7 +781,7 @@ pub fn log_scatter(
         .margin(16)
         .x_label_area_size(44)
         .y_label_area_size(70)
-        .build_cartesian_2d((xmin..xmax).log_scale(), (y_floor..ymax).log_scale())
+        .build_cartesian_2d((xmin..xmax).log_scale(), (y_floor / 4.0..ymax).log_scale())
         .map_err(|e| to_err(path, e))?;
     chart
         .configure_mesh()
