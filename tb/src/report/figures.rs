@@ -354,7 +354,8 @@ fn sh_accesses(o: &Outcome) -> u64 {
 
 /// What decides whether skewed bank access can pay, per scene: how often the SH stacks are used
 /// (SH accesses per SM-cycle), the share of SM-cycles with a bank conflict, with and without
-/// skew, and skew's effect on the conflict cycles and on the speed-up over RB_8.
+/// skew, and skew's effect on the conflict cycles and on the speed-up over RB_8 (the table); the
+/// chart and its title show the last of these alone.
 pub fn skew(s: &Sweep) -> Figure {
     let kb = s.base_kb();
     let (plain, skewed) = ("RB_8+SH_8", "RB_8+SH_8+SK");
@@ -411,15 +412,15 @@ pub fn skew(s: &Sweep) -> Figure {
     };
     Figure {
         name: "skew",
-        title: format!("Shared-memory traffic and skewed access ({kb} KB L1D)"),
+        title: format!("Skew's effect on the speed-up over {BASELINE}, per scene ({kb} KB L1D)"),
         note,
         table,
         per_scene: None,
         json: json!({ "l1d_kb": kb, "geomean_skew_speedup_delta_pp": geo, "per_scene": rows }),
         chart: Chart::HBars {
-            x_desc: "skew's effect on the speed-up over RB_8 (percentage points)".into(),
+            x_desc: format!("{skewed} minus {plain}: speed-up over {BASELINE} (percentage points)"),
             labels: s.scene_names(),
-            bars: vec![Bars { name: "skew Δ PP".into(), values: pp_bars }],
+            bars: vec![Bars { name: "skew's effect".into(), values: pp_bars }],
             dots: Vec::new(),
             rule: Some(0.0),
             zoom: false,
