@@ -340,7 +340,9 @@ mod tests {
         assert_eq!(faults(&read(&svg(&(label.clone() + line)))).len(), 1);
         // A leader line ending on its label's edge is not a strike-through; one reaching into
         // the text is.
-        let leader = |end: &str| format!("<polyline fill=\"none\" opacity=\"1\" stroke=\"#969696\" stroke-width=\"1\" points=\"60,160 {end} \"/>\n");
+        let leader = |end: &str| {
+            format!("<polyline fill=\"none\" opacity=\"1\" stroke=\"#969696\" stroke-width=\"1\" points=\"60,160 {end} \"/>\n")
+        };
         assert_eq!(faults(&read(&svg(&(label.clone() + &leader("100,105"))))), Vec::<String>::new());
         assert_eq!(faults(&read(&svg(&(label.clone() + &leader("110,105"))))).len(), 1);
         let dot = "<circle cx=\"105\" cy=\"104\" r=\"3\" opacity=\"1\" fill=\"#000000\" stroke=\"none\"/>\n";

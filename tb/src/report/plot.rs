@@ -483,7 +483,10 @@ pub fn place_labels(
         };
         // Outside the plot costs more than any overlap inside it.
         let outside = i64::from(w * text_h) - overlap(b, bounds);
-        let crowd: i64 = others().map(|o| o.0).chain(dots.iter().copied()).chain(obstacles.iter().copied())
+        let crowd: i64 = others()
+            .map(|o| o.0)
+            .chain(dots.iter().copied())
+            .chain(obstacles.iter().copied())
             .map(|o| overlap(b, o))
             .sum();
         let own = leader(p, c, w, text_h);
