@@ -526,7 +526,7 @@ impl StackManager {
     /// The base entry of `lane`'s stack (the policy's skew step; [`Config::skew_base`] in the
     /// design).
     fn skew_base(&self, lane: u32) -> u32 {
-        self.policy.skew_base(self, lane)
+        self.policy.0.skew_base(self, lane)
     }
 
     pub(crate) fn base_with<P: CycleSteps>(&self, steps: &P, lane: u32) -> u32 {
@@ -554,7 +554,7 @@ impl StackManager {
 
     /// One cycle of the whole description ([`cycle::eval`]) with the manager's policy, into `d`.
     fn cycle(&self, i: &CycleIn<'_, Entry>, d: &mut StackStep) {
-        self.policy.eval(&self.cfg, &self.w, self, i, &mut d.j);
+        self.policy.0.eval(&self.cfg, &self.w, self, i, &mut d.j);
         d.sh_req.clear();
         d.g_req.clear();
         if let Err(e) = self.addressed(&d.j) {
@@ -618,7 +618,7 @@ impl StackManager {
     }
 
     fn complete_with(&self, t: u32, u: Uop, latch: &mut Option<Entry>, d: &mut StackStep) {
-        self.policy.complete(&self.cfg, self, t, u, latch, &mut d.j)
+        self.policy.0.complete(&self.cfg, self, t, u, latch, &mut d.j)
     }
 
     /// Completes thread `t`'s next micro-op at once (for exploring every interleaving of
@@ -735,7 +735,7 @@ impl StackManager {
                 "two commands of thread {t}"
             );
         }
-        self.policy.plan(&self.cfg, &self.w, self, cmds, &mut d.j)
+        self.policy.0.plan(&self.cfg, &self.w, self, cmds, &mut d.j)
     }
 
     /// Threads with work in flight or queued.

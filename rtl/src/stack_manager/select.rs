@@ -37,8 +37,9 @@ pub fn for_policy<V: Visit>(policy: &ShPolicy, v: V) -> V::Out {
     }
 }
 
-/// The cycle of one implementation on integers (what the simulator runs).
-trait IntCycle: Send + Sync + std::panic::RefUnwindSafe {
+/// The cycle of one implementation on integers (what the simulator runs; the manager calls it
+/// through its [`StackPolicy`]).
+pub(super) trait IntCycle: Send + Sync + std::panic::RefUnwindSafe {
     fn name(&self) -> &'static str;
     fn eval(&self, cfg: &Config, w: &Widths, q: &StackManager, i: &CycleIn<'_, Entry>, d: &mut Journal<Int>);
     fn plan(&self, cfg: &Config, w: &Widths, q: &StackManager, cmds: &[(u32, Cmd)], d: &mut Journal<Int>);
@@ -85,7 +86,7 @@ use super::policy::Steps;
 
 /// The implementation a stack manager runs: cloned with the manager, compared by name.
 #[derive(Clone)]
-pub struct StackPolicy(Arc<dyn IntCycle>);
+pub struct StackPolicy(pub(super) Arc<dyn IntCycle>);
 
 struct Make;
 
@@ -114,41 +115,6 @@ impl StackPolicy {
     /// The same implementation: one pointer, or equal names.
     pub fn same(&self, other: &StackPolicy) -> bool {
         Arc::ptr_eq(&self.0, &other.0) || self.name() == other.name()
-    }
-
-    pub(super) fn eval(
-        &self,
-        cfg: &Config,
-        w: &Widths,
-        q: &StackManager,
-        i: &CycleIn<'_, Entry>,
-        d: &mut Journal<Int>,
-    ) {
-        self.0.eval(cfg, w, q, i, d)
-    }
-    pub(super) fn plan(
-        &self,
-        cfg: &Config,
-        w: &Widths,
-        q: &StackManager,
-        cmds: &[(u32, Cmd)],
-        d: &mut Journal<Int>,
-    ) {
-        self.0.plan(cfg, w, q, cmds, d)
-    }
-    pub(super) fn complete(
-        &self,
-        cfg: &Config,
-        q: &StackManager,
-        t: u32,
-        u: Uop,
-        latch: &mut Option<Entry>,
-        d: &mut Journal<Int>,
-    ) {
-        self.0.complete(cfg, q, t, u, latch, d)
-    }
-    pub(super) fn skew_base(&self, q: &StackManager, lane: u32) -> u32 {
-        self.0.skew_base(q, lane)
     }
 }
 
