@@ -48,6 +48,30 @@ pub enum RayOp {
     Pop(u64),
 }
 
+/// A pop's answer as a ray whose walk follows its stack sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Popped {
+    /// The stack's newest entry.
+    Entry(u64),
+    /// The stack was empty because it dropped entries on overflow: the walk restarts from the
+    /// root along its trail (the restart designs).
+    Restart,
+}
+
+/// A ray whose operations depend on what its stack answers: with a stack that drops entries on
+/// overflow, a pop may answer [`Popped::Restart`], and the walk goes on from the root instead of
+/// the popped node. The testbench implements it over a real BVH; the RT unit pulls one segment
+/// at a time. Stimulus, not hardware: the walk's own registers (the trail) are the design's, and
+/// their cost is counted by `sms cost`, but the walk itself is not clocked.
+pub trait Walk: Send {
+    /// Appends the ray's next operations to `ops`: up to and including its next [`RayOp::Pop`],
+    /// or to the end of its traversal (a segment without a Pop is the last). `answer` is what
+    /// the Pop that ended the previous segment returned; `None` for the first segment. The
+    /// Pop's address is the one an unbounded stack would return: the stack answers it or, if it
+    /// dropped it, [`Popped::Restart`]. An error is a walk that cannot go on (a wrong answer).
+    fn resume(&mut self, answer: Option<Popped>, ops: &mut Vec<RayOp>) -> Result<(), String>;
+}
+
 /// One warp's rays: exactly `warp_size` lanes, `None` for an inactive lane. After its last
 /// operation a lane sends Finish (its stack must then be empty).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
