@@ -116,6 +116,20 @@ impl ShPolicy {
     }
 }
 
+/// What a stack does with the entry that overflows its last on-chip level.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Overflow {
+    /// Spill it to the thread's region of global memory and reload it on the way back (the
+    /// paper's designs).
+    #[default]
+    Spill,
+    /// Drop the oldest entry and set the thread's Overflow bit; a pop that finds the stack empty
+    /// with the bit set answers Restart, and the walk goes on from the root along its restart
+    /// trail (`+RT`: Laine, HPG 2010; Vaidyanathan, Woop and Benthin, HPG 2019). Nothing goes to
+    /// global memory.
+    Drop,
+}
+
 /// A stack design and the RT unit it sits in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Config {
@@ -127,6 +141,8 @@ pub struct Config {
     pub skew: bool,
     /// How the warp's threads share SH stacks: dedicated, or reallocated (RA, RA_G).
     pub policy: ShPolicy,
+    /// Spill the overflowing entry to global memory, or drop it and restart (RT).
+    pub overflow: Overflow,
     /// Threads per warp (hardware: 32).
     pub warp_size: u32,
     /// Warps per RT unit (hardware: 4).
@@ -150,6 +166,7 @@ impl Default for Config {
             sh_entries: 0,
             skew: false,
             policy: ShPolicy::Dedicated,
+            overflow: Overflow::Spill,
             warp_size: 32,
             warps: 4,
             banks: 32,
@@ -367,6 +384,13 @@ impl Config {
         if self.rb == RbSize::Full && m != 0 {
             return Err(reject("sh", m, "with RB = FULL nothing spills to SH; use sh = 0"));
         }
+        if self.overflow == Overflow::Drop && self.rb == RbSize::Full {
+            return Err(reject(
+                "restart",
+                "on",
+                "RT drops entries when the stack overflows, and RB = FULL never overflows: use RB_N",
+            ));
+        }
         Ok(())
     }
 
@@ -410,6 +434,9 @@ impl Config {
             s += "+SK";
         }
         s += &self.policy.token();
+        if self.overflow == Overflow::Drop {
+            s += "+RT";
+        }
         s
     }
 }
@@ -418,7 +445,8 @@ impl FromStr for Config {
     type Err = ConfigError;
 
     /// Parses the paper's names: `RB_8`, `RB_FULL`, `RB_8+SH_8`, `RB_8+SH_8+SK`,
-    /// `RB_8+SH_8+SK+RA`, `SMS` (= RB_8+SH_8+SK+RA). Case-insensitive. The result is validated.
+    /// `RB_8+SH_8+SK+RA`, `SMS` (= RB_8+SH_8+SK+RA), `+RA_G` (lending within groups of G lanes),
+    /// `+RT` (drop on overflow, restart). Case-insensitive. The result is validated.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let mut cfg = Config::default();
         let name = s.trim();
@@ -442,6 +470,8 @@ impl FromStr for Config {
                 cfg.sh_entries = m.parse().map_err(|_| reject("sh", &part[3..], "expected a number"))?;
             } else if upper == "SK" {
                 cfg.skew = true;
+            } else if upper == "RT" {
+                cfg.overflow = Overflow::Drop;
             } else if upper == "RA" {
                 cfg.policy = ShPolicy::Realloc(Realloc::default());
             } else if let Some(g) = upper.strip_prefix("RA_") {
@@ -461,14 +491,14 @@ impl FromStr for Config {
                 return Err(reject(
                     "config",
                     s,
-                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA or +RA_G",
+                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA or +RA_G, +RT",
                 ));
             } else {
                 return Err(reject(
                     "config",
                     s,
                     format!(
-                        "unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK, RA or RA_G (or SMS alone)"
+                        "unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK, RA or RA_G, RT (or SMS alone)"
                     ),
                 ));
             }
@@ -571,6 +601,8 @@ impl Widths {
         let m = c.sh_entries;
         let log2m = if m == 0 { 0 } else { m.trailing_zeros() };
         let ra = c.realloc();
+        // A stack that drops its overflow has no global region, so no spill pointer.
+        let spill_ptr = if c.overflow == Overflow::Drop { 0 } else { c.spill_ptr_bits };
         Widths {
             entry: c.entry_bytes * 8,
             rb_count: c.rb.capacity().map_or(RB_FULL_COUNT_BITS, |n| bits_for(n as u64)),
@@ -582,7 +614,7 @@ impl Widths {
             next_tid: ra.map_or(0, |_| bits_for(c.warp_size as u64 - 1)),
             priority: ra.map_or(0, |_| bits_for(u64::from(c.policy.chain_bound() - 1))),
             flush: ra.map_or(0, |r| bits_for(r.flush_limit as u64)),
-            spill_ptr: c.spill_ptr_bits,
+            spill_ptr,
             tid: bits_for(c.warp_size as u64 - 1),
             thread: bits_for(c.threads() as u64 - 1),
             sh_requests: bits_for(c.threads() as u64),
@@ -591,7 +623,7 @@ impl Widths {
             thread_state: bits_for(THREAD_STATES - 1),
             seq_step: bits_for(u64::from(2 * m + 4)),
             seq_slots: 2 * m + 4,
-            uop_a: bits_for(c.warp_size as u64 - 1).max(c.spill_ptr_bits),
+            uop_a: bits_for(c.warp_size as u64 - 1).max(spill_ptr),
             uop_b: log2m,
             gm_responses: bits_for(c.threads() as u64),
             gm_queue: bits_for(c.threads() as u64),
@@ -623,6 +655,8 @@ mod tests {
             "RB_8+SH_8+SK+RA",
             "RB_2+SH_8+SK+RA",
             "RB_8+SH_8+SK+RA_8",
+            "RB_4+RT",
+            "RB_2+SH_8+SK+RA+RT",
         ] {
             let c: Config = name.parse().unwrap();
             assert_eq!(c.name(), name);
@@ -674,6 +708,17 @@ mod tests {
         assert_eq!(narrow.validate().unwrap_err().parameter, "lend_group", "a group wider than the warp");
         let greedy = Config { policy: ShPolicy::Group { ra: Realloc::default(), lanes: 2 }, ..g };
         assert_eq!(greedy.validate().unwrap_err().parameter, "borrow_limit");
+    }
+
+    #[test]
+    fn a_restart_design_drops_instead_of_spilling_and_has_no_spill_pointer() {
+        let rt: Config = "rb_4+rt".parse().unwrap();
+        assert_eq!((rt.overflow, rt.name()), (Overflow::Drop, "RB_4+RT".to_string()));
+        assert_eq!(rt.widths().unwrap().spill_ptr, 0, "no global region to point into");
+        assert_eq!(Config::sms().widths().unwrap().spill_ptr, 16);
+        let e = "RB_FULL+RT".parse::<Config>().unwrap_err();
+        assert_eq!(e.parameter, "restart");
+        assert!(e.to_string().contains("RB = FULL never overflows"), "{e}");
     }
 
     #[test]

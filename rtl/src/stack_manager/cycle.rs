@@ -98,6 +98,8 @@ pub struct JournalOf<W, B, V> {
     pub g_req: Vec<GReqOf<W>>,
     /// Pops answered: (thread, entry).
     pub pops: Vec<(u32, V)>,
+    /// Pops answered Restart (a restart design's stack, empty after drops): the threads.
+    pub restarts: Vec<u32>,
     /// Commands refused.
     pub errors: Vec<StackError>,
     /// The cycle's completions and its number, as they came in (for a scoreboard).
@@ -117,6 +119,7 @@ impl<W, B, V> Default for JournalOf<W, B, V> {
             sh_req: Vec::new(),
             g_req: Vec::new(),
             pops: Vec::new(),
+            restarts: Vec::new(),
             errors: Vec::new(),
             done: Vec::new(),
             deq: None,
@@ -126,8 +129,8 @@ impl<W, B, V> Default for JournalOf<W, B, V> {
 }
 
 impl<W, B, V: Copy> JournalOf<W, B, V> {
-    /// What the cycle answered to thread `t`'s command: the popped entry, nothing, or the
-    /// refusal.
+    /// What the cycle answered to thread `t`'s command: the popped entry, nothing (for a pop:
+    /// Restart), or the refusal.
     pub fn answer(&self, t: u32) -> Result<Option<V>, StackError> {
         if let Some(e) = self.errors.iter().find(|e| e.thread() == t) {
             return Err(*e);
@@ -146,6 +149,7 @@ impl<W, B, V> JournalOf<W, B, V> {
         self.sh_req.clear();
         self.g_req.clear();
         self.pops.clear();
+        self.restarts.clear();
         self.errors.clear();
         self.done.clear();
         self.deq = None;
@@ -447,6 +451,7 @@ pub fn plan<L: Logic, P: CycleSteps>(
         }
         match plan_one(l, steps, cfg, w, q, d, t, cmd) {
             Ok(Some(v)) => d.pops.push((t, v)),
+            Ok(None) if matches!(cmd, CmdOf::Pop) => d.restarts.push(t),
             Ok(None) => {}
             Err(e) => d.errors.push(e),
         }

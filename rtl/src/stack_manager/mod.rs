@@ -112,6 +112,11 @@ impl StackStep {
         &self.j.pops
     }
 
+    /// The threads whose pop this cycle answered Restart (restart designs).
+    pub fn restarts(&self) -> &[u32] {
+        &self.j.restarts
+    }
+
     /// Commands refused (the per-thread error signals).
     pub fn errors(&self) -> &[StackError] {
         &self.j.errors

@@ -15,7 +15,7 @@
 //! and stop early only where [`Logic::maybe`] allows, so every instance computes one function.
 
 use super::regs::{CmdOf, SrcOf, StackError, StackRegsOf, StackStats, ThreadRegsOf, UopOf};
-use crate::config::Config;
+use crate::config::{Config, Overflow};
 use crate::logic::Logic;
 
 /// An SH stack's registers under logic `L`.
@@ -90,6 +90,10 @@ pub trait Steps: Sized {
     ) -> Result<bool, StackError> {
         p.on_full_top(chain, v)
     }
+    /// A push found the RB full and there is no SH level: the oldest RB entry `v` leaves it.
+    fn on_full_rb<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, v: L::Val) -> Result<(), StackError> {
+        p.on_full_rb(v)
+    }
     /// No stack of the chain takes `v`: the last level's spill from the top stack `top`.
     fn on_full_chain<L: Logic, R: Regfile<L>>(
         p: &mut Plan<L, Self, R>,
@@ -105,6 +109,10 @@ pub trait Steps: Sized {
     /// A pop drained the chain's top stack `top`.
     fn on_drained<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>, chain: &Chain<L>, top: L::Word) {
         p.on_drained(chain, top)
+    }
+    /// A pop found the RB, and so the whole stack, empty: `Ok` answers Restart, `Err` refuses.
+    fn on_empty_pop<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) -> Result<(), StackError> {
+        p.on_empty_pop()
     }
     /// An accepted Finish (the thread is done).
     fn on_finish<L: Logic, R: Regfile<L>>(p: &mut Plan<L, Self, R>) {
@@ -211,7 +219,8 @@ pub struct Plan<'a, L: Logic, P: Steps, R: Regfile<L>> {
 
 impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
     /// Plans `cmd` (`busy`: the thread's sequencer is not idle). Returns the popped entry for a
-    /// pop, or the refusal; on a refusal the caller drops what the plan wrote.
+    /// pop (`None` for a pop answered Restart), or the refusal; on a refusal the caller drops
+    /// what the plan wrote.
     pub fn run(&mut self, cmd: CmdOf<L::Val>, busy: L::Bit) -> Result<Option<L::Val>, StackError> {
         if let CmdOf::None = cmd {
             return Ok(None);
@@ -225,7 +234,7 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
                 self.stats.pushes += 1;
                 self.push(v).map(|_| None)
             }
-            CmdOf::Pop => self.pop().map(Some),
+            CmdOf::Pop => self.pop(),
             CmdOf::Finish => self.finish().map(|_| None),
         }
     }
@@ -566,11 +575,7 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
     /// Spills `v` (the oldest RB entry) out of the full RB.
     fn spill(&mut self, v: L::Val) -> Result<(), StackError> {
         if self.m() == 0 {
-            let one = self.l.word(1);
-            let slot = self.claim_spill_slots(one)?;
-            self.emit(UopOf::GlobalStore { slot, src: SrcOf::Value(v) });
-            self.stats.rb_to_global += 1;
-            return Ok(());
+            return P::on_full_rb(self, v);
         }
         let chain = self.members();
         let top = P::top_of(self, &chain);
@@ -615,6 +620,12 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         let several = self.l.lt(one, len);
         let f = self.stack(oldest).flush;
         let below_limit = self.l.lt_k(f, ra.flush_limit);
+        // A restart design empties the oldest member only when it is not the top: a lone full
+        // stack drops one entry at a time ([`Plan::on_full_chain`]) rather than all of them.
+        let below_limit = match self.cfg.overflow {
+            Overflow::Spill => below_limit,
+            Overflow::Drop => self.l.bit(false),
+        };
         let may_flush = self.l.or(several, below_limit);
         if self.l.decide(may_flush) {
             self.flush(oldest, ra.flush_limit)?;
@@ -625,9 +636,38 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         Ok(false)
     }
 
+    /// The RB's spill without an SH level (SPEC 3, M = 0): `v` goes to global memory at the
+    /// spill pointer. A restart design drops it instead.
+    pub fn on_full_rb(&mut self, v: L::Val) -> Result<(), StackError> {
+        if self.cfg.overflow == Overflow::Drop {
+            self.dropped();
+            return Ok(());
+        }
+        let one = self.l.word(1);
+        let slot = self.claim_spill_slots(one)?;
+        self.emit(UopOf::GlobalStore { slot, src: SrcOf::Value(v) });
+        self.stats.rb_to_global += 1;
+        Ok(())
+    }
+
+    /// An entry left the stack for good (a restart design's overflow): the Overflow bit records
+    /// that the stack no longer holds everything pushed.
+    fn dropped(&mut self) {
+        self.th.overflow = self.l.bit(true);
+        self.stats.drops += 1;
+    }
+
     /// The last level's spill (SPEC 3, push case 3): the top stack's oldest entry goes to global
-    /// memory and `v` takes its place: SH load (Bottom) → global store → SH store (Top + 1).
+    /// memory and `v` takes its place: SH load (Bottom) → global store → SH store (Top + 1). A
+    /// restart design drops the oldest entry instead: Bottom advances with no micro-op, then the
+    /// SH store.
     pub fn on_full_chain(&mut self, top: L::Word, v: L::Val) -> Result<(), StackError> {
+        if self.cfg.overflow == Overflow::Drop {
+            self.pop_bottom(top);
+            self.dropped();
+            P::spill_into(self, top, v);
+            return Ok(());
+        }
         let one = self.l.word(1);
         let slot = self.claim_spill_slots(one)?;
         let b = self.pop_bottom(top);
@@ -644,11 +684,13 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         self.stats.rb_to_sh += 1;
     }
 
-    /// Writes the whole of stack `s` to global memory, oldest entry first (lowest address).
+    /// Writes the whole of stack `s` to global memory, oldest entry first (lowest address). A
+    /// restart design drops its entries instead: no micro-ops, the Overflow bit set.
     fn flush(&mut self, s: L::Word, limit: u32) -> Result<(), StackError> {
         let r = self.stack(s);
         let n = P::entries(self, &r);
-        let first = self.claim_spill_slots(n)?;
+        let drop = self.cfg.overflow == Overflow::Drop;
+        let first = if drop { self.l.word(0) } else { self.claim_spill_slots(n)? };
         for i in 0..self.m() {
             let iw = self.l.word(i);
             let live = self.l.lt(iw, n);
@@ -659,6 +701,11 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
             let popped = self.pop_bottom_of(r);
             let next = StackRegsOf::mux(self.l, live, popped, r);
             self.set(s, next);
+            if drop {
+                self.th.overflow = self.l.bit(true);
+                self.stats.drops += 1;
+                continue;
+            }
             let slot = self.l.add(first, iw);
             self.rf.emit(self.l, live, UopOf::ShLoad { stack: s, entry: r.bottom });
             self.rf.emit(self.l, live, UopOf::GlobalStore { slot, src: SrcOf::Latch });
@@ -694,23 +741,25 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         Ok(())
     }
 
-    fn pop(&mut self) -> Result<L::Val, StackError> {
+    fn pop(&mut self) -> Result<Option<L::Val>, StackError> {
         let len = self.rf.rb_len(self.l);
         let empty = self.l.eq_k(len, 0);
         if self.l.decide(empty) {
-            return Err(StackError::PopEmpty { thread: self.t });
+            P::on_empty_pop(self)?;
+            self.stats.restarts += 1;
+            return Ok(None);
         }
         let v = self.rf.rb_back(self.l);
         self.rf.rb(self.l, RbOp::PopBack);
         self.stats.pops += 1;
         if self.m() == 0 {
-            if self.l.decide(self.th.overflow) {
+            if self.cfg.overflow == Overflow::Spill && self.l.decide(self.th.overflow) {
                 let slot = P::release_spill_slot(self);
                 self.emit(UopOf::GlobalLoad { slot });
                 self.emit(UopOf::RbBottom);
                 self.stats.global_to_rb += 1;
             }
-            return Ok(v);
+            return Ok(Some(v));
         }
         let chain = self.members();
         let top = P::top_of(self, &chain);
@@ -727,7 +776,19 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
             }
         }
         P::global_reload(self);
-        Ok(v)
+        Ok(Some(v))
+    }
+
+    /// The paper's answer to a pop of an empty stack: refused. A restart design whose Overflow
+    /// bit is set answers Restart and clears the bit (every entry still owed was dropped, and the
+    /// walk re-pushes what it needs from the root); with the bit clear it refuses too.
+    pub fn on_empty_pop(&mut self) -> Result<(), StackError> {
+        let refuse = Err(StackError::PopEmpty { thread: self.t });
+        if self.cfg.overflow == Overflow::Spill || !self.l.decide(self.th.overflow) {
+            return refuse;
+        }
+        self.th.overflow = self.l.bit(false);
+        Ok(())
     }
 
     /// The paper's answer to a pop that drained the chain's top stack: its flush count
@@ -755,7 +816,8 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
     }
 
     pub fn global_reload(&mut self) {
-        if !self.l.decide(self.th.overflow) {
+        // A restart design's Overflow bit says entries were dropped: there is nothing to reload.
+        if self.cfg.overflow == Overflow::Drop || !self.l.decide(self.th.overflow) {
             return;
         }
         let chain = self.members();
@@ -784,6 +846,10 @@ impl<'a, L: Logic, P: Steps, R: Regfile<L>> Plan<'a, L, P, R> {
         let len = self.rf.rb_len(self.l);
         let zero = self.l.word(0);
         let holds = self.l.ne(len, zero);
+        // A restart design that dropped entries still owes them: the walk must restart first.
+        let owes = self.l.bit(self.cfg.overflow == Overflow::Drop);
+        let owes = self.l.and(owes, self.th.overflow);
+        let holds = self.l.or(holds, owes);
         if self.l.decide(holds) {
             return Err(StackError::FinishNonEmpty { thread: self.t });
         }
@@ -875,6 +941,46 @@ mod tests {
         let s = sm.stack(1);
         assert!(s.idle && s.priority == 0 && s.next_tid == 1, "back with its owner: {s:?}");
         assert_eq!(sm.stats.releases, 1);
+    }
+
+    #[test]
+    fn a_restart_design_drops_the_oldest_entry_and_answers_restart_when_empty() {
+        for name in ["RB_1+RT", "RB_1+SH_1+RT"] {
+            let mut sm = manager(name);
+            let kept = if name.contains("SH") { 2 } else { 1 };
+            pushes(&mut sm, 0, 1..=3);
+            assert_eq!(sm.stats.drops, 3 - kept, "{name}");
+            assert!(sm.thread(0).overflow, "{name}: the Overflow bit records the drop");
+            assert!(sm.global(0).is_empty(), "{name}: nothing goes to global memory");
+            assert!(sm.apply(0, Cmd::Finish).is_err(), "{name}: a thread that dropped entries owes them");
+            let popped: Vec<u64> = (0..kept).map(|_| sm.apply(0, Cmd::Pop).unwrap().unwrap()).collect();
+            assert_eq!(popped, (4 - kept..=3).rev().collect::<Vec<u64>>(), "{name}: newest first");
+            assert_eq!(sm.apply(0, Cmd::Pop).unwrap(), None, "{name}: empty after drops: Restart");
+            assert_eq!(sm.stats.restarts, 1);
+            assert!(!sm.thread(0).overflow, "{name}: the restart clears the bit");
+            assert!(sm.apply(0, Cmd::Pop).is_err(), "{name}: empty with nothing dropped is refused");
+            sm.apply(0, Cmd::Finish).unwrap();
+        }
+    }
+
+    #[test]
+    fn a_restart_design_with_reallocation_drops_the_oldest_member_when_the_chain_is_full() {
+        // RB 1, own stack 1, one borrowed (lane 2), then the chain of two is full (lane 3 busy).
+        let mut sm3 = manager("RB_1+SH_1+RA+RT");
+        sm3.apply(2, Cmd::Finish).unwrap();
+        pushes(&mut sm3, 0, 1..=3);
+        assert_eq!(sm3.chain(0), [0, 2]);
+        pushes(&mut sm3, 0, 4..=4);
+        assert_eq!((sm3.stats.drops, sm3.stats.flushes), (1, 1), "the oldest member emptied, no store");
+        assert!(sm3.global(0).is_empty());
+        assert_eq!(pop_all(&mut sm3, 0), [4, 3, 2], "then Restart");
+        assert_eq!(sm3.stats.restarts, 1);
+        // A lone full stack with nothing to borrow drops one entry at a time: its flush count
+        // plays no part.
+        let mut sm = manager("RB_1+SH_1+RA+RT");
+        pushes(&mut sm, 1, 1..=4);
+        assert_eq!((sm.stats.drops, sm.stats.flushes), (2, 0));
+        assert_eq!(pop_all(&mut sm, 1), [4, 3]);
     }
 
     #[test]

@@ -353,6 +353,10 @@ stack_stats! {
     flushes_saturated,
     /// Dedicated stacks that drained under borrowed ones and moved to the chain's bottom.
     demotions,
+    /// Entries a restart design (`+RT`) dropped on overflow.
+    drops,
+    /// Pops a restart design answered with Restart (the stack empty after drops).
+    restarts,
 }
 
 impl StackStats {

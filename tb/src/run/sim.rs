@@ -124,14 +124,22 @@ pub fn serialize_secs<S: serde::Serializer>(d: &Duration, s: S) -> std::result::
 }
 
 /// Serialises stack-manager counters as an object of every counter by name, in declaration order.
+/// The restart designs' counters (`drops`, `restarts`) appear only when not zero: a design that
+/// spills never drops, and its report reads as it did before those designs existed.
 pub fn stack_counts<S: serde::Serializer>(c: &StackStats, s: S) -> std::result::Result<S::Ok, S::Error> {
     use serde::ser::SerializeMap;
-    let mut map = s.serialize_map(Some(StackStats::COUNT))?;
+    let mut map = s.serialize_map(None)?;
     for (name, value) in c.fields() {
+        if value == 0 && RESTART_COUNTS.contains(&name) {
+            continue;
+        }
         map.serialize_entry(name, &value)?;
     }
     map.end()
 }
+
+/// The counters only restart designs move.
+pub const RESTART_COUNTS: [&str; 2] = ["drops", "restarts"];
 
 /// Declares [`GpuCounts`] from one list of fields, each with its kind and the [`GpuReport`] field
 /// it comes from, so the struct, its construction and its scaling are written once. A `count`
@@ -700,6 +708,11 @@ mod tests {
         assert_eq!(map.keys().map(String::as_str).collect::<Vec<_>>(), names);
         assert_eq!(map["sh_to_global"], 5);
         assert_eq!(s.map(|v| v * 2).zip(&s, |a, b| a - b), s);
+        let spilling = StackStats { drops: 0, restarts: 0, ..s };
+        let json = stack_counts(&spilling, serde_json::value::Serializer).unwrap();
+        let keys = json.as_object().unwrap().keys().cloned().collect::<Vec<_>>();
+        assert_eq!(keys.len(), StackStats::COUNT - 2, "a design that never drops shows no drop counters");
+        assert!(!keys.iter().any(|k| RESTART_COUNTS.contains(&k.as_str())));
     }
 
     /// A run's failed check is the design's failure, reported as such; only what the input got
