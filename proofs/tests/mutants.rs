@@ -7,7 +7,7 @@
 //! `sms check --full --mutant NAME` (a `--features mutants` build) runs the whole set; the SMT
 //! layer catches the same bugs from any well-formed state (`proofs/tests/smt.rs`).
 
-use rtl::config::{Config, RbSize};
+use rtl::config::{Config, Overflow, RbSize};
 use rtl::stack_manager::Mutant;
 use tb::run::verify::exhaustive::{
     check, corner_cases, default_cap, describe, full_cases, full_configs, Bounds, Case,
@@ -32,6 +32,10 @@ enum Pick {
     Skew8,
     /// The case of [`corner_cases`] whose description contains the text.
     Corner(&'static str),
+    /// RB_1+RT warp 2: a restart design with an RB alone.
+    RtRb,
+    /// RB_1+SH_1+RT warp 2: a restart design over one SH entry.
+    RtSh,
 }
 
 fn case(p: Pick) -> Case {
@@ -50,8 +54,10 @@ fn case(p: Pick) -> Case {
 
 fn config(p: Pick) -> Config {
     let ra = |c: &Config| c.realloc().map(|r| r.borrow_limit);
+    let spills = |c: &Config| c.overflow == Overflow::Spill;
     let is = |c: &Config, n, m, ws, borrow: Option<u32>, banks| {
-        c.rb == RbSize::Entries(n)
+        spills(c)
+            && c.rb == RbSize::Entries(n)
             && c.sh_entries == m
             && c.warp_size == ws
             && ra(c) == borrow
@@ -64,6 +70,8 @@ fn config(p: Pick) -> Config {
         Pick::Ra2 => &|c| is(c, 1, 2, 2, Some(1), 32),
         Pick::Chain3 | Pick::Corner(_) => unreachable!("a partial case: see case()"),
         Pick::Skew8 => &|c| is(c, 1, 2, 4, None, 8),
+        Pick::RtRb => &|c| !spills(c) && c.sh_entries == 0 && c.warp_size == 2,
+        Pick::RtSh => &|c| !spills(c) && c.sh_entries == 1 && c.warp_size == 2,
     };
     full_configs().into_iter().find(|c| want(c)).unwrap_or_else(|| panic!("{p:?} in the full set"))
 }
@@ -71,7 +79,7 @@ fn config(p: Pick) -> Config {
 /// Per mutant: the smallest case whose fixpoint search catches it, extra depth-cap entries
 /// beyond the case's cap ([`default_cap`] for full warps), and the property that catches it
 /// first.
-const TABLE: [(Mutant, Pick, u32, Property); 27] = [
+const TABLE: [(Mutant, Pick, u32, Property); 31] = [
     (Mutant::QueueWrapOffByOne, Pick::Sh2, 0, Property::RequestSequence),
     (Mutant::ReloadWrongEntry, Pick::Sh2, 0, Property::RequestSequence),
     (Mutant::SpillDropsEntry, Pick::Sh1, 0, Property::RequestSequence),
@@ -115,6 +123,10 @@ const TABLE: [(Mutant, Pick, u32, Property); 27] = [
     (Mutant::FlushBeforeLastBorrow, Pick::Chain3, 0, Property::RequestSequence),
     // The first flush of a stack, with flush limit 3, counts 2.
     (Mutant::FlushCountedTwice, Pick::Corner("flush 3 lanes 0100"), 0, Property::FlushCount),
+    (Mutant::DropsNewest, Pick::RtSh, 0, Property::RequestSequence),
+    (Mutant::DropForgetsOverflow, Pick::RtRb, 0, Property::Overflow),
+    (Mutant::RestartKeepsOverflow, Pick::RtRb, 0, Property::Overflow),
+    (Mutant::RestartWithoutDrop, Pick::RtRb, 0, Property::Equivalence),
 ];
 
 /// The planted bugs of the cycle's issue and completion ports. The exhaustive layer's
@@ -192,6 +204,7 @@ fn without_request_sequence_the_state_properties_catch_them() {
         (Mutant::CountAdderTooNarrow, Pick::Corner("RB_8+SH_8")),
         (Mutant::TopComparatorThreeMembers, Pick::Corner("warp 8 borrow 4")),
         (Mutant::ReloadAssumesWordKept, Pick::Sh1),
+        (Mutant::DropsNewest, Pick::RtSh),
     ];
     let rs: Vec<Mutant> = TABLE
         .iter()

@@ -89,11 +89,19 @@ pub enum Mutant {
     /// Flush register (saturating at the limit, so the count stays in range and is 0 on every
     /// empty stack; right for a flush limit of 1).
     FlushCountedTwice,
+    /// A restart design's full chain drops the entry being pushed instead of the oldest one.
+    DropsNewest,
+    /// A restart design drops an entry without setting the Overflow bit.
+    DropForgetsOverflow,
+    /// A pop answered Restart leaves the Overflow bit set.
+    RestartKeepsOverflow,
+    /// An empty stack answers Restart even though nothing was dropped.
+    RestartWithoutDrop,
 }
 
 impl Mutant {
     /// Every mutant, in declaration order (the order of [`Self::NAMES`]).
-    pub const ALL: [Mutant; 31] = [
+    pub const ALL: [Mutant; 35] = [
         Mutant::QueueWrapOffByOne,
         Mutant::ReloadWrongEntry,
         Mutant::SpillDropsEntry,
@@ -125,6 +133,10 @@ impl Mutant {
         Mutant::StoredEntryThreeBits,
         Mutant::FlushBeforeLastBorrow,
         Mutant::FlushCountedTwice,
+        Mutant::DropsNewest,
+        Mutant::DropForgetsOverflow,
+        Mutant::RestartKeepsOverflow,
+        Mutant::RestartWithoutDrop,
     ];
 }
 
@@ -160,7 +172,11 @@ named_enum!(
     Mutant::ResponseDroppedWithShDone => "response-dropped-with-sh-done",
     Mutant::StoredEntryThreeBits => "stored-entry-three-bits",
     Mutant::FlushBeforeLastBorrow => "flush-before-last-borrow",
-    Mutant::FlushCountedTwice => "flush-counted-twice"
+    Mutant::FlushCountedTwice => "flush-counted-twice",
+    Mutant::DropsNewest => "drops-newest",
+    Mutant::DropForgetsOverflow => "drop-forgets-overflow",
+    Mutant::RestartKeepsOverflow => "restart-keeps-overflow",
+    Mutant::RestartWithoutDrop => "restart-without-drop"
 );
 
 #[cfg(feature = "mutants")]
@@ -193,7 +209,7 @@ mod planted {
     use super::super::policy::{Chain, Plan, Regfile, Regs, Steps};
     use super::super::regs::{CmdOf, StackError, StackRegsOf};
     use super::Mutant;
-    use crate::config::Config;
+    use crate::config::{Config, Overflow};
     use crate::logic::Logic;
 
     impl CycleSteps for Mutated {
@@ -346,6 +362,48 @@ mod planted {
             } else {
                 p.l.le(len, limit)
             }
+        }
+
+        fn on_full_rb<L: Logic, R: Regfile<L>>(p: &mut P<L, R>, v: L::Val) -> Result<(), StackError> {
+            if is(p, Mutant::DropForgetsOverflow) && p.cfg.overflow == Overflow::Drop {
+                p.stats.drops += 1;
+                return Ok(());
+            }
+            p.on_full_rb(v)
+        }
+
+        fn on_full_chain<L: Logic, R: Regfile<L>>(
+            p: &mut P<L, R>,
+            top: L::Word,
+            v: L::Val,
+        ) -> Result<(), StackError> {
+            if p.cfg.overflow == Overflow::Drop {
+                if is(p, Mutant::DropsNewest) {
+                    p.th.overflow = p.l.bit(true);
+                    p.stats.drops += 1;
+                    return Ok(());
+                }
+                if is(p, Mutant::DropForgetsOverflow) {
+                    p.pop_bottom(top);
+                    p.stats.drops += 1;
+                    Self::spill_into(p, top, v);
+                    return Ok(());
+                }
+            }
+            p.on_full_chain(top, v)
+        }
+
+        fn on_empty_pop<L: Logic, R: Regfile<L>>(p: &mut P<L, R>) -> Result<(), StackError> {
+            if p.cfg.overflow == Overflow::Drop {
+                if is(p, Mutant::RestartKeepsOverflow) && p.l.decide(p.th.overflow) {
+                    return Ok(());
+                }
+                if is(p, Mutant::RestartWithoutDrop) {
+                    p.th.overflow = p.l.bit(false);
+                    return Ok(());
+                }
+            }
+            p.on_empty_pop()
         }
 
         fn first_idle<L: Logic, R: Regfile<L>>(p: &mut P<L, R>) -> (L::Bit, L::Word) {

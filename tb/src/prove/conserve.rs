@@ -20,8 +20,12 @@
 //! is refused only by an empty stack; and every SH store lands in a stack that is on the
 //! thread's chain after the cycle and was on it before or Idle (so no other thread's entries
 //! are touched: rings are disjoint cycles of Next TID).
+//!
+//! A restart design (`+RT`) may drop its oldest entries on a push: there the tracked entry must
+//! be at its new position whenever that position is still held (so what is kept is the newest
+//! entries, in order), and the depth may grow by less than one only with the Overflow bit set.
 
-use rtl::config::Config;
+use rtl::config::{Config, Overflow};
 use rtl::logic::Logic;
 use rtl::stack_manager::policy::{Regs, Steps, Thread};
 
@@ -324,7 +328,11 @@ pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: 
     // After the cycle (its program done): where the tracked entry's new position lives, and
     // whether that place holds it.
     let post = layout(&mut s, cfg, base, &d.regs, lane, len, a.th.spill_ptr);
+    let drops = cfg.overflow == Overflow::Drop;
     let (post_q, post_valid) = match kind {
+        // A restart design keeps the newest entries: the tracked one must be at its new
+        // position if that position is still held, and is gone (dropped) past it.
+        Kind::Push if drops => (p, s.lt(p, post.depth)),
         Kind::Push => (p, s.bit(true)),
         _ => {
             let q = s.sub_k(p, 1);
@@ -351,6 +359,14 @@ pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: 
     let need = implies(&mut s, accepted, need);
     parts.push((format!("lane {n}: the tracked entry at its new position"), need));
     let depth_ok = match kind {
+        Kind::Push if drops => {
+            // One deeper, or (entries dropped) no deeper than that with the Overflow bit set.
+            let up = s.add_k(pre.depth, 1);
+            let grew = s.eq(post.depth, up);
+            let within = s.le(post.depth, up);
+            let dropped = s.and(within, a.th.overflow);
+            s.or(grew, dropped)
+        }
         Kind::Push => {
             let up = s.add_k(pre.depth, 1);
             s.eq(post.depth, up)

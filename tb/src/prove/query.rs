@@ -7,7 +7,7 @@
 //! their path conditions into one output, and the solver is asked for a state where the outputs
 //! differ.
 
-use rtl::config::Config;
+use rtl::config::{Config, Overflow};
 use rtl::logic::Logic;
 use rtl::stack_manager::policy::{Plan, RbOp, Regfile, Regs, Steps, Thread, UopL};
 use rtl::stack_manager::{CmdOf, SrcOf, StackError, StackRegsOf, StackStats, ThreadRegsOf, UopOf};
@@ -208,7 +208,11 @@ pub fn well_formed_parts<L: Logic>(
             let live = l.not(th.done);
             let quiet = l.and(quiet, live);
             let own = regs[lane as usize];
-            let mut below = l.not(th.overflow);
+            // A restart design's Overflow bit stays set, entries owed, while pops drain it.
+            let mut below = match cfg.overflow {
+                Overflow::Spill => l.not(th.overflow),
+                Overflow::Drop => l.bit(true),
+            };
             if m > 0 {
                 let me = l.word(lane);
                 let alone = l.eq(own.next_tid, me);
@@ -216,12 +220,24 @@ pub fn well_formed_parts<L: Logic>(
                 below = l.and(below, e);
             }
             let imp = implies(l, quiet, below);
-            need(&mut parts, who, "quiescent with room in the RB: stack empty and alone, no overflow", imp);
+            let what = match cfg.overflow {
+                Overflow::Spill => "quiescent with room in the RB: stack empty and alone, no overflow",
+                Overflow::Drop => "quiescent with room in the RB: stack empty and alone",
+            };
+            need(&mut parts, who, what, imp);
         }
         let zero = l.word(0);
-        let some = l.lt(zero, th.spill_ptr);
-        let same = eq_bit(l, some, th.overflow);
-        need(&mut parts, who, "Overflow exactly when the spill pointer is above 0", same);
+        match cfg.overflow {
+            Overflow::Spill => {
+                let some = l.lt(zero, th.spill_ptr);
+                let same = eq_bit(l, some, th.overflow);
+                need(&mut parts, who, "Overflow exactly when the spill pointer is above 0", same);
+            }
+            Overflow::Drop => {
+                let none = l.eq(th.spill_ptr, zero);
+                need(&mut parts, who, "no global region in a restart design: spill pointer 0", none);
+            }
+        }
         let sp = l.lt_k(th.spill_ptr, limit + 1);
         need(&mut parts, who, "spill pointer within its region", sp);
         let d = eq_bit(l, th.done, done[lane as usize]);

@@ -20,8 +20,22 @@
 //! | pop | then, global holds entries and the oldest stack has room | global load (newest slot) → SH store just below Bottom | Bottom retreats, spill pointer − 1 |
 //! | finish | RB not empty | refused | — |
 //! | finish | | — | done; with RA its stack turns Idle |
+//!
+//! A restart design (`+RT`) drops what the table above sends to global memory, and its
+//! Overflow bit means "entries were dropped":
+//!
+//! | command | case | sequence | registers |
+//! |---|---|---|---|
+//! | push | RB full, M = 0 | — | the oldest RB entry leaves; Overflow |
+//! | push | RA, several members: empty the oldest | SH store at its old Top | as the flush, with no global traffic; Overflow |
+//! | push | RA, a lone full member | as "otherwise" | its flush count plays no part |
+//! | push | otherwise | SH store at Top + 1 | Top and Bottom advance (the oldest entry is gone); Overflow |
+//! | pop | RB empty, Overflow | — (answers Restart) | Overflow clears |
+//! | pop | RB empty, no Overflow | refused | — |
+//! | pop | global reload | never (nothing is in global memory) | — |
+//! | finish | Overflow | refused (dropped entries are still owed) | — |
 
-use rtl::config::{Config, ShPolicy};
+use rtl::config::{Config, Overflow, ShPolicy};
 use rtl::logic::Logic;
 use rtl::stack_manager::policy::{RbOp, Regfile, Regs, Thread};
 use rtl::stack_manager::{CmdOf, SrcOf, StackError, StackRegsOf, UopOf};
@@ -71,11 +85,16 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
         match cmd {
             CmdOf::None => Ok(None),
             CmdOf::Push(v) => self.push(v).map(|_| None),
-            CmdOf::Pop => self.pop().map(Some),
+            CmdOf::Pop => self.pop(),
             CmdOf::Finish => {
                 let n = self.rf.rb_len(self.l);
                 let zero = self.l.word(0);
                 let empty = self.l.eq(n, zero);
+                let clean = match self.cfg.overflow {
+                    Overflow::Spill => self.l.bit(true),
+                    Overflow::Drop => self.l.not(self.th.overflow),
+                };
+                let empty = self.l.and(empty, clean);
                 if !self.l.decide(empty) {
                     return Err(StackError::FinishNonEmpty { thread: t });
                 }
@@ -226,8 +245,16 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
         Ok(())
     }
 
+    fn drops(&self) -> bool {
+        self.cfg.overflow == Overflow::Drop
+    }
+
     fn spill(&mut self, v: L::Val) -> Result<(), StackError> {
         let m = self.m();
+        if m == 0 && self.drops() {
+            self.th.overflow = self.l.bit(true);
+            return Ok(());
+        }
         if m == 0 {
             let one = self.l.word(1);
             let slot = self.claim(one)?;
@@ -316,11 +343,20 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
             let one = self.l.word(1);
             let several = self.l.lt(one, len);
             let fresh = self.l.lt_k(r.flush, ra.flush_limit);
-            let flush = self.l.or(several, fresh);
+            let lone_flush = if self.drops() { self.l.bit(false) } else { fresh };
+            let flush = self.l.or(several, lone_flush);
             if self.l.decide(flush) {
                 let n = self.count(&r);
-                let first = self.claim(n)?;
+                let first = if self.drops() {
+                    self.th.overflow = self.l.bit(true);
+                    self.l.word(0)
+                } else {
+                    self.claim(n)?
+                };
                 for i in 0..m {
+                    if self.drops() {
+                        break;
+                    }
                     let iw = self.l.word(i);
                     let live = self.l.lt(iw, n);
                     if !self.l.maybe(live) {
@@ -341,11 +377,15 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
             }
         }
         // SPEC 3, push case 3.
-        let one = self.l.word(1);
-        let slot = self.claim(one)?;
         let r = self.get(top);
-        self.out(UopOf::ShLoad { stack: top, entry: r.bottom });
-        self.out(UopOf::GlobalStore { slot, src: SrcOf::Latch });
+        if self.drops() {
+            self.th.overflow = self.l.bit(true);
+        } else {
+            let one = self.l.word(1);
+            let slot = self.claim(one)?;
+            self.out(UopOf::ShLoad { stack: top, entry: r.bottom });
+            self.out(UopOf::GlobalStore { slot, src: SrcOf::Latch });
+        }
         let entry = self.step(r.top, 1);
         self.out(UopOf::ShStore { stack: top, entry, src: SrcOf::Value(v) });
         let bottom = self.step(r.bottom, 1);
@@ -362,10 +402,14 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
         sp
     }
 
-    fn pop(&mut self) -> Result<L::Val, StackError> {
+    fn pop(&mut self) -> Result<Option<L::Val>, StackError> {
         let len = self.rf.rb_len(self.l);
         let none = self.l.eq_k(len, 0);
         if self.l.decide(none) {
+            if self.drops() && self.l.decide(self.th.overflow) {
+                self.th.overflow = self.l.bit(false);
+                return Ok(None);
+            }
             return Err(StackError::PopEmpty { thread: self.t });
         }
         let v = self.rf.rb_back(self.l);
@@ -379,7 +423,7 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
                 self.out(UopOf::GlobalLoad { slot });
                 self.out(UopOf::RbBottom);
             }
-            return Ok(v);
+            return Ok(Some(v));
         }
         let ring = self.ring();
         let top = self.extreme(&ring, true);
@@ -460,6 +504,6 @@ impl<L: Logic, R: Regfile<L>> Spec<'_, L, R> {
                 self.put(oldest, StackRegsOf { bottom: entry, empty: no, ..r });
             }
         }
-        Ok(v)
+        Ok(Some(v))
     }
 }

@@ -122,7 +122,7 @@ use std::collections::{HashMap, HashSet};
 use std::hash::{Hash, Hasher};
 use std::time::{Duration, Instant};
 
-use rtl::config::Config;
+use rtl::config::{Config, Overflow};
 use rtl::stack_manager::{Cmd, Src, StackError, StackManager, StackRegs, StackStats, Uop, POISON};
 
 use super::harness::Scoreboard;
@@ -238,14 +238,18 @@ impl Bounds {
 
 /// The depth cap of a configuration's fixpoint run: enough entries for one thread to fill its RB
 /// and a full chain of 1 + borrow-limit SH stacks and put one entry in global memory (RB_FULL:
-/// three entries). Two-thread warps with reallocation and M = 1 get 2 more, so the chain's two
-/// stacks are each flushed once and the first a second time (flush saturation).
+/// three entries). Two-thread warps with reallocation and M = 1, and restart designs with
+/// reallocation and M = 1, get 2 more, so the chain's two stacks are each flushed once and the
+/// first a second time (flush saturation).
 pub fn default_cap(c: &Config) -> u32 {
     let chain = 1 + c.realloc().map_or(0, |r| r.borrow_limit);
     // A thread that can borrow from one other lane only (a 2-thread warp, or groups of 2 lanes)
     // needs two entries more to flush a stack at its limit: the two stacks take turns.
     let pairs = c.policy.lend_window(0, c.warp_size).1 == 2;
-    let extra = if c.realloc().is_some() && pairs && c.sh_entries == 1 { 2 } else { 0 };
+    // So does a restart design: its full chain empties the oldest member, so each stack's turn
+    // to be emptied again comes two entries later.
+    let drops = c.overflow == Overflow::Drop;
+    let extra = if c.realloc().is_some() && (pairs || drops) && c.sh_entries == 1 { 2 } else { 0 };
     match c.rb.capacity() {
         Some(n) => n + c.sh_entries * chain + 1 + extra,
         None => 3,
@@ -313,10 +317,14 @@ pub enum Goal {
     /// A command of a thread whose last micro-op completes in the same cycle is refused (Busy).
     /// Asked of the cases that offer a completion and a command in one cycle.
     BusyAsLastUopCompletes,
+    /// A restart design drops an entry on overflow.
+    Drop,
+    /// A restart design answers a pop with Restart.
+    Restart,
 }
 
 impl Goal {
-    pub const ALL: [Goal; 16] = [
+    pub const ALL: [Goal; 18] = [
         Goal::Borrow,
         Goal::RotatedRelease,
         Goal::FullChain,
@@ -333,15 +341,21 @@ impl Goal {
         Goal::SameCycleBorrow,
         Goal::ReleaseMeetsBorrow,
         Goal::BusyAsLastUopCompletes,
+        Goal::Drop,
+        Goal::Restart,
     ];
 
     /// Whether `c` has the feature the goal needs (so it must be reached).
     pub fn applies(self, c: &Config) -> bool {
         let ra = c.realloc().is_some();
         let finite = c.rb.capacity().is_some();
+        let drops = c.overflow == Overflow::Drop;
         match self {
             Goal::Borrow | Goal::FullChain | Goal::Demotion | Goal::ExitAfterBorrow => ra && finite,
-            Goal::Flush | Goal::FlushSaturation | Goal::PerEntryFallback | Goal::OldestReload => ra && finite,
+            Goal::Flush | Goal::FlushSaturation => ra && finite,
+            // A restart design neither spills single entries to global memory nor reloads.
+            Goal::PerEntryFallback | Goal::OldestReload => ra && finite && !drops,
+            Goal::Drop | Goal::Restart => drops,
             // With one borrowed stack it always sits right after its owner, and the priorities
             // then follow the ring at every release.
             Goal::RotatedRelease => finite && c.realloc().is_some_and(|r| r.borrow_limit >= 2),
@@ -651,7 +665,7 @@ impl Model {
         let cfg = Config { warps: warp + 1, ..cfg };
         Ok(Model {
             sm: StackManager::new(cfg, 0)?,
-            sb: Scoreboard::new(cfg.threads()),
+            sb: Scoreboard::new(&cfg),
             shadow: vec![Shadow::default(); cfg.threads() as usize],
             borrowed: false,
             request_sequence: true,
@@ -1194,6 +1208,12 @@ fn observe_covers(sm: &StackManager, t: u32, d: &StackStats, ring: Option<&[(u32
     if d.demotions > 0 {
         c.hit(Goal::Demotion);
     }
+    if d.drops > 0 {
+        c.hit(Goal::Drop);
+    }
+    if d.restarts > 0 {
+        c.hit(Goal::Restart);
+    }
     if cfg.realloc().is_some() && d.sh_to_global > 0 && d.flushes == 0 {
         c.hit(Goal::PerEntryFallback);
     }
@@ -1579,7 +1599,28 @@ pub fn full_configs() -> Vec<Config> {
     let mut out: Vec<Config> = small_configs().into_iter().collect();
     out.extend(skew_configs().into_iter().filter(|c| c.realloc().is_none()));
     out.extend(group_configs());
+    out.extend(restart_configs());
     out
+}
+
+/// Restart designs (`+RT`): an RB alone, an RB over one SH entry, and both with reallocation in
+/// a 4-thread warp (a full chain of two empties its oldest member).
+pub fn restart_configs() -> Vec<Config> {
+    use rtl::config::{RbSize, Realloc, ShPolicy};
+    let ra = ShPolicy::Realloc(Realloc { borrow_limit: 1, flush_limit: 1 });
+    [(1, 0, 2, ShPolicy::Dedicated), (1, 1, 2, ShPolicy::Dedicated), (1, 1, 4, ra), (2, 1, 4, ra)]
+        .into_iter()
+        .map(|(n, m, ws, policy)| Config {
+            rb: RbSize::Entries(n),
+            sh_entries: m,
+            skew: m > 0 && ws == 4,
+            policy,
+            overflow: Overflow::Drop,
+            warp_size: ws,
+            warps: 1,
+            ..Config::default()
+        })
+        .collect()
 }
 
 /// Reallocation within groups of 2 lanes (`+RA_2`) in a 4-thread warp: a lane's group holds

@@ -7,6 +7,7 @@
 //!   arbiter, memory scheduler, global latency), every pop checked by the [`Scoreboard`], every
 //!   warp checked when it leaves.
 
+use rtl::config::{Config, Overflow};
 use rtl::stack_manager::{Cmd, StackError, StackManager};
 use rtl::stack_unit::{StandaloneStack, UnitStats};
 use rtl::trace::{Probe, Sink};
@@ -31,19 +32,22 @@ pub struct Scoreboard {
     refs: Vec<RefStack>,
     done: Vec<bool>,
     pub pops_checked: u64,
+    /// The design drops entries on overflow (`+RT`): a pop may answer Restart.
+    drops: bool,
 }
 
 /// Field by field, so that `clone_from` keeps the allocations.
 impl Clone for Scoreboard {
     fn clone(&self) -> Self {
-        let Scoreboard { refs, done, pops_checked } = self;
-        Scoreboard { refs: refs.clone(), done: done.clone(), pops_checked: *pops_checked }
+        let Scoreboard { refs, done, pops_checked, drops } = self;
+        Scoreboard { refs: refs.clone(), done: done.clone(), pops_checked: *pops_checked, drops: *drops }
     }
     fn clone_from(&mut self, src: &Self) {
-        let Scoreboard { refs, done, pops_checked } = src;
+        let Scoreboard { refs, done, pops_checked, drops } = src;
         self.refs.clone_from(refs);
         self.done.clone_from(done);
         self.pops_checked = *pops_checked;
+        self.drops = *drops;
     }
 }
 
@@ -55,11 +59,14 @@ impl std::hash::Hash for Scoreboard {
 }
 
 impl Scoreboard {
-    pub fn new(threads: u32) -> Self {
+    /// The reference stacks of `cfg`'s threads.
+    pub fn new(cfg: &Config) -> Self {
+        let threads = cfg.threads() as usize;
         Scoreboard {
-            refs: vec![RefStack::default(); threads as usize],
-            done: vec![false; threads as usize],
+            refs: vec![RefStack::default(); threads],
+            done: vec![false; threads],
             pops_checked: 0,
+            drops: cfg.overflow == Overflow::Drop,
         }
     }
 
@@ -85,6 +92,13 @@ impl Scoreboard {
             _ if *done => Err(StackError::AfterFinish { thread: t }),
             Cmd::Push(v) => {
                 r.push(v);
+                Ok(None)
+            }
+            // A restart design answers Restart only when it dropped entries, so only when the
+            // reference still holds some; every one of them was dropped (the checks after each
+            // command see that the design holds the reference's newest entries).
+            Cmd::Pop if self.drops && got == Ok(None) && !r.is_empty() => {
+                r.clear();
                 Ok(None)
             }
             Cmd::Pop => r.pop().map(Some).ok_or(StackError::PopEmpty { thread: t }),
@@ -119,7 +133,7 @@ impl Scoreboard {
 /// Functional level: applies `seq` one command at a time; after each, checks the thread and its
 /// warp. Returns the scoreboard.
 pub fn run_functional(sm: &mut StackManager, seq: &[(u32, Cmd)]) -> Result<Scoreboard, Violation> {
-    let mut sb = Scoreboard::new(sm.config().threads());
+    let mut sb = Scoreboard::new(sm.config());
     for &(t, cmd) in seq {
         let got = sm.apply(t, cmd);
         sb.check(t, cmd, got)?;
@@ -217,7 +231,7 @@ where
     let ws = cfg.warp_size;
     let mut work = work.into_iter();
     let mut slots: Vec<Option<Vec<Lane>>> = vec![None; cfg.warps as usize];
-    let mut sb = Scoreboard::new(cfg.threads());
+    let mut sb = Scoreboard::new(&cfg);
     let mut summary = RunSummary::default();
     let mut cmds: Vec<(u32, Cmd)> = Vec::new();
     let mut exhausted = false;
@@ -329,7 +343,7 @@ where
     I: IntoIterator<Item = WarpWork>,
 {
     let cfg = *sm.config();
-    let mut sb = Scoreboard::new(cfg.threads());
+    let mut sb = Scoreboard::new(&cfg);
     for job in work {
         let w = 0;
         let active = (0..cfg.warp_size)

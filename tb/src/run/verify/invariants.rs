@@ -3,6 +3,7 @@
 //! Each check names the [`Property`] it enforces, so a failure (or a caught mutant) says which
 //! one caught it.
 
+use rtl::config::Overflow;
 use rtl::stack_manager::StackManager;
 
 use super::reference::RefStack;
@@ -13,11 +14,14 @@ pub enum Property {
     /// Every pop returns what the reference returns; pop on empty is reported.
     Equivalence,
     /// RB + SH chain + global, read top first, is exactly the reference stack: nothing lost or
-    /// duplicated.
+    /// duplicated. A restart design (`+RT`) holds the reference's newest entries, in order: what
+    /// it lost is only ever the oldest part.
     Conservation,
     /// Top and Bottom in range; empty ⇒ Top == Bottom.
     Pointers,
-    /// Overflow set exactly when the thread's global region holds entries.
+    /// Overflow set exactly when the thread's global region holds entries; in a restart design,
+    /// exactly when it holds fewer entries than the reference (it dropped some), with nothing in
+    /// global memory.
     Overflow,
     /// Idle set exactly for finished threads whose stack is not lent.
     Idle,
@@ -120,6 +124,9 @@ pub fn logical_stack(sm: &StackManager, t: u32) -> Vec<u64> {
 /// Per-thread properties; the thread must be quiescent (`sm.ready(t)`).
 pub fn check_thread(sm: &StackManager, t: u32, reference: &RefStack) -> Result<(), Violation> {
     let got = logical_stack(sm, t);
+    if sm.config().overflow == Overflow::Drop {
+        return check_dropping_thread(sm, t, &got, reference);
+    }
     if !got.iter().copied().eq(reference.top_first()) {
         return fail(
             Property::Conservation,
@@ -134,6 +141,41 @@ pub fn check_thread(sm: &StackManager, t: u32, reference: &RefStack) -> Result<(
         return fail(
             Property::Overflow,
             format!("thread {t}: overflow {} with {} global entries", th.overflow, th.spill_ptr),
+        );
+    }
+    Ok(())
+}
+
+/// [`check_thread`] for a restart design: the hardware holds the reference's newest entries, and
+/// its Overflow bit says whether it lost any.
+fn check_dropping_thread(
+    sm: &StackManager,
+    t: u32,
+    got: &[u64],
+    reference: &RefStack,
+) -> Result<(), Violation> {
+    let newest: Vec<u64> = reference.top_first().take(got.len()).collect();
+    if got.len() > reference.len() || got != newest {
+        return fail(
+            Property::Conservation,
+            format!(
+                "thread {t}: hardware holds {got:x?}, not the newest entries of the reference {:x?}",
+                reference.top_first().collect::<Vec<_>>()
+            ),
+        );
+    }
+    let th = sm.thread(t);
+    let lost = got.len() < reference.len();
+    if th.overflow != lost || th.spill_ptr != 0 || !sm.global(t).is_empty() {
+        return fail(
+            Property::Overflow,
+            format!(
+                "thread {t}: overflow {} holding {} of the reference's {} entries, spill pointer {}",
+                th.overflow,
+                got.len(),
+                reference.len(),
+                th.spill_ptr
+            ),
         );
     }
     Ok(())

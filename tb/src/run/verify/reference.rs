@@ -27,6 +27,10 @@ impl RefStack {
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }
+    /// Forgets every entry (a restart design answered Restart: it had dropped them all).
+    pub fn clear(&mut self) {
+        self.0.clear();
+    }
     /// Entries, newest first.
     pub fn top_first(&self) -> impl Iterator<Item = u64> + '_ {
         self.0.iter().rev().copied()
