@@ -22,7 +22,7 @@ use crate::clock::EvalCheck;
 use crate::config::{Config, ConfigError};
 use crate::mem::hierarchy::MemSystem;
 use crate::mem::{Counters, MemParams, ReqKind};
-use crate::ray_op::WarpJob;
+use crate::ray_op::{SharedWalks, WarpJob};
 use crate::rt_unit::{RtParams, RtStep, RtUnit, RunError};
 use crate::sim::{self, Parts};
 use crate::stack_manager::{StackPolicy, StackStats};
@@ -176,6 +176,13 @@ impl Gpu {
     /// default; off for the reference loop.
     pub fn with_windows(mut self, on: bool) -> Self {
         self.windows = on;
+        self
+    }
+
+    /// Every RT unit takes walk-driven warps (the restart designs), whose lanes' operations
+    /// `walks` gives as their stacks answer.
+    pub fn with_walks(mut self, walks: SharedWalks) -> Self {
+        self.units = self.units.into_iter().map(|u| u.with_walks(walks.clone())).collect();
         self
     }
 

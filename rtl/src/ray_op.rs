@@ -72,11 +72,56 @@ pub trait Walk: Send {
     fn resume(&mut self, answer: Option<Popped>, ops: &mut Vec<RayOp>) -> Result<(), String>;
 }
 
+/// The walks of a run's walk-driven rays, by warp job and lane: the RT unit asks for a lane's
+/// next segment when its warp loads and after each of its pops, in the cycle the stack answers.
+/// The testbench implements it over a BVH (each ray a [`Walk`]).
+pub trait Walks: Send {
+    /// [`Walk::resume`] of the ray in lane `lane` of the job with walk id `job`.
+    fn resume(
+        &mut self,
+        job: u64,
+        lane: u32,
+        answer: Option<Popped>,
+        ops: &mut Vec<RayOp>,
+    ) -> Result<(), String>;
+}
+
+/// A run's [`Walks`], shared by the RT units (the windowed run may clock two SMs at once).
+#[derive(Clone)]
+pub struct SharedWalks(pub std::sync::Arc<std::sync::Mutex<dyn Walks>>);
+
+impl SharedWalks {
+    pub fn new(w: impl Walks + 'static) -> SharedWalks {
+        SharedWalks(std::sync::Arc::new(std::sync::Mutex::new(w)))
+    }
+
+    pub fn resume(
+        &self,
+        job: u64,
+        lane: u32,
+        answer: Option<Popped>,
+        ops: &mut Vec<RayOp>,
+    ) -> Result<(), String> {
+        let mut w = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        w.resume(job, lane, answer, ops)
+    }
+}
+
+impl std::fmt::Debug for SharedWalks {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SharedWalks")
+    }
+}
+
 /// One warp's rays: exactly `warp_size` lanes, `None` for an inactive lane. After its last
 /// operation a lane sends Finish (its stack must then be empty).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct WarpJob {
     pub lanes: Vec<Option<Vec<RayOp>>>,
+    /// A walk-driven job (the restart designs): its id for the run's [`Walks`]. Its active
+    /// lanes' operations (given empty) come from the walks, segment by segment, as the stack
+    /// answers; `None`: the lanes hold whole traces.
+    pub walk: Option<u64>,
 }
 
 impl WarpJob {
@@ -119,7 +164,7 @@ mod tests {
 
     fn job(bytes: u32, addr: u64) -> WarpJob {
         let visit = RayOp::Visit { addr, kind: NodeKind::Internal, bytes };
-        WarpJob { lanes: vec![Some(vec![visit]), None] }
+        WarpJob { lanes: vec![Some(vec![visit]), None], walk: None }
     }
 
     #[test]

@@ -63,7 +63,7 @@ use crate::config::{Config, ConfigError, Widths, GM_POSTED_QUEUE_BITS};
 use crate::mem::{MemReq, MemResp, ReqKind};
 use crate::node_fetch::NodeFetch;
 use crate::params::{check_bounds, Bound};
-use crate::ray_op::{NodeKind, RayOp, WarpJob};
+use crate::ray_op::{NodeKind, Popped, RayOp, SharedWalks, WarpJob};
 use crate::scheduler::WarpScheduler;
 pub use crate::scheduler::WarpSelect;
 pub use crate::stack_manager::StackTiming;
@@ -223,6 +223,8 @@ pub enum RunError {
     /// The stack manager's cycle disagreed with the scoreboard's specification (its message
     /// names the cycle, warp, lane and property).
     Decision { sm: u32, what: String },
+    /// A walk-driven ray could not go on from its stack's answer (its walk's reason).
+    Walk { cycle: u64, sm: u32, thread: u32, reason: String },
 }
 
 impl RunError {
@@ -233,7 +235,8 @@ impl RunError {
             | RunError::PopMismatch { sm, .. }
             | RunError::PopMissing { sm, .. }
             | RunError::ExitNotEmpty { sm, .. }
-            | RunError::Decision { sm, .. } => Some(*sm),
+            | RunError::Decision { sm, .. }
+            | RunError::Walk { sm, .. } => Some(*sm),
             RunError::BadJob { .. } | RunError::Stalled { .. } => None,
         }
     }
@@ -257,6 +260,9 @@ impl std::fmt::Display for RunError {
             }
             RunError::Stalled { cycle } => write!(f, "cycle {cycle}: work remains but nothing can happen"),
             RunError::Decision { sm: _, what } => write!(f, "stack decision check: {what}"),
+            RunError::Walk { cycle, sm, thread, reason } => {
+                write!(f, "cycle {cycle}, SM {sm}, thread {thread}: walk: {reason}")
+            }
         }
     }
 }
@@ -344,6 +350,8 @@ pub struct RtStep {
     completions: Vec<u32>,
     cmds: Vec<(u32, Cmd)>,
     expected_pops: Vec<(u32, u64)>,
+    /// Pops of walk-driven threads and what the stack answered: their walks go on at the edge.
+    walk_pops: Vec<(u32, Popped)>,
     stack: StackUnitStep,
     /// Lanes waiting to fetch that their sequencer holds back, so since the last edge for
     /// `held_cycles` cycles.
@@ -397,6 +405,7 @@ impl RtStep {
         self.completions.clear();
         self.cmds.clear();
         self.expected_pops.clear();
+        self.walk_pops.clear();
     }
 }
 
@@ -421,6 +430,10 @@ pub struct RtUnit {
     /// Cycles before this one are in `stats.thread_cycles` (the cycle after the last edge).
     counted_to: u64,
     pub stats: RtStats,
+    /// The walks of walk-driven warps (the restart designs).
+    walks: Option<SharedWalks>,
+    /// A walk that could not go on at the last edge: the next cycle's error.
+    walk_error: Option<RunError>,
 }
 
 impl RtUnit {
@@ -462,7 +475,16 @@ impl RtUnit {
             next_event: None,
             counted_to: 0,
             stats: RtStats::default(),
+            walks: None,
+            walk_error: None,
         })
+    }
+
+    /// The unit taking walk-driven warps, whose lanes' operations `walks` gives as their stacks
+    /// answer.
+    pub fn with_walks(mut self, walks: SharedWalks) -> Self {
+        self.walks = Some(walks);
+        self
     }
 
     /// A warp slot that can take a job this cycle.
@@ -513,6 +535,9 @@ impl RtUnit {
     /// The cycle's decisions into `d` (cleared), for [`Unit::eval`]; the first problem is the
     /// error, and leaves the rest of `d` unfinished.
     fn decide(&self, i: &RtIn, d: &mut RtStep) -> Result<(), RunError> {
+        if let Some(e) = &self.walk_error {
+            return Err(e.clone());
+        }
         let (ws, warps, now) = (self.cfg.warp_size, self.cfg.warps, i.now);
         d.now = now;
         if let Some(what) = self.stack_unit.manager.scoreboard_failure() {
@@ -521,6 +546,7 @@ impl RtUnit {
         d.load_slot = self.free_slot();
         if let Some(job) = i.job {
             d.job.lanes.clone_from(&job.lanes);
+            d.job.walk = job.walk;
             d.job_lands = true;
         }
         d.port = if i.req_ready { self.port() } else { Port::Idle };
@@ -648,8 +674,19 @@ impl RtUnit {
         // error too, not a check skipped.
         let pops = d.stack.manager.pops();
         for &(thread, expected) in &d.expected_pops {
+            let walked = self.warp_buffer.walk(thread / ws).is_some();
+            if walked && d.stack.manager.restarts().contains(&thread) {
+                // The stack had dropped the entry (its own decision, which the scoreboard
+                // checks): the walk restarts.
+                d.walk_pops.push((thread, Popped::Restart));
+                continue;
+            }
             match pops.iter().find(|p| p.0 == thread) {
-                Some(&(_, got)) if got == expected => {}
+                Some(&(_, got)) if got == expected => {
+                    if walked {
+                        d.walk_pops.push((thread, Popped::Entry(got)));
+                    }
+                }
                 Some(&(_, got)) => {
                     return Err(RunError::PopMismatch { cycle: now, sm: self.id, thread, expected, got })
                 }
@@ -712,6 +749,9 @@ impl Unit for RtUnit {
             self.fetch.complete(id);
         }
         self.warp_buffer.apply(&d.threads, &d.due, d.now);
+        for &(t, answer) in &d.walk_pops {
+            self.walk_on(t, Some(answer), d.now);
+        }
         self.stats.visits += d.visits;
         self.stats.pops_checked += d.expected_pops.len() as u64;
         self.stats.held_fetch_cycles += u64::from(d.held) * d.held_cycles;
@@ -859,6 +899,34 @@ impl RtUnit {
             && (self.cfg.realloc().is_none() || st.idle)
     }
 
+    /// Clock edge: thread `t`'s walk appends its next segment after `answer` (`None`: its first),
+    /// and the thread takes the state of its next operation (a pop's decode saw none yet).
+    fn walk_on(&mut self, t: u32, answer: Option<Popped>, now: u64) {
+        let ws = self.cfg.warp_size;
+        let (w, l) = (t / ws, t % ws);
+        let (Some(walks), Some(job)) = (&self.walks, self.warp_buffer.walk(w)) else {
+            self.walk_error = Some(RunError::Walk {
+                cycle: now,
+                sm: self.id,
+                thread: t,
+                reason: "a walk-driven warp on an RT unit given no walks".into(),
+            });
+            return;
+        };
+        let ops = self.warp_buffer.ops_mut(w, l);
+        if let Err(reason) = walks.resume(job, l, answer, ops) {
+            self.walk_error = Some(RunError::Walk { cycle: now, sm: self.id, thread: t, reason });
+            return;
+        }
+        if answer.is_some() {
+            let q = self.warp_buffer.thread(t);
+            let state = thread_fsm::decode(self.warp_buffer.ops(w, l), q.pos);
+            if state != q.state {
+                self.warp_buffer.apply(&[(t, Thread { state, ..q })], &[], now);
+            }
+        }
+    }
+
     /// Puts `job` in slot `w` (clock edge): its rays start with the BVH-header latency.
     fn load(&mut self, w: u32, job: &WarpJob, now: u64) {
         let active = job.active_mask();
@@ -870,7 +938,13 @@ impl RtUnit {
                 matches!(ops.first(), Some(RayOp::Visit { kind: NodeKind::BvhHeader, .. }))
             });
         let start = now + if header_fetched { 0 } else { u64::from(self.rt.bvh_header) };
-        self.warp_buffer.load(w, &job.lanes, active, start, now);
+        self.warp_buffer.load(w, &job.lanes, job.walk, active, start, now);
+        if job.walk.is_some() {
+            // Each ray's first segment, before its header latency ends.
+            for l in lanes_of(active) {
+                self.walk_on(w * self.cfg.warp_size + l, None, now);
+            }
+        }
         self.residence.push(0);
         self.stats.warps += 1;
         self.stats.rays += u64::from(active.count_ones());

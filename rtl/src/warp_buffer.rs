@@ -99,6 +99,8 @@ struct Slot {
     job: u64,
     /// Cycle the warp was loaded.
     landed: u64,
+    /// A walk-driven warp's id for the run's walks (`WarpJob::walk`).
+    walk: Option<u64>,
 }
 
 /// A warp that left: which job, and when it had landed.
@@ -263,6 +265,18 @@ impl WarpBuffer {
         &self.ops[(w * self.warp_size + l) as usize]
     }
 
+    /// Lane `l`'s operations of the warp in slot `w`, for a walk to append its next segment to
+    /// (clock edge).
+    pub fn ops_mut(&mut self, w: u32, l: u32) -> &mut Vec<RayOp> {
+        &mut self.ops[(w * self.warp_size + l) as usize]
+    }
+
+    /// The walk id of the warp in slot `w`: `Some` for a walk-driven warp.
+    #[inline]
+    pub fn walk(&self, w: u32) -> Option<u64> {
+        self.slots[w as usize].as_ref().and_then(|s| s.walk)
+    }
+
     /// Clock edge: the warp in slot `w` leaves; younger warps move up one rank.
     pub fn leave(&mut self, w: u32) -> Option<Left> {
         let slot = self.slots[w as usize].take()?;
@@ -282,7 +296,15 @@ impl WarpBuffer {
 
     /// Clock edge: `lanes` (the job's rays; `active` the lanes that have one) land in slot `w`
     /// and start Busy until `start`. Returns the job's load order.
-    pub fn load(&mut self, w: u32, lanes: &[Option<Vec<RayOp>>], active: u32, start: u64, now: u64) -> u64 {
+    pub fn load(
+        &mut self,
+        w: u32,
+        lanes: &[Option<Vec<RayOp>>],
+        walk: Option<u64>,
+        active: u32,
+        start: u64,
+        now: u64,
+    ) -> u64 {
         let ws = self.warp_size;
         for l in 0..ws {
             self.threads[(w * ws + l) as usize] = Thread {
@@ -309,7 +331,7 @@ impl WarpBuffer {
         *busy = busy.wrapping_sub(u64::from(active.count_ones()) * (now + 1));
         let age = self.occupied.count_ones();
         let job = self.loaded;
-        self.slots[w as usize] = Some(Slot { age, job, landed: now });
+        self.slots[w as usize] = Some(Slot { age, job, landed: now, walk });
         self.occupied |= 1 << w;
         self.sync_warp(w);
         self.loaded += 1;
@@ -434,7 +456,7 @@ mod tests {
             let w = next(4) as u32;
             match next(8) {
                 0 if !b.occupied(w) => {
-                    b.load(w, &vec![None; 32], next(16) as u32, step + 1, step);
+                    b.load(w, &vec![None; 32], None, next(16) as u32, step + 1, step);
                 }
                 1 if b.occupied(w) && b.lanes(w).live() == 0 => {
                     b.leave(w);
@@ -470,12 +492,12 @@ mod tests {
         let cfg: Config = "RB_8".parse().unwrap();
         let mut b = WarpBuffer::new(&Config { warps: 3, ..cfg }).unwrap();
         for w in 0..3 {
-            assert_eq!(b.load(w, &vec![None; 32], 0, 0, 0), u64::from(w));
+            assert_eq!(b.load(w, &vec![None; 32], None, 0, 0, 0), u64::from(w));
         }
         assert_eq!((0..3).map(|w| b.age(w)).collect::<Vec<_>>(), [0, 1, 2]);
         assert_eq!(b.leave(1), Some(Left { job: 1, landed: 0 }));
         assert_eq!((b.age(0), b.age(1), b.age(2)), (0, u32::MAX, 1));
-        assert_eq!(b.load(1, &vec![None; 32], 0, 0, 5), 3);
+        assert_eq!(b.load(1, &vec![None; 32], None, 0, 0, 5), 3);
         assert_eq!(b.age(1), 2, "the newest is the youngest");
         assert!(b.age(1) < 1 << Config { warps: 3, ..cfg }.widths().unwrap().warp, "fits its width");
     }

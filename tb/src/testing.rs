@@ -120,6 +120,7 @@ pub fn synthetic_jobs(seed: u64, warps: usize, hit: u64) -> Vec<WarpJob> {
             lanes: (0..32)
                 .map(|l| (w % 5 != 4 || l % 3 != 0).then(|| synthetic_ray(&mut rng, hit)))
                 .collect(),
+            walk: None,
         })
         .collect()
 }

@@ -35,7 +35,7 @@ fn one_sm() -> MemParams {
 fn single_warp(lane0: Vec<RayOp>) -> WarpJob {
     let mut lanes = vec![None; 32];
     lanes[0] = Some(lane0);
-    WarpJob { lanes }
+    WarpJob { lanes, walk: None }
 }
 
 /// One ray, one SM, RB_8, default latencies. Derivation (cycle c: what happens in it; a state
@@ -159,7 +159,7 @@ impl Sink for Watch {
 #[test]
 fn identical_nodes_in_a_warp_make_one_fetch() {
     let visit = RayOp::Visit { addr: 0x4000, kind: NodeKind::Internal, bytes: 32 };
-    let job = WarpJob { lanes: vec![Some(vec![visit]); 32] };
+    let job = WarpJob { lanes: vec![Some(vec![visit]); 32], walk: None };
     let r = run_with("RB_8", one_sm(), RtParams::default(), vec![job]).unwrap();
     assert_eq!((r.rays, r.visits, r.node_fetches, r.dram_node), (32, 32, 1, 1));
     // Header until 4, scheduled at 5, sent at 6, back at 266, Busy (8) until 274, Finish at 275,
@@ -174,6 +174,7 @@ fn one_memory_request_per_cycle() {
         lanes: (0..32)
             .map(|l| Some(vec![RayOp::Visit { addr: 0x8000 + 32 * l, kind: NodeKind::Triangle, bytes: 32 }]))
             .collect(),
+        walk: None,
     };
     let cfg: Config = "RB_8".parse().unwrap();
     let mut watch = Watch::new("sm0.rt_unit.port.req_node");
@@ -261,7 +262,7 @@ fn every_pop_is_checked_and_a_wrong_pop_is_caught() {
 
 #[test]
 fn bad_jobs_are_errors() {
-    let short = WarpJob { lanes: vec![None; 8] };
+    let short = WarpJob { lanes: vec![None; 8], walk: None };
     assert!(matches!(
         run_with("RB_8", one_sm(), RtParams::default(), vec![short]),
         Err(RunError::BadJob { job: 0, .. })
@@ -397,7 +398,7 @@ fn stack_requests_go_before_node_pieces() {
     let cfg: Config = "RB_2".parse().unwrap();
     let run = |path| {
         let mut watch = Watch::new(path);
-        let job = WarpJob { lanes: lanes.clone() };
+        let job = WarpJob { lanes: lanes.clone(), walk: None };
         Gpu::new(cfg, RtParams::default().overlapped(), one_sm())
             .unwrap()
             .run(vec![job], &mut watch)
@@ -691,7 +692,7 @@ fn a_full_store_queue_holds_stack_commands() {
     let run = |store_queue: u32| {
         let rt = RtParams { store_gating: StoreGating::Posted, store_queue, ..RtParams::default() };
         let gpu = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap();
-        let job = WarpJob { lanes: (0..32).map(|_| Some(ops.clone())).collect() };
+        let job = WarpJob { lanes: (0..32).map(|_| Some(ops.clone())).collect(), walk: None };
         let mut watch = Watch::new("sm0.rt_unit.mem_sched.queue");
         let r = gpu.run(vec![job], &mut watch).unwrap();
         (r, watch.changes.iter().map(|c| c.1).max().unwrap())

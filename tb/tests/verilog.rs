@@ -23,7 +23,7 @@ fn record(cfg: Config, cycles: usize) -> (Generated, Vec<cosim::Cycle>) {
     let gpu = tb::testing::gpu(cfg, &hw).with_scoreboard(&|| Box::new(rec.clone()));
     let jobs = tb::testing::scene_jobs("clutter", 16).into_iter().flat_map(|j| {
         let lanes: Vec<_> = j.lanes.chunks(cfg.warp_size as usize).map(|c| c.to_vec()).collect();
-        lanes.into_iter().map(|lanes| rtl::ray_op::WarpJob { lanes })
+        lanes.into_iter().map(|lanes| rtl::ray_op::WarpJob { lanes, walk: None })
     });
     tb::testing::report(gpu, jobs, "co-simulated run");
     let cycles = std::mem::take(&mut out.lock().unwrap().cycles);

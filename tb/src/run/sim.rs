@@ -96,7 +96,7 @@ pub fn rtl_job(job: &WarpTraces, bvh: BvhKind) -> ray_op::WarpJob {
             })
             .collect()
     };
-    ray_op::WarpJob { lanes: job.lanes.iter().map(|l| l.as_ref().map(lane)).collect() }
+    ray_op::WarpJob { lanes: job.lanes.iter().map(|l| l.as_ref().map(lane)).collect(), walk: None }
 }
 
 /// What one simulation (of all warps or of one batch) measured.

@@ -1,0 +1,138 @@
+//! Walk-driven rays on the cycle-level GPU: the RT unit pulls each ray's operations from its walk
+//! as the stack answers, in the cycle it answers, so a stack that drops entries (`+RT`) makes the
+//! walk restart. A toy walk (no BVH) pins the coupling down: it must see every node it needs
+//! exactly once outside restarts, whatever the stack dropped.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use rtl::config::Config;
+use rtl::gpu::Gpu;
+use rtl::ray_op::{NodeKind, Popped, RayOp, SharedWalks, Walks, WarpJob};
+use rtl::rt_unit::RunError;
+use rtl::trace::NullSink;
+
+/// Node `k` of a ray's list, at a 64-byte address of its own.
+fn addr(job: u64, lane: u32, k: u64) -> u64 {
+    0x10_0000 + ((job * 32 + u64::from(lane)) * 64 + k) * 64
+}
+
+fn visit(a: u64) -> RayOp {
+    RayOp::Visit { addr: a, kind: NodeKind::Internal, bytes: 64 }
+}
+
+/// Each ray visits nodes 0..n in order: its first segment pushes n−1 … 1 and visits 0; each pop
+/// visits the popped node. On Restart the walk knows the next node it needs (one past the last
+/// it visited): it pushes what is left after that one again and visits it.
+#[derive(Default)]
+struct Countdown {
+    n: u64,
+    /// Per ray: the last node visited, the unbounded reference stack, restarts.
+    rays: HashMap<(u64, u32), (u64, Vec<u64>, u64)>,
+    /// Plant a walk that ignores Restart: it goes on as if the pop had answered.
+    ignore_restart: bool,
+}
+
+impl Countdown {
+    fn segment(&self, job: u64, lane: u32, from: u64, stack: &mut Vec<u64>, ops: &mut Vec<RayOp>) {
+        for k in (from + 1..self.n).rev() {
+            ops.push(RayOp::Push(addr(job, lane, k)));
+            stack.push(addr(job, lane, k));
+        }
+        ops.push(visit(addr(job, lane, from)));
+    }
+}
+
+/// The walks as the GPU holds them, shared with the test that reads the restarts.
+struct Shared(Arc<Mutex<Countdown>>);
+
+impl Walks for Shared {
+    fn resume(
+        &mut self,
+        job: u64,
+        lane: u32,
+        answer: Option<Popped>,
+        ops: &mut Vec<RayOp>,
+    ) -> Result<(), String> {
+        let mut me = self.0.lock().unwrap();
+        let n = me.n;
+        let ignore = me.ignore_restart;
+        let mut ray = me.rays.remove(&(job, lane)).unwrap_or((0, Vec::new(), 0));
+        let next = match answer {
+            None => 0,
+            Some(Popped::Entry(a)) => {
+                let want = ray.1.pop().ok_or("a pop answered with nothing owed")?;
+                if a != want {
+                    return Err(format!("popped {a:#x}, expected {want:#x}"));
+                }
+                ray.0 + 1
+            }
+            Some(Popped::Restart) if ignore => {
+                ray.1.pop();
+                ray.0 + 1
+            }
+            Some(Popped::Restart) => {
+                ray.1.clear();
+                ray.2 += 1;
+                let mut stack = Vec::new();
+                me.segment(job, lane, ray.0 + 1, &mut stack, ops);
+                ray.1 = stack;
+                ray.0 += 1;
+                if ray.0 + 1 < n {
+                    ops.push(RayOp::Pop(*ray.1.last().unwrap()));
+                }
+                me.rays.insert((job, lane), ray);
+                return Ok(());
+            }
+        };
+        if answer.is_none() {
+            me.segment(job, lane, 0, &mut ray.1, ops);
+        } else {
+            ops.push(visit(addr(job, lane, next)));
+        }
+        ray.0 = next;
+        if next + 1 < n {
+            ops.push(RayOp::Pop(*ray.1.last().ok_or("nothing left to pop")?));
+        }
+        me.rays.insert((job, lane), ray);
+        Ok(())
+    }
+}
+
+fn run(cfg: &str, n: u64, ignore_restart: bool) -> Result<(rtl::gpu::GpuReport, u64), RunError> {
+    let cfg: Config = cfg.parse().unwrap();
+    let walks = Arc::new(Mutex::new(Countdown { n, ignore_restart, ..Countdown::default() }));
+    let jobs: Vec<WarpJob> =
+        (0..6).map(|j| WarpJob { lanes: vec![Some(Vec::new()); 32], walk: Some(j) }).collect();
+    let gpu = Gpu::paper(cfg).unwrap().with_walks(SharedWalks::new(Shared(walks.clone())));
+    let r = gpu.run(jobs, &mut NullSink)?;
+    let restarts = walks.lock().unwrap().rays.values().map(|r| r.2).sum();
+    Ok((r, restarts))
+}
+
+#[test]
+fn a_dropping_stack_makes_the_walk_restart_and_every_node_is_visited_once_outside_restarts() {
+    let n = 7;
+    let rays = 6 * 32;
+    // A stack deep enough for the whole list never drops: the toy walk's visits and pops only.
+    let (full, none) = run("RB_8+RT", n, false).unwrap();
+    assert_eq!((none, full.stack.drops, full.stack.restarts), (0, 0, 0));
+    assert_eq!(full.visits, rays * n);
+    // RB_2 drops 3 of the 5 entries pushed at the start: the ray restarts after popping two.
+    let (short, restarts) = run("RB_2+RT", n, false).unwrap();
+    assert_eq!(short.stack.restarts, restarts, "every Restart the stack answered reached a walk");
+    assert!(restarts >= rays, "each ray restarts at least once: {restarts}");
+    assert!(short.stack.drops > 0);
+    assert_eq!(short.visits, rays * n, "no node visited twice: the walk goes on where it was");
+    // The same with an SH level below the RB.
+    let (sms, r2) = run("RB_1+SH_2+SK+RA+RT", n, false).unwrap();
+    assert_eq!((sms.stack.restarts, sms.visits), (r2, rays * n));
+    assert_eq!(sms.stack.global_accesses(), 0, "a restart design never touches global memory");
+}
+
+#[test]
+fn a_walk_that_ignores_restart_is_stopped() {
+    let e = run("RB_2+RT", 7, true).unwrap_err();
+    assert!(matches!(e, RunError::Walk { .. } | RunError::Stack { .. }), "{e}");
+    println!("{e}");
+}
