@@ -22,7 +22,7 @@ use crate::clock::EvalCheck;
 use crate::config::{Config, ConfigError};
 use crate::mem::hierarchy::MemSystem;
 use crate::mem::{Counters, MemParams, ReqKind};
-use crate::ray_op::{SharedWalks, WarpJob};
+use crate::ray_op::{Walks, WarpJob};
 use crate::rt_unit::{RtParams, RtStep, RtUnit, RunError};
 use crate::sim::{self, Parts};
 use crate::stack_manager::{StackPolicy, StackStats};
@@ -179,13 +179,6 @@ impl Gpu {
         self
     }
 
-    /// Every RT unit takes walk-driven warps (the restart designs), whose lanes' operations
-    /// `walks` gives as their stacks answer.
-    pub fn with_walks(mut self, walks: SharedWalks) -> Self {
-        self.units = self.units.into_iter().map(|u| u.with_walks(walks.clone())).collect();
-        self
-    }
-
     /// A runner with a planted slip (test builds).
     #[cfg(feature = "mutants")]
     pub fn with_order_bug(mut self, bug: sim::OrderBug) -> Self {
@@ -237,9 +230,24 @@ impl Gpu {
         #[cfg(feature = "mutants")]
         if let Some(bug) = self.order_bug {
             let shared = std::sync::atomic::AtomicU64::new(0);
-            return self.run_with(sim::Slipped(bug, &shared), jobs, sink, every, progress, residence);
+            return self.run_with(sim::Slipped(bug, &shared), jobs, None, sink, every, progress, residence);
         }
-        self.run_with(sim::Design, jobs, sink, every, progress, residence)
+        self.run_with(sim::Design, jobs, None, sink, every, progress, residence)
+    }
+
+    /// As [`Gpu::run_timed`], for walk-driven jobs (`WarpJob::walk`, the restart designs): each
+    /// ray's operations come from `walks` as its stack answers. Every pop is checked against the
+    /// walk's unbounded reference stack (or answered Restart by the stack's own decision).
+    pub fn run_walks<S: Sink>(
+        self,
+        jobs: impl IntoIterator<Item = WarpJob>,
+        walks: &mut dyn Walks,
+        sink: &mut S,
+        every: u64,
+        progress: impl FnMut(Progress),
+        residence: &mut Vec<u64>,
+    ) -> Result<GpuReport, RunError> {
+        self.run_with(sim::Design, jobs, Some(walks), sink, every, progress, residence)
     }
 
     /// [`Gpu::run_timed`] with the runner's steps `steps`.
@@ -247,11 +255,13 @@ impl Gpu {
         mut self,
         steps: impl sim::Steps,
         jobs: impl IntoIterator<Item = WarpJob>,
+        walks: Option<&mut dyn Walks>,
         sink: &mut S,
         every: u64,
         progress: impl FnMut(Progress),
         residence: &mut Vec<u64>,
     ) -> Result<GpuReport, RunError> {
+        let mut walks = walks;
         let parts = Parts {
             units: &mut self.units,
             mem: &mut self.mem,
@@ -260,6 +270,7 @@ impl Gpu {
             eval_check: self.eval_check,
             helper_thread: self.helper_thread,
             windows: self.windows,
+            walks: walks.as_mut().map(|w| &mut **w as &mut dyn Walks),
         };
         let o = sim::run(parts, steps, jobs, sink, every, progress, residence)?;
         Ok(self.report(&o))

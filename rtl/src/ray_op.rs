@@ -73,9 +73,10 @@ pub trait Walk: Send {
 }
 
 /// The walks of a run's walk-driven rays, by warp job and lane: the RT unit asks for a lane's
-/// next segment when its warp loads and after each of its pops, in the cycle the stack answers.
-/// The testbench implements it over a BVH (each ray a [`Walk`]).
-pub trait Walks: Send {
+/// next segment when its warp loads and after each of its pops, at the edge of the cycle the
+/// stack answers. The testbench implements it over a BVH (each ray a [`Walk`]); like the jobs,
+/// it is the run's stimulus, handed to the run (`Gpu::run_walks`), not part of the hardware.
+pub trait Walks {
     /// [`Walk::resume`] of the ray in lane `lane` of the job with walk id `job`.
     fn resume(
         &mut self,
@@ -84,33 +85,6 @@ pub trait Walks: Send {
         answer: Option<Popped>,
         ops: &mut Vec<RayOp>,
     ) -> Result<(), String>;
-}
-
-/// A run's [`Walks`], shared by the RT units (the windowed run may clock two SMs at once).
-#[derive(Clone)]
-pub struct SharedWalks(pub std::sync::Arc<std::sync::Mutex<dyn Walks>>);
-
-impl SharedWalks {
-    pub fn new(w: impl Walks + 'static) -> SharedWalks {
-        SharedWalks(std::sync::Arc::new(std::sync::Mutex::new(w)))
-    }
-
-    pub fn resume(
-        &self,
-        job: u64,
-        lane: u32,
-        answer: Option<Popped>,
-        ops: &mut Vec<RayOp>,
-    ) -> Result<(), String> {
-        let mut w = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        w.resume(job, lane, answer, ops)
-    }
-}
-
-impl std::fmt::Debug for SharedWalks {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("SharedWalks")
-    }
 }
 
 /// One warp's rays: exactly `warp_size` lanes, `None` for an inactive lane. After its last

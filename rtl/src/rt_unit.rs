@@ -63,7 +63,7 @@ use crate::config::{Config, ConfigError, Widths, GM_POSTED_QUEUE_BITS};
 use crate::mem::{MemReq, MemResp, ReqKind};
 use crate::node_fetch::NodeFetch;
 use crate::params::{check_bounds, Bound};
-use crate::ray_op::{NodeKind, Popped, RayOp, SharedWalks, WarpJob};
+use crate::ray_op::{NodeKind, Popped, RayOp, Walks, WarpJob};
 use crate::scheduler::WarpScheduler;
 pub use crate::scheduler::WarpSelect;
 pub use crate::stack_manager::StackTiming;
@@ -430,8 +430,9 @@ pub struct RtUnit {
     /// Cycles before this one are in `stats.thread_cycles` (the cycle after the last edge).
     counted_to: u64,
     pub stats: RtStats,
-    /// The walks of walk-driven warps (the restart designs).
-    walks: Option<SharedWalks>,
+    /// Walk-driven threads whose walks go on at this edge: (thread, the pop's answer; `None`
+    /// for a warp that just landed).
+    walk_pending: Vec<(u32, Option<Popped>)>,
     /// A walk that could not go on at the last edge: the next cycle's error.
     walk_error: Option<RunError>,
 }
@@ -475,16 +476,35 @@ impl RtUnit {
             next_event: None,
             counted_to: 0,
             stats: RtStats::default(),
-            walks: None,
+            walk_pending: Vec::new(),
             walk_error: None,
         })
     }
 
-    /// The unit taking walk-driven warps, whose lanes' operations `walks` gives as their stacks
-    /// answer.
-    pub fn with_walks(mut self, walks: SharedWalks) -> Self {
-        self.walks = Some(walks);
-        self
+    /// The rest of the clock edge for walk-driven warps (the runner calls it right after
+    /// [`Unit::commit`]): each thread whose pop was answered, or whose warp landed, has its
+    /// walk append its next segment from `walks`, and takes the state of its next operation.
+    pub fn follow_walks(&mut self, walks: &mut Option<&mut dyn Walks>, now: u64) {
+        if self.walk_pending.is_empty() {
+            return;
+        }
+        let pending = std::mem::take(&mut self.walk_pending);
+        for &(t, answer) in &pending {
+            match walks {
+                Some(w) => self.walk_on(&mut **w, t, answer, now),
+                None => {
+                    self.walk_error = Some(RunError::Walk {
+                        cycle: now,
+                        sm: self.id,
+                        thread: t,
+                        reason: "a walk-driven warp in a run given no walks".into(),
+                    })
+                }
+            }
+        }
+        self.walk_pending = pending;
+        self.walk_pending.clear();
+        self.next_event = self.next_event_after(now);
     }
 
     /// A warp slot that can take a job this cycle.
@@ -749,9 +769,7 @@ impl Unit for RtUnit {
             self.fetch.complete(id);
         }
         self.warp_buffer.apply(&d.threads, &d.due, d.now);
-        for &(t, answer) in &d.walk_pops {
-            self.walk_on(t, Some(answer), d.now);
-        }
+        self.walk_pending.extend(d.walk_pops.iter().map(|&(t, a)| (t, Some(a))));
         self.stats.visits += d.visits;
         self.stats.pops_checked += d.expected_pops.len() as u64;
         self.stats.held_fetch_cycles += u64::from(d.held) * d.held_cycles;
@@ -901,18 +919,10 @@ impl RtUnit {
 
     /// Clock edge: thread `t`'s walk appends its next segment after `answer` (`None`: its first),
     /// and the thread takes the state of its next operation (a pop's decode saw none yet).
-    fn walk_on(&mut self, t: u32, answer: Option<Popped>, now: u64) {
+    fn walk_on(&mut self, walks: &mut dyn Walks, t: u32, answer: Option<Popped>, now: u64) {
         let ws = self.cfg.warp_size;
         let (w, l) = (t / ws, t % ws);
-        let (Some(walks), Some(job)) = (&self.walks, self.warp_buffer.walk(w)) else {
-            self.walk_error = Some(RunError::Walk {
-                cycle: now,
-                sm: self.id,
-                thread: t,
-                reason: "a walk-driven warp on an RT unit given no walks".into(),
-            });
-            return;
-        };
+        let Some(job) = self.warp_buffer.walk(w) else { return };
         let ops = self.warp_buffer.ops_mut(w, l);
         if let Err(reason) = walks.resume(job, l, answer, ops) {
             self.walk_error = Some(RunError::Walk { cycle: now, sm: self.id, thread: t, reason });
@@ -941,9 +951,8 @@ impl RtUnit {
         self.warp_buffer.load(w, &job.lanes, job.walk, active, start, now);
         if job.walk.is_some() {
             // Each ray's first segment, before its header latency ends.
-            for l in lanes_of(active) {
-                self.walk_on(w * self.cfg.warp_size + l, None, now);
-            }
+            let ws = self.cfg.warp_size;
+            self.walk_pending.extend(lanes_of(active).map(|l| (w * ws + l, None)));
         }
         self.residence.push(0);
         self.stats.warps += 1;

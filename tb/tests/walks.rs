@@ -4,11 +4,10 @@
 //! exactly once outside restarts, whatever the stack dropped.
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
 
 use rtl::config::Config;
 use rtl::gpu::Gpu;
-use rtl::ray_op::{NodeKind, Popped, RayOp, SharedWalks, Walks, WarpJob};
+use rtl::ray_op::{NodeKind, Popped, RayOp, Walks, WarpJob};
 use rtl::rt_unit::RunError;
 use rtl::trace::NullSink;
 
@@ -43,10 +42,7 @@ impl Countdown {
     }
 }
 
-/// The walks as the GPU holds them, shared with the test that reads the restarts.
-struct Shared(Arc<Mutex<Countdown>>);
-
-impl Walks for Shared {
+impl Walks for Countdown {
     fn resume(
         &mut self,
         job: u64,
@@ -54,7 +50,7 @@ impl Walks for Shared {
         answer: Option<Popped>,
         ops: &mut Vec<RayOp>,
     ) -> Result<(), String> {
-        let mut me = self.0.lock().unwrap();
+        let me = self;
         let n = me.n;
         let ignore = me.ignore_restart;
         let mut ray = me.rays.remove(&(job, lane)).unwrap_or((0, Vec::new(), 0));
@@ -101,12 +97,18 @@ impl Walks for Shared {
 
 fn run(cfg: &str, n: u64, ignore_restart: bool) -> Result<(rtl::gpu::GpuReport, u64), RunError> {
     let cfg: Config = cfg.parse().unwrap();
-    let walks = Arc::new(Mutex::new(Countdown { n, ignore_restart, ..Countdown::default() }));
+    let mut walks = Countdown { n, ignore_restart, ..Countdown::default() };
     let jobs: Vec<WarpJob> =
         (0..6).map(|j| WarpJob { lanes: vec![Some(Vec::new()); 32], walk: Some(j) }).collect();
-    let gpu = Gpu::paper(cfg).unwrap().with_walks(SharedWalks::new(Shared(walks.clone())));
-    let r = gpu.run(jobs, &mut NullSink)?;
-    let restarts = walks.lock().unwrap().rays.values().map(|r| r.2).sum();
+    let r = Gpu::paper(cfg).unwrap().run_walks(
+        jobs,
+        &mut walks,
+        &mut NullSink,
+        u64::MAX,
+        |_| {},
+        &mut Vec::new(),
+    )?;
+    let restarts = walks.rays.values().map(|r| r.2).sum();
     Ok((r, restarts))
 }
 

@@ -60,6 +60,9 @@ pub(crate) struct Parts<'a> {
     pub helper_thread: bool,
     /// Go by windows where the run allows it.
     pub windows: bool,
+    /// The walks of walk-driven warps (the restart designs); such a run takes the reference
+    /// loop (its units' walks go on at each clock edge, one unit after the other).
+    pub walks: Option<&'a mut dyn crate::ray_op::Walks>,
 }
 
 /// What a run reports beside the units' and the memory system's counters.
@@ -157,6 +160,7 @@ pub(crate) fn run<S: Sink, P: Steps>(
     let delay = u64::from(parts.mem.params().l2_latency - 3);
     let windowed = window::window_for(delay).filter(|_| {
         parts.windows
+            && parts.walks.is_none()
             && steps.windows_allowed()
             && parts.eval_check == EvalCheck::Dataflow
             && parts.idle_skip

@@ -171,6 +171,7 @@ impl Loop {
         for &sm in &self.order {
             if !self.quiet[sm] {
                 parts.units[sm].commit(&self.steps[sm]);
+                parts.units[sm].follow_walks(&mut parts.walks, now);
                 self.jobs_in[sm] = None;
             }
         }
