@@ -40,8 +40,8 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::workload::geometry::Primitives;
-use crate::workload::trace::FetchKind;
 use crate::workload::scene::{Instance, MeshGeometry, Objects};
+use crate::workload::trace::FetchKind;
 
 /// Start of the internal-node region.
 pub const INTERNAL_BASE: u64 = 0x4_0000_0000;

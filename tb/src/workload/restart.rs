@@ -217,7 +217,15 @@ impl<'a> RestartTree<'a> {
             Bvh::Bvh2(b) => {
                 let first = b.nodes[i as usize].first_index;
                 [first, first + 1]
-                    .map(|c| if b.nodes[c as usize].is_leaf() { NodeRef::Leaf(c) } else { NodeRef::Internal(c) })
+                    .map(
+                        |c| {
+                            if b.nodes[c as usize].is_leaf() {
+                                NodeRef::Leaf(c)
+                            } else {
+                                NodeRef::Internal(c)
+                            }
+                        },
+                    )
                     .to_vec()
             }
             Bvh::Bvh6(b) => b.node_children(i).iter().map(|c| c.node).collect(),
@@ -269,7 +277,9 @@ impl<'a> RestartTree<'a> {
         use crate::workload::bvh::{INTERNAL_BASE, LEAF_BASE, PRIM_BASE};
         let kind = self.bvh.kind();
         let (base, kind_of, make): (u64, FetchKind, fn(u32) -> NodeRef) = match addr {
-            a if (INTERNAL_BASE..LEAF_BASE).contains(&a) => (INTERNAL_BASE, FetchKind::Internal, NodeRef::Internal),
+            a if (INTERNAL_BASE..LEAF_BASE).contains(&a) => {
+                (INTERNAL_BASE, FetchKind::Internal, NodeRef::Internal)
+            }
             a if (LEAF_BASE..PRIM_BASE).contains(&a) => (LEAF_BASE, FetchKind::Leaf, NodeRef::Leaf),
             _ => return Err(format!("popped address {addr:#x} is not a node of the BVH")),
         };
@@ -335,7 +345,9 @@ pub struct Level {
 enum State {
     Start,
     /// A Pop was emitted for the sibling left at trail level `level`.
-    Popping { level: usize },
+    Popping {
+        level: usize,
+    },
     Done,
 }
 
@@ -479,10 +491,17 @@ impl<'t, R: TrailRules> RestartWalk<'t, R> {
     }
 
     /// Pushes the children at `positions` (nearest first) far to near, nearest on top.
-    fn push_siblings(&mut self, positions: &[usize], ops: &mut Vec<RayOp>) -> std::result::Result<(), String> {
+    fn push_siblings(
+        &mut self,
+        positions: &[usize],
+        ops: &mut Vec<RayOp>,
+    ) -> std::result::Result<(), String> {
         for (index, &k) in positions.iter().enumerate().rev() {
-            let entry =
-                pack_entry(self.tree.addr(self.all[k].1), self.rank_of(k)?, self.rules.last(index, positions.len()));
+            let entry = pack_entry(
+                self.tree.addr(self.all[k].1),
+                self.rank_of(k)?,
+                self.rules.last(index, positions.len()),
+            );
             self.reference.push(entry);
             ops.push(RayOp::Push(entry));
         }
@@ -572,7 +591,11 @@ impl<'t, R: TrailRules> RestartWalk<'t, R> {
 
     /// Descends the trail from the root to `target` after the stack dropped what was left
     /// (module docs). Returns the node to visit next, `None` when `target` is finished too.
-    fn restart(&mut self, target: usize, ops: &mut Vec<RayOp>) -> std::result::Result<Option<NodeRef>, String> {
+    fn restart(
+        &mut self,
+        target: usize,
+        ops: &mut Vec<RayOp>,
+    ) -> std::result::Result<Option<NodeRef>, String> {
         self.reference.clear();
         self.restarts += 1;
         let mut node = tree_root(self.tree.bvh);
@@ -588,7 +611,10 @@ impl<'t, R: TrailRules> RestartWalk<'t, R> {
             self.rank_children(i)?;
             let rank = self.trail[l].rank as usize;
             if rank >= self.all.len() {
-                return Err(format!("trail level {l} has rank {rank}, but the ray hits {} children", self.all.len()));
+                return Err(format!(
+                    "trail level {l} has rank {rank}, but the ray hits {} children",
+                    self.all.len()
+                ));
             }
             if l == target {
                 return self.descend(l, Some(rank), ops);
