@@ -11,6 +11,7 @@ pub mod prove;
 pub mod run;
 pub mod scenes;
 pub mod stack_config;
+pub mod steps;
 pub mod sweep;
 pub mod verilog;
 
@@ -73,6 +74,10 @@ pub enum Command {
     Scenes(scenes::Args),
     /// Stack-depth statistics of a scene.
     Depth(depth::Args),
+    /// Traversal steps of the restart-trail walk with short stacks that drop their oldest entry
+    /// (N entries each), against the full stack: steps, restarts and re-fetched nodes per ray,
+    /// every ray's closest hit checked against the full-stack walk's.
+    Steps(steps::Args),
     /// Hardware cost of stack designs, bit by bit, from the RTL's width definitions.
     Cost(cost::Args),
     /// Simulate a scene under stack configurations: cycles, off-chip traffic, conflicts.
@@ -110,6 +115,7 @@ impl Cli {
         match self.command {
             Command::Scenes(args) => scenes::run(args),
             Command::Depth(args) => depth::run(args),
+            Command::Steps(args) => steps::run(args),
             Command::Cost(args) => cost::run(args),
             Command::Check(args) => check::run(args),
             Command::Run(args) => run::run(args),

@@ -2,7 +2,8 @@
 //! ([`functional`]) over the stack testbench ([`stack_tb`]), sampling ([`sampling`]), sweeps
 //! of configurations over scenes ([`sweep`]), the arms of `sms ablate` ([`ablate`]), the
 //! measurements of `sms bench` ([`bench`](mod@bench)), small example waveforms of the stack unit
-//! ([`waves`]) and what produced a result, as every report states it ([`provenance`]).
+//! ([`waves`]), the restart-trail walk's traversal steps with short stacks ([`steps`]) and what
+//! produced a result, as every report states it ([`provenance`]).
 
 pub mod ablate;
 pub mod bench;
@@ -13,6 +14,7 @@ pub mod provenance;
 pub mod sampling;
 pub mod sim;
 pub mod stack_tb;
+pub mod steps;
 pub mod sweep;
 pub mod verify;
 pub mod waves;

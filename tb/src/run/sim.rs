@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use rtl::config::Config;
 use rtl::gpu::{Gpu, GpuReport, Progress};
-use rtl::ray_op::{self, NodeKind as RtlKind, RayOp};
+use rtl::ray_op::{self, RayOp};
 use rtl::stack_manager::StackStats;
 use rtl::thread_cycles::ThreadCycles;
 use rtl::trace::{NullSink, Sink};
@@ -33,11 +33,8 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::run::sampling::{choose, estimate, Estimate, SamplePlan};
-use crate::workload::bvh::{
-    BvhKind, BVH2_NODE_SIZE, BVH6_LEAF_DESC_SIZE, BVH6_NODE_SIZE, BVH_HEADER_SIZE, CWBVH_NODE_SIZE,
-    INSTANCE_LEAF_SIZE, PRIM_SIZE,
-};
-use crate::workload::trace::{FetchKind, TraceOp, WarpTraces, WARP_SIZE};
+use crate::workload::bvh::{node_bytes, BvhKind};
+use crate::workload::trace::{rtl_kind, TraceOp, WarpTraces, WARP_SIZE};
 use crate::workload::Workload;
 
 /// How much of the machine a run models.
@@ -52,36 +49,6 @@ pub enum Fidelity {
 }
 
 pub use crate::hw::Hardware;
-
-/// Bytes the RT unit fetches for a node of `kind` in hierarchy `bvh` (SPEC section 7 layouts).
-pub fn node_bytes(bvh: BvhKind, kind: FetchKind) -> u32 {
-    let bytes = match (kind, bvh) {
-        (FetchKind::Internal, BvhKind::Bvh2) | (FetchKind::Leaf, BvhKind::Bvh2) => BVH2_NODE_SIZE,
-        (FetchKind::Internal, BvhKind::Bvh6) => BVH6_NODE_SIZE,
-        (FetchKind::Leaf, _) => BVH6_LEAF_DESC_SIZE,
-        (FetchKind::Internal, BvhKind::Cwbvh) => CWBVH_NODE_SIZE,
-        (FetchKind::Triangle | FetchKind::Procedural, _) => PRIM_SIZE,
-        (FetchKind::Instance, _) => INSTANCE_LEAF_SIZE,
-        (FetchKind::BvhHeader, _) => BVH_HEADER_SIZE,
-    };
-    bytes as u32
-}
-
-/// The RT unit's operation for a node kind. An instance leaf costs the instance-transform latency
-/// and an acceleration-structure header the `BVH_STRUCTURE` latency (`bvh_header`), as Vulkan-Sim
-/// costs every transaction by its type (`-gpgpu_rt_intersection_latency 4,8,8,4,8,8,8`:
-/// structure, internal, instance leaf, leaf descriptor, quad, quad hit, procedural;
-/// `src/gpgpu-sim/shader.h:1604-1611`, `configs/tested-cfgs/MOBILE/gpgpusim.config:197`).
-fn rtl_kind(kind: FetchKind) -> RtlKind {
-    match kind {
-        FetchKind::Instance => RtlKind::InstanceLeaf,
-        FetchKind::BvhHeader => RtlKind::BvhHeader,
-        FetchKind::Internal => RtlKind::Internal,
-        FetchKind::Leaf => RtlKind::LeafDescriptor,
-        FetchKind::Triangle => RtlKind::Triangle,
-        FetchKind::Procedural => RtlKind::Procedural,
-    }
-}
 
 /// A traceRay call of a warp as the RT unit's stimulus.
 pub fn rtl_job(job: &WarpTraces, bvh: BvhKind) -> ray_op::WarpJob {
@@ -694,7 +661,9 @@ pub(crate) fn share_of(o: &Outcome, share: f64, pixel_warps: u32) -> Outcome {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::workload::trace::FetchKind;
     use crate::workload::WorkloadOpts;
+    use rtl::ray_op::NodeKind as RtlKind;
 
     #[test]
     fn stack_counts_serialise_every_counter_by_name_in_order() {

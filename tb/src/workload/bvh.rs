@@ -41,6 +41,7 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::workload::geometry::Primitives;
 use crate::workload::scene::{Instance, MeshGeometry, Objects};
+use crate::workload::trace::FetchKind;
 
 /// Start of the internal-node region.
 pub const INTERNAL_BASE: u64 = 0x4_0000_0000;
@@ -72,6 +73,20 @@ pub enum BvhKind {
     Bvh2,
     Cwbvh,
     Bvh6,
+}
+
+/// Bytes the RT unit fetches for a node of `kind` in hierarchy `bvh` (SPEC section 7 layouts).
+pub fn node_bytes(bvh: BvhKind, kind: FetchKind) -> u32 {
+    let bytes = match (kind, bvh) {
+        (FetchKind::Internal, BvhKind::Bvh2) | (FetchKind::Leaf, BvhKind::Bvh2) => BVH2_NODE_SIZE,
+        (FetchKind::Internal, BvhKind::Bvh6) => BVH6_NODE_SIZE,
+        (FetchKind::Leaf, _) => BVH6_LEAF_DESC_SIZE,
+        (FetchKind::Internal, BvhKind::Cwbvh) => CWBVH_NODE_SIZE,
+        (FetchKind::Triangle | FetchKind::Procedural, _) => PRIM_SIZE,
+        (FetchKind::Instance, _) => INSTANCE_LEAF_SIZE,
+        (FetchKind::BvhHeader, _) => BVH_HEADER_SIZE,
+    };
+    bytes as u32
 }
 
 /// A reference to a node of a BVH2 or BVH6: internal nodes and leaves are numbered separately.

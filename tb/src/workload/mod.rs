@@ -8,13 +8,14 @@
 //! a time, when [`Workload::warp_jobs`] is iterated, so no more than one warp's traces are held.
 //!
 //! The layer's modules, in dependency order (each uses only those before it): [`trace`](mod@trace) (the
-//! recorded operations), [`geometry`], [`scene`], [`bvh`], [`raygen`], [`traverse`], then this
-//! module (warps in launch order) and [`depth`].
+//! recorded operations), [`geometry`], [`scene`], [`bvh`], [`raygen`], [`traverse`], [`restart`] (the
+//! walk with a restart trail), then this module (warps in launch order) and [`depth`].
 
 pub mod bvh;
 pub mod depth;
 pub mod geometry;
 pub mod raygen;
+pub mod restart;
 mod rng;
 pub mod scene;
 pub mod trace;

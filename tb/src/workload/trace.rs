@@ -4,6 +4,7 @@
 //! Traces are packed one `u64` per operation: 2 bits of operation, 3 bits of node kind and a
 //! 59-bit address.
 
+use rtl::ray_op::NodeKind;
 use serde::Serialize;
 
 /// Threads per warp.
@@ -21,6 +22,22 @@ pub enum FetchKind {
     /// An acceleration structure's header (two-level, 64 bytes): the TLAS's at the start of a
     /// ray, a BLAS's after each instance leaf.
     BvhHeader,
+}
+
+/// The RT unit's operation for a node kind. An instance leaf costs the instance-transform latency
+/// and an acceleration-structure header the `BVH_STRUCTURE` latency (`bvh_header`), as Vulkan-Sim
+/// costs every transaction by its type (`-gpgpu_rt_intersection_latency 4,8,8,4,8,8,8`:
+/// structure, internal, instance leaf, leaf descriptor, quad, quad hit, procedural;
+/// `src/gpgpu-sim/shader.h:1604-1611`, `configs/tested-cfgs/MOBILE/gpgpusim.config:197`).
+pub fn rtl_kind(kind: FetchKind) -> NodeKind {
+    match kind {
+        FetchKind::Instance => NodeKind::InstanceLeaf,
+        FetchKind::BvhHeader => NodeKind::BvhHeader,
+        FetchKind::Internal => NodeKind::Internal,
+        FetchKind::Leaf => NodeKind::LeafDescriptor,
+        FetchKind::Triangle => NodeKind::Triangle,
+        FetchKind::Procedural => NodeKind::Procedural,
+    }
 }
 
 /// One operation of a traversal.

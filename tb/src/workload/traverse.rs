@@ -155,7 +155,7 @@ struct Query<'a> {
 }
 
 /// Primitive slots of a leaf and the scene primitive in each.
-fn leaf_prims(bvh: &Bvh, leaf: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
+pub(crate) fn leaf_prims(bvh: &Bvh, leaf: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
     let (range, indices) = match bvh {
         Bvh::Bvh2(b) => {
             let n = &b.nodes[leaf as usize];
@@ -167,12 +167,17 @@ fn leaf_prims(bvh: &Bvh, leaf: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
     range.map(move |slot| (slot, indices[slot as usize]))
 }
 
-fn trace_tree<R: Recorder>(bvh: &Bvh, q: Query, rec: &mut R) -> Option<Hit> {
-    let Query { prims, ray, mut tmax, order } = q;
-    let root = match bvh {
+/// The root of a BVH2 or BVH6: a leaf when the BVH2 holds one primitive.
+pub(crate) fn tree_root(bvh: &Bvh) -> NodeRef {
+    match bvh {
         Bvh::Bvh2(b) if b.nodes[0].is_leaf() => NodeRef::Leaf(0),
         _ => NodeRef::Internal(0),
-    };
+    }
+}
+
+fn trace_tree<R: Recorder>(bvh: &Bvh, q: Query, rec: &mut R) -> Option<Hit> {
+    let Query { prims, ray, mut tmax, order } = q;
+    let root = tree_root(bvh);
     let mut best = None;
     let mut stack: Vec<NodeRef> = Vec::new();
     let mut hits: Vec<(f32, NodeRef)> = Vec::with_capacity(crate::workload::bvh::BVH6_WIDTH);
@@ -182,20 +187,7 @@ fn trace_tree<R: Recorder>(bvh: &Bvh, q: Query, rec: &mut R) -> Option<Hit> {
             NodeRef::Internal(i) => {
                 rec.visit(bvh.node_addr(node), FetchKind::Internal);
                 hits.clear();
-                match bvh {
-                    Bvh::Bvh2(b) => {
-                        let first = b.nodes[i as usize].first_index;
-                        for c in [first, first + 1] {
-                            let child = &b.nodes[c as usize];
-                            let node = if child.is_leaf() { NodeRef::Leaf(c) } else { NodeRef::Internal(c) };
-                            if let Some(t) = child_hit(ray, child.aabb(), tmax, order) {
-                                hits.push((t, node));
-                            }
-                        }
-                    }
-                    Bvh::Bvh6(b) => hit_children(ray, b.node_children(i), tmax, order, &mut hits),
-                    Bvh::Cwbvh(_) | Bvh::TwoLevel(_) => unreachable!("traversed by their own walks"),
-                }
+                hit_node_children(bvh, i, ray, tmax, order, &mut hits);
                 current = choose(&mut hits, order, |child| {
                     rec.push(bvh.node_addr(child));
                     stack.push(child);
@@ -222,6 +214,32 @@ fn trace_tree<R: Recorder>(bvh: &Bvh, q: Query, rec: &mut R) -> Option<Hit> {
         }
     }
     best
+}
+
+/// The children of internal node `i` of a BVH2 or BVH6 the ray must visit before `tmax`, appended
+/// to `hits` in slot order with their entry distances (as [`hit_children`] tests a BVH6 node's).
+pub(crate) fn hit_node_children(
+    bvh: &Bvh,
+    i: u32,
+    ray: &Ray,
+    tmax: f32,
+    order: ChildOrder,
+    hits: &mut Vec<(f32, NodeRef)>,
+) {
+    match bvh {
+        Bvh::Bvh2(b) => {
+            let first = b.nodes[i as usize].first_index;
+            for c in [first, first + 1] {
+                let child = &b.nodes[c as usize];
+                let node = if child.is_leaf() { NodeRef::Leaf(c) } else { NodeRef::Internal(c) };
+                if let Some(t) = child_hit(ray, child.aabb(), tmax, order) {
+                    hits.push((t, node));
+                }
+            }
+        }
+        Bvh::Bvh6(b) => hit_children(ray, b.node_children(i), tmax, order, hits),
+        Bvh::Cwbvh(_) | Bvh::TwoLevel(_) => unreachable!("traversed by their own walks"),
+    }
 }
 
 /// Entry distance of a child box the ray must visit, if any: hit within `[tmin, tmax]` and not
