@@ -335,6 +335,11 @@ fn table(report: &RunReport) -> Table {
     let full = |f: &dyn Fn(&Outcome) -> String| {
         rs.iter().map(|r| simulated(r).map_or("-".into(), |o| f(&o))).collect()
     };
+    // The restart designs' own counts: only in a run that has one.
+    if rs.iter().any(|r| simulated(r).is_some_and(|o| o.stack.drops + o.stack.restarts > 0)) {
+        row("entries dropped (+RT)", full(&|o| o.stack.drops.to_string()));
+        row("restarts from the root (+RT)", full(&|o| o.stack.restarts.to_string()));
+    }
     if rs.iter().any(|r| simulated(r).is_some_and(|o| o.gpu.is_some())) {
         let rate = |x: f64| format!("{:.1} %", 100.0 * x);
         row("L1D hit rate", full(&|o| o.gpu.map_or("-".into(), |g| rate(g.l1d_hit_rate))));

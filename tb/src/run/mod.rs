@@ -17,4 +17,5 @@ pub mod stack_tb;
 pub mod steps;
 pub mod sweep;
 pub mod verify;
+pub mod walked;
 pub mod waves;

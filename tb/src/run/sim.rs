@@ -23,9 +23,9 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use rtl::config::Config;
+use rtl::config::{Config, Overflow};
 use rtl::gpu::{Gpu, GpuReport, Progress};
-use rtl::ray_op::{self, RayOp};
+use rtl::ray_op::{self, RayOp, Walks};
 use rtl::stack_manager::StackStats;
 use rtl::thread_cycles::ThreadCycles;
 use rtl::trace::{NullSink, Sink};
@@ -33,7 +33,10 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::run::sampling::{choose, estimate, Estimate, SamplePlan};
+use crate::run::walked::TreeWalks;
 use crate::workload::bvh::{node_bytes, BvhKind};
+use crate::workload::geometry::Ray;
+use crate::workload::restart::{default_levels, RestartTree};
 use crate::workload::trace::{rtl_kind, TraceOp, WarpTraces, WARP_SIZE};
 use crate::workload::Workload;
 
@@ -318,6 +321,13 @@ impl RunSpec {
                 f64::from(self.hw.mem.l1d_bytes) / 1024.0
             )));
         }
+        if self.config.overflow == Overflow::Drop && self.fidelity == Fidelity::Functional {
+            return Err(Error::Invalid(format!(
+                "{}: a restart design's walk follows what its stack drops, which the functional level \
+                 does not model; use --fidelity cycle (or `sms steps` for traversal steps alone)",
+                self.config.name()
+            )));
+        }
         Ok(())
     }
 }
@@ -369,9 +379,12 @@ fn simulate_inner<S: Sink>(
         // The RT units' jobs are made where the traces are: on the tracing thread when there is
         // one, so that the conversion is not on the simulation's thread (whose helper waits
         // for it when a job is dispatched).
+        Fidelity::Cycle if spec.config.overflow == Overflow::Drop => {
+            run_walked(spec, w, warps, sink, progress, residence)
+        }
         Fidelity::Cycle => {
             let jobs = traced(scope, w, warps, move |t| t.iter().map(|j| rtl_job(j, bvh)).collect());
-            run_cycle(spec, warps.len(), jobs, sink, progress, residence)
+            run_cycle(spec, warps.len(), jobs, None, sink, progress, residence)
         }
     })?;
     Ok(Outcome {
@@ -510,6 +523,7 @@ fn run_cycle<S: Sink>(
     spec: &RunSpec,
     total: usize,
     pixel_warps: impl Iterator<Item = Vec<ray_op::WarpJob>>,
+    walks: Option<&mut dyn Walks>,
     sink: &mut S,
     mut progress: impl FnMut(Tick),
     residence: &mut Vec<u64>,
@@ -531,19 +545,54 @@ fn run_cycle<S: Sink>(
     };
     let mut per_job = Vec::new();
     let total = total as u32;
-    let report = gpu
-        .run_timed(
-            jobs,
-            sink,
-            100_000,
-            |p: Progress| progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle }),
-            &mut per_job,
-        )
-        .map_err(|e| cycle_failure(&spec.config, e))?;
+    let tick =
+        |p: Progress| progress(Tick { pixel_warps_done: done.get(), pixel_warps: total, cycle: p.cycle });
+    let report = match walks {
+        Some(walks) => gpu.run_walks(jobs, walks, sink, 100_000, tick, &mut per_job),
+        None => gpu.run_timed(jobs, sink, 100_000, tick, &mut per_job),
+    }
+    .map_err(|e| cycle_failure(&spec.config, e))?;
     let mut next = per_job.iter();
     residence.clear();
     residence.extend(jobs_per_warp.borrow().iter().map(|&n| next.by_ref().take(n).sum::<u64>()));
     Ok((report.stack, Some(GpuCounts::from(&report)), report.pops_checked))
+}
+
+/// The cycle level for a restart design (`+RT`): every ray walks the workload's BVH as its stack
+/// answers ([`crate::run::walked`]), each checked against the full-stack walk when it ends.
+fn run_walked<S: Sink>(
+    spec: &RunSpec,
+    w: &Workload,
+    warps: &[u32],
+    sink: &mut S,
+    progress: impl FnMut(Tick),
+    residence: &mut Vec<u64>,
+) -> Result<Measured> {
+    let o = w.opts();
+    let tree = RestartTree::new(w.bvh(), &w.scene().primitives, o.order, default_levels(o.bvh)).map_err(
+        |e| match e {
+            Error::Invalid(m) => Error::Invalid(format!("{}: {m}", spec.config.name())),
+            e => e,
+        },
+    )?;
+    let per_warp: Vec<Vec<Vec<Option<Ray>>>> = warps.iter().map(|&i| w.warp_rays(i)).collect();
+    let counts: Vec<usize> = per_warp.iter().map(Vec::len).collect();
+    let mut walks = TreeWalks::new(&tree, &w.scene().primitives, per_warp.into_iter().flatten().collect());
+    let mut jobs = walks.jobs().into_iter();
+    let pixel_warps: Vec<Vec<ray_op::WarpJob>> =
+        counts.iter().map(|&n| jobs.by_ref().take(n).collect()).collect();
+    let measured =
+        run_cycle(spec, warps.len(), pixel_warps.into_iter(), Some(&mut walks), sink, progress, residence)?;
+    if walks.live() != 0 || walks.counts.rays_checked != walks.rays() {
+        return Err(Error::DesignCheck(format!(
+            "{}: {} rays still walking at the end, {} of {} checked",
+            spec.config.name(),
+            walks.live(),
+            walks.counts.rays_checked,
+            walks.rays()
+        )));
+    }
+    Ok(measured)
 }
 
 /// Simulates every pixel warp, without waveforms.

@@ -119,6 +119,19 @@ impl Default for WorkloadOpts {
     }
 }
 
+/// Records only the ray a traversal was asked for.
+#[derive(Default)]
+struct RayOnly(Option<Ray>);
+
+impl Recorder for RayOnly {
+    fn ray(&mut self, ray: &Ray) {
+        self.0 = Some(*ray);
+    }
+    fn visit(&mut self, _: u64, _: FetchKind) {}
+    fn push(&mut self, _: u64) {}
+    fn pop(&mut self, _: u64) {}
+}
+
 /// A scene, its BVH and ray generator, and the rendered image.
 pub struct Workload<'s> {
     scene: &'s Scene,
@@ -224,19 +237,21 @@ impl<'s> Workload<'s> {
         self.run_warp::<RayTrace>(warp).jobs.into_iter().map(|lanes| WarpTraces { lanes }).collect()
     }
 
+    /// The scene the workload renders.
+    pub fn scene(&self) -> &Scene {
+        self.scene
+    }
+
+    /// The rays of pixel warp `warp`: per warp job (sample × bounce, as [`Workload::warp`]),
+    /// each lane's ray (`None` where its path ended).
+    pub fn warp_rays(&self, warp: u32) -> Vec<Vec<Option<Ray>>> {
+        let jobs = self.run_warp::<RayOnly>(warp).jobs;
+        jobs.into_iter().map(|lanes| lanes.into_iter().map(|r| r.and_then(|r| r.0)).collect()).collect()
+    }
+
     /// Every ray of the workload in launch order (warp, sample, bounce, lane), e.g. to time
     /// another traversal of the same rays.
     pub fn rays(&self) -> Vec<Ray> {
-        #[derive(Default)]
-        struct RayOnly(Option<Ray>);
-        impl Recorder for RayOnly {
-            fn ray(&mut self, ray: &Ray) {
-                self.0 = Some(*ray);
-            }
-            fn visit(&mut self, _: u64, _: FetchKind) {}
-            fn push(&mut self, _: u64) {}
-            fn pop(&mut self, _: u64) {}
-        }
         let rays = (0..self.num_warps()).flat_map(|warp| self.run_warp::<RayOnly>(warp).jobs);
         rays.flatten().flatten().filter_map(|r| r.0).collect()
     }
