@@ -138,3 +138,74 @@ fn a_walk_that_ignores_restart_is_stopped() {
     assert!(matches!(e, RunError::Walk { .. } | RunError::Stack { .. }), "{e}");
     println!("{e}");
 }
+
+/// A flat BVH in the nearest-child order (what the restart trail walks) on the built-in clutter
+/// scene.
+fn flat_workload(
+    scene: &tb::workload::scene::Scene,
+    bvh: tb::workload::bvh::BvhKind,
+) -> tb::workload::Workload<'_> {
+    use tb::workload::{traverse::ChildOrder, Accel, Workload, WorkloadOpts};
+    let opts = WorkloadOpts {
+        order: ChildOrder::Nearest,
+        accel: Accel::Flat,
+        bvh,
+        ..WorkloadOpts::quick(scene, 24)
+    };
+    Workload::new(scene, opts).unwrap()
+}
+
+/// On a real scene the restart designs run at the cycle level with every ray's closest hit
+/// checked against the full-stack walk (the run fails otherwise), on both BVH layouts, with and
+/// without an SH level and reallocation; short stacks restart, and nothing goes off chip for the
+/// stack.
+#[test]
+fn restart_designs_walk_a_real_scene_with_every_hit_checked() {
+    use tb::run::sim::Fidelity;
+    use tb::workload::bvh::BvhKind;
+    let scene = tb::load_scene("clutter").unwrap();
+    for bvh in [BvhKind::Bvh6, BvhKind::Bvh2] {
+        let w = flat_workload(&scene, bvh);
+        for name in ["RB_1+RT", "RB_2+SH_2+SK+RA+RT"] {
+            let o = tb::testing::simulate_named(name, Fidelity::Cycle, &w);
+            println!("{bvh:?} {name}: {:?}", o.stack);
+            assert!(o.stack.drops > 0 && o.stack.restarts > 0, "{bvh:?} {name}: {:?}", o.stack);
+            assert_eq!(o.stack.global_accesses(), 0, "{bvh:?} {name}");
+            assert!(o.pops_checked > 0);
+        }
+    }
+}
+
+/// The stack's planted drop bugs, on a real scene's walks: the walk's own check of each popped
+/// entry against its unbounded reference stack stops the run.
+#[test]
+fn a_stack_that_drops_wrongly_is_caught_by_the_walks_on_a_real_scene() {
+    use rtl::stack_manager::Mutant;
+    use tb::run::walked::TreeWalks;
+    use tb::workload::bvh::BvhKind;
+    use tb::workload::restart::{default_levels, RestartTree};
+    let scene = tb::load_scene("clutter").unwrap();
+    let w = flat_workload(&scene, BvhKind::Bvh6);
+    let o = w.opts();
+    let tree = RestartTree::new(w.bvh(), &scene.primitives, o.order, default_levels(o.bvh)).unwrap();
+    let rays: Vec<_> = (0..w.num_warps()).flat_map(|i| w.warp_rays(i)).collect();
+    let cfg: Config = "RB_2+SH_2+RT".parse().unwrap();
+    for (policy, what) in [(None, "the design"), (Some(Mutant::DropsNewest), "drops-newest")] {
+        let mut walks = TreeWalks::new(&tree, &scene.primitives, rays.clone());
+        let jobs = walks.jobs();
+        let policy = policy.map_or(rtl::stack_manager::StackPolicy::of(&cfg), |m| m.policy());
+        let gpu = Gpu::paper_with(cfg, policy).unwrap();
+        let r = gpu.run_walks(jobs, &mut walks, &mut NullSink, u64::MAX, |_| {}, &mut Vec::new());
+        match (what, r) {
+            ("the design", r) => {
+                r.unwrap();
+                assert_eq!((walks.live(), walks.counts.rays_checked), (0, walks.rays()));
+            }
+            (_, Ok(_)) => panic!("{what} survived the walks"),
+            (_, Err(e)) => {
+                println!("{what}: {e}");
+                assert!(matches!(e, RunError::Walk { .. } | RunError::PopMismatch { .. }), "{e}");
+            }
+        }
+    }
+}
