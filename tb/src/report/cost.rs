@@ -17,10 +17,12 @@
 //! stack's too. They are in no total of the accounting above (docs/hardware.md, "Cost"), and they
 //! are what the generated Verilog's flip-flops add to it (`sms verilog --synth` checks both).
 
-use rtl::config::{bits_for, Config, ConfigError, RbSize};
+use rtl::config::{bits_for, Config, ConfigError, Overflow, RbSize};
 use serde::Serialize;
 
 use crate::report::table::Table;
+use crate::workload::bvh::BvhKind;
+use crate::workload::restart::{default_levels, level_bits};
 
 /// Where a field's cost belongs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -30,6 +32,8 @@ pub enum Origin {
     Paper,
     Rtl,
     Control,
+    /// The restart trail of a restart design (`+RT`): the RT unit's walk, per ray.
+    Restart,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -95,6 +99,7 @@ impl CostReport {
         let m = cfg.sh_entries;
         let ra = cfg.realloc();
         let n = cfg.rb.capacity().unwrap_or(full_depth);
+        let drops = cfg.overflow == Overflow::Drop;
         let rb_count_bits = match cfg.rb {
             RbSize::Entries(_) => w.rb_count,
             RbSize::Full => bits_for(full_depth as u64),
@@ -122,11 +127,15 @@ impl CostReport {
                 origin: Origin::Baseline,
                 bits: w.spill_ptr,
                 copies_per_sm: t,
-                note: "the short stack's local-memory pointer",
+                note: if drops {
+                    "none: a restart design has no global region"
+                } else {
+                    "the short stack's local-memory pointer"
+                },
             },
             Field {
                 name: "overflow",
-                what: "global holds entries",
+                what: if drops { "entries were dropped" } else { "global holds entries" },
                 origin: if m > 0 { Origin::Paper } else { Origin::Baseline },
                 bits: w.overflow,
                 copies_per_sm: t,
@@ -180,6 +189,27 @@ impl CostReport {
                     note: "the priority register's top bit: ranks 0..=borrow limit, as a flush can rotate the dedicated stack to the top",
                 });
             }
+        }
+        if cfg.overflow == Overflow::Drop {
+            // Sized for the default BVH6 (docs/stack.md, "Restart trail").
+            let levels = default_levels(BvhKind::Bvh6);
+            let per_level = level_bits(BvhKind::Bvh6);
+            fields.push(Field {
+                name: "trail",
+                what: "restart trail",
+                origin: Origin::Restart,
+                bits: levels as u32 * per_level,
+                copies_per_sm: t,
+                note: "BVH6: 32 levels x (3-bit rank + last bit); a BVH2 needs 64 x 2; the entries' rank and last bit ride in their unused high address bits",
+            });
+            fields.push(Field {
+                name: "trail_depth",
+                what: "depth of the node being visited",
+                origin: Origin::Restart,
+                bits: bits_for(levels as u64),
+                copies_per_sm: t,
+                note: "which trail levels are meaningful",
+            });
         }
         let log2m = w.top as u64;
         let paper_other_bits: u64 = fields
@@ -270,6 +300,12 @@ impl CostReport {
             "baseline fields (RB entries, count, spill pointer)".to_string(),
             bytes(self.bits_per_sm(Origin::Baseline)).to_string(),
         ]);
+        if self.bits_per_sm(Origin::Restart) > 0 {
+            tbl.row([
+                "restart: the trail and its depth, per ray".to_string(),
+                bytes(self.bits_per_sm(Origin::Restart)).to_string(),
+            ]);
+        }
         tbl.row(["shared memory for SH stacks".to_string(), self.sh_bytes.to_string()]);
         tbl.row(["L1D left of 64 KB".to_string(), self.l1d_bytes.to_string()]);
         tbl.row([
@@ -462,6 +498,22 @@ mod tests {
     use rtl::trace::{Probe, Snapshot};
 
     use super::*;
+
+    #[test]
+    fn a_restart_design_counts_its_trail_and_no_spill_pointer() {
+        let rt = CostReport::new(&"RB_4+RT".parse().unwrap(), 8, 0).unwrap();
+        let bits = |r: &CostReport, name: &str| r.fields.iter().find(|f| f.name == name).map(|f| f.bits);
+        assert_eq!(bits(&rt, "trail"), Some(32 * 4), "BVH6: 32 levels of a 3-bit rank and a last bit");
+        assert_eq!(bits(&rt, "trail_depth"), Some(6));
+        assert_eq!(bits(&rt, "spill_ptr"), Some(0));
+        assert_eq!(rt.bits_per_sm(Origin::Restart), 128 * (128 + 6));
+        let spill = CostReport::new(&"RB_4".parse().unwrap(), 8, 0).unwrap();
+        assert_eq!(spill.bits_per_sm(Origin::Restart), 0);
+        assert_eq!(bits(&spill, "trail"), None);
+        // SMS with restart: the paper's accounting of its SH fields is unchanged.
+        let sms_rt = CostReport::new(&"RB_8+SH_8+SK+RA+RT".parse().unwrap(), 8, 0).unwrap();
+        assert_eq!(sms_rt.paper.total_bytes, 272);
+    }
 
     #[test]
     fn the_papers_figures_for_its_configuration() {

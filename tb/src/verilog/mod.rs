@@ -69,6 +69,12 @@ pub fn generate(cfg: &Config, acked: bool) -> Result<Generated, String> {
             "the Verilog printer emits the paper's policy (RA); reallocation within groups of {lanes} lanes (RA_{lanes}) is simulated and proved but not printed"
         ));
     }
+    if cfg.overflow == rtl::config::Overflow::Drop {
+        return Err(format!(
+            "{}: the Verilog printer emits stacks that spill to global memory; the restart designs (RT) are simulated and proved but not printed",
+            cfg.name()
+        ));
+    }
     let circuit = build::warp(cfg, acked)?;
     let body = format!("{}\n{}", print::warp_module(&circuit), print::top_module(cfg, &circuit));
     let hash = format!("{:016x}", fnv1a64(body.as_bytes()));
