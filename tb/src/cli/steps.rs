@@ -37,7 +37,7 @@ pub struct Args {
     /// Acceleration structure: flat (two-level is refused: the trail walks one BVH).
     #[arg(long, value_enum, default_value = "flat")]
     pub accel: Accel,
-    /// Trail levels [default: 64 for bvh2, 32 for bvh6]; a deeper BVH is refused.
+    /// Trail levels [default: 96 for bvh2, 32 for bvh6]; a deeper BVH is refused.
     #[arg(long)]
     pub levels: Option<usize>,
     /// Resolution as WIDTHxHEIGHT (default: the scene's; LumiBench's 128x128 unless its
