@@ -117,14 +117,13 @@ pub fn unpack_entry(entry: u64) -> (u64, u8, bool) {
     (entry & ADDR_MASK, (entry >> ENTRY_RANK_SHIFT & RANK_MASK) as u8, entry >> ENTRY_LAST_SHIFT & 1 == 1)
 }
 
-/// Trail levels for `kind` by default: 64 for a BVH2, 32 for a BVH6. The deepest BVH the model
-/// builds from the shared scenes is a BVH2 of 46 levels (the 2.7M-triangle frst-partial; a BVH6
-/// collapses about three BVH2 levels into one), and obvhs's builders keep BVH2 depth near
-/// `2 log2(primitives)`, so these cover scenes up to tens of millions of primitives; a deeper
-/// BVH is refused before any ray runs.
+/// Trail levels for `kind` by default: 96 for a BVH2 (192 bits), 32 for a BVH6 (128 bits). The
+/// deepest BVHs the model builds from the shared scenes are party-partial's (954k triangles, a
+/// long thin scene): a BVH2 of 73 levels and a BVH6 of 25; every other scene's BVH2 is at most
+/// 48 levels deep, its BVH6 at most 17. A deeper BVH is refused before any ray runs.
 pub fn default_levels(kind: BvhKind) -> usize {
     match kind {
-        BvhKind::Bvh2 | BvhKind::Cwbvh => 64,
+        BvhKind::Bvh2 | BvhKind::Cwbvh => 96,
         BvhKind::Bvh6 => 32,
     }
 }
@@ -300,11 +299,11 @@ impl<'a> RestartTree<'a> {
 /// The choices of the trail, asked by [`RestartWalk`]; positions are indices into `Q_all`.
 /// [`RankedTrail`] is the product's; a test swaps in another to plant a bug.
 pub trait TrailRules: Send {
-    /// The rank recorded for the child at `position` of `Q_all`, `culled_before` of the
-    /// children before it culled: its position.
-    fn rank(&self, position: usize, culled_before: usize) -> usize {
-        let _ = culled_before;
-        position
+    /// The position in `Q_all` of the path child of a level whose trail holds `rank`, at a
+    /// restart, `alive` telling which children survive culling now: position `rank`, whatever
+    /// survives (`None`: no such child).
+    fn path(&self, rank: usize, alive: &[bool]) -> Option<usize> {
+        (rank < alive.len()).then_some(rank)
     }
 
     /// The `last` bit of the `index`-th of `count` siblings pushed at one node, nearest first:
@@ -481,13 +480,12 @@ impl<'t, R: TrailRules> RestartWalk<'t, R> {
         Ok(())
     }
 
-    fn rank_of(&self, position: usize) -> std::result::Result<u8, String> {
-        let culled_before = self.alive[..position].iter().filter(|a| !**a).count();
-        let rank = self.rules.rank(position, culled_before);
-        u8::try_from(rank)
+    /// The rank of the child at `position` of `Q_all`: its position, in the trail's bits.
+    fn rank_of(position: usize) -> std::result::Result<u8, String> {
+        u8::try_from(position)
             .ok()
             .filter(|&r| u64::from(r) <= RANK_MASK)
-            .ok_or_else(|| format!("rank {rank} does not fit the trail's {ENTRY_RANK_BITS} bits"))
+            .ok_or_else(|| format!("rank {position} does not fit the trail's {ENTRY_RANK_BITS} bits"))
     }
 
     /// Pushes the children at `positions` (nearest first) far to near, nearest on top.
@@ -499,7 +497,7 @@ impl<'t, R: TrailRules> RestartWalk<'t, R> {
         for (index, &k) in positions.iter().enumerate().rev() {
             let entry = pack_entry(
                 self.tree.addr(self.all[k].1),
-                self.rank_of(k)?,
+                Self::rank_of(k)?,
                 self.rules.last(index, positions.len()),
             );
             self.reference.push(entry);
@@ -529,7 +527,7 @@ impl<'t, R: TrailRules> RestartWalk<'t, R> {
         }
         let k = alive[pick];
         let rest = &alive[pick + 1..];
-        self.trail[d] = Level { rank: self.rank_of(k)?, last: rest.is_empty() };
+        self.trail[d] = Level { rank: Self::rank_of(k)?, last: rest.is_empty() };
         self.push_siblings(rest, ops)?;
         let child = self.all[k].1;
         self.depth = d + 1;
@@ -610,20 +608,21 @@ impl<'t, R: TrailRules> RestartWalk<'t, R> {
             self.refetched += 1;
             self.rank_children(i)?;
             let rank = self.trail[l].rank as usize;
-            if rank >= self.all.len() {
-                return Err(format!(
-                    "trail level {l} has rank {rank}, but the ray hits {} children",
-                    self.all.len()
-                ));
-            }
+            let path =
+                self.rules.path(rank, &self.alive).filter(|&k| k < self.all.len()).ok_or_else(|| {
+                    format!(
+                        "trail level {l}'s rank {rank} names none of the {} children the ray hits",
+                        self.all.len()
+                    )
+                })?;
             if l == target {
-                return self.descend(l, Some(rank), ops);
+                return self.descend(l, Some(path), ops);
             }
             let alive: Vec<usize> = (0..self.all.len()).filter(|&k| self.alive[k]).collect();
-            let pushes = self.rules.repush(&alive, rank);
+            let pushes = self.rules.repush(&alive, path);
             self.trail[l].last = pushes.is_empty();
             self.push_siblings(&pushes, ops)?;
-            node = self.all[rank].1;
+            node = self.all[path].1;
             self.path.push(node);
         }
         unreachable!("returns at the target level")
