@@ -6,8 +6,9 @@ use rtl::config::{Config, Realloc};
 
 #[derive(clap::Args, Clone, Debug)]
 pub struct StackConfigArgs {
-    /// Stack configurations, comma-separated: RB_N, RB_FULL, RB_N+SH_M, +SK, +RA, or SMS
-    /// (= RB_8+SH_8+SK+RA); `paper` = every configuration of the paper's evaluation (SPEC
+    /// Stack configurations, comma-separated: RB_N, RB_FULL, RB_N+SH_M, +SK, +RA (or +RA_G:
+    /// lending within groups of G lanes), +RT (drop the oldest entry on overflow and restart the
+    /// walk: cycle level, flat BVH, nearest order), or SMS (= RB_8+SH_8+SK+RA); `paper` = every configuration of the paper's evaluation (SPEC
     /// section 8). Default: `sms run` RB_8,RB_16,SMS (the first is the speed-ups' baseline),
     /// `sms bench` RB_8,RB_8+SH_8+SK,SMS, `sms sweep` paper, `sms cost` SMS, `sms check` the
     /// grid of --rb, --sh, --warp-sizes and --borrow-limits; RB_8 is always run by bench and

@@ -200,7 +200,7 @@ impl CostReport {
                 origin: Origin::Restart,
                 bits: levels as u32 * per_level,
                 copies_per_sm: t,
-                note: "BVH6: 32 levels x (3-bit rank + last bit); a BVH2 needs 64 x 2; the entries' rank and last bit ride in their unused high address bits",
+                note: "BVH6: 32 levels x (3-bit rank + last bit); a BVH2 needs 96 x 2; the entries' rank and last bit ride in their unused high address bits",
             });
             fields.push(Field {
                 name: "trail_depth",
