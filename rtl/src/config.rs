@@ -491,14 +491,14 @@ impl FromStr for Config {
                 return Err(reject(
                     "config",
                     s,
-                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA or +RA_G, +RT",
+                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA or +RA_G, and +RT",
                 ));
             } else {
                 return Err(reject(
                     "config",
                     s,
                     format!(
-                        "unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK, RA or RA_G, RT (or SMS alone)"
+                        "unknown part '{part}': expected RB_N, RB_FULL, SH_M, SK, RA, RA_G or RT (or SMS alone)"
                     ),
                 ));
             }
