@@ -491,7 +491,7 @@ impl FromStr for Config {
                 return Err(reject(
                     "config",
                     s,
-                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA or +RA_G, and +RT",
+                    "an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA, +RA_G or +RT",
                 ));
             } else {
                 return Err(reject(

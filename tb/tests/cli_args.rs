@@ -158,7 +158,7 @@ fn configuration_name_errors_say_what_is_wrong_in_the_names_written() {
             "RB_8+XX",
             "config = RB_8+XX: unknown part 'XX': expected RB_N, RB_FULL, SH_M, SK, RA, RA_G or RT (or SMS alone)",
         ),
-        ("RB_8++SK", "config = RB_8++SK: an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA or +RA_G"),
+        ("RB_8++SK", "config = RB_8++SK: an empty part: expected RB_N or RB_FULL, then +SH_M, +SK, +RA, +RA_G or +RT"),
         ("RB_8+SH_8+ra_3", "lend_group = 3: a lending group must be a power of two from 2 to the warp size (32)"),
         ("RB_8+SH_8+RA_g", "lend_group = g: expected a number of lanes"),
         ("rb_x", "rb = x: expected a number or FULL"),
