@@ -287,6 +287,29 @@ impl Config {
         names.iter().map(|n| n.parse().expect("paper configurations are valid")).collect()
     }
 
+    /// The restart comparison: the paper's spilling designs a restart stack competes with (short
+    /// RBs, RB_16, SMS at RB_8 and RB_2), restart stacks of 2 to 16 RB entries (N = 5 is where
+    /// Vaidyanathan et al. find a BVH6 walk close to a full stack), and SMS whose SH overflow drops
+    /// instead of spilling, with and without reallocation. RB_8, the baseline, is not in it.
+    pub fn restart_set() -> Vec<Config> {
+        let names = [
+            "RB_2",
+            "RB_4",
+            "RB_16",
+            "RB_8+SH_8+SK+RA",
+            "RB_2+SH_8+SK+RA",
+            "RB_2+RT",
+            "RB_4+RT",
+            "RB_5+RT",
+            "RB_8+RT",
+            "RB_16+RT",
+            "RB_8+SH_8+SK+RT",
+            "RB_8+SH_8+SK+RA+RT",
+            "RB_2+SH_8+SK+RA+RT",
+        ];
+        names.iter().map(|n| n.parse().expect("restart configurations are valid")).collect()
+    }
+
     /// Threads per RT unit.
     pub fn threads(&self) -> u32 {
         self.warps * self.warp_size

@@ -259,7 +259,7 @@ fn check_pareto(dir: &Path) {
 fn bad_input_is_an_error_not_a_panic() {
     let out = out_dir("bad");
     let out_s = out.to_str().unwrap();
-    let cases: [(&[&str], &str); 7] = [
+    let cases: [(&[&str], &str); 10] = [
         (&["sweep", "--scenes", "wknd,nosuchscene", "--out", out_s], "unknown scene 'nosuchscene'"),
         (&["sweep", "--quick", "--configs", "RB_8+SH_6", "--out", out_s], "--config RB_8+SH_6"),
         (&["sweep", "--quick", "--jobs", "0", "--out", out_s], "--jobs"),
@@ -272,6 +272,15 @@ fn bad_input_is_an_error_not_a_panic() {
             "/proc/sms-sweep-cannot-write-here",
         ),
         (&["sweep", "--quick", "--cache", out_s, "--no-cache", "--out", out_s], "--no-cache"),
+        (
+            &["sweep", "--quick", "--designs", "restart", "--order", "vulkansim", "--out", out_s],
+            "--order vulkansim: RB_2+RT is a restart design",
+        ),
+        (
+            &["sweep", "--quick", "-c", "RB_8,RB_4+RT", "--accel", "two-level", "--out", out_s],
+            "--accel two-level: RB_4+RT is a restart design",
+        ),
+        (&["sweep", "--quick", "--designs", "spill", "--out", out_s], "--designs"),
         (
             &["sweep", "--scenes", "nosuchscene", "--cache", "/proc/sms-no-cache-here", "--out", out_s],
             "unknown scene",
@@ -483,4 +492,71 @@ fn an_interrupted_sweep_resumes_from_its_cache_with_identical_reports() {
     for d in [whole, resumed, sub_out] {
         let _ = std::fs::remove_dir_all(d);
     }
+}
+
+/// `--designs restart` on two tiny scenes: the restart designs run on a flat BVH in nearest order,
+/// the report has the restart figure and no RB-size or L1D sweep, and the figure's numbers follow
+/// from the raw runs in report.json (per-ray values as totals over totals, the node-fetch ratio
+/// as a geometric mean of per-scene ratios, bytes per SM as `sms cost` counts them).
+#[test]
+fn a_restart_sweep_reports_what_dropping_buys_and_costs() {
+    let out = out_dir("restart");
+    let scenes = SCENES.join(",");
+    let args =
+        ["sweep", "--designs", "restart", "--scenes", &scenes, "--quiet", "--out", out.to_str().unwrap()];
+    let o = sms(&[&args[..], &common::TINY].concat());
+    assert!(o.status.success(), "sms sweep --designs restart failed: {}", String::from_utf8_lossy(&o.stderr));
+    for gone in ["rb_sweep", "l1d_sweep"] {
+        assert!(!out.join(format!("{gone}.md")).exists(), "{gone}: the restart comparison has no such sweep");
+    }
+    let report = json(&out.join("report.json"));
+    assert_eq!(report["settings"]["order"], "nearest", "{}", report["settings"]);
+    assert_eq!(report["settings"]["accel"], "flat", "{}", report["settings"]);
+    let figure = json(&out.join("restart.json"));
+    let rows = figure["data"]["rows"].as_array().unwrap();
+    let names: Vec<&str> = rows.iter().map(|r| r["config"].as_str().unwrap()).collect();
+    for c in
+        ["RB_8", "RB_2", "RB_8+SH_8+SK+RA", "RB_2+RT", "RB_5+RT", "RB_8+SH_8+SK+RA+RT", "RB_2+SH_8+SK+RA+RT"]
+    {
+        assert!(names.contains(&c), "{c} missing from the restart figure: {names:?}");
+    }
+    let runs = report["runs"].as_array().unwrap();
+    let total = |config: &str, f: &dyn Fn(&Value) -> u64| -> u64 {
+        runs.iter().filter(|r| r["config"] == config).map(f).sum()
+    };
+    let rays = |r: &Value| r["outcome"]["gpu"]["rays"].as_u64().unwrap();
+    let per_scene_fetches = |config: &str, scene: &str| {
+        let r = runs.iter().find(|r| r["config"] == config && r["scene"] == scene).unwrap();
+        r["outcome"]["gpu"]["node_fetches"].as_f64().unwrap() / rays(r) as f64
+    };
+    let mut restarted = false;
+    for row in rows {
+        let c = row["config"].as_str().unwrap();
+        let restart = c.ends_with("+RT");
+        assert_eq!(row["restart"], restart, "{c}");
+        let restarts = total(c, &|r| r["outcome"]["stack"]["restarts"].as_u64().unwrap_or(0));
+        let drops = total(c, &|r| r["outcome"]["stack"]["drops"].as_u64().unwrap_or(0));
+        let n = total(c, &rays) as f64;
+        assert!((row["restarts_per_ray"].as_f64().unwrap() - restarts as f64 / n).abs() < 1e-12, "{c}");
+        assert!((row["drops_per_ray"].as_f64().unwrap() - drops as f64 / n).abs() < 1e-12, "{c}");
+        let fetches = total(c, &|r| r["outcome"]["gpu"]["node_fetches"].as_u64().unwrap()) as f64 / n;
+        assert!((row["node_fetches_per_ray"].as_f64().unwrap() - fetches).abs() < 1e-9, "{c}");
+        let ratio = SCENES
+            .iter()
+            .map(|sc| (per_scene_fetches(c, sc) / per_scene_fetches("RB_8", sc)).ln())
+            .sum::<f64>()
+            / SCENES.len() as f64;
+        assert!((row["node_fetches_vs_baseline"].as_f64().unwrap() - ratio.exp()).abs() < 1e-9, "{c}");
+        if !restart {
+            assert_eq!((restarts, drops), (0, 0), "{c}: a spilling design never drops");
+        }
+        restarted |= restarts > 0;
+        // Bytes per SM as sms cost counts them: the restart designs' trail included.
+        let cost = sms(&["cost", "-c", c, "--format", "json"]);
+        assert!(cost.status.success(), "sms cost -c {c}: {}", String::from_utf8_lossy(&cost.stderr));
+        let cost: Value = serde_json::from_slice(&cost.stdout).unwrap();
+        assert_eq!(row["on_chip_bytes_per_sm"], cost[0]["totals"]["on_chip_bytes_per_sm"], "{c}");
+    }
+    assert!(restarted, "RB_2+RT restarts somewhere on two scenes");
+    let _ = std::fs::remove_dir_all(&out);
 }

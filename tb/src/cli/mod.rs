@@ -363,12 +363,14 @@ pub struct WorkloadArgs {
     pub bvh: crate::workload::BvhKind,
     /// Child order: vulkansim (Vulkan-Sim's: hit children in index order, the first hit internal
     /// child descended, every other hit child pushed, leaves included) or nearest (the nearest
-    /// hit child descended, the others pushed far to near).
-    #[arg(long, value_enum, default_value = "vulkansim")]
-    pub order: crate::workload::traverse::ChildOrder,
+    /// hit child descended, the others pushed far to near) [default: vulkansim; nearest when a
+    /// restart design (+RT) is among the configurations, for every configuration of the run].
+    #[arg(long, value_enum)]
+    pub order: Option<crate::workload::traverse::ChildOrder>,
     /// Acceleration structure: two-level (a TLAS over one BLAS per mesh, as the Vulkan pipeline
     /// builds it, one stack across both levels; bvh6 only) or flat (one BVH over every
-    /// primitive, instances flattened) [default: two-level with bvh6, else flat].
+    /// primitive, instances flattened) [default: two-level with bvh6, else flat; flat when a
+    /// restart design (+RT) is among the configurations, for every configuration of the run].
     #[arg(long, value_enum)]
     pub accel: Option<crate::workload::Accel>,
     /// Resolution as WIDTHxHEIGHT (default: the scene's; LumiBench's 128x128 unless its
@@ -393,18 +395,52 @@ pub struct WorkloadArgs {
 }
 
 impl WorkloadArgs {
-    /// The overrides of every scene's own render settings.
+    /// The overrides of every scene's own render settings, for runs of no restart design.
     pub fn settings(&self) -> crate::run::sweep::Settings {
-        crate::run::sweep::Settings {
+        self.settings_for(&[]).expect("without a restart design every order and structure is allowed")
+    }
+
+    /// The overrides of every scene's own render settings for a run of `configs`. A restart design
+    /// (`+RT`) walks a flat BVH in nearest order (its trail records ranks in that order), so with
+    /// one among them those are the defaults for every configuration (one workload, compared
+    /// alike); asking for another is an error naming the flag.
+    pub fn settings_for(
+        &self,
+        configs: &[rtl::config::Config],
+    ) -> anyhow::Result<crate::run::sweep::Settings> {
+        use crate::workload::traverse::ChildOrder;
+        use crate::workload::Accel;
+        let restart = configs.iter().find(|c| c.overflow == rtl::config::Overflow::Drop);
+        let (order, accel) = match restart {
+            None => (self.order.unwrap_or(ChildOrder::VulkanSim), self.accel),
+            Some(c) => {
+                if self.order == Some(ChildOrder::VulkanSim) {
+                    anyhow::bail!(
+                        "--order vulkansim: {} is a restart design, whose trail follows the nearest order; use \
+                         --order nearest (the default with a restart design)",
+                        c.name()
+                    );
+                }
+                if self.accel == Some(Accel::TwoLevel) {
+                    anyhow::bail!(
+                        "--accel two-level: {} is a restart design, whose trail describes one flat BVH; use \
+                         --accel flat (the default with a restart design)",
+                        c.name()
+                    );
+                }
+                (ChildOrder::Nearest, Some(Accel::Flat))
+            }
+        };
+        Ok(crate::run::sweep::Settings {
             res: self.res,
             spp: self.spp,
             bounces: self.bounces,
             bvh: self.bvh,
-            order: self.order,
-            accel: self.accel,
+            order,
+            accel,
             path_end: self.path_end,
             seed: self.seed,
-        }
+        })
     }
 
     /// `scene`'s own render settings with these arguments applied.

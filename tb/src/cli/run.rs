@@ -177,6 +177,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for s in &specs {
         s.validate()?;
     }
+    let settings = args.workload.settings_for(&configs)?;
 
     let library = args.scenes.library()?;
     for (flag, path) in [("--vcd", vcd.as_ref().map(|v| &v.path)), ("--png", args.png.as_ref())] {
@@ -194,7 +195,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let start = Instant::now();
     let scene = library.load(&args.scene)?;
-    let opts = args.workload.opts(&scene);
+    let opts = settings.opts(&scene);
     let log = crate::cli::note;
     log(format!("loaded {} ({} primitives) in {:.2} s", scene.name, scene.primitives.len(), secs(start)));
     let estimate = guard::Estimate::new(&opts, scene.primitives.len(), specs.len(), jobs, args.fidelity);

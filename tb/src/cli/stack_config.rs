@@ -8,11 +8,12 @@ use rtl::config::{Config, Realloc};
 pub struct StackConfigArgs {
     /// Stack configurations, comma-separated: RB_N, RB_FULL, RB_N+SH_M, +SK, +RA (or +RA_G:
     /// lending within groups of G lanes), +RT (drop the oldest entry on overflow and restart the
-    /// walk: cycle level, flat BVH, nearest order), or SMS (= RB_8+SH_8+SK+RA); `paper` = every configuration of the paper's evaluation (SPEC
-    /// section 8). Default: `sms run` RB_8,RB_16,SMS (the first is the speed-ups' baseline),
-    /// `sms bench` RB_8,RB_8+SH_8+SK,SMS, `sms sweep` paper, `sms cost` SMS, `sms check` the
-    /// grid of --rb, --sh, --warp-sizes and --borrow-limits; RB_8 is always run by bench and
-    /// sweep. `--configs` is the same flag.
+    /// walk: cycle level, flat BVH, nearest order), or SMS (= RB_8+SH_8+SK+RA); `paper` = every
+    /// configuration of the paper's evaluation (SPEC section 8); `restart` = the restart designs
+    /// beside the spilling ones they compete with. Default: `sms run` RB_8,RB_16,SMS (the first
+    /// is the speed-ups' baseline), `sms bench` RB_8,RB_8+SH_8+SK,SMS, `sms sweep` paper (restart
+    /// with --designs restart), `sms cost` SMS, `sms check` the grid of --rb, --sh, --warp-sizes
+    /// and --borrow-limits; RB_8 is always run by bench and sweep. `--configs` is the same flag.
     #[arg(long, short = 'c', visible_alias = "configs", value_delimiter = ',')]
     pub config: Vec<String>,
     /// Warps per RT unit.
@@ -60,6 +61,8 @@ impl StackConfigArgs {
         for name in &names {
             let base: Vec<Config> = if name.eq_ignore_ascii_case("paper") {
                 Config::paper_set()
+            } else if name.eq_ignore_ascii_case("restart") {
+                Config::restart_set()
             } else {
                 vec![name.parse().with_context(|| format!("--config {name}"))?]
             };

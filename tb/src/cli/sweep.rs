@@ -12,7 +12,7 @@ use crate::cli::{Format, HardwareArgs, OutputArgs, SampleArgs, SceneArgs, Worklo
 use crate::report::figure::Figure;
 use crate::report::sweep::{figure_json, figure_markdown};
 use crate::run::provenance::Provenance;
-use crate::run::sweep::{self, Plan, Progress, Request, DEFAULT_SAMPLE, SAMPLE_ERROR};
+use crate::run::sweep::{self, Designs, Plan, Progress, Request, DEFAULT_SAMPLE, SAMPLE_ERROR};
 
 /// `--quick`: the built-in scenes, tiny.
 pub const QUICK_RES: (u32, u32) = (16, 16);
@@ -123,7 +123,7 @@ impl SweepArgs {
             (names, _) => names.to_vec(),
         };
         sweep::check_scenes(&library, &scenes)?;
-        let mut settings = self.workload.settings();
+        let mut settings = self.workload.settings_for(&plan.configs)?;
         if self.quick && settings.res.is_none() {
             settings.res = Some(QUICK_RES);
         }
@@ -181,12 +181,20 @@ pub struct Args {
     /// Configurations run on the base L1D size (RB_8, the baseline, is always run).
     #[command(flatten)]
     pub stack: StackConfigArgs,
-    /// N of the RB-size sweep: RB_N and RB_N+SH_8+SK+RA for each.
-    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
-    pub rb_sizes: Vec<u32>,
-    /// Unified L1D/shared-array sizes in KB of the L1D sweep, each with RB_8 and SMS.
-    #[arg(long, value_delimiter = ',', default_value = "16,32,64,128,256")]
-    pub l1d_sizes: Vec<u32>,
+    /// Which comparison: paper (the paper's evaluation: its configurations, the RB-size and the
+    /// L1D sweeps) or restart (`-c restart`: restart designs beside the spilling designs they
+    /// compete with, on a flat BVH in nearest order, no RB-size or L1D sweep unless asked; the
+    /// report adds the restart figure). -c replaces the comparison's configurations.
+    #[arg(long, value_enum, default_value = "paper")]
+    pub designs: Designs,
+    /// N of the RB-size sweep: RB_N and RB_N+SH_8+SK+RA for each [default: 1,2,4,8,16,32 with
+    /// --designs paper, none with restart].
+    #[arg(long, value_delimiter = ',')]
+    pub rb_sizes: Option<Vec<u32>>,
+    /// Unified L1D/shared-array sizes in KB of the L1D sweep, each with RB_8 and SMS [default:
+    /// 16,32,64,128,256 with --designs paper, none with restart].
+    #[arg(long, value_delimiter = ',')]
+    pub l1d_sizes: Option<Vec<u32>>,
     /// Report folder.
     #[arg(long, default_value = "out/sweep")]
     pub out: PathBuf,
@@ -195,31 +203,36 @@ pub struct Args {
 impl Args {
     /// The sweep these arguments ask for, checked before any simulation starts.
     pub fn request(&self) -> anyhow::Result<Request> {
+        let paper = self.designs == Designs::Paper;
+        let rb_sizes =
+            self.rb_sizes.clone().unwrap_or_else(|| if paper { sweep::RB_SIZES.to_vec() } else { vec![] });
+        let l1d_sizes =
+            self.l1d_sizes.clone().unwrap_or_else(|| if paper { sweep::L1D_KB.to_vec() } else { vec![] });
         // Each size named by its flag, before the plan's own checks name configurations.
-        for &n in &self.rb_sizes {
+        for &n in &rb_sizes {
             let c: rtl::config::Config =
                 format!("RB_{n}").parse().map_err(|e| anyhow::anyhow!("--rb-sizes {n}: {e}"))?;
             c.validate().map_err(|e| anyhow::anyhow!("--rb-sizes {n}: {e}"))?;
         }
         let sms: rtl::config::Config = sweep::with_sms(8).parse()?;
         let sh_kb = rtl::gpu::shared_bytes(&sms).div_ceil(1024);
-        if let Some(kb) = self.l1d_sizes.iter().find(|&&kb| kb <= sh_kb) {
+        if let Some(kb) = l1d_sizes.iter().find(|&&kb| kb <= sh_kb) {
             bail!(
                 "--l1d-sizes {kb}: each size (in KB) must be above {sh_kb}, the SH stacks of {} that the L1D \
                  sweep runs on it (e.g. 16,32,64,128,256)",
                 sms.name()
             );
         }
-        if let Some(kb) = self.l1d_sizes.iter().find(|&&kb| kb > u32::MAX / 1024) {
+        if let Some(kb) = l1d_sizes.iter().find(|&&kb| kb > u32::MAX / 1024) {
             bail!("--l1d-sizes {kb}: too large; each size (in KB) must be at most {}", u32::MAX / 1024);
         }
         let plan = Plan {
             configs: {
                 self.stack.names_only("sweep")?;
-                self.stack.resolve(&["paper"])?
+                self.stack.resolve(&[if paper { "paper" } else { "restart" }])?
             },
-            rb_sizes: self.rb_sizes.clone(),
-            l1d_kb: self.l1d_sizes.clone(),
+            rb_sizes,
+            l1d_kb: l1d_sizes,
         };
         self.common.request(plan)
     }
@@ -319,7 +332,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Ok(());
     }
     let written = crate::report::sweep::write_all(&result, &args.out)?;
-    let headline = [crate::report::figures::performance(&result), crate::report::figures::cost(&result)?];
+    let mut headline =
+        vec![crate::report::figures::performance(&result), crate::report::figures::cost(&result)?];
+    if crate::report::restart::applies(&result) {
+        headline.push(crate::report::restart::figure(&result)?);
+    }
     print_figures(&args.common.output, &headline, &result.provenance())?;
     finish(&format!("{} simulations", result.runs.len()), &result, written.len(), &args.out);
     Ok(())

@@ -15,19 +15,21 @@ use crate::report::table::Table;
 use crate::run::sim::Outcome;
 use crate::run::sweep::{geomean, with_sms, Sweep, Variant, BASELINE};
 
-/// Every figure, in report order.
+/// Every figure, in report order; the RB-size and L1D sweeps only when the plan has them, the
+/// restart figure only when restart designs ran.
 pub fn all(s: &Sweep) -> Result<Vec<Figure>> {
-    Ok(vec![
-        performance(s),
-        offchip(s),
-        bank_conflicts(s),
-        skew(s),
-        rb_sweep(s),
-        l1d_sweep(s),
-        depth(s),
-        cost(s)?,
-        super::breakdown::figure(s),
-    ])
+    let mut all = vec![performance(s), offchip(s), bank_conflicts(s), skew(s)];
+    if !s.plan.rb_sizes.is_empty() {
+        all.push(rb_sweep(s));
+    }
+    if !s.plan.l1d_kb.is_empty() {
+        all.push(l1d_sweep(s));
+    }
+    all.extend([depth(s), cost(s)?, super::breakdown::figure(s)]);
+    if super::restart::applies(s) {
+        all.push(super::restart::figure(s)?);
+    }
+    Ok(all)
 }
 
 fn f4(v: Option<f64>) -> String {
@@ -152,8 +154,11 @@ fn ratio(a: Option<u64>, b: Option<u64>) -> Option<f64> {
 
 /// The family a configuration's bar belongs to in the performance figure: RB sizes (no SH
 /// stack), SH sizes (SH stacks, no skew or reallocation), the SMS steps (skew, reallocation, and
-/// SMS at other RB sizes).
+/// SMS at other RB sizes), restart designs.
 fn family(c: &rtl::config::Config) -> usize {
+    if c.overflow == rtl::config::Overflow::Drop {
+        return 3;
+    }
     match (c.sh_entries, c.skew || c.realloc().is_some()) {
         (0, _) => 0,
         (_, false) => 1,

@@ -13,5 +13,6 @@ pub mod figure;
 pub mod figures;
 pub mod layout;
 pub mod plot;
+pub mod restart;
 pub mod sweep;
 pub mod table;

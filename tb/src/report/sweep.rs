@@ -190,11 +190,13 @@ fn timing_json(s: &Sweep) -> Value {
 }
 
 fn summary(s: &Sweep, figures: &[Figure]) -> String {
-    let mut out = format!(
-        "# SMS sweep: the paper's experiments on {} scenes\n\n{}",
-        s.scenes.len(),
-        s.provenance().markdown()
-    );
+    let what = if super::restart::applies(s) {
+        "restart designs beside spilling ones"
+    } else {
+        "the paper's experiments"
+    };
+    let mut out =
+        format!("# SMS sweep: {what} on {} scenes\n\n{}", s.scenes.len(), s.provenance().markdown());
     let _ = writeln!(
         out,
         "Rendered at {} (the scene table below gives each scene's workload).\n",

@@ -69,6 +69,15 @@ pub const SAMPLE_ERROR: &str = "measured on the 18 scenes at LumiBench's setting
      by up to 0.18 (lamborghini-huracan RB_FULL). Differences between designs sampled alike err less, \
      but use --sample 1 (the default) for conclusions";
 
+/// Which comparison a sweep makes (`sms sweep --designs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Designs {
+    /// The paper's evaluation (SPEC section 8): [`Config::paper_set`], the RB-size and L1D sweeps.
+    Paper,
+    /// [`Config::restart_set`]: restart designs beside the spilling designs they compete with.
+    Restart,
+}
+
 /// `RB_N` with SMS.
 pub fn with_sms(n: u32) -> String {
     format!("RB_{n}{SMS_SUFFIX}")
