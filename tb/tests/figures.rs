@@ -36,8 +36,11 @@ fn assert_clean(path: &Path) {
 }
 
 /// The performance figure's family of a configuration, read from its name: RB sizes alone, SH
-/// stacks alone, or with skew or reallocation.
+/// stacks alone, with skew or reallocation, or a restart design.
 fn family(name: &str) -> usize {
+    if name.contains("+RT") {
+        return 3;
+    }
     match (name.contains("SH_"), name.contains("+SK") || name.contains("+RA")) {
         (false, _) => 0,
         (true, false) => 1,
@@ -110,6 +113,21 @@ fn tiny_reports() -> (common::TmpDir, PathBuf, PathBuf) {
     let bench_args = ["bench", "--scenes", "wknd,clutter", "--fractions", "1,0.5", "--batches", "2", "--out"];
     common::sms(&[&bench_args[..], &[out(&bench).as_str()], &common::TINY].concat(), &["--quiet"]);
     (dir, sweep, bench)
+}
+
+/// The restart comparison's charts: its own figure, and the performance figure with the restart
+/// designs as a fourth family.
+#[test]
+fn the_restart_figures_read_cleanly() {
+    let dir = common::TmpDir::new("figures", "restart");
+    let out = dir.path().join("sweep");
+    let args =
+        ["sweep", "--designs", "restart", "--scenes", "wknd,clutter", "--quiet", "--no-cache", "--out"];
+    common::sms(&[&args[..], &[out.to_str().unwrap()], &common::TINY].concat(), &[]);
+    for f in ["restart", "performance", "cost", "offchip"] {
+        assert_clean(&out.join(format!("{f}.svg")));
+    }
+    assert_families_distinct(&out.join("performance.svg"));
 }
 
 #[test]
