@@ -406,178 +406,28 @@ pub fn run_arms(
     progress: &Progress,
 ) -> Result<Vec<Sweep>> {
     check_scenes(library, &req.scenes)?;
-    let hws: Vec<Hardware> = arms
-        .iter()
-        .map(|t| {
-            let mut hw = req.hw;
-            if let Some(t) = t {
-                t(&mut hw, &mut WorkloadOpts::default());
-            }
-            hw
-        })
-        .collect();
+    let hws = arm_hardware(req.hw, arms);
     let variants: Vec<Vec<Variant>> =
         hws.iter().map(|hw| req.plan.variants(hw.mem.l1d_bytes / 1024)).collect::<Result<_>>()?;
     let open = if req.prune_cache { cache::Cache::open_pruning } else { cache::Cache::open };
     let cache = req.cache.as_deref().map(open).transpose()?;
     let start = Instant::now();
-    let mut out: Vec<Sweep> = hws
-        .iter()
-        .zip(&variants)
-        .map(|(&hw, v)| Sweep {
-            settings: req.settings,
-            hw,
-            hw_name: req.hw_name.clone(),
-            plan: req.plan.clone(),
-            variants: v.clone(),
-            scenes: Vec::with_capacity(req.scenes.len()),
-            runs: Vec::with_capacity(req.scenes.len() * v.len()),
-            jobs: req.jobs,
-            sample: req.sample,
-            wall: Duration::ZERO,
-            peak_rss: None,
-            cache: None,
-            shard: None,
-        })
-        .collect();
+    let mut out: Vec<Sweep> = hws.iter().zip(&variants).map(|(&hw, v)| empty_sweep(req, hw, v)).collect();
     if (req.shard.is_some() || req.collect) && cache.is_none() {
         return Err(Error::Invalid(
             "--shard and --collect work through the result cache: drop --no-cache".into(),
         ));
     }
-    // Results numbered in plan order (scene, arm, variant, then the scene's depth pass), for shards.
-    let mut number = 0usize;
-    let mut counts = ShardCounts::default();
-    let mut missing = 0usize;
+    let mut tally = Tally::default();
     for name in &req.scenes {
-        progress.status(&format!("loading {name}"));
-        let t = Instant::now();
-        let scene = library.load(name)?;
-        let load_secs = t.elapsed().as_secs_f64();
-        let scene_key = cache.as_ref().map(|_| cache::scene_key(&scene));
-        // Arms with equal workloads share one (built only if some result is not cached), and its
-        // statistics (they depend on the traces alone), from the cache or the first arm's pass.
-        let mut built: Vec<Built> = Vec::new();
-        let arm_opts: Vec<WorkloadOpts> = arms
-            .iter()
-            .map(|tweak| {
-                let mut opts = req.settings.opts(&scene);
-                if let Some(t) = tweak {
-                    t(&mut Hardware::default(), &mut opts);
-                }
-                opts
-            })
-            .collect();
-        for (a, &opts) in arm_opts.iter().enumerate() {
-            let i = match built.iter().position(|b| b.opts == opts) {
-                Some(i) => i,
-                None => {
-                    let info = match (&cache, &scene_key) {
-                        (Some(c), Some(k)) => c.get_scene(&cache::scene_info_key(k, &opts)),
-                        _ => None,
-                    };
-                    built.push(Built { opts, workload: None, secs: 0.0, info });
-                    built.len() - 1
-                }
-            };
-            let sw = &mut out[a];
-            let keys: Vec<Option<String>> = sw
-                .variants
-                .iter()
-                .map(|v| {
-                    let k = scene_key.as_ref()?;
-                    Some(cache::run_key(k, &opts, req.sample, &v.config, &variant_hw(&sw.hw, v)))
-                })
-                .collect();
-            let cached: Vec<Option<Measured>> =
-                keys.iter().map(|k| cache.as_ref()?.get_run(k.as_ref()?)).collect();
-            let from_cache: Vec<bool> = cached.iter().map(Option::is_some).collect();
-            let b = &mut built[i];
-            // Which results (the variants', then the depth pass) this process computes.
-            let mut owned: Vec<bool> = (0..=cached.len())
-                .map(|_| {
-                    number += 1;
-                    req.shard.is_none_or(|s| (number - 1) % s.count == s.index)
-                })
-                .collect();
-            let info_known = b.info.is_some();
-            if req.shard.is_some() {
-                for (j, &own) in owned.iter().enumerate() {
-                    let have = if j < cached.len() { cached[j].is_some() } else { info_known };
-                    match (own, have) {
-                        (false, _) => counts.others += 1,
-                        (true, true) => counts.cached += 1,
-                        (true, false) => counts.computed += 1,
-                    }
-                }
-            }
-            if req.collect {
-                let absent = cached.iter().filter(|c| c.is_none()).count() + usize::from(!info_known);
-                if absent > 0 {
-                    missing += absent;
-                    continue;
-                }
-            }
-            if missing > 0 {
-                continue;
-            }
-            // A depth pass already known is not run again, whoever owns it.
-            owned[cached.len()] &= !info_known;
-            let needed = owned
-                .iter()
-                .zip(cached.iter().map(Option::is_none).chain([!info_known]))
-                .any(|(o, n)| *o && n);
-            if b.workload.is_none() && needed {
-                progress.status(&format!("building {name}"));
-                let t = Instant::now();
-                b.workload = Some(Workload::new(&scene, opts)?);
-                b.secs = t.elapsed().as_secs_f64();
-            }
-            let job = SceneJob {
-                req,
-                hw: &sw.hw,
-                workload: b.workload.as_ref(),
-                variants: &sw.variants,
-                cached,
-                keys: &keys,
-                cache: cache.as_ref(),
-                scene: name,
-                progress,
-            };
-            let info_key = scene_key.as_ref().map(|k| cache::scene_info_key(k, &opts));
-            let (outcomes, info) = run_scene(job, b.info.clone(), info_key.as_deref(), &owned)?;
-            if req.shard.is_some() {
-                b.info = b.info.clone().or(info);
-                if !arm_opts[a + 1..].contains(&opts) {
-                    b.workload = None;
-                }
-                continue;
-            }
-            let outcomes: Vec<Measured> = outcomes.into_iter().flatten().collect();
-            let info = info.expect("the depth pass ran or its result was known");
-            b.info = Some(info.clone());
-            sw.runs.extend(outcomes.into_iter().zip(&sw.variants).zip(from_cache).map(
-                |(((outcome, sample), v), from_cache)| Run {
-                    scene: name.clone(),
-                    config: v.config.name(),
-                    l1d_kb: v.l1d_kb,
-                    outcome,
-                    sample,
-                    from_cache,
-                },
-            ));
-            sw.scenes.push(scene_result(&scene, opts, info, load_secs, b.secs));
-            // Only one workload in memory at a time: dropped after the last arm that renders it.
-            if !arm_opts[a + 1..].contains(&opts) {
-                b.workload = None;
-            }
-        }
+        sweep_scene(req, arms, library, name, cache.as_ref(), &mut out, &mut tally, progress)?;
     }
     progress.finish();
-    if missing > 0 {
+    if tally.missing > 0 {
         return Err(Error::Invalid(format!(
-            "--collect: {missing} result(s) are not in the cache {}: run the shards that compute them (the \
+            "--collect: {} result(s) are not in the cache {}: run the shards that compute them (the \
              same arguments with --shard K/N) first",
+            tally.missing,
             req.cache.as_deref().map_or("?".into(), |d| d.display().to_string())
         )));
     }
@@ -588,9 +438,211 @@ pub fn run_arms(
         sw.wall = wall;
         sw.peak_rss = peak_rss;
         sw.cache = stats.clone();
-        sw.shard = req.shard.map(|_| counts);
+        sw.shard = req.shard.map(|_| tally.counts);
     }
     Ok(out)
+}
+
+/// Each arm's hardware: the request's with the arm's tweak applied.
+fn arm_hardware(hw: Hardware, arms: &[Option<Tweak>]) -> Vec<Hardware> {
+    arms.iter()
+        .map(|t| {
+            let mut hw = hw;
+            if let Some(t) = t {
+                t(&mut hw, &mut WorkloadOpts::default());
+            }
+            hw
+        })
+        .collect()
+}
+
+/// An arm's sweep before any scene has run: the request's settings on the arm's hardware.
+fn empty_sweep(req: &Request, hw: Hardware, variants: &[Variant]) -> Sweep {
+    Sweep {
+        settings: req.settings,
+        hw,
+        hw_name: req.hw_name.clone(),
+        plan: req.plan.clone(),
+        variants: variants.to_vec(),
+        scenes: Vec::with_capacity(req.scenes.len()),
+        runs: Vec::with_capacity(req.scenes.len() * variants.len()),
+        jobs: req.jobs,
+        sample: req.sample,
+        wall: Duration::ZERO,
+        peak_rss: None,
+        cache: None,
+        shard: None,
+    }
+}
+
+/// Where the sweep stands in its plan: results are numbered in plan order (scene, arm, variant,
+/// then the scene's depth pass) so that every shard splits them alike; what this shard found, and
+/// how many results `--collect` did not find in the cache.
+#[derive(Default)]
+struct Tally {
+    number: usize,
+    counts: ShardCounts,
+    missing: usize,
+}
+
+impl Tally {
+    /// Numbers the next `n` results and says which of them this process computes.
+    fn own(&mut self, shard: Option<Shard>, n: usize) -> Vec<bool> {
+        (0..n)
+            .map(|_| {
+                self.number += 1;
+                shard.is_none_or(|s| (self.number - 1) % s.count == s.index)
+            })
+            .collect()
+    }
+
+    /// Counts a shard's results by owner and by whether they are known (`have`, by index).
+    fn count(&mut self, owned: &[bool], have: impl Fn(usize) -> bool) {
+        for (j, &own) in owned.iter().enumerate() {
+            match (own, have(j)) {
+                (false, _) => self.counts.others += 1,
+                (true, true) => self.counts.cached += 1,
+                (true, false) => self.counts.computed += 1,
+            }
+        }
+    }
+}
+
+/// Each arm's workload options for `scene`: the request's with the arm's tweak applied.
+fn arm_workload_opts(req: &Request, scene: &Scene, arms: &[Option<Tweak>]) -> Vec<WorkloadOpts> {
+    arms.iter()
+        .map(|tweak| {
+            let mut opts = req.settings.opts(scene);
+            if let Some(t) = tweak {
+                t(&mut Hardware::default(), &mut opts);
+            }
+            opts
+        })
+        .collect()
+}
+
+/// The index in `built` of the workload built with `opts`, added (unbuilt, with its statistics
+/// from the cache when there) if no arm before used it.
+fn shared_workload<'s>(
+    built: &mut Vec<Built<'s>>,
+    opts: WorkloadOpts,
+    cache: Option<&cache::Cache>,
+    scene_key: Option<&str>,
+) -> usize {
+    if let Some(i) = built.iter().position(|b| b.opts == opts) {
+        return i;
+    }
+    let info = match (cache, scene_key) {
+        (Some(c), Some(k)) => c.get_scene(&cache::scene_info_key(k, &opts)),
+        _ => None,
+    };
+    built.push(Built { opts, workload: None, secs: 0.0, info });
+    built.len() - 1
+}
+
+/// One scene in every arm: loads it, runs what is neither cached nor another shard's, and appends
+/// each arm's results to its sweep in `out`. Arms with equal workloads share one (built only if
+/// some result is not cached), and its statistics (they depend on the traces alone), from the
+/// cache or the first arm's pass.
+#[allow(clippy::too_many_arguments)]
+fn sweep_scene(
+    req: &Request,
+    arms: &[Option<Tweak>],
+    library: &SceneLibrary,
+    name: &str,
+    cache: Option<&cache::Cache>,
+    out: &mut [Sweep],
+    tally: &mut Tally,
+    progress: &Progress,
+) -> Result<()> {
+    progress.status(&format!("loading {name}"));
+    let t = Instant::now();
+    let scene = library.load(name)?;
+    let load_secs = t.elapsed().as_secs_f64();
+    let scene_key = cache.map(|_| cache::scene_key(&scene));
+    let mut built: Vec<Built> = Vec::new();
+    let arm_opts = arm_workload_opts(req, &scene, arms);
+    for (a, &opts) in arm_opts.iter().enumerate() {
+        let i = shared_workload(&mut built, opts, cache, scene_key.as_deref());
+        let sw = &mut out[a];
+        let keys: Vec<Option<String>> = sw
+            .variants
+            .iter()
+            .map(|v| {
+                let k = scene_key.as_ref()?;
+                Some(cache::run_key(k, &opts, req.sample, &v.config, &variant_hw(&sw.hw, v)))
+            })
+            .collect();
+        let cached: Vec<Option<Measured>> = keys.iter().map(|k| cache?.get_run(k.as_ref()?)).collect();
+        let from_cache: Vec<bool> = cached.iter().map(Option::is_some).collect();
+        let b = &mut built[i];
+        // Which results (the variants', then the depth pass) this process computes.
+        let mut owned = tally.own(req.shard, cached.len() + 1);
+        let info_known = b.info.is_some();
+        if req.shard.is_some() {
+            tally.count(&owned, |j| if j < cached.len() { cached[j].is_some() } else { info_known });
+        }
+        if req.collect {
+            let absent = cached.iter().filter(|c| c.is_none()).count() + usize::from(!info_known);
+            if absent > 0 {
+                tally.missing += absent;
+                continue;
+            }
+        }
+        if tally.missing > 0 {
+            continue;
+        }
+        // A depth pass already known is not run again, whoever owns it.
+        owned[cached.len()] &= !info_known;
+        let needed =
+            owned.iter().zip(cached.iter().map(Option::is_none).chain([!info_known])).any(|(o, n)| *o && n);
+        if b.workload.is_none() && needed {
+            progress.status(&format!("building {name}"));
+            let t = Instant::now();
+            b.workload = Some(Workload::new(&scene, opts)?);
+            b.secs = t.elapsed().as_secs_f64();
+        }
+        let job = SceneJob {
+            req,
+            hw: &sw.hw,
+            workload: b.workload.as_ref(),
+            variants: &sw.variants,
+            cached,
+            keys: &keys,
+            cache,
+            scene: name,
+            progress,
+        };
+        let info_key = scene_key.as_ref().map(|k| cache::scene_info_key(k, &opts));
+        let (outcomes, info) = run_scene(job, b.info.clone(), info_key.as_deref(), &owned)?;
+        // Only one workload in memory at a time: dropped after the last arm that renders it.
+        let last_use = !arm_opts[a + 1..].contains(&opts);
+        if req.shard.is_some() {
+            b.info = b.info.clone().or(info);
+            if last_use {
+                b.workload = None;
+            }
+            continue;
+        }
+        let outcomes: Vec<Measured> = outcomes.into_iter().flatten().collect();
+        let info = info.expect("the depth pass ran or its result was known");
+        b.info = Some(info.clone());
+        sw.runs.extend(outcomes.into_iter().zip(&sw.variants).zip(from_cache).map(
+            |(((outcome, sample), v), from_cache)| Run {
+                scene: name.to_owned(),
+                config: v.config.name(),
+                l1d_kb: v.l1d_kb,
+                outcome,
+                sample,
+                from_cache,
+            },
+        ));
+        sw.scenes.push(scene_result(&scene, opts, info, load_secs, b.secs));
+        if last_use {
+            b.workload = None;
+        }
+    }
+    Ok(())
 }
 
 /// A workload of a scene shared by the arms that render it alike.
