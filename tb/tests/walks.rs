@@ -209,3 +209,46 @@ fn a_stack_that_drops_wrongly_is_caught_by_the_walks_on_a_real_scene() {
         }
     }
 }
+
+/// From the command line: with a restart design among the configurations, every configuration of
+/// the run walks a flat BVH in nearest order by default (and the report says so); asking for
+/// another order or structure, or for the bench (which also runs the functional level), is a
+/// one-line error naming the flag and the design.
+#[test]
+fn restart_designs_set_the_workload_they_need_or_say_why_not() {
+    let sms = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_sms")).args(args).output().expect("sms runs")
+    };
+    let tiny = ["--scene", "wknd", "--res", "16x16", "--spp", "1", "-q", "--json"];
+    let o = sms(&[&["run", "-c", "RB_8,RB_2+RT"][..], &tiny].concat());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let w = &report["workload"];
+    // The JSON leaves out `accel` when it is flat (docs/json.md).
+    assert_eq!((w["accel"].as_str().unwrap_or("flat"), w["order"].as_str()), ("flat", Some("nearest")), "{w}");
+    // Without a restart design the defaults are the paper's.
+    let o = sms(&[&["run", "-c", "RB_8"][..], &tiny].concat());
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let w = &report["workload"];
+    assert_eq!((w["accel"].as_str(), w["order"].as_str()), (Some("two-level"), Some("vulkansim")), "{w}");
+    for (args, expected) in [
+        (
+            &["run", "-c", "RB_2+RT", "--order", "vulkansim"][..],
+            "--order vulkansim: RB_2+RT is a restart design",
+        ),
+        (
+            &["run", "-c", "RB_8,RB_2+RT", "--accel", "two-level"][..],
+            "--accel two-level: RB_2+RT is a restart design",
+        ),
+        (
+            &["bench", "-c", "RB_4+RT", "--scenes", "wknd"][..],
+            "--config RB_4+RT: a restart design runs at the cycle level only",
+        ),
+    ] {
+        let o = sms(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(err.contains(expected), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: one line: {err}");
+    }
+}

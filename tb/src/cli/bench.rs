@@ -64,6 +64,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     crate::cli::guard::output_folder("--out", &args.out, &args.scene_files.library()?.data)?;
     args.stack.names_only("bench")?;
     let configs = args.stack.resolve(&DEFAULT_CONFIGS)?;
+    if let Some(c) = configs.iter().find(|c| c.overflow == rtl::config::Overflow::Drop) {
+        anyhow::bail!(
+            "--config {}: a restart design runs at the cycle level only, and the bench measures both levels; \
+             `sms run` or `sms sweep --designs restart` run it",
+            c.name()
+        );
+    }
     let opts = BenchOpts {
         configs,
         fractions: args.fractions.clone(),
