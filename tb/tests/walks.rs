@@ -225,7 +225,11 @@ fn restart_designs_set_the_workload_they_need_or_say_why_not() {
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let w = &report["workload"];
     // The JSON leaves out `accel` when it is flat (docs/json.md).
-    assert_eq!((w["accel"].as_str().unwrap_or("flat"), w["order"].as_str()), ("flat", Some("nearest")), "{w}");
+    assert_eq!(
+        (w["accel"].as_str().unwrap_or("flat"), w["order"].as_str()),
+        ("flat", Some("nearest")),
+        "{w}"
+    );
     // Without a restart design the defaults are the paper's.
     let o = sms(&[&["run", "-c", "RB_8"][..], &tiny].concat());
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
