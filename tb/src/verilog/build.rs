@@ -370,15 +370,32 @@ fn stack_from(p: &mut impl Iterator<Item = T>) -> Regs<Sym> {
 
 /// Every result of `paths` merged into one under the paths' conditions (the last is the
 /// default), as flat term lists of one shape.
+///
+/// The conditions are disjoint (each is one branch of the control shapes' and the explored
+/// decisions' tree), so each output is chosen among its *distinct* values rather than path by
+/// path: the paths that give an output the same value share one multiplexer under the OR of
+/// their conditions, and those that give it the default value need none. An output most paths
+/// leave as it was costs a few multiplexers instead of one per path.
 fn merge(s: &mut Sym, mut paths: Vec<(B, Vec<T>)>) -> Vec<T> {
-    let (_, mut acc) = paths.pop().expect("at least one path");
-    for (c, x) in paths.into_iter().rev() {
-        debug_assert_eq!(x.len(), acc.len());
-        for (a, y) in acc.iter_mut().zip(x) {
-            *a = T::mux(s, c, y, *a);
+    let (_, default) = paths.pop().expect("at least one path");
+    let mut out = Vec::with_capacity(default.len());
+    let mut groups: Vec<(T, B)> = Vec::new();
+    for (i, &d) in default.iter().enumerate() {
+        groups.clear();
+        for (c, x) in &paths {
+            debug_assert_eq!(x.len(), default.len());
+            let y = x[i];
+            if y == d {
+                continue;
+            }
+            match groups.iter_mut().find(|g| g.0 == y) {
+                Some(g) => g.1 = s.or(g.1, *c),
+                None => groups.push((y, *c)),
+            }
         }
+        out.push(groups.iter().rev().fold(d, |acc, &(y, c)| T::mux(s, c, y, acc)));
     }
-    acc
+    out
 }
 
 /// Stack registers `list` (the cycle's changes, in order) leaves the warp's `stacks` at.
