@@ -52,6 +52,12 @@ impl Offer {
     #[inline]
     pub fn rt_in<'a>(self, now: u64, l1: &'a L1d, l1_step: &L1dStep, job: Option<&'a WarpJob>) -> RtIn<'a> {
         let offered = self.req.is_some();
-        RtIn { now, req_ready: self.ready, req_fire: offered && l1.sm_ready(l1_step, offered), resp: l1.resp(), job }
+        RtIn {
+            now,
+            req_ready: self.ready,
+            req_fire: offered && l1.sm_ready(l1_step, offered),
+            resp: l1.resp(),
+            job,
+        }
     }
 }

@@ -144,7 +144,11 @@ fn the_netlist_stands_below_its_runners() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let g = graph(&sources(&src));
     assert!(g.contains_key("sm") && g.contains_key("sim"), "modules read: {:?}", g.keys());
-    assert!(above_the_netlist(&g).is_empty(), "the netlist depends on its runners: {:?}", above_the_netlist(&g));
+    assert!(
+        above_the_netlist(&g).is_empty(),
+        "the netlist depends on its runners: {:?}",
+        above_the_netlist(&g)
+    );
     // The runners clock the netlist: they name it.
     assert!(g["sim"].contains("gpu") && g["sim"].contains("sm"), "sim: {:?}", g["sim"]);
 }

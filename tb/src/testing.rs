@@ -13,9 +13,9 @@
 
 use rtl::config::Config;
 use rtl::gpu::{Gpu, GpuReport};
-use rtl::sim::Runner;
 use rtl::ray_op::{NodeKind, RayOp, WarpJob};
 use rtl::rt_unit::RunError;
+use rtl::sim::Runner;
 use rtl::stack_unit::{StandaloneStack, UnitStats};
 use rtl::trace::NullSink;
 
@@ -133,14 +133,20 @@ pub fn gpu(cfg: Config, hw: &Hardware) -> Gpu {
 
 /// Runs `gpu` (a GPU, or a GPU with run options) on `jobs`: its report or the error that stopped
 /// it. Panics past [`RUNAWAY`] cycles.
-pub fn run_gpu(gpu: impl Into<Runner>, jobs: impl IntoIterator<Item = WarpJob>) -> Result<GpuReport, RunError> {
+pub fn run_gpu(
+    gpu: impl Into<Runner>,
+    jobs: impl IntoIterator<Item = WarpJob>,
+) -> Result<GpuReport, RunError> {
     gpu.into().run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
         assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
     })
 }
 
 /// [`run_gpu`] with a panic caught (a planted bug may panic, or run away): `Err("panic")`.
-pub fn run_gpu_guarded(gpu: impl Into<Runner>, jobs: Vec<WarpJob>) -> Result<Result<GpuReport, RunError>, String> {
+pub fn run_gpu_guarded(
+    gpu: impl Into<Runner>,
+    jobs: Vec<WarpJob>,
+) -> Result<Result<GpuReport, RunError>, String> {
     let gpu = gpu.into();
     std::panic::catch_unwind(move || run_gpu(gpu, jobs)).map_err(|_| "panic".to_string())
 }

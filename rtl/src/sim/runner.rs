@@ -81,7 +81,11 @@ impl Runner {
 
     /// Runs every job to completion. Every pop is checked against its trace; the first problem
     /// stops the run.
-    pub fn run<S: Sink>(self, jobs: impl IntoIterator<Item = WarpJob>, sink: &mut S) -> Result<GpuReport, RunError> {
+    pub fn run<S: Sink>(
+        self,
+        jobs: impl IntoIterator<Item = WarpJob>,
+        sink: &mut S,
+    ) -> Result<GpuReport, RunError> {
         self.run_with_progress(jobs, sink, u64::MAX, |_| {})
     }
 
@@ -185,7 +189,11 @@ impl Gpu {
     }
 
     /// [`Runner::run`] with the default options.
-    pub fn run<S: Sink>(self, jobs: impl IntoIterator<Item = WarpJob>, sink: &mut S) -> Result<GpuReport, RunError> {
+    pub fn run<S: Sink>(
+        self,
+        jobs: impl IntoIterator<Item = WarpJob>,
+        sink: &mut S,
+    ) -> Result<GpuReport, RunError> {
         Runner::from(self).run(jobs, sink)
     }
 
