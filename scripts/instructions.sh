@@ -1,6 +1,7 @@
 #!/bin/sh
 # Instructions the cycle-level model executes for one SMS run of the throughput bench (clutter
-# 64x64, paper hardware), counted by valgrind's callgrind inside `Gpu::run_timed` only: loading
+# 64x64, paper hardware), counted by valgrind's callgrind inside the run's `run_timed` only
+# (`sim::Runner::run_timed`, or `Gpu::run_timed` in a build where the GPU runs itself): loading
 # the scene, building the BVH, tracing the rays and making the RT units' jobs from the traces
 # (all on their own thread) are not counted. Wall
 # time on a shared virtual machine swings by 15 % and more between runs minutes apart; this count
@@ -31,7 +32,8 @@ fi
 count() {
     log=$(mktemp)
     out=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null --cache-sim=$cache \
-        --toggle-collect='rtl::gpu::Gpu::run_timed*' "$1" --once --serial 2>"$log")
+        --toggle-collect='rtl::sim::runner::Runner::run_timed*' --toggle-collect='rtl::gpu::Gpu::run_timed*' \
+        "$1" --once --serial 2>"$log")
     # "Collected : Ir [Dr Dw I1mr D1mr D1mw ILmr DLmr DLmw]" (the rest with --cache-sim=yes)
     set -- $(sed -n 's/.*Collected : \(.*\)$/\1/p' "$log")
     rm -f "$log"

@@ -11,25 +11,31 @@
 //! ```
 //!
 //! One cycle: the RT units' requests (from registers) go to [`MemSystem::eval`]; the RT units
-//! evaluate on its outputs (siblings: in index order, or as [`Gpu::with_eval_check`] says); then
-//! every RT unit and the memory system commit at the clock edge.
+//! evaluate on its outputs (siblings: in index order, or as the run's evaluation check says);
+//! then every RT unit and the memory system commit at the clock edge. What an SM's RT unit and
+//! L1D see of each other is wired in [`crate::sm`].
 //!
-//! This module holds the parts and what a run reports; [`crate::sim`] runs them: the reference
-//! loop, cycle by cycle, or by windows of cycles (the default, on one thread or two), with the
-//! same report bit for bit.
+//! This module holds the parts (the netlist) and what a run reports; the runners above it
+//! ([`crate::sim`]) clock them: the reference loop, cycle by cycle, or by windows of cycles (the
+//! default, on one thread or two), with the same report bit for bit. How a GPU is run (the
+//! runner, the evaluation check, a helper thread) is the run's, not the hardware's:
+//! [`crate::sim::Runner`], which `Gpu::run` and the `Gpu::with_*` run options make.
 
-use crate::clock::EvalCheck;
+use crate::clock::Unit;
 use crate::config::{Config, ConfigError};
-use crate::mem::hierarchy::MemSystem;
+use crate::mem::hierarchy::{MemStep, MemSystem};
 use crate::mem::{Counters, MemParams, ReqKind};
-use crate::ray_op::{Walks, WarpJob};
-use crate::rt_unit::{RtParams, RtStep, RtUnit, RunError};
-use crate::sim::{self, Parts};
+use crate::rt_unit::{RtParams, RtStep, RtUnit};
 use crate::stack_manager::{StackPolicy, StackStats};
 use crate::thread_cycles::ThreadCycles;
 use crate::trace::{Probe, Sink};
 
-pub use crate::sim::Progress;
+/// Passed to a run's progress callback.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    pub cycle: u64,
+    pub warps_dispatched: u64,
+}
 
 /// Shared memory the SH stacks of one RT unit need: threads × M × entry bytes.
 pub fn shared_bytes(cfg: &Config) -> u32 {
@@ -90,20 +96,13 @@ fn hit_rate(c: &Counters) -> f64 {
     }
 }
 
+/// The GPU's parts: one RT unit per SM and the memory system, built from a stack configuration
+/// and the hardware parameters. Running it is [`crate::sim`]'s (`Gpu::run`, `Gpu::run_timed`, …).
 pub struct Gpu {
     cfg: Config,
     rt: RtParams,
     units: Vec<RtUnit>,
     mem: MemSystem,
-    /// How sibling RT units are evaluated each cycle ([`Gpu::with_eval_check`]).
-    eval_check: EvalCheck,
-    /// The windowed run's SMs are split between two threads ([`Gpu::with_helper_thread`]).
-    helper_thread: bool,
-    /// The run goes by windows where it can ([`Gpu::with_windows`]).
-    windows: bool,
-    /// A slip planted in the runner ([`Gpu::with_order_bug`]).
-    #[cfg(feature = "mutants")]
-    order_bug: Option<sim::OrderBug>,
 }
 
 impl Gpu {
@@ -122,17 +121,7 @@ impl Gpu {
         for u in &mut units {
             u.stack_unit.manager.set_local_layout(mem.local_layout, mem.sms);
         }
-        Ok(Gpu {
-            cfg,
-            rt,
-            units,
-            mem: sys,
-            eval_check: EvalCheck::Dataflow,
-            helper_thread: false,
-            windows: true,
-            #[cfg(feature = "mutants")]
-            order_bug: None,
-        })
+        Ok(Gpu { cfg, rt, units, mem: sys })
     }
 
     /// SPEC 7 defaults: 8 SMs, the L1D is 64 KB less the SH stacks' shared memory.
@@ -153,37 +142,14 @@ impl Gpu {
         self
     }
 
-    /// Evaluate the RT units, and within the memory system the L1Ds and DRAM, in the order, and
-    /// as many times per cycle, that `check` says (the report must not change: tests compare it
-    /// with the [`EvalCheck::Dataflow`] run's).
-    pub fn with_eval_check(mut self, check: EvalCheck) -> Self {
-        self.eval_check = check;
-        self.mem.set_eval_check(check);
-        self
+    /// The stack configuration.
+    pub fn config(&self) -> &Config {
+        &self.cfg
     }
 
-    /// Runs the windowed run's SMs on two threads (the calling thread and a helper): the same
-    /// results as one thread, in less wall time when a second core is free. The reference loop
-    /// runs on one thread either way.
-    pub fn with_helper_thread(mut self, on: bool) -> Self {
-        self.helper_thread = on && self.units.len() >= 2;
-        self
-    }
-
-    /// Runs by windows of cycles, each SM on its own between meetings at the L2 ([`crate::sim`]:
-    /// the same report as the reference loop), where the run allows it: no waveform,
-    /// [`EvalCheck::Dataflow`], idle cycles skipped, at most 64 SMs and an L2 long enough. On by
-    /// default; off for the reference loop.
-    pub fn with_windows(mut self, on: bool) -> Self {
-        self.windows = on;
-        self
-    }
-
-    /// A runner with a planted slip (test builds).
-    #[cfg(feature = "mutants")]
-    pub fn with_order_bug(mut self, bug: sim::OrderBug) -> Self {
-        self.order_bug = Some(bug);
-        self
+    /// The RT units' parameters.
+    pub fn rt_params(&self) -> &RtParams {
+        &self.rt
     }
 
     pub fn units(&self) -> &[RtUnit] {
@@ -194,92 +160,21 @@ impl Gpu {
         &self.mem
     }
 
-    /// Runs every job to completion. Every pop is checked against its trace; the first problem
-    /// stops the run.
-    pub fn run<S: Sink>(
-        self,
-        jobs: impl IntoIterator<Item = WarpJob>,
-        sink: &mut S,
-    ) -> Result<GpuReport, RunError> {
-        self.run_with_progress(jobs, sink, u64::MAX, |_| {})
+    /// The parts, lent to a runner for one run.
+    pub(crate) fn parts_mut(&mut self) -> (&mut [RtUnit], &mut MemSystem) {
+        (&mut self.units, &mut self.mem)
     }
 
-    /// As [`Gpu::run`], calling `progress` about every `every` cycles.
-    pub fn run_with_progress<S: Sink>(
-        self,
-        jobs: impl IntoIterator<Item = WarpJob>,
-        sink: &mut S,
-        every: u64,
-        progress: impl FnMut(Progress),
-    ) -> Result<GpuReport, RunError> {
-        self.run_timed(jobs, sink, every, progress, &mut Vec::new())
-    }
-
-    /// As [`Gpu::run_with_progress`], also filling `residence` with the cycles each job spent
-    /// in its RT unit's warp buffer, indexed by job (launch order).
-    // Kept out of line: `scripts/instructions.sh` counts the instructions inside it.
-    #[inline(never)]
-    pub fn run_timed<S: Sink>(
-        self,
-        jobs: impl IntoIterator<Item = WarpJob>,
-        sink: &mut S,
-        every: u64,
-        progress: impl FnMut(Progress),
-        residence: &mut Vec<u64>,
-    ) -> Result<GpuReport, RunError> {
-        #[cfg(feature = "mutants")]
-        if let Some(bug) = self.order_bug {
-            let shared = std::sync::atomic::AtomicU64::new(0);
-            return self.run_with(sim::Slipped(bug, &shared), jobs, None, sink, every, progress, residence);
-        }
-        self.run_with(sim::Design, jobs, None, sink, every, progress, residence)
-    }
-
-    /// As [`Gpu::run_timed`], for walk-driven jobs (`WarpJob::walk`, the restart designs): each
-    /// ray's operations come from `walks` as its stack answers. Every pop is checked against the
-    /// walk's unbounded reference stack (or answered Restart by the stack's own decision).
-    pub fn run_walks<S: Sink>(
-        self,
-        jobs: impl IntoIterator<Item = WarpJob>,
-        walks: &mut dyn Walks,
-        sink: &mut S,
-        every: u64,
-        progress: impl FnMut(Progress),
-        residence: &mut Vec<u64>,
-    ) -> Result<GpuReport, RunError> {
-        self.run_with(sim::Design, jobs, Some(walks), sink, every, progress, residence)
-    }
-
-    /// [`Gpu::run_timed`] with the runner's steps `steps`.
-    fn run_with<S: Sink>(
-        mut self,
-        steps: impl sim::Steps,
-        jobs: impl IntoIterator<Item = WarpJob>,
-        walks: Option<&mut dyn Walks>,
-        sink: &mut S,
-        every: u64,
-        progress: impl FnMut(Progress),
-        residence: &mut Vec<u64>,
-    ) -> Result<GpuReport, RunError> {
-        let mut walks = walks;
-        let parts = Parts {
-            units: &mut self.units,
-            mem: &mut self.mem,
-            warp_size: self.cfg.warp_size,
-            idle_skip: self.rt.idle_skip,
-            eval_check: self.eval_check,
-            helper_thread: self.helper_thread,
-            windows: self.windows,
-            walks: walks.as_mut().map(|w| &mut **w as &mut dyn Walks),
-        };
-        let o = sim::run(parts, steps, jobs, sink, every, progress, residence)?;
-        Ok(self.report(&o))
-    }
-
-    /// The report of a run that ended as `o` says.
-    fn report(&self, o: &sim::Outcome) -> GpuReport {
-        let (l2, dram) =
-            o.l2_dram_counters.unwrap_or((*self.mem.l2().counters(), *self.mem.dram().counters()));
+    /// The report of a run that evaluated `evaluated` cycles and dispatched its last job in
+    /// `last_dispatch`, from the units' and the memory system's counters; `l2_dram`: the L2's
+    /// and DRAM's counters at the run's end where the runner ran them further (else theirs).
+    pub(crate) fn report(
+        &self,
+        evaluated: u64,
+        last_dispatch: u64,
+        l2_dram: Option<(Counters, Counters)>,
+    ) -> GpuReport {
+        let (l2, dram) = l2_dram.unwrap_or((*self.mem.l2().counters(), *self.mem.dram().counters()));
         // Every L2 access is a request an SM's L1D sent down (the L2 serves nothing else).
         let mut stack = StackStats::default();
         for u in &self.units {
@@ -293,7 +188,7 @@ impl Gpu {
         }
         GpuReport {
             cycles,
-            evaluated_cycles: o.evaluated,
+            evaluated_cycles: evaluated,
             warps: sum(|u| u.stats.warps),
             rays: sum(|u| u.stats.rays),
             visits: sum(|u| u.stats.visits),
@@ -308,15 +203,37 @@ impl Gpu {
             bank_conflict_cycles: sum(|u| u.counters().2),
             pops_checked: sum(|u| u.stats.pops_checked),
             thread_cycles,
-            last_dispatch: o.last_dispatch,
+            last_dispatch,
         }
     }
+}
+
+/// Every SM's RT unit (with its step of the cycle, `step(sm)`) and the memory system (with its
+/// step, `mem_step`), to the sink: the GPU's waveform scopes `sm<k>` and `mem`.
+pub(crate) fn probe<'a, S: Sink>(
+    units: &[RtUnit],
+    step: impl Fn(usize) -> &'a RtStep,
+    mem: &MemSystem,
+    mem_step: &MemStep,
+    s: &mut S,
+) {
+    if !s.enabled() {
+        return;
+    }
+    for (sm, u) in units.iter().enumerate() {
+        s.push_scope(&format!("sm{sm}"));
+        u.probe(step(sm), s);
+        s.pop_scope();
+    }
+    s.push_scope("mem");
+    mem.probe(mem_step, s);
+    s.pop_scope();
 }
 
 /// The GPU's registers, between runs (every RT unit with an empty step).
 impl Probe for Gpu {
     fn probe<S: Sink>(&self, s: &mut S) {
         let idle = RtStep::default();
-        sim::probe(&self.units, |_| &idle, &self.mem, &Default::default(), s);
+        probe(&self.units, |_| &idle, &self.mem, &Default::default(), s);
     }
 }

@@ -65,6 +65,7 @@ pub mod ray_op;
 pub mod rt_unit;
 pub mod scheduler;
 pub mod sim;
+pub mod sm;
 pub mod stack_manager;
 pub mod stack_unit;
 pub mod thread_cycles;

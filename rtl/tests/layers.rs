@@ -1,7 +1,8 @@
 //! The crate's modules are layered: no cycle of `crate::` paths between its top-level modules.
 //! The base layer (`config`, `logic`, `trace`, `clock`) depends on no unit; a unit depends on the
-//! units inside it and the base; the GPU on the units; the runners (`sim`) on the units, and the
-//! GPU on the runners. A cycle means two modules can only be read together.
+//! units inside it and the base; one SM's wiring (`sm`) and the GPU's netlist (`gpu`) on the
+//! units; the runners (`sim`) on the units, `sm` and `gpu`, and nothing below them on the runners.
+//! A cycle means two modules can only be read together.
 //!
 //! The test reads the sources (no parser: every `crate::a::b` path outside comments and outside a
 //! file's `#[cfg(test)] mod tests` is an edge from the file's top-level module to `a`) and fails
@@ -116,6 +117,57 @@ fn the_base_layer_depends_on_no_unit() {
             g[base].iter().filter(|d| !["config", "logic", "trace", "clock"].contains(&d.as_str())).collect();
         assert!(deps.is_empty(), "{base} depends on {deps:?}");
     }
+}
+
+/// The modules `from` reaches through `g`'s edges.
+fn reach(g: &BTreeMap<String, BTreeSet<String>>, from: &str) -> BTreeSet<String> {
+    let mut seen = BTreeSet::new();
+    let mut todo = vec![from.to_string()];
+    while let Some(m) = todo.pop() {
+        for n in g.get(&m).into_iter().flatten() {
+            if seen.insert(n.clone()) {
+                todo.push(n.clone());
+            }
+        }
+    }
+    seen
+}
+
+/// The netlist modules that reach the runners (`sim`): each names a module that must stand below
+/// them.
+fn above_the_netlist(g: &BTreeMap<String, BTreeSet<String>>) -> Vec<&'static str> {
+    ["gpu", "sm"].into_iter().filter(|m| reach(g, m).contains("sim")).collect()
+}
+
+#[test]
+fn the_netlist_stands_below_its_runners() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let g = graph(&sources(&src));
+    assert!(g.contains_key("sm") && g.contains_key("sim"), "modules read: {:?}", g.keys());
+    assert!(
+        above_the_netlist(&g).is_empty(),
+        "the netlist depends on its runners: {:?}",
+        above_the_netlist(&g)
+    );
+    // The runners clock the netlist: they name it.
+    assert!(g["sim"].contains("gpu") && g["sim"].contains("sm"), "sim: {:?}", g["sim"]);
+}
+
+#[test]
+fn a_netlist_that_names_its_runner_is_found() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = sources(&src);
+    // The GPU naming a runner's type: the netlist standing on its runners.
+    let gpu = files.iter_mut().find(|(rel, _)| rel == "gpu.rs").unwrap();
+    gpu.1.insert_str(0, "pub use crate::sim::Runner;\n");
+    assert_eq!(above_the_netlist(&graph(&files)), ["gpu"]);
+    // Through another module too: `sm` naming a module that names `sim`.
+    let mut files = sources(&src);
+    let sm = files.iter_mut().find(|(rel, _)| rel == "sm.rs").unwrap();
+    sm.1.insert_str(0, "use crate::stack_unit::Planted;\n");
+    let unit = files.iter_mut().find(|(rel, _)| rel == "stack_unit.rs").unwrap();
+    unit.1.insert_str(0, "use crate::sim::helper::Helper;\n");
+    assert_eq!(above_the_netlist(&graph(&files)), ["gpu", "sm"]);
 }
 
 #[test]

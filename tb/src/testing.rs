@@ -15,6 +15,7 @@ use rtl::config::Config;
 use rtl::gpu::{Gpu, GpuReport};
 use rtl::ray_op::{NodeKind, RayOp, WarpJob};
 use rtl::rt_unit::RunError;
+use rtl::sim::Runner;
 use rtl::stack_unit::{StandaloneStack, UnitStats};
 use rtl::trace::NullSink;
 
@@ -130,20 +131,28 @@ pub fn gpu(cfg: Config, hw: &Hardware) -> Gpu {
     Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
 }
 
-/// Runs `gpu` on `jobs`: its report or the error that stopped it. Panics past [`RUNAWAY`] cycles.
-pub fn run_gpu(gpu: Gpu, jobs: impl IntoIterator<Item = WarpJob>) -> Result<GpuReport, RunError> {
-    gpu.run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
+/// Runs `gpu` (a GPU, or a GPU with run options) on `jobs`: its report or the error that stopped
+/// it. Panics past [`RUNAWAY`] cycles.
+pub fn run_gpu(
+    gpu: impl Into<Runner>,
+    jobs: impl IntoIterator<Item = WarpJob>,
+) -> Result<GpuReport, RunError> {
+    gpu.into().run_with_progress(jobs, &mut NullSink, RUNAWAY / 10, |p| {
         assert!(p.cycle < RUNAWAY, "ran away: {} cycles", p.cycle)
     })
 }
 
 /// [`run_gpu`] with a panic caught (a planted bug may panic, or run away): `Err("panic")`.
-pub fn run_gpu_guarded(gpu: Gpu, jobs: Vec<WarpJob>) -> Result<Result<GpuReport, RunError>, String> {
+pub fn run_gpu_guarded(
+    gpu: impl Into<Runner>,
+    jobs: Vec<WarpJob>,
+) -> Result<Result<GpuReport, RunError>, String> {
+    let gpu = gpu.into();
     std::panic::catch_unwind(move || run_gpu(gpu, jobs)).map_err(|_| "panic".to_string())
 }
 
 /// The report of a run that must end without an error (`what` names it in the panic).
-pub fn report(gpu: Gpu, jobs: impl IntoIterator<Item = WarpJob>, what: &str) -> GpuReport {
+pub fn report(gpu: impl Into<Runner>, jobs: impl IntoIterator<Item = WarpJob>, what: &str) -> GpuReport {
     run_gpu(gpu, jobs).unwrap_or_else(|e| panic!("{what}: {e}"))
 }
 

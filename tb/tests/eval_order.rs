@@ -12,14 +12,14 @@ use rtl::config::Config;
 use rtl::gpu::{Gpu, GpuReport};
 use rtl::ray_op::WarpJob;
 use rtl::rt_unit::RunError;
-use rtl::sim::OrderBug;
+use rtl::sim::{OrderBug, Runner};
 use tb::run::sim::Hardware;
 
 mod common;
 use common::{bits, gpu, report, run_gpu, run_gpu_guarded as guarded, scene_jobs as jobs};
 
 /// The GPU of `cfg` on the default hardware under `check`, with slip `bug` planted.
-fn planted(cfg: Config, check: EvalCheck, bug: Option<OrderBug>) -> Gpu {
+fn planted(cfg: Config, check: EvalCheck, bug: Option<OrderBug>) -> Runner {
     let g = gpu(cfg, &Hardware::default()).with_eval_check(check);
     match bug {
         Some(b) => g.with_order_bug(b),

@@ -79,6 +79,11 @@ impl MemStep {
     pub fn out(&self) -> &[SmOut] {
         &self.out
     }
+
+    /// L1D `sm`'s step this cycle.
+    pub fn l1d(&self, sm: usize) -> &L1dStep {
+        &self.l1d[sm]
+    }
 }
 
 /// Evaluates one kernel into `d`, or with two passes first into `first` and then into `d`,

@@ -25,6 +25,7 @@
 
 pub mod helper;
 mod reference;
+mod runner;
 #[cfg(feature = "mutants")]
 mod slips;
 mod window;
@@ -35,19 +36,15 @@ pub use slips::OrderBug;
 pub(crate) use slips::Slipped;
 
 use crate::clock::{EvalCheck, Unit};
-use crate::mem::hierarchy::{MemStep, MemSystem};
+use crate::mem::hierarchy::MemSystem;
 use crate::mem::{Counters, MemResp};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
 use crate::trace::Sink;
 use std::iter::Peekable;
 
-/// Passed to the progress callback.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Progress {
-    pub cycle: u64,
-    pub warps_dispatched: u64,
-}
+pub use crate::gpu::Progress;
+pub use runner::Runner;
 
 /// The GPU's parts and how to run them, lent to a runner for one run.
 pub(crate) struct Parts<'a> {
@@ -261,26 +258,4 @@ impl<I: Iterator<Item = WarpJob>> Dispatcher<I> {
             }
         }
     }
-}
-
-/// Every SM's RT unit (with its step of the cycle, `step(sm)`) and the memory system (with its
-/// step, `mem_step`), to the sink.
-pub(crate) fn probe<'a, S: Sink>(
-    units: &[RtUnit],
-    step: impl Fn(usize) -> &'a RtStep,
-    mem: &MemSystem,
-    mem_step: &MemStep,
-    s: &mut S,
-) {
-    if !s.enabled() {
-        return;
-    }
-    for (sm, u) in units.iter().enumerate() {
-        s.push_scope(&format!("sm{sm}"));
-        u.probe(step(sm), s);
-        s.pop_scope();
-    }
-    s.push_scope("mem");
-    mem.probe(mem_step, s);
-    s.pop_scope();
 }

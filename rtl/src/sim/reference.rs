@@ -16,7 +16,8 @@ use crate::clock::Unit;
 use crate::mem::hierarchy::MemStep;
 use crate::mem::MemReq;
 use crate::ray_op::WarpJob;
-use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
+use crate::rt_unit::{RtStep, RtUnit, RunError};
+use crate::sm::Offer;
 use crate::trace::Sink;
 
 /// An RT unit's registers the loop reads between cycles.
@@ -38,9 +39,9 @@ impl RtStatus {
 
 /// The loop's per-SM wires and status, reused from cycle to cycle.
 struct Loop {
-    /// The request each RT unit offers, and whether its L1D was ready for it.
+    /// What each RT unit offers its L1D, and the requests alone (the memory system's input).
+    offers: Vec<Offer>,
     reqs: Vec<Option<MemReq>>,
-    req_ready: Vec<bool>,
     /// The job landing in each RT unit at this cycle's edge.
     jobs_in: Vec<Option<WarpJob>>,
     steps: Vec<RtStep>,
@@ -67,8 +68,8 @@ pub(super) fn run<S: Sink, P: Steps, I: Iterator<Item = WarpJob>>(
 ) -> Result<u64, RunError> {
     let n = parts.units.len();
     let mut l = Loop {
+        offers: vec![Offer::default(); n],
         reqs: vec![None; n],
-        req_ready: vec![false; n],
         jobs_in: vec![None; n],
         steps: vec![RtStep::default(); n],
         mem_step: MemStep::default(),
@@ -129,17 +130,16 @@ impl Loop {
     /// whatever the evaluation order.
     fn eval<P: Steps>(&mut self, parts: &mut Parts, steps: P, now: u64, shown: bool) -> Result<(), RunError> {
         for (sm, u) in parts.units.iter().enumerate() {
-            self.req_ready[sm] = parts.mem.ready(sm);
-            self.reqs[sm] = u.req(self.req_ready[sm]);
+            self.offers[sm] = Offer::of(u, parts.mem.l1d(sm));
+            self.reqs[sm] = self.offers[sm].req;
         }
         parts.mem.eval(&self.reqs, &mut self.mem_step);
-        let out = self.mem_step.out();
         self.evaluated += 1;
         let skip_quiet = !shown && parts.eval_check.skips_quiet_units();
         for (sm, u) in parts.units.iter().enumerate() {
             self.quiet[sm] = skip_quiet
                 && u.next_event().is_none_or(|e| e > now)
-                && !steps.wakes_for(&out[sm].resp)
+                && !steps.wakes_for(parts.mem.l1d(sm).resp())
                 && self.jobs_in[sm].is_none()
                 && self.reqs[sm].is_none();
         }
@@ -148,13 +148,8 @@ impl Loop {
             if self.quiet[sm] {
                 continue;
             }
-            let i = RtIn {
-                now,
-                req_ready: self.req_ready[sm],
-                req_fire: out[sm].ready && self.reqs[sm].is_some(),
-                resp: &out[sm].resp,
-                job: self.jobs_in[sm].as_ref(),
-            };
+            let l1 = parts.mem.l1d(sm);
+            let i = self.offers[sm].rt_in(now, l1, self.mem_step.l1d(sm), self.jobs_in[sm].as_ref());
             for pass in 0..parts.eval_check.passes() {
                 if let Err(e) = steps.eval_rt(&parts.units[sm], i, &mut self.steps[sm], pass) {
                     if first_error.as_ref().is_none_or(|f| sm < f.0) {
@@ -178,7 +173,7 @@ impl Loop {
         #[cfg(not(feature = "untraced"))]
         if shown {
             sink.begin_cycle(now);
-            super::probe(parts.units, |sm| &self.steps[sm], parts.mem, &self.mem_step, sink);
+            crate::gpu::probe(parts.units, |sm| &self.steps[sm], parts.mem, &self.mem_step, sink);
         }
         #[cfg(feature = "untraced")]
         let _ = (sink, now, shown);

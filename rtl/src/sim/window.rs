@@ -40,11 +40,12 @@ use super::{Dispatcher, Progress, Steps};
 use crate::clock::Unit;
 use crate::mem::dram::{Dram, DramIn, DramStep};
 use crate::mem::hierarchy::MemSystem;
-use crate::mem::l1d::{L1d, L1dIn, L1dStep};
+use crate::mem::l1d::{L1d, L1dStep};
 use crate::mem::l2::{FrontIn, FrontStep, L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp, ReqKind};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
+use crate::sm::Offer;
 use crate::warp_buffer::Bits;
 use std::collections::VecDeque;
 
@@ -167,12 +168,11 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
         if steps.stops_for_job() && lane.job.is_none() && lim.jobs_left && u.free_slot().is_some() {
             break;
         }
-        let req_ready = l1.ready();
-        let req = u.req(req_ready);
+        let offer = Offer::of(u, l1);
         // The L1D asks whether its miss queue has room only for a request it takes or holds
         // parked; the bound answers unless it has reached the queue's depth.
         if steps.stops_for_full_queue()
-            && (req.is_some() || !req_ready)
+            && (offer.req.is_some() || !offer.ready)
             && l1.queue_len() >= lim.queue_depth
             && lim.front < c
         {
@@ -190,7 +190,7 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
             lane.fills.pop_front();
         }
         steps.take_fills(&mut lane.now_fills);
-        let rt_idle = idle(u, req, &lane.job, c);
+        let rt_idle = idle(u, offer.req, &lane.job, c);
         if rt_idle && lane.now_fills.is_empty() && !l1_due {
             // Nothing happens in this SM before its next event or response: only the L1D's clock
             // moves (as the reference loop's quiet units), to there or to the window's end.
@@ -208,14 +208,8 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
         if rt_due || l1_due {
             lane.due.set(c);
         }
-        l1.eval(L1dIn { req, down_ready: false, fills: &lane.now_fills }, &mut lane.l1_step);
-        let i = RtIn {
-            now: c,
-            req_ready,
-            req_fire: l1.sm_ready(&lane.l1_step, req.is_some()) && req.is_some(),
-            resp: l1.resp(),
-            job: lane.job.as_ref(),
-        };
+        l1.eval(offer.l1d_in(false, &lane.now_fills), &mut lane.l1_step);
+        let i = offer.rt_in(c, l1, &lane.l1_step, lane.job.as_ref());
         match rt_cycle(u, &mut lane.rt_step, rt_idle, i, steps) {
             Ok(stepped) => {
                 // The job (if one came) landed: an idle unit gets none.
