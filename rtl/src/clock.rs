@@ -19,8 +19,11 @@ use crate::trace::Sink;
 ///   caller reuses so that a cycle allocates nothing once warm ([`Unit::step`] is the same
 ///   function returning a fresh step). Evaluating twice from the same registers gives the same
 ///   step ([`EvalCheck::Twice`]).
-/// - `commit(&mut self, &step)` is the clock edge: it applies the step and decides nothing; it
-///   takes no other input. Nothing changes a unit's registers between `eval` and `commit`, so a
+/// - `commit(&mut self, &step)` is the clock edge: it applies the step and takes no other
+///   input, so the registers after the edge follow from the registers and the step alone. Most
+///   commits only write what the eval decided; a register file does its write port's own work
+///   there (the RT unit's fetch queue coalesces the issued warp's pieces, the L1D's write-through
+///   looks its sector up in the tags). Nothing changes a unit's registers between `eval` and `commit`, so a
 ///   value computed this cycle travels only as a step's output passed in another unit's `In`.
 /// - `probe(&self, &step, sink)` shows the registers and the cycle's signals from the step. A
 ///   register file that a parent writes in its own commit (the warp buffer, the node fetch's

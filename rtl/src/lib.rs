@@ -1,7 +1,8 @@
 //! Clocked register-transfer model of the SMS hierarchical traversal stack.
 //!
 //! Conventions (see `../shared/STYLE.md`):
-//! - one hardware unit per file, named after the unit;
+//! - each hardware unit in a file of its own named after it, or a directory when it has parts
+//!   (`stack_manager/`, `mem/`);
 //! - a unit is a kernel, [`clock::Unit`]: `eval(&self, inputs, &mut step)` reads only its
 //!   registers and this cycle's inputs (other units' outputs, in dataflow order) and writes its
 //!   outputs and decisions into `step`; `commit(&mut self, &step)` applies them at the clock edge

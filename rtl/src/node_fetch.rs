@@ -16,10 +16,10 @@
 //! is a slab with a free list: slots are reused, nothing is allocated once it has grown to the
 //! largest number of pieces in flight.
 //!
-//! A register file of the RT unit, not a [`crate::clock::Unit`]: it decides nothing. The RT
-//! unit's eval reads it ([`NodeFetch::head`], [`NodeFetch::waiters`]) and decides what it takes;
-//! its write ports ([`NodeFetch::coalesce`], [`NodeFetch::taken`], [`NodeFetch::complete`]) are
-//! called only from the RT unit's commit. Its probe ([`Probe`]) shows the registers alone.
+//! A register file of the RT unit, not a [`crate::clock::Unit`]. The RT unit's eval reads it
+//! ([`NodeFetch::head`], [`NodeFetch::waiters`]) and decides what it takes; its write ports
+//! ([`NodeFetch::coalesce`], which merges the issued warp's visits into pieces as it writes them,
+//! [`NodeFetch::taken`], [`NodeFetch::complete`]) are called only from the RT unit's commit. Its probe ([`Probe`]) shows the registers alone.
 
 use std::collections::VecDeque;
 

@@ -552,17 +552,35 @@ impl RtUnit {
         }
     }
 
-    /// The cycle's decisions into `d` (cleared), for [`Unit::eval`]; the first problem is the
-    /// error, and leaves the rest of `d` unfinished.
+    /// The cycle's decisions into `d` (cleared), for [`Unit::eval`], in dataflow order: the
+    /// port and the job, the warps that leave, the scheduler's pick, the responses, the threads,
+    /// then the stack subsystem and the pops it answered. The first problem is the error, and
+    /// leaves the rest of `d` unfinished.
     fn decide(&self, i: &RtIn, d: &mut RtStep) -> Result<(), RunError> {
         if let Some(e) = &self.walk_error {
             return Err(e.clone());
         }
-        let (ws, warps, now) = (self.cfg.warp_size, self.cfg.warps, i.now);
-        d.now = now;
+        d.now = i.now;
         if let Some(what) = self.stack_unit.manager.scoreboard_failure() {
             return Err(RunError::Decision { sm: self.id, what: what.to_string() });
         }
+        self.decide_port(i, d);
+        // The lanes waiting to fetch, sorted once: the warps the scheduler may pick, and the lanes
+        // the sequencer holds back, whose registers have held since the last edge (this cycle and
+        // any skipped before it).
+        let (fetch_ready, held) = self.fetch_census();
+        d.held = held;
+        d.held_cycles = i.now + 1 - self.counted_to;
+        self.decide_leaving(d)?;
+        self.decide_issue(fetch_ready, d);
+        self.route_responses(i, d);
+        self.decide_threads(d);
+        self.decide_stack(d)?;
+        self.match_pops(d)
+    }
+
+    /// The job that lands, the free slot it lands in, and which request the memory port takes.
+    fn decide_port(&self, i: &RtIn, d: &mut RtStep) {
         d.load_slot = self.free_slot();
         if let Some(job) = i.job {
             d.job.lanes.clone_from(&job.lanes);
@@ -573,28 +591,27 @@ impl RtUnit {
         d.node_taken = i.req_fire && d.port == Port::Node;
         d.took_stack = i.req_fire && d.port == Port::Stack;
         d.store_taken = d.took_stack && self.stack_unit.req().is_some_and(|g| g.write);
-        // The lanes waiting to fetch, sorted once: the warps the scheduler may pick, and the lanes
-        // the sequencer holds back, whose registers have held since the last edge (this cycle and
-        // any skipped before it).
-        let (fetch_ready, held) = self.fetch_census();
-        d.held = held;
-        d.held_cycles = now + 1 - self.counted_to;
-        let manager = &self.stack_unit.manager;
+    }
 
-        // Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
-        // must leave nothing behind.
+    /// Warp buffer: a warp whose threads all finished and whose stacks are quiet leaves, and
+    /// must leave nothing behind.
+    fn decide_leaving(&self, d: &mut RtStep) -> Result<(), RunError> {
+        let manager = &self.stack_unit.manager;
         for w in Bits::of(self.warp_buffer.drained()) {
             if manager.warp_done(w) {
                 if let Some(thread) = manager.warp_threads(w).find(|&t| !self.stack_clear(t)) {
-                    return Err(RunError::ExitNotEmpty { cycle: now, sm: self.id, thread });
+                    return Err(RunError::ExitNotEmpty { cycle: d.now, sm: self.id, thread });
                 }
                 d.leaving.push(w);
             }
         }
+        Ok(())
+    }
 
-        // Scheduler: picks a warp in the cycle the fetch queue drains (the port taking the last
-        // piece is the queue's ready signal); with the node-first port, not while a stack
-        // request waits (Vulkan-Sim schedules no new warp while stores are queued).
+    /// Scheduler: picks a warp of `fetch_ready` in the cycle the fetch queue drains (the port
+    /// taking the last piece is the queue's ready signal); with the node-first port, not while a
+    /// stack request waits (Vulkan-Sim schedules no new warp while stores are queued).
+    fn decide_issue(&self, fetch_ready: u64, d: &mut RtStep) {
         let stack_waits = self.rt.port_priority == PortPriority::Node && self.stack_unit.req().is_some();
         if self.fetch.queue_len() == usize::from(d.node_taken) && !stack_waits {
             let leaving = &d.leaving;
@@ -602,17 +619,20 @@ impl RtUnit {
             if let Some(w) = self.scheduler.pick(
                 self.rt.warp_select,
                 |w| leaving.contains(&w),
-                warps,
+                self.cfg.warps,
                 |w| ready & (1 << w) != 0,
                 |w| self.warp_buffer.age(w),
             ) {
                 d.issue = Some((w, self.fetchable(w)));
             }
         }
+    }
 
-        // Responses: node pieces wake lanes; stack loads go to the response FIFO; store
-        // acknowledgements too when stores are acknowledged (their sequencer waits), and need
-        // nothing when they are posted.
+    /// Responses: node pieces wake lanes; stack loads go to the response FIFO; store
+    /// acknowledgements too when stores are acknowledged (their sequencer waits), and need
+    /// nothing when they are posted.
+    fn route_responses(&self, i: &RtIn, d: &mut RtStep) {
+        let ws = self.cfg.warp_size;
         for r in i.resp {
             match r.id & 3 {
                 TAG_NODE => {
@@ -637,10 +657,14 @@ impl RtUnit {
                 }
             }
         }
+    }
 
-        // Threads: only the lanes that can act this cycle, in warps that have such lanes: one
-        // woken by a response, scheduled, holding a stack command, or Busy (a warp with no Busy
-        // lane is never due).
+    /// Threads: only the lanes that can act this cycle, in warps that have such lanes: one
+    /// woken by a response, scheduled, holding a stack command, or Busy (a warp with no Busy
+    /// lane is never due).
+    fn decide_threads(&self, d: &mut RtStep) {
+        let (ws, now) = (self.cfg.warp_size, d.now);
+        let manager = &self.stack_unit.manager;
         let sector_bytes = self.fetch.sector_bytes();
         // (All of them resident: responses and the scheduler serve resident warps only, and the
         // summaries hold resident warps only.)
@@ -682,16 +706,25 @@ impl RtUnit {
                 d.due.push(w);
             }
         }
+    }
 
-        // Stack subsystem.
+    /// Stack subsystem: the threads' commands, the port's grant and the completions; a refused
+    /// command is the cycle's error.
+    fn decide_stack(&self, d: &mut RtStep) -> Result<(), RunError> {
+        let now = d.now;
         let stack_in =
             StackUnitIn { now, cmds: &d.cmds, req_ready: d.took_stack, completions: &d.completions };
         self.stack_unit.eval(stack_in, &mut d.stack);
         if let Some(&error) = d.stack.manager.errors().first() {
             return Err(RunError::Stack { cycle: now, sm: self.id, error });
         }
-        // Each pop the traces expect is matched by thread: a pop the manager did not answer is an
-        // error too, not a check skipped.
+        Ok(())
+    }
+
+    /// Each pop the traces expect is matched by thread: a pop the manager did not answer is an
+    /// error too, not a check skipped.
+    fn match_pops(&self, d: &mut RtStep) -> Result<(), RunError> {
+        let (ws, now) = (self.cfg.warp_size, d.now);
         let pops = d.stack.manager.pops();
         for &(thread, expected) in &d.expected_pops {
             let walked = self.warp_buffer.walk(thread / ws).is_some();

@@ -27,8 +27,13 @@
 //! one cycle) and returns its decisions and micro-ops; a refused command changes nothing.
 //!
 //! Files: `regs.rs` (register and signal types), `policy.rs` (the decision logic and its
-//! replaceable [`policy::Steps`]), this file (register arrays, sequencers, eval and commit),
-//! `probe.rs` (waveform signals), `mutants.rs` (planted bugs, test builds only).
+//! replaceable [`policy::Steps`]), `group.rs` (reallocation within groups of lanes),
+//! `select.rs` (which policy implementation a manager runs), `cycle.rs` (the whole cycle over
+//! [`crate::logic::Logic`]), this file (register arrays, sequencers, eval and commit),
+//! `regfile.rs` (the arrays as the cycle reads and writes them), `functional.rs` (the functional
+//! executor), `backdoor.rs` (state loaded from outside, the state hash), `probe.rs` (waveform
+//! signals), `mutants.rs` (planted bugs: their names in every build, the bugs themselves only
+//! with the `mutants` feature).
 //!
 //! The same plan drives two executors: eval/commit (cycle level, through the bank arbiter and
 //! memory scheduler) and [`StackManager::apply`] (functional: micro-ops complete at once).
@@ -46,11 +51,14 @@ use crate::mem::addr::{LocalLayout, LocalMap};
 use crate::mem_sched::GReq;
 use crate::trace::Sink;
 
+mod backdoor;
 pub mod cycle;
+mod functional;
 pub mod group;
 pub mod mutants;
 pub mod policy;
 mod probe;
+mod regfile;
 pub mod regs;
 pub mod select;
 
@@ -500,34 +508,6 @@ impl StackManager {
         }
     }
 
-    /// Loads stack `s`'s registers from outside the design: a testbench's back door, for
-    /// replaying a solver's counterexample state.
-    pub fn load_stack(&mut self, s: u32, r: StackRegs) {
-        self.stacks[s as usize] = r;
-    }
-
-    /// Writes SH entry `e` of stack `s` from outside the design: a testbench's back door, with
-    /// which the exhaustive search overwrites dead words with [`POISON`] so that stale memory is
-    /// never state.
-    pub fn load_sh_entry(&mut self, s: u32, e: u32, v: Entry) {
-        let i = self.sh_index(s, e);
-        self.sh_data[i] = v;
-    }
-
-    /// Loads thread `t`'s registers, its RB entries (oldest first) and, when `busy`, a queued
-    /// micro-op (a read of its own stack's Top) from outside the design: a testbench's back
-    /// door, for replaying a solver's counterexample state.
-    pub fn load_thread(&mut self, t: u32, th: ThreadRegs, rb: &[Entry], busy: bool) {
-        self.threads[t as usize] = th;
-        self.rb[t as usize] = rb.iter().copied().collect();
-        self.seq[t as usize] = Sequencer::default();
-        if busy {
-            let entry = self.stacks[t as usize].top;
-            self.seq[t as usize].uops.push_back(Uop::ShLoad { stack: t, entry });
-        }
-        self.sync_queued(t);
-    }
-
     /// The base entry of `lane`'s stack (the policy's skew step; [`Config::skew_base`] in the
     /// design).
     fn skew_base(&self, lane: u32) -> u32 {
@@ -607,111 +587,6 @@ impl StackManager {
             stack(r.thread, r.stack).and_then(|_| entry(r.thread, r.entry))?;
         }
         Ok(())
-    }
-
-    /// Completes `u` of thread `t` at once (the functional level): the data effect the cycle
-    /// gives a completion ([`cycle::complete`]), committed.
-    fn complete(&mut self, t: u32, u: Uop) {
-        let mut d = std::mem::take(&mut self.scratch);
-        d.clear();
-        let mut latch = self.seq[t as usize].latch;
-        self.complete_with(t, u, &mut latch, &mut d);
-        self.seq[t as usize].latch = latch;
-        self.commit(&d);
-        d.clear();
-        self.scratch = d;
-    }
-
-    fn complete_with(&self, t: u32, u: Uop, latch: &mut Option<Entry>, d: &mut StackStep) {
-        self.policy.0.complete(&self.cfg, self, t, u, latch, &mut d.j)
-    }
-
-    /// Completes thread `t`'s next micro-op at once (for exploring every interleaving of
-    /// micro-ops across threads). Returns false if it had none.
-    pub fn complete_next(&mut self, t: u32) -> bool {
-        match self.seq[t as usize].uops.pop_front() {
-            Some(u) => {
-                self.sync_queued(t);
-                self.complete(t, u);
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// Hashes the architectural state: every register, queue, sequencer and memory word, but not
-    /// the event counters, so equal states hash equal.
-    pub fn hash_state<H: std::hash::Hasher>(&self, h: &mut H) {
-        use std::hash::Hash;
-        self.threads.hash(h);
-        self.stacks.hash(h);
-        self.rb.hash(h);
-        self.seq.hash(h);
-        self.sh_data.hash(h);
-        self.global.hash(h);
-    }
-
-    /// Accepts a command from a ready thread: updates registers and loads the sequencer (plan,
-    /// then commit). Returns the popped entry for a pop.
-    pub fn accept(&mut self, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
-        let mut d = std::mem::take(&mut self.scratch);
-        d.clear();
-        self.plan(&[(t, cmd)], &mut d);
-        let r = d.answer(t);
-        self.commit(&d);
-        d.clear();
-        self.scratch = d;
-        r
-    }
-
-    /// Accepts several threads' commands in one cycle, planned in order (a plan sees the stack
-    /// registers earlier ones changed), as the eval plans a cycle's commands.
-    /// Returns each command's answer, in order; a thread that is not ready is refused (Busy).
-    pub fn accept_all(&mut self, cmds: &[(u32, Cmd)]) -> Vec<Result<Option<Entry>, StackError>> {
-        let mut d = std::mem::take(&mut self.scratch);
-        d.clear();
-        self.plan(cmds, &mut d);
-        let r = cmds.iter().map(|c| d.answer(c.0)).collect();
-        self.commit(&d);
-        d.clear();
-        self.scratch = d;
-        r
-    }
-
-    /// One cycle in which the next micro-op of each thread in `complete` (each at most once)
-    /// completes and `cmds` are planned, in the cycle's order ([`cycle::eval`]): the completions
-    /// land first, so a release completing now is seen by this cycle's plans; `ready` is a
-    /// register, so a thread whose micro-op completes now is still busy for a command in the
-    /// same cycle (refused Busy). Returns each command's answer, in order.
-    pub fn complete_and_accept(
-        &mut self,
-        complete: &[u32],
-        cmds: &[(u32, Cmd)],
-    ) -> Vec<Result<Option<Entry>, StackError>> {
-        let mut d = std::mem::take(&mut self.scratch);
-        d.clear();
-        for &t in complete {
-            let Some(&u) = self.seq[t as usize].uops.front() else { continue };
-            let mut latch = self.seq[t as usize].latch;
-            self.complete_with(t, u, &mut latch, &mut d);
-            d.j.writes.push(WriteOf::Seq { thread: t, issued: true, inflight: None, latch });
-        }
-        self.plan(cmds, &mut d);
-        let r = cmds.iter().map(|c| d.answer(c.0)).collect();
-        self.commit(&d);
-        d.clear();
-        self.scratch = d;
-        r
-    }
-
-    /// Functional level: accept the command and complete its whole program at once.
-    pub fn apply(&mut self, t: u32, cmd: Cmd) -> Result<Option<Entry>, StackError> {
-        let r = self.accept(t, cmd)?;
-        while let Some(u) = self.seq[t as usize].uops.pop_front() {
-            self.complete(t, u);
-        }
-        self.sync_queued(t);
-        Ok(r)
     }
 
     /// The SH request that reads entry `entry` of stack `s`: the words (and so the banks) the
@@ -808,124 +683,5 @@ impl Unit for StackManager {
         s.push_scope("stack_manager");
         self.probe_signals(|t| d.cmd(t), d.pops(), s);
         s.pop_scope();
-    }
-}
-
-/// The registers as the cycle began, for [`cycle::eval`].
-impl Registers<Int> for StackManager {
-    #[inline]
-    fn stack_q(&self, _: &mut Int, s: u32) -> StackRegs {
-        // A stack past the array reads as reset registers; the cycle is then refused
-        // ([`StackManager::addressed`]) or its decisions differ from the scoreboard's.
-        self.stacks.get(s as usize).copied().unwrap_or_default()
-    }
-    #[inline]
-    fn thread_q(&self, _: &mut Int, t: u32) -> ThreadRegs {
-        self.threads[t as usize]
-    }
-    fn done_q(&self, _: &mut Int, s: u32) -> bool {
-        self.threads.get(s as usize).is_none_or(|t| t.done)
-    }
-    #[inline]
-    fn busy_q(&self, _: &mut Int, t: u32) -> bool {
-        !self.ready(t)
-    }
-    #[inline]
-    fn inflight_q(&self, t: u32) -> Option<Uop> {
-        self.seq[t as usize].inflight
-    }
-    #[inline]
-    fn head_q(&self, t: u32) -> Option<Uop> {
-        self.seq[t as usize].uops.front().copied()
-    }
-    #[inline]
-    fn latch_q(&self, t: u32) -> Option<Entry> {
-        self.seq[t as usize].latch
-    }
-    fn rb_len_q(&self, _: &mut Int, t: u32) -> u32 {
-        self.rb[t as usize].len() as u32
-    }
-    fn rb_front_q(&self, _: &mut Int, t: u32) -> Entry {
-        self.rb[t as usize].front().copied().unwrap_or(POISON)
-    }
-    fn rb_back_q(&self, _: &mut Int, t: u32) -> Entry {
-        self.rb[t as usize].back().copied().unwrap_or(POISON)
-    }
-    fn sh_q(&self, _: &mut Int, stack: u32, entry: u32) -> Entry {
-        let i = stack.checked_mul(self.cfg.sh_entries).and_then(|x| x.checked_add(entry));
-        i.and_then(|i| self.sh_data.get(i as usize)).copied().unwrap_or(POISON)
-    }
-    fn global_q(&self, _: &mut Int, t: u32, slot: u32) -> Entry {
-        self.global[t as usize].get(slot as usize).copied().unwrap_or(POISON)
-    }
-    #[inline]
-    fn next_queued(&self, from: u32) -> Option<u32> {
-        let mut word = (from / 64) as usize;
-        let mut bits = self.queued.get(word)? & (u64::MAX << (from % 64));
-        loop {
-            if bits != 0 {
-                return Some(word as u32 * 64 + bits.trailing_zeros());
-            }
-            word += 1;
-            bits = *self.queued.get(word)?;
-        }
-    }
-    fn acked_stores(&self) -> bool {
-        self.acked_stores
-    }
-}
-
-/// The clock edge's writes, for [`cycle::apply`].
-impl Store<Int> for StackManager {
-    #[inline]
-    fn set_stack(&mut self, _: &mut Int, s: u32, r: Regs<Int>) {
-        self.stacks[s as usize] = r;
-    }
-    #[inline]
-    fn set_thread(&mut self, t: u32, r: Thread<Int>) {
-        self.threads[t as usize] = r;
-    }
-    #[inline]
-    fn rb(&mut self, _: &mut Int, t: u32, op: RbOp<Entry>) {
-        let rb = &mut self.rb[t as usize];
-        match op {
-            RbOp::PushBack(v) => rb.push_back(v),
-            RbOp::PopBack => {
-                rb.pop_back();
-            }
-            RbOp::PopFront => {
-                rb.pop_front();
-            }
-        }
-    }
-    fn rb_push_front(&mut self, _: &mut Int, t: u32, v: Entry) {
-        self.rb[t as usize].push_front(v);
-    }
-    fn sh(&mut self, _: &mut Int, stack: u32, entry: u32, v: Entry) {
-        let i = self.sh_index(stack, entry);
-        self.sh_data[i] = v;
-    }
-    fn global(&mut self, _: &mut Int, t: u32, slot: u32, v: Entry) {
-        let g = &mut self.global[t as usize];
-        if g.len() <= slot as usize {
-            g.resize(slot as usize + 1, POISON);
-        }
-        g[slot as usize] = v;
-    }
-    #[inline]
-    fn seq(&mut self, t: u32, issued: bool, inflight: Option<Uop>, latch: Option<Entry>) {
-        let q = &mut self.seq[t as usize];
-        if issued {
-            q.uops.pop_front();
-        }
-        (q.inflight, q.latch) = (inflight, latch);
-        self.sync_queued(t);
-    }
-    #[inline]
-    fn emit(&mut self, _: &mut Int, t: u32, valid: bool, u: Uop) {
-        if valid {
-            self.seq[t as usize].uops.push_back(u);
-            self.sync_queued(t);
-        }
     }
 }

@@ -984,6 +984,40 @@ mod tests {
     }
 
     #[test]
+    fn without_an_sh_level_the_rb_spills_its_oldest_entry_to_global() {
+        let mut sm = manager("RB_1");
+        pushes(&mut sm, 0, 1..=3);
+        assert_eq!(sm.stats.rb_to_global, 2);
+        assert_eq!(sm.global(0), [1, 2], "oldest first, at rising slots");
+        assert_eq!(pop_all(&mut sm, 0), [3, 2, 1]);
+    }
+
+    #[test]
+    fn a_lone_stack_flushes_until_its_limit_then_spills_one_entry_at_a_time() {
+        // Every lane live: nothing to borrow, so a full chain of one flushes its stack while its
+        // Flush count is below the limit (1 here), and at it sends only the oldest entry down.
+        let mut cfg = Config { warp_size: 4, warps: 1, .."RB_1+SH_1+RA".parse::<Config>().unwrap() };
+        let ra = cfg.policy.realloc_mut().unwrap();
+        (ra.borrow_limit, ra.flush_limit) = (2, 1);
+        let mut sm = StackManager::new(cfg, 0).unwrap();
+        pushes(&mut sm, 0, 1..=3);
+        // A flush's entries count as SH → global moves too.
+        assert_eq!((sm.stats.flushes, sm.stats.sh_to_global, sm.stack(0).flush), (1, 1, 1));
+        pushes(&mut sm, 0, 4..=4);
+        assert_eq!((sm.stats.flushes, sm.stats.sh_to_global), (1, 2), "saturated: no second flush");
+        assert_eq!(sm.global(0), [1, 2]);
+        assert_eq!(pop_all(&mut sm, 0), [4, 3, 2, 1]);
+    }
+
+    #[test]
+    fn a_pop_of_an_empty_stack_is_refused_and_changes_nothing() {
+        let mut sm = manager("RB_1+SH_1+RA");
+        let before = (*sm.thread(0), *sm.stack(0));
+        assert!(matches!(sm.apply(0, Cmd::Pop), Err(crate::stack_manager::StackError::PopEmpty { .. })));
+        assert_eq!((*sm.thread(0), *sm.stack(0)), before);
+    }
+
+    #[test]
     fn finish_is_refused_with_entries_and_lends_only_with_reallocation() {
         let mut sm = manager("RB_1+SH_1+RA");
         sm.apply(0, Cmd::Push(7)).unwrap();

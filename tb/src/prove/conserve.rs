@@ -30,7 +30,8 @@ use rtl::logic::Logic;
 use rtl::stack_manager::policy::{Regs, Steps, Thread};
 
 use super::query::{
-    code, eq_bit, finish, implies, select, select_flag, side, well_formed, Kind, Query, Side, State,
+    code, eq_bit, finish, implies, select, select_flag, side, well_formed, Enc, Kind, Query, RbChange, Side,
+    State,
 };
 use super::sym::{Sym, B, V, W};
 
@@ -157,7 +158,9 @@ fn locate(s: &mut Sym, cfg: &Config, lay: &Layout, q: W) -> Loc {
     Loc { in_rb, rb_off: q, in_sh, stack, entry, in_global, slot }
 }
 
-/// The conservation query for one `kind` command (push or pop) on `lane` of the warp at `base`.
+/// The conservation query for one `kind` command (push or pop) on `lane` of the warp at `base`,
+/// built in the order the entry travels: where the tracked entry is before the cycle, the RB
+/// changes of the plan, the micro-op program, then the parts checked after the cycle.
 pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: Kind) -> Query {
     assert!(kind != Kind::Finish, "a finish moves no entry");
     let mut s = Sym::default();
@@ -174,33 +177,7 @@ pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: 
         assume = s.and(assume, small);
     }
     let pre = layout(&mut s, cfg, base, &st.regs, lane, x.rb_len, x.th.spill_ptr);
-    // The tracked entry's place before the cycle: after a push, position 0 is the pushed entry
-    // and position p the one that was at p − 1.
-    let (pre_q, pre_valid, is_new) = match kind {
-        Kind::Push => {
-            let zero = s.eq_k(p, 0);
-            let q = s.sub_k(p, 1);
-            let inside = s.lt(q, pre.depth);
-            let old = s.not(zero);
-            let valid = s.and(old, inside);
-            let range = s.or(zero, inside);
-            assume = s.and(assume, range);
-            (q, valid, zero)
-        }
-        _ => {
-            let valid = s.lt(p, pre.depth);
-            assume = s.and(assume, valid);
-            let no = s.bit(false);
-            (p, valid, no)
-        }
-    };
-    let at = locate(&mut s, cfg, &pre, pre_q);
-    let at = Loc {
-        in_rb: s.and(pre_valid, at.in_rb),
-        in_sh: s.and(pre_valid, at.in_sh),
-        in_global: s.and(pre_valid, at.in_global),
-        ..at
-    };
+    let (at, is_new) = tracked_before(&mut s, cfg, &pre, kind, p, &mut assume);
     // The entry values the plan can see carry the tags: the RB's two ends and the pushed entry.
     let front_off = s.sub_k(x.rb_len, 1);
     let at_front = s.eq(at.rb_off, front_off);
@@ -219,144 +196,17 @@ pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: 
     let d = side(&mut s, cfg, &st, &Side::Design(steps), slots);
     let a = &d.lanes[0];
     let accepted = s.lt_k(a.code, 2);
-
-    // The RB changes of the plan, in the order a plan makes them: the top leaves, the oldest
-    // leaves, the new entry arrives.
-    let tagged = |s: &mut Sym, v: V| s.eq_val(v, tag);
-    let mut in_rb = at.in_rb;
-    let mut off = at.rb_off;
-    let mut len = x.rb_len;
-    {
-        // An entry leaving from back-offset `at` (when `happened`): the tracked one (at `off`)
-        // leaves if it sits there, and the RB is one shorter.
-        let leave = |s: &mut Sym, in_rb: B, off: W, len: W, at: W, happened: B| {
-            let here = s.eq(off, at);
-            let gone = s.and(happened, here);
-            let keep = s.not(gone);
-            let shorter = s.sub_k(len, 1);
-            (s.and(in_rb, keep), s.mux(happened, shorter, len))
-        };
-        let top = s.word(0);
-        (in_rb, len) = leave(&mut s, in_rb, off, len, top, a.rb.pop_back);
-        let down = s.sub_k(off, 1);
-        off = s.mux(a.rb.pop_back, down, off);
-        let front = s.sub_k(len, 1);
-        (in_rb, len) = leave(&mut s, in_rb, off, len, front, a.rb.pop_front);
-        let up = s.add_k(off, 1);
-        off = s.mux(a.rb.push_back, up, off);
-        let longer = s.add_k(len, 1);
-        len = s.mux(a.rb.push_back, longer, len);
-        let new = tagged(&mut s, a.rb.pushed);
-        let new = s.and(a.rb.push_back, new);
-        let zero = s.word(0);
-        off = s.mux(new, zero, off);
-        in_rb = s.or(in_rb, new);
-    }
-
-    // The program, slot by slot: every store so far (for what a load or the end sees), the
-    // latch's tag, and entries the program puts under the RB.
-    struct Store {
-        on: B,
-        sh: bool,
-        a: W,
-        b: W,
-        tag: B,
-    }
-    let mut stores: Vec<Store> = Vec::new();
-    let mut latch = s.bit(false);
-    let (mut from_latch, mut latch_off) = (s.bit(false), s.word(0));
-    let mut sh_stacks: Vec<(B, W)> = Vec::new();
-    let content = |s: &mut Sym, stores: &[Store], sh: bool, a: W, b: W| -> B {
-        let mut c = if sh {
-            let x = s.eq(at.stack, a);
-            let y = s.eq(at.entry, b);
-            let xy = s.and(x, y);
-            s.and(at.in_sh, xy)
-        } else {
-            let x = s.eq(at.slot, a);
-            s.and(at.in_global, x)
-        };
-        for st in stores.iter().filter(|st| st.sh == sh) {
-            let x = s.eq(st.a, a);
-            let hit = if sh {
-                let y = s.eq(st.b, b);
-                s.and(x, y)
-            } else {
-                x
-            };
-            let hit = s.and(st.on, hit);
-            c = s.mux_bit(hit, st.tag, c);
-        }
-        c
-    };
-    for (valid, u) in &a.prog {
-        let is = |s: &mut Sym, k: u32| {
-            let e = s.eq_k(u.kind, k);
-            s.and(*valid, e)
-        };
-        let (shl, shs, gl, gs, rbb) = (
-            is(&mut s, code::SH_LOAD),
-            is(&mut s, code::SH_STORE),
-            is(&mut s, code::GLOBAL_LOAD),
-            is(&mut s, code::GLOBAL_STORE),
-            is(&mut s, code::RB_BOTTOM),
-        );
-        let z = s.word(0);
-        let from_sh = content(&mut s, &stores, true, u.a, u.b);
-        let from_gl = content(&mut s, &stores, false, u.a, z);
-        let src = {
-            let v = tagged(&mut s, u.value);
-            s.mux_bit(u.latch, latch, v)
-        };
-        if s.maybe(shs) {
-            stores.push(Store { on: shs, sh: true, a: u.a, b: u.b, tag: src });
-            sh_stacks.push((shs, u.a));
-        }
-        if s.maybe(gs) {
-            stores.push(Store { on: gs, sh: false, a: u.a, b: z, tag: src });
-        }
-        // An entry put under the RB lands below every entry there.
-        let lands = s.and(rbb, latch);
-        from_latch = s.or(from_latch, lands);
-        latch_off = s.mux(lands, len, latch_off);
-        let longer = s.add_k(len, 1);
-        len = s.mux(rbb, longer, len);
-        latch = s.mux_bit(shl, from_sh, latch);
-        latch = s.mux_bit(gl, from_gl, latch);
-    }
+    let rb = rb_after_plan(&mut s, &a.rb, &at, x.rb_len, tag);
+    let prog = run_program(&mut s, &a.prog, &at, rb.len, tag);
 
     // After the cycle (its program done): where the tracked entry's new position lives, and
     // whether that place holds it.
-    let post = layout(&mut s, cfg, base, &d.regs, lane, len, a.th.spill_ptr);
+    let post = layout(&mut s, cfg, base, &d.regs, lane, prog.len, a.th.spill_ptr);
     let drops = cfg.overflow == Overflow::Drop;
-    let (post_q, post_valid) = match kind {
-        // A restart design keeps the newest entries: the tracked one must be at its new
-        // position if that position is still held, and is gone (dropped) past it.
-        Kind::Push if drops => (p, s.lt(p, post.depth)),
-        Kind::Push => (p, s.bit(true)),
-        _ => {
-            let q = s.sub_k(p, 1);
-            let zero = s.eq_k(p, 0);
-            (q, s.not(zero))
-        }
-    };
-    let to = locate(&mut s, cfg, &post, post_q);
-    let held = {
-        let here = s.eq(off, to.rb_off);
-        let in_rb_here = s.and(in_rb, here);
-        let under = s.eq(latch_off, to.rb_off);
-        let under = s.and(from_latch, under);
-        let rb_ok = s.or(in_rb_here, under);
-        let sh_ok = content(&mut s, &stores, true, to.stack, to.entry);
-        let z = s.word(0);
-        let gl_ok = content(&mut s, &stores, false, to.slot, z);
-        let c = s.mux_bit(to.in_sh, sh_ok, gl_ok);
-        s.mux_bit(to.in_rb, rb_ok, c)
-    };
-    let mut parts = Vec::new();
     let n = lane;
-    let need = implies(&mut s, post_valid, held);
-    let need = implies(&mut s, accepted, need);
+    let mut parts = Vec::new();
+    let held = tracked_after(&mut s, cfg, &post, kind, p, &at, &rb, &prog);
+    let need = implies(&mut s, accepted, held);
     parts.push((format!("lane {n}: the tracked entry at its new position"), need));
     let depth_ok = match kind {
         Kind::Push if drops => {
@@ -380,7 +230,7 @@ pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: 
     parts.push((format!("lane {n}: logical depth moves by one"), depth_ok));
     if kind == Kind::Pop {
         let top = s.eq_k(p, 0);
-        let got = tagged(&mut s, a.value);
+        let got = s.eq_val(a.value, tag);
         let same = eq_bit(&mut s, got, top);
         let ok = implies(&mut s, accepted, same);
         parts.push((format!("lane {n}: a pop returns the top entry, only it"), ok));
@@ -391,7 +241,227 @@ pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: 
         let fine = s.not(wrong);
         parts.push((format!("lane {n}: a pop with entries left is accepted"), fine));
     }
-    // A stack written is on the chain after the cycle, and was on it before or Idle (free).
+    let own = stores_in_own_chain(&mut s, &st.regs, base, &pre, &post, &prog.sh_stacks);
+    let own = implies(&mut s, accepted, own);
+    parts.push((format!("lane {n}: SH stores land in its own chain or a free stack it takes"), own));
+    finish(s, assume, parts)
+}
+
+/// The tracked entry's place before the cycle, and whether it is the entry a push brings
+/// (position 0 after a push; position `p` is the one that was at `p − 1`). Adds to `assume`
+/// that `p` names an entry the command moves.
+fn tracked_before(s: &mut Sym, cfg: &Config, pre: &Layout, kind: Kind, p: W, assume: &mut B) -> (Loc, B) {
+    let (pre_q, pre_valid, is_new) = match kind {
+        Kind::Push => {
+            let zero = s.eq_k(p, 0);
+            let q = s.sub_k(p, 1);
+            let inside = s.lt(q, pre.depth);
+            let old = s.not(zero);
+            let valid = s.and(old, inside);
+            let range = s.or(zero, inside);
+            *assume = s.and(*assume, range);
+            (q, valid, zero)
+        }
+        _ => {
+            let valid = s.lt(p, pre.depth);
+            *assume = s.and(*assume, valid);
+            let no = s.bit(false);
+            (p, valid, no)
+        }
+    };
+    let at = locate(s, cfg, pre, pre_q);
+    let at = Loc {
+        in_rb: s.and(pre_valid, at.in_rb),
+        in_sh: s.and(pre_valid, at.in_sh),
+        in_global: s.and(pre_valid, at.in_global),
+        ..at
+    };
+    (at, is_new)
+}
+
+/// The tracked entry in the RB after the plan's changes: whether it is there, its offset from
+/// the newest entry, and the RB's length.
+struct RbTrack {
+    in_rb: B,
+    off: W,
+    len: W,
+}
+
+/// The RB changes of the plan, in the order a plan makes them: the top leaves, the oldest
+/// leaves, the new entry arrives.
+fn rb_after_plan(s: &mut Sym, rb: &RbChange, at: &Loc, rb_len: W, tag: V) -> RbTrack {
+    let mut in_rb = at.in_rb;
+    let mut off = at.rb_off;
+    let mut len = rb_len;
+    // An entry leaving from back-offset `at` (when `happened`): the tracked one (at `off`)
+    // leaves if it sits there, and the RB is one shorter.
+    let leave = |s: &mut Sym, in_rb: B, off: W, len: W, at: W, happened: B| {
+        let here = s.eq(off, at);
+        let gone = s.and(happened, here);
+        let keep = s.not(gone);
+        let shorter = s.sub_k(len, 1);
+        (s.and(in_rb, keep), s.mux(happened, shorter, len))
+    };
+    let top = s.word(0);
+    (in_rb, len) = leave(s, in_rb, off, len, top, rb.pop_back);
+    let down = s.sub_k(off, 1);
+    off = s.mux(rb.pop_back, down, off);
+    let front = s.sub_k(len, 1);
+    (in_rb, len) = leave(s, in_rb, off, len, front, rb.pop_front);
+    let up = s.add_k(off, 1);
+    off = s.mux(rb.push_back, up, off);
+    let longer = s.add_k(len, 1);
+    len = s.mux(rb.push_back, longer, len);
+    let new = s.eq_val(rb.pushed, tag);
+    let new = s.and(rb.push_back, new);
+    let zero = s.word(0);
+    off = s.mux(new, zero, off);
+    in_rb = s.or(in_rb, new);
+    RbTrack { in_rb, off, len }
+}
+
+/// A store of the program, to SH (`a`: stack, `b`: entry) or global memory (`a`: slot), and
+/// whether it writes the tracked entry.
+struct Store {
+    on: B,
+    sh: bool,
+    a: W,
+    b: W,
+    tag: B,
+}
+
+/// What the program did: its stores (for what a later load or the end sees), the entry it put
+/// under the RB (when `from_latch`, at offset `latch_off`), the RB's length after it, and the
+/// SH stacks it stored to (when the store happened).
+struct Program {
+    stores: Vec<Store>,
+    from_latch: B,
+    latch_off: W,
+    len: W,
+    sh_stacks: Vec<(B, W)>,
+}
+
+/// Whether SH entry (`a`, `b`) (`sh`) or global slot `a` holds the tracked entry: where it was
+/// before the cycle, unless a store in `stores` wrote there since.
+fn content(s: &mut Sym, at: &Loc, stores: &[Store], sh: bool, a: W, b: W) -> B {
+    let mut c = if sh {
+        let x = s.eq(at.stack, a);
+        let y = s.eq(at.entry, b);
+        let xy = s.and(x, y);
+        s.and(at.in_sh, xy)
+    } else {
+        let x = s.eq(at.slot, a);
+        s.and(at.in_global, x)
+    };
+    for st in stores.iter().filter(|st| st.sh == sh) {
+        let x = s.eq(st.a, a);
+        let hit = if sh {
+            let y = s.eq(st.b, b);
+            s.and(x, y)
+        } else {
+            x
+        };
+        let hit = s.and(st.on, hit);
+        c = s.mux_bit(hit, st.tag, c);
+    }
+    c
+}
+
+/// The program, slot by slot: every store so far, the latch's tag, and entries the program puts
+/// under the RB (`len`: the RB's length after the plan).
+fn run_program(s: &mut Sym, prog: &[(B, Enc)], at: &Loc, len: W, tag: V) -> Program {
+    let mut stores: Vec<Store> = Vec::new();
+    let mut len = len;
+    let mut latch = s.bit(false);
+    let (mut from_latch, mut latch_off) = (s.bit(false), s.word(0));
+    let mut sh_stacks: Vec<(B, W)> = Vec::new();
+    for (valid, u) in prog {
+        let is = |s: &mut Sym, k: u32| {
+            let e = s.eq_k(u.kind, k);
+            s.and(*valid, e)
+        };
+        let (shl, shs, gl, gs, rbb) = (
+            is(s, code::SH_LOAD),
+            is(s, code::SH_STORE),
+            is(s, code::GLOBAL_LOAD),
+            is(s, code::GLOBAL_STORE),
+            is(s, code::RB_BOTTOM),
+        );
+        let z = s.word(0);
+        let from_sh = content(s, at, &stores, true, u.a, u.b);
+        let from_gl = content(s, at, &stores, false, u.a, z);
+        let src = {
+            let v = s.eq_val(u.value, tag);
+            s.mux_bit(u.latch, latch, v)
+        };
+        if s.maybe(shs) {
+            stores.push(Store { on: shs, sh: true, a: u.a, b: u.b, tag: src });
+            sh_stacks.push((shs, u.a));
+        }
+        if s.maybe(gs) {
+            stores.push(Store { on: gs, sh: false, a: u.a, b: z, tag: src });
+        }
+        // An entry put under the RB lands below every entry there.
+        let lands = s.and(rbb, latch);
+        from_latch = s.or(from_latch, lands);
+        latch_off = s.mux(lands, len, latch_off);
+        let longer = s.add_k(len, 1);
+        len = s.mux(rbb, longer, len);
+        latch = s.mux_bit(shl, from_sh, latch);
+        latch = s.mux_bit(gl, from_gl, latch);
+    }
+    Program { stores, from_latch, latch_off, len, sh_stacks }
+}
+
+/// Whether the tracked entry is at its new position after the cycle, whenever that position
+/// is held (`p + 1` after a push, `p − 1` after a pop; a restart design keeps the newest
+/// entries, so past the depth held the tracked one is gone, dropped).
+#[allow(clippy::too_many_arguments)]
+fn tracked_after(
+    s: &mut Sym,
+    cfg: &Config,
+    post: &Layout,
+    kind: Kind,
+    p: W,
+    at: &Loc,
+    rb: &RbTrack,
+    prog: &Program,
+) -> B {
+    let drops = cfg.overflow == Overflow::Drop;
+    let (post_q, post_valid) = match kind {
+        Kind::Push if drops => (p, s.lt(p, post.depth)),
+        Kind::Push => (p, s.bit(true)),
+        _ => {
+            let q = s.sub_k(p, 1);
+            let zero = s.eq_k(p, 0);
+            (q, s.not(zero))
+        }
+    };
+    let to = locate(s, cfg, post, post_q);
+    let held = {
+        let here = s.eq(rb.off, to.rb_off);
+        let in_rb_here = s.and(rb.in_rb, here);
+        let under = s.eq(prog.latch_off, to.rb_off);
+        let under = s.and(prog.from_latch, under);
+        let rb_ok = s.or(in_rb_here, under);
+        let sh_ok = content(s, at, &prog.stores, true, to.stack, to.entry);
+        let z = s.word(0);
+        let gl_ok = content(s, at, &prog.stores, false, to.slot, z);
+        let c = s.mux_bit(to.in_sh, sh_ok, gl_ok);
+        s.mux_bit(to.in_rb, rb_ok, c)
+    };
+    implies(s, post_valid, held)
+}
+
+/// A stack written is on the chain after the cycle, and was on it before or Idle (free).
+fn stores_in_own_chain(
+    s: &mut Sym,
+    regs: &[Regs<Sym>],
+    base: u32,
+    pre: &Layout,
+    post: &Layout,
+    sh_stacks: &[(B, W)],
+) -> B {
     let member = |s: &mut Sym, lay: &Layout, stack: W| {
         let mut inside = s.bit(false);
         for mbr in &lay.members {
@@ -402,17 +472,15 @@ pub fn conserves<P: Steps>(cfg: &Config, steps: &P, base: u32, lane: u32, kind: 
         inside
     };
     let mut own = s.bit(true);
-    for (on, stack) in sh_stacks {
-        let after = member(&mut s, &post, stack);
-        let before = member(&mut s, &pre, stack);
+    for &(on, stack) in sh_stacks {
+        let after = member(s, post, stack);
+        let before = member(s, pre, stack);
         let lane_of = s.sub_k(stack, base);
-        let free = select_flag(&mut s, &st.regs, lane_of, |r| r.idle);
+        let free = select_flag(s, regs, lane_of, |r| r.idle);
         let ours = s.or(before, free);
         let ok = s.and(after, ours);
-        let ok = implies(&mut s, on, ok);
+        let ok = implies(s, on, ok);
         own = s.and(own, ok);
     }
-    let own = implies(&mut s, accepted, own);
-    parts.push((format!("lane {n}: SH stores land in its own chain or a free stack it takes"), own));
-    finish(s, assume, parts)
+    own
 }

@@ -136,7 +136,8 @@ fn need<B>(parts: &mut Vec<(String, B)>, who: Who, what: &str, b: B) {
     parts.push((name, b));
 }
 
-/// [`well_formed`] clause by clause, each named (for a counterexample's report).
+/// [`well_formed`] clause by clause, each named (for a counterexample's report): every stack's
+/// registers, then each lane's RB, thread registers and ring.
 pub fn well_formed_parts<L: Logic>(
     l: &mut L,
     cfg: &Config,
@@ -144,187 +145,243 @@ pub fn well_formed_parts<L: Logic>(
     done: &[L::Bit],
     lanes: &[(u32, Thread<L>, L::Word, L::Bit)],
 ) -> Vec<(String, L::Bit)> {
-    let m = cfg.sh_entries;
-    let ws = cfg.warp_size;
     let mut parts: Vec<(String, L::Bit)> = Vec::new();
     for (j, r) in regs.iter().enumerate() {
-        let who = Who::Stack(j as u32);
-        let jw = l.word(j as u32);
-        if m > 0 {
-            let a = l.lt_k(r.top, m);
-            need(&mut parts, who, "Top below M", a);
-            let b = l.lt_k(r.bottom, m);
-            need(&mut parts, who, "Bottom below M", b);
-            let same = l.eq(r.top, r.bottom);
-            let full_or_same = implies(l, r.empty, same);
-            need(&mut parts, who, "an empty queue has Top = Bottom", full_or_same);
-        }
-        let n = l.lt_k(r.next_tid, ws);
-        need(&mut parts, who, "Next TID names a lane", n);
-        let alone = l.eq(r.next_tid, jw);
-        let rank0 = l.eq_k(r.priority, 0);
-        let count0 = l.eq_k(r.flush, 0);
-        match cfg.realloc() {
-            Some(ra) => {
-                let p = l.lt_k(r.priority, cfg.policy.chain_bound());
-                need(&mut parts, who, "Priority within the borrow limit", p);
-                let f = l.lt_k(r.flush, ra.flush_limit + 1);
-                need(&mut parts, who, "Flush within its limit", f);
-                let ranked = implies(l, alone, rank0);
-                need(&mut parts, who, "a stack alone on its ring has Priority 0", ranked);
-                let a = l.and(done[j], alone);
-                let b = l.and(r.empty, rank0);
-                let c = l.and(a, b);
-                let idle_ok = l.and(c, count0);
-                let not_idle = l_not(l, r.idle);
-                let imp = l.or(not_idle, idle_ok);
-                need(
-                    &mut parts,
-                    who,
-                    "an Idle stack is a finished thread's empty stack, alone, rank and Flush 0",
-                    imp,
-                );
-            }
-            None => {
-                let not_idle = l_not(l, r.idle);
-                need(&mut parts, who, "no stack Idle without reallocation", not_idle);
-                need(&mut parts, who, "no chains without reallocation", alone);
-                need(&mut parts, who, "Priority 0 without reallocation", rank0);
-                need(&mut parts, who, "Flush 0 without reallocation", count0);
-            }
-        }
+        stack_parts(l, cfg, j, r, done, &mut parts);
     }
-    let limit = (1u32 << cfg.spill_ptr_bits.min(31)) - 1;
-    let max_ring = cfg.policy.chain_bound() as usize;
     for &(lane, th, rb_len, busy) in lanes {
-        let who = Who::Lane(lane);
-        if let Some(n) = cfg.rb.capacity() {
-            let a = l.lt_k(rb_len, n + 1);
-            need(&mut parts, who, "RB length at most N", a);
-            // Quiescent with room in the RB: nothing below it.
-            let room = l.lt_k(rb_len, n);
-            let idle = l.not(busy);
-            let quiet = l.and(room, idle);
-            let live = l.not(th.done);
-            let quiet = l.and(quiet, live);
-            let own = regs[lane as usize];
-            // A restart design's Overflow bit stays set, entries owed, while pops drain it.
-            let mut below = match cfg.overflow {
-                Overflow::Spill => l.not(th.overflow),
-                Overflow::Drop => l.bit(true),
-            };
-            if m > 0 {
-                let me = l.word(lane);
-                let alone = l.eq(own.next_tid, me);
-                let e = l.and(own.empty, alone);
-                below = l.and(below, e);
-            }
-            let imp = implies(l, quiet, below);
-            let what = match cfg.overflow {
-                Overflow::Spill => "quiescent with room in the RB: stack empty and alone, no overflow",
-                Overflow::Drop => "quiescent with room in the RB: stack empty and alone",
-            };
-            need(&mut parts, who, what, imp);
-        }
-        let zero = l.word(0);
-        match cfg.overflow {
-            Overflow::Spill => {
-                let some = l.lt(zero, th.spill_ptr);
-                let same = eq_bit(l, some, th.overflow);
-                need(&mut parts, who, "Overflow exactly when the spill pointer is above 0", same);
-            }
-            Overflow::Drop => {
-                let none = l.eq(th.spill_ptr, zero);
-                need(&mut parts, who, "no global region in a restart design: spill pointer 0", none);
-            }
-        }
-        let sp = l.lt_k(th.spill_ptr, limit + 1);
-        need(&mut parts, who, "spill pointer within its region", sp);
-        let d = eq_bit(l, th.done, done[lane as usize]);
-        need(&mut parts, who, "done bit agrees", d);
-        let me = l.word(lane);
-        let own = regs[lane as usize];
-        let not_idle = l_not(l, own.idle);
-        let a = l.or(th.done, not_idle);
-        need(&mut parts, who, "not Idle unless finished", a);
-        // Walk the ring: `ids[k]` is the lane k steps along; it must come home within max_ring.
-        let mut ids = vec![me];
-        let mut home = l.bit(false);
-        let mut len = l.word(0);
-        let mut cur = me;
-        for k in 1..=max_ring.min(ws as usize) {
-            let next = select(l, regs, cur, |r| r.next_tid);
-            let back = l.eq(next, me);
-            let fresh = l_not(l, home);
-            let now = l.and(back, fresh);
-            let kw = l.word(k as u32);
-            len = l.mux(now, kw, len);
-            home = l.or(home, now);
-            ids.push(next);
-            cur = next;
-        }
-        let r = l.or(home, th.done);
-        need(&mut parts, who, "ring returns home within 1 + borrow limit", r);
-        // Members (positions below len): ranks distinct and below len; others finished, not Idle.
-        for (k, &x) in ids.iter().enumerate().take(max_ring) {
-            let kw = l.word(k as u32);
-            let member = l.lt(kw, len);
-            let p = select(l, regs, x, |r| r.priority);
-            let below = l.lt(p, len);
-            let imp = implies(l, member, below);
-            let held = l.or(imp, th.done);
-            need(&mut parts, who, "ring ranks below its length", held);
-            if k > 0 {
-                let fin = select_bit(l, done, x);
-                let idle = select_idle(l, regs, x);
-                let awake = l.not(idle);
-                let good = l.and(fin, awake);
-                let imp = implies(l, member, good);
-                let held = l.or(imp, th.done);
-                need(&mut parts, who, "ring members finished and not Idle", held);
-            }
-            for &y in ids.iter().take(k) {
-                let q = select(l, regs, y, |r| r.priority);
-                let distinct = l.ne(p, q);
-                let imp = implies(l, member, distinct);
-                let held = l.or(imp, th.done);
-                need(&mut parts, who, "ring ranks distinct", held);
-            }
-            if m > 0 {
-                // Between the owner's commands (its sequencer idle): a borrowed stack below the
-                // top holds entries (a drained one is released at once), the top is empty only
-                // on a ring of one (a drained dedicated stack moves to the bottom), and an
-                // empty member's Flush is 0.
-                let quiet = l.not(busy);
-                let live = l.not(th.done);
-                let quiet = l.and(quiet, live);
-                let here = l.and(quiet, member);
-                let e = select_flag(l, regs, x, |r| r.empty);
-                let top_rank = l.sub_k(len, 1);
-                let top = l.eq(p, top_rank);
-                let full = l.not(e);
-                if k > 0 {
-                    let not_top = l.not(top);
-                    let c = l.and(here, not_top);
-                    let imp = implies(l, c, full);
-                    need(&mut parts, who, "quiescent: a borrowed stack below the top holds entries", imp);
-                }
-                let c = l.and(here, top);
-                let c = l.and(c, e);
-                let one = l.eq_k(len, 1);
-                let imp = implies(l, c, one);
-                need(&mut parts, who, "quiescent: the top is empty only on a ring of one", imp);
-                if cfg.realloc().is_some() {
-                    let c = l.and(here, e);
-                    let f = select(l, regs, x, |r| r.flush);
-                    let zero = l.eq_k(f, 0);
-                    let imp = implies(l, c, zero);
-                    need(&mut parts, who, "quiescent: an empty member's Flush is 0", imp);
-                }
-            }
-        }
+        rb_parts(l, cfg, regs, (lane, th, rb_len, busy), &mut parts);
+        thread_parts(l, cfg, done, lane, th, &mut parts);
+        ring_parts(l, cfg, regs, done, (lane, th, busy), &mut parts);
     }
     parts
+}
+
+/// The clauses on stack `j`'s own registers: Top and Bottom in range, Next TID a lane, and
+/// Priority, Flush and Idle as reallocation (or its absence) allows.
+fn stack_parts<L: Logic>(
+    l: &mut L,
+    cfg: &Config,
+    j: usize,
+    r: &Regs<L>,
+    done: &[L::Bit],
+    parts: &mut Vec<(String, L::Bit)>,
+) {
+    let m = cfg.sh_entries;
+    let ws = cfg.warp_size;
+    let who = Who::Stack(j as u32);
+    let jw = l.word(j as u32);
+    if m > 0 {
+        let a = l.lt_k(r.top, m);
+        need(parts, who, "Top below M", a);
+        let b = l.lt_k(r.bottom, m);
+        need(parts, who, "Bottom below M", b);
+        let same = l.eq(r.top, r.bottom);
+        let full_or_same = implies(l, r.empty, same);
+        need(parts, who, "an empty queue has Top = Bottom", full_or_same);
+    }
+    let n = l.lt_k(r.next_tid, ws);
+    need(parts, who, "Next TID names a lane", n);
+    let alone = l.eq(r.next_tid, jw);
+    let rank0 = l.eq_k(r.priority, 0);
+    let count0 = l.eq_k(r.flush, 0);
+    match cfg.realloc() {
+        Some(ra) => {
+            let p = l.lt_k(r.priority, cfg.policy.chain_bound());
+            need(parts, who, "Priority within the borrow limit", p);
+            let f = l.lt_k(r.flush, ra.flush_limit + 1);
+            need(parts, who, "Flush within its limit", f);
+            let ranked = implies(l, alone, rank0);
+            need(parts, who, "a stack alone on its ring has Priority 0", ranked);
+            let a = l.and(done[j], alone);
+            let b = l.and(r.empty, rank0);
+            let c = l.and(a, b);
+            let idle_ok = l.and(c, count0);
+            let not_idle = l_not(l, r.idle);
+            let imp = l.or(not_idle, idle_ok);
+            need(
+                parts,
+                who,
+                "an Idle stack is a finished thread's empty stack, alone, rank and Flush 0",
+                imp,
+            );
+        }
+        None => {
+            let not_idle = l_not(l, r.idle);
+            need(parts, who, "no stack Idle without reallocation", not_idle);
+            need(parts, who, "no chains without reallocation", alone);
+            need(parts, who, "Priority 0 without reallocation", rank0);
+            need(parts, who, "Flush 0 without reallocation", count0);
+        }
+    }
+}
+
+/// The clauses on `lane`'s RB: its length within N and, quiescent with room, nothing below it.
+fn rb_parts<L: Logic>(
+    l: &mut L,
+    cfg: &Config,
+    regs: &[Regs<L>],
+    (lane, th, rb_len, busy): (u32, Thread<L>, L::Word, L::Bit),
+    parts: &mut Vec<(String, L::Bit)>,
+) {
+    let m = cfg.sh_entries;
+    let who = Who::Lane(lane);
+    if let Some(n) = cfg.rb.capacity() {
+        let a = l.lt_k(rb_len, n + 1);
+        need(parts, who, "RB length at most N", a);
+        // Quiescent with room in the RB: nothing below it.
+        let room = l.lt_k(rb_len, n);
+        let idle = l.not(busy);
+        let quiet = l.and(room, idle);
+        let live = l.not(th.done);
+        let quiet = l.and(quiet, live);
+        let own = regs[lane as usize];
+        // A restart design's Overflow bit stays set, entries owed, while pops drain it.
+        let mut below = match cfg.overflow {
+            Overflow::Spill => l.not(th.overflow),
+            Overflow::Drop => l.bit(true),
+        };
+        if m > 0 {
+            let me = l.word(lane);
+            let alone = l.eq(own.next_tid, me);
+            let e = l.and(own.empty, alone);
+            below = l.and(below, e);
+        }
+        let imp = implies(l, quiet, below);
+        let what = match cfg.overflow {
+            Overflow::Spill => "quiescent with room in the RB: stack empty and alone, no overflow",
+            Overflow::Drop => "quiescent with room in the RB: stack empty and alone",
+        };
+        need(parts, who, what, imp);
+    }
+}
+
+/// The clauses on `lane`'s thread registers: Overflow and the spill pointer agree and stay in
+/// range, and the done bit agrees with the warp's.
+fn thread_parts<L: Logic>(
+    l: &mut L,
+    cfg: &Config,
+    done: &[L::Bit],
+    lane: u32,
+    th: Thread<L>,
+    parts: &mut Vec<(String, L::Bit)>,
+) {
+    let who = Who::Lane(lane);
+    let limit = (1u32 << cfg.spill_ptr_bits.min(31)) - 1;
+    let zero = l.word(0);
+    match cfg.overflow {
+        Overflow::Spill => {
+            let some = l.lt(zero, th.spill_ptr);
+            let same = eq_bit(l, some, th.overflow);
+            need(parts, who, "Overflow exactly when the spill pointer is above 0", same);
+        }
+        Overflow::Drop => {
+            let none = l.eq(th.spill_ptr, zero);
+            need(parts, who, "no global region in a restart design: spill pointer 0", none);
+        }
+    }
+    let sp = l.lt_k(th.spill_ptr, limit + 1);
+    need(parts, who, "spill pointer within its region", sp);
+    let d = eq_bit(l, th.done, done[lane as usize]);
+    need(parts, who, "done bit agrees", d);
+}
+
+/// The clauses on `lane`'s ring: its own stack not Idle unless finished, the ring home within
+/// 1 + borrow limit steps, its members' ranks, and (between commands) which members may be
+/// empty.
+fn ring_parts<L: Logic>(
+    l: &mut L,
+    cfg: &Config,
+    regs: &[Regs<L>],
+    done: &[L::Bit],
+    (lane, th, busy): (u32, Thread<L>, L::Bit),
+    parts: &mut Vec<(String, L::Bit)>,
+) {
+    let m = cfg.sh_entries;
+    let ws = cfg.warp_size;
+    let max_ring = cfg.policy.chain_bound() as usize;
+    let who = Who::Lane(lane);
+    let me = l.word(lane);
+    let own = regs[lane as usize];
+    let not_idle = l_not(l, own.idle);
+    let a = l.or(th.done, not_idle);
+    need(parts, who, "not Idle unless finished", a);
+    // Walk the ring: `ids[k]` is the lane k steps along; it must come home within max_ring.
+    let mut ids = vec![me];
+    let mut home = l.bit(false);
+    let mut len = l.word(0);
+    let mut cur = me;
+    for k in 1..=max_ring.min(ws as usize) {
+        let next = select(l, regs, cur, |r| r.next_tid);
+        let back = l.eq(next, me);
+        let fresh = l_not(l, home);
+        let now = l.and(back, fresh);
+        let kw = l.word(k as u32);
+        len = l.mux(now, kw, len);
+        home = l.or(home, now);
+        ids.push(next);
+        cur = next;
+    }
+    let r = l.or(home, th.done);
+    need(parts, who, "ring returns home within 1 + borrow limit", r);
+    // Members (positions below len): ranks distinct and below len; others finished, not Idle.
+    for (k, &x) in ids.iter().enumerate().take(max_ring) {
+        let kw = l.word(k as u32);
+        let member = l.lt(kw, len);
+        let p = select(l, regs, x, |r| r.priority);
+        let below = l.lt(p, len);
+        let imp = implies(l, member, below);
+        let held = l.or(imp, th.done);
+        need(parts, who, "ring ranks below its length", held);
+        if k > 0 {
+            let fin = select_bit(l, done, x);
+            let idle = select_idle(l, regs, x);
+            let awake = l.not(idle);
+            let good = l.and(fin, awake);
+            let imp = implies(l, member, good);
+            let held = l.or(imp, th.done);
+            need(parts, who, "ring members finished and not Idle", held);
+        }
+        for &y in ids.iter().take(k) {
+            let q = select(l, regs, y, |r| r.priority);
+            let distinct = l.ne(p, q);
+            let imp = implies(l, member, distinct);
+            let held = l.or(imp, th.done);
+            need(parts, who, "ring ranks distinct", held);
+        }
+        if m > 0 {
+            // Between the owner's commands (its sequencer idle): a borrowed stack below the
+            // top holds entries (a drained one is released at once), the top is empty only
+            // on a ring of one (a drained dedicated stack moves to the bottom), and an
+            // empty member's Flush is 0.
+            let quiet = l.not(busy);
+            let live = l.not(th.done);
+            let quiet = l.and(quiet, live);
+            let here = l.and(quiet, member);
+            let e = select_flag(l, regs, x, |r| r.empty);
+            let top_rank = l.sub_k(len, 1);
+            let top = l.eq(p, top_rank);
+            let full = l.not(e);
+            if k > 0 {
+                let not_top = l.not(top);
+                let c = l.and(here, not_top);
+                let imp = implies(l, c, full);
+                need(parts, who, "quiescent: a borrowed stack below the top holds entries", imp);
+            }
+            let c = l.and(here, top);
+            let c = l.and(c, e);
+            let one = l.eq_k(len, 1);
+            let imp = implies(l, c, one);
+            need(parts, who, "quiescent: the top is empty only on a ring of one", imp);
+            if cfg.realloc().is_some() {
+                let c = l.and(here, e);
+                let f = select(l, regs, x, |r| r.flush);
+                let zero = l.eq_k(f, 0);
+                let imp = implies(l, c, zero);
+                need(parts, who, "quiescent: an empty member's Flush is 0", imp);
+            }
+        }
+    }
 }
 
 fn l_not<L: Logic>(l: &mut L, b: L::Bit) -> L::Bit {
