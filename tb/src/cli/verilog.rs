@@ -26,12 +26,14 @@ pub struct Args {
     /// Prove the well-formedness invariant on each warp module with yosys's SAT solver
     /// (`sat -tempinduct`) from a warp load on; inputs free but for the SMT cycle proofs' input
     /// protocol. Verdict: proved by k-induction, bounded (holds for the first cycles only, when
-    /// induction does not close within --steps), or a counterexample naming the failing clauses.
+    /// induction does not close within --steps; the clauses its induction step breaks are
+    /// named), or a counterexample naming the failing clauses.
     /// At most 4 lanes, 4 SH and 4 RB entries. docs/verilog.md, section Formal
     #[arg(long)]
     pub prove: bool,
-    /// Most time steps of --prove's induction (the first loads the warp)
-    #[arg(long, default_value_t = 8)]
+    /// Most time steps of --prove's induction (the first loads the warp): the SAT problems grow
+    /// with it (2 lanes, RB_1+SH_2: 3 steps take about 10 s of CPU, 5 steps over a minute)
+    #[arg(long, default_value_t = 4)]
     pub steps: u32,
 }
 

@@ -283,7 +283,9 @@ pub enum Verdict {
     Proved { k: u32 },
     /// The clauses hold in the first `depth` cycles after a warp load (bounded model check); the
     /// induction step still failed at length `depth`, so nothing is claimed past it.
-    Bounded { depth: u32 },
+    /// `step_fails`: the clauses the last induction step's model makes false (from a state
+    /// unreachable or not, the solver does not say which).
+    Bounded { depth: u32, step_fails: Vec<String> },
     /// `step` cycles after a warp load the clauses `failed` are false.
     Counterexample { step: u32, failed: Vec<String> },
 }
@@ -292,10 +294,16 @@ impl std::fmt::Display for Verdict {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Verdict::Proved { k } => write!(f, "proved by {k}-induction: holds in every cycle after a warp load"),
-            Verdict::Bounded { depth } => write!(
-                f,
-                "bounded: holds in the first {depth} cycles after a warp load; {depth}-induction did not close (not a proof beyond {depth} cycles)"
-            ),
+            Verdict::Bounded { depth, step_fails } => {
+                write!(
+                    f,
+                    "bounded: holds in the first {depth} cycles after a warp load; induction did not close (not a proof beyond {depth} cycles)"
+                )?;
+                if !step_fails.is_empty() {
+                    write!(f, "; the induction step fails at: {}", step_fails.join("; "))?;
+                }
+                Ok(())
+            }
             Verdict::Counterexample { step, failed } => {
                 write!(f, "counterexample {step} cycles after a warp load: {}", failed.join("; "))
             }
@@ -382,27 +390,7 @@ pub fn parse(log: &str, asserts: &[String]) -> Result<Verdict> {
             .max()
     };
     if let Some(at) = log.find("model found for base case: FAIL!") {
-        // The model's table: `<step> \wf_<k> <dec> …`; the failing clauses are 0 at its last step.
-        let mut rows = Vec::new();
-        for l in log[at..].lines() {
-            let mut it = l.split_whitespace();
-            let (Some(step), Some(sig), Some(v)) = (it.next(), it.next(), it.next()) else { continue };
-            let (Ok(step), Some(k), Ok(v)) =
-                (step.parse::<u32>(), sig.strip_prefix("\\wf_").and_then(|k| k.parse::<usize>().ok()), v.parse::<u64>())
-            else {
-                continue;
-            };
-            rows.push((step, k, v));
-        }
-        let step = rows.iter().map(|r| r.0).max().context("a failed base case without its model")?;
-        let failed: Vec<String> = rows
-            .iter()
-            .filter(|r| r.0 == step && r.2 == 0)
-            .map(|r| asserts.get(r.1).cloned().unwrap_or_else(|| format!("wf_{}", r.1)))
-            .collect();
-        if failed.is_empty() {
-            bail!("a failed base case whose last step has no false clause");
-        }
+        let (step, failed) = false_at_last_step(&log[at..], asserts).context("a failed base case without its model")?;
         // Step 1 is the warp load's cycle.
         return Ok(Verdict::Counterexample { step: step - 1, failed });
     }
@@ -412,10 +400,39 @@ pub fn parse(log: &str, asserts: &[String]) -> Result<Verdict> {
     }
     if log.contains("Reached maximum number of time steps") {
         let depth = last_step("[base case").context("no base case in the log")?;
+        // The last induction step's model: the clauses it makes false after the assumed steps.
+        let step_fails = log
+            .rfind("Induction step failed")
+            .and_then(|at| false_at_last_step(&log[at..], asserts))
+            .map(|x| x.1)
+            .unwrap_or_default();
         // Base case n checks steps 1..=n, step 1 being the load's cycle.
-        return Ok(Verdict::Bounded { depth: depth - 1 });
+        return Ok(Verdict::Bounded { depth: depth - 1, step_fails });
     }
     bail!("no verdict in the log")
+}
+
+/// The last time step of the model table at the start of `log` (`<step> \\wf_<k> <dec> …` rows)
+/// and the clauses false at it, named by `asserts`; `None` without a false clause.
+fn false_at_last_step(log: &str, asserts: &[String]) -> Option<(u32, Vec<String>)> {
+    let mut rows = Vec::new();
+    for l in log.lines() {
+        let mut it = l.split_whitespace();
+        let (Some(step), Some(sig), Some(v)) = (it.next(), it.next(), it.next()) else { continue };
+        let (Ok(step), Some(k), Ok(v)) =
+            (step.parse::<u32>(), sig.strip_prefix("\\wf_").and_then(|k| k.parse::<usize>().ok()), v.parse::<u64>())
+        else {
+            continue;
+        };
+        rows.push((step, k, v));
+    }
+    let step = rows.iter().map(|r| r.0).max()?;
+    let failed: Vec<String> = rows
+        .iter()
+        .filter(|r| r.0 == step && r.2 == 0)
+        .map(|r| asserts.get(r.1).cloned().unwrap_or_else(|| format!("wf_{}", r.1)))
+        .collect();
+    (!failed.is_empty()).then_some((step, failed))
 }
 
 /// The outcomes as a table.
