@@ -5,6 +5,7 @@
 
 pub mod build;
 pub mod cosim;
+pub mod formal;
 pub mod print;
 pub mod synth;
 

@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 use rtl::config::Config;
 
 use super::build::{Circuit, T};
+use super::formal::Checks;
 use crate::prove::sym::{Node, Sort};
 
 /// The warp module's name.
@@ -47,6 +48,13 @@ fn name(c: &Circuit, narrow: &HashMap<String, u32>, i: u32) -> String {
 
 /// The warp module's text.
 pub fn warp_module(c: &Circuit) -> String {
+    warp_module_with(c, None)
+}
+
+/// The warp module's text, with `checks` as its `ifdef FORMAL` block when given: the
+/// assumptions and asserted clauses as named wires (`fa_<k>`, `wf_<k>`), checked from the
+/// cycle after the first, which loads the warp.
+pub fn warp_module_with(c: &Circuit, checks: Option<&Checks>) -> String {
     let mut narrow = HashMap::new();
     let mut declared = Vec::new();
     for r in c.regs.iter().filter(|r| r.bits > 0) {
@@ -66,6 +74,7 @@ pub fn warp_module(c: &Circuit) -> String {
         .filter(|r| r.bits > 0)
         .map(|r| r.d.id())
         .chain(c.outputs.iter().map(|p| p.t.id()))
+        .chain(checks.iter().flat_map(|k| k.assumes.iter().chain(&k.asserts).map(|x| x.1 .0)))
         .collect();
     let need = reachable(c, &roots);
     let mut s = String::new();
@@ -122,8 +131,32 @@ pub fn warp_module(c: &Circuit) -> String {
     for r in c.regs.iter().filter(|r| r.bits > 0) {
         let _ = writeln!(s, "        {} <= {};", r.name, slice(c, &narrow, r.d, r.bits));
     }
-    let _ = writeln!(s, "    end\nendmodule");
+    let _ = writeln!(s, "    end");
+    if let Some(k) = checks {
+        formal_block(&mut s, c, &narrow, k);
+    }
+    let _ = writeln!(s, "endmodule");
     s
+}
+
+/// The `ifdef FORMAL` block of [`warp_module_with`]. The registers start undefined: the first
+/// cycle loads the warp (`load`), and the clauses hold from the second on.
+fn formal_block(s: &mut String, c: &Circuit, narrow: &HashMap<String, u32>, k: &Checks) {
+    let _ = writeln!(s, "\n`ifdef FORMAL");
+    let _ = writeln!(s, "    // The first cycle loads the warp; the clauses hold from the next one on.");
+    let _ = writeln!(s, "    reg f_started = 1'b0;\n    always @(posedge clk) f_started <= 1'b1;");
+    let _ = writeln!(s, "    always @* if (!f_started) assume(load);");
+    let _ = writeln!(s, "\n    // Input protocol.");
+    for (i, (what, b)) in k.assumes.iter().enumerate() {
+        let _ = writeln!(s, "    // {what}\n    wire fa_{i} = {};", name(c, narrow, b.0));
+        let _ = writeln!(s, "    always @* assume(fa_{i});");
+    }
+    let _ = writeln!(s, "\n    // Asserted clauses.");
+    for (i, (what, b)) in k.asserts.iter().enumerate() {
+        let _ = writeln!(s, "    // {what}\n    (* keep *) wire wf_{i} = {};", name(c, narrow, b.0));
+        let _ = writeln!(s, "    always @* if (f_started) assert(wf_{i});");
+    }
+    let _ = writeln!(s, "`endif");
 }
 
 /// Term `t` cut to its low `bits`.
