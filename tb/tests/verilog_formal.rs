@@ -68,6 +68,9 @@ fn the_log_reader_tells_a_proof_from_a_bounded_check_and_names_failing_clauses()
     assert_eq!(formal::parse(proved, &names).unwrap(), Verdict::Proved { k: 1 });
     let cex = "[base case 3] ...\nSAT temporal induction proof finished - model found for base case: FAIL!\n\
                Time Signal Dec Hex Bin\n  1 \\wf_0 1 1 1\n  1 \\wf_1 1 1 1\n  3 \\wf_0 1 1 1\n  3 \\wf_1 0 0 0\n";
-    assert_eq!(formal::parse(cex, &names).unwrap(), Verdict::Counterexample { step: 2, failed: vec!["b".into()] });
+    assert_eq!(
+        formal::parse(cex, &names).unwrap(),
+        Verdict::Counterexample { step: 2, failed: vec!["b".into()] }
+    );
     assert!(formal::parse("nothing", &names).is_err());
 }

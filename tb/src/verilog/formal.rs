@@ -197,7 +197,8 @@ pub fn checks(c: &mut Circuit, cfg: &Config, acked: bool) -> Checks {
     for j in 0..ws as usize {
         let mut addressed = s.bit(true);
         let mut releasable = s.bit(true);
-        let held = std::iter::once((inflight[j], None)).chain(queued[j].iter().enumerate().map(|(k, u)| (*u, Some(k))));
+        let held = std::iter::once((inflight[j], None))
+            .chain(queued[j].iter().enumerate().map(|(k, u)| (*u, Some(k))));
         for (u, slot) in held {
             let valid = match slot {
                 None => {
@@ -256,7 +257,8 @@ pub fn checks(c: &mut Circuit, cfg: &Config, acked: bool) -> Checks {
     }
 
     // The input protocol of the cycle proofs' shapes.
-    let global_kinds: Vec<u32> = [code::GLOBAL_LOAD].into_iter().chain(acked.then_some(code::GLOBAL_STORE)).collect();
+    let global_kinds: Vec<u32> =
+        [code::GLOBAL_LOAD].into_iter().chain(acked.then_some(code::GLOBAL_STORE)).collect();
     let mut assumes = Vec::new();
     for j in 0..ws as usize {
         let sh = any_of(s, inflight[j].kind, &sh_kinds);
@@ -275,7 +277,6 @@ pub fn checks(c: &mut Circuit, cfg: &Config, acked: bool) -> Checks {
     Checks { assumes, asserts }
 }
 
-
 /// What yosys established about the asserted clauses.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Verdict {
@@ -293,7 +294,9 @@ pub enum Verdict {
 impl std::fmt::Display for Verdict {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Verdict::Proved { k } => write!(f, "proved by {k}-induction: holds in every cycle after a warp load"),
+            Verdict::Proved { k } => {
+                write!(f, "proved by {k}-induction: holds in every cycle after a warp load")
+            }
             Verdict::Bounded { depth, step_fails } => {
                 write!(
                     f,
@@ -362,16 +365,23 @@ pub fn prove(f: &Formal, dir: &Path, steps: u32) -> Result<Outcome> {
         .stdout(std::process::Stdio::null())
         .output()
         .map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => anyhow::anyhow!("yosys is not on PATH: install it (apt-get install yosys)"),
+            std::io::ErrorKind::NotFound => {
+                anyhow::anyhow!("yosys is not on PATH: install it (apt-get install yosys)")
+            }
             _ => anyhow::anyhow!("yosys: {e}"),
         })?;
     let seconds = start.elapsed().as_secs_f64();
     let log = std::fs::read_to_string(dir.join("formal.log")).unwrap_or_default();
     if !out.status.success() {
         let tail: Vec<&str> = log.lines().rev().take(10).collect();
-        bail!("yosys failed in {}:\n{}", dir.display(), tail.into_iter().rev().collect::<Vec<_>>().join("\n"));
+        bail!(
+            "yosys failed in {}:\n{}",
+            dir.display(),
+            tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+        );
     }
-    let verdict = parse(&log, &f.asserts).with_context(|| format!("yosys log {}", dir.join("formal.log").display()))?;
+    let verdict =
+        parse(&log, &f.asserts).with_context(|| format!("yosys log {}", dir.join("formal.log").display()))?;
     Ok(Outcome {
         config: f.config.clone(),
         verdict,
@@ -390,7 +400,8 @@ pub fn parse(log: &str, asserts: &[String]) -> Result<Verdict> {
             .max()
     };
     if let Some(at) = log.find("model found for base case: FAIL!") {
-        let (step, failed) = false_at_last_step(&log[at..], asserts).context("a failed base case without its model")?;
+        let (step, failed) =
+            false_at_last_step(&log[at..], asserts).context("a failed base case without its model")?;
         // Step 1 is the warp load's cycle.
         return Ok(Verdict::Counterexample { step: step - 1, failed });
     }
@@ -419,9 +430,11 @@ fn false_at_last_step(log: &str, asserts: &[String]) -> Option<(u32, Vec<String>
     for l in log.lines() {
         let mut it = l.split_whitespace();
         let (Some(step), Some(sig), Some(v)) = (it.next(), it.next(), it.next()) else { continue };
-        let (Ok(step), Some(k), Ok(v)) =
-            (step.parse::<u32>(), sig.strip_prefix("\\wf_").and_then(|k| k.parse::<usize>().ok()), v.parse::<u64>())
-        else {
+        let (Ok(step), Some(k), Ok(v)) = (
+            step.parse::<u32>(),
+            sig.strip_prefix("\\wf_").and_then(|k| k.parse::<usize>().ok()),
+            v.parse::<u64>(),
+        ) else {
             continue;
         };
         rows.push((step, k, v));
