@@ -29,7 +29,8 @@ use rtl::stack_manager::policy::{Regs, Thread};
 use rtl::stack_manager::{StackRegsOf, ThreadRegsOf};
 
 use super::build::{Circuit, T};
-use super::{print, Generated};
+use super::print::{self, Checks};
+use super::Generated;
 use crate::prove::query::{code, well_formed_parts};
 use crate::prove::sym::{Sym, B, W};
 
@@ -40,13 +41,6 @@ pub const MAX_LANES: u32 = 4;
 pub const MAX_SH_ENTRIES: u32 = 4;
 /// Most RB entries the formal check takes.
 pub const MAX_RB_ENTRIES: u32 = 4;
-
-/// The properties of the formal block: input-protocol assumptions and asserted clauses, each
-/// named, each one term over the warp module's registers and inputs.
-pub struct Checks {
-    pub assumes: Vec<(String, B)>,
-    pub asserts: Vec<(String, B)>,
-}
 
 /// The warp module of one configuration with its formal block.
 pub struct Formal {

@@ -9,8 +9,14 @@ use std::fmt::Write as _;
 use rtl::config::Config;
 
 use super::build::{Circuit, T};
-use super::formal::Checks;
-use crate::prove::sym::{Node, Sort};
+use crate::prove::sym::{Node, Sort, B};
+
+/// The properties of a formal block ([`super::formal`] builds them): input-protocol assumptions
+/// and asserted clauses, each named, each one term over the warp module's registers and inputs.
+pub struct Checks {
+    pub assumes: Vec<(String, B)>,
+    pub asserts: Vec<(String, B)>,
+}
 
 /// The warp module's name.
 pub const WARP: &str = "sms_warp";
