@@ -72,9 +72,9 @@ pub const SAMPLE_ERROR: &str = "measured on the 18 scenes at LumiBench's setting
 /// Which comparison a sweep makes (`sms sweep --designs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Designs {
-    /// The paper's evaluation (SPEC section 8): [`Config::paper_set`], the RB-size and L1D sweeps.
+    /// The paper's evaluation (SPEC section 8): its configurations, the RB-size and L1D sweeps.
     Paper,
-    /// [`Config::restart_set`]: restart designs beside the spilling designs they compete with.
+    /// Restart designs beside the spilling designs they compete with (`-c restart`).
     Restart,
 }
 
