@@ -25,7 +25,7 @@ use crate::clock::Unit;
 use crate::config::{Config, ConfigError};
 use crate::mem::hierarchy::{MemStep, MemSystem};
 use crate::mem::{Counters, MemParams, ReqKind};
-use crate::rt_unit::{RtParams, RtStep, RtUnit};
+use crate::rt_unit::{RtParams, RtStep, RtUnit, StackParams};
 use crate::stack_manager::{StackPolicy, StackStats};
 use crate::thread_cycles::ThreadCycles;
 use crate::trace::{Probe, Sink};
@@ -100,28 +100,34 @@ fn hit_rate(c: &Counters) -> f64 {
 /// and the hardware parameters. Running it is [`crate::sim`]'s (`Gpu::run`, `Gpu::run_timed`, …).
 pub struct Gpu {
     cfg: Config,
-    rt: RtParams,
     units: Vec<RtUnit>,
     mem: MemSystem,
 }
 
 impl Gpu {
-    /// `mem.sms` SMs with stack configuration `cfg`.
-    pub fn new(cfg: Config, rt: RtParams, mem: MemParams) -> Result<Gpu, ConfigError> {
-        Gpu::build(cfg, rt, mem, StackPolicy::of(&cfg))
+    /// `mem.sms` SMs with stack configuration `cfg`, RT units of latencies `rt` and stack timing
+    /// `stack`, and the memory system `mem`.
+    pub fn new(cfg: Config, rt: RtParams, stack: StackParams, mem: MemParams) -> Result<Gpu, ConfigError> {
+        Gpu::build(cfg, rt, stack, mem, StackPolicy::of(&cfg))
     }
 
     /// As [`Gpu::new`], every stack manager running `policy` (an implementation of `cfg`'s
     /// policy other than the one it names: a design under study, a test build's planted bug).
-    pub fn build(cfg: Config, rt: RtParams, mem: MemParams, policy: StackPolicy) -> Result<Gpu, ConfigError> {
+    pub fn build(
+        cfg: Config,
+        rt: RtParams,
+        stack: StackParams,
+        mem: MemParams,
+        policy: StackPolicy,
+    ) -> Result<Gpu, ConfigError> {
         let sys = MemSystem::new(mem)?;
         let mut units = (0..mem.sms)
-            .map(|sm| RtUnit::new(sm, cfg, rt, mem.sector_bytes, policy.clone()))
+            .map(|sm| RtUnit::new(sm, cfg, rt, stack, mem.sector_bytes, policy.clone()))
             .collect::<Result<Vec<_>, _>>()?;
         for u in &mut units {
             u.stack_unit.manager.set_local_layout(mem.local_layout, mem.sms);
         }
-        Ok(Gpu { cfg, rt, units, mem: sys })
+        Ok(Gpu { cfg, units, mem: sys })
     }
 
     /// SPEC 7 defaults: 8 SMs, the L1D is 64 KB less the SH stacks' shared memory.
@@ -131,7 +137,13 @@ impl Gpu {
 
     /// [`Gpu::paper`] with every stack manager running `policy` (as [`Gpu::build`]).
     pub fn paper_with(cfg: Config, policy: StackPolicy) -> Result<Gpu, ConfigError> {
-        Gpu::build(cfg, RtParams::default(), carve_out(&cfg, MemParams::default()), policy)
+        Gpu::build(
+            cfg,
+            RtParams::default(),
+            StackParams::default(),
+            carve_out(&cfg, MemParams::default()),
+            policy,
+        )
     }
 
     /// Every stack manager gets a scoreboard from `make`, checking each cycle it commits.
@@ -145,11 +157,6 @@ impl Gpu {
     /// The stack configuration.
     pub fn config(&self) -> &Config {
         &self.cfg
-    }
-
-    /// The RT units' parameters.
-    pub fn rt_params(&self) -> &RtParams {
-        &self.rt
     }
 
     pub fn units(&self) -> &[RtUnit] {

@@ -232,7 +232,7 @@ macro_rules! params {
 mod tests {
     use super::*;
     use crate::mem::MemParams;
-    use crate::rt_unit::RtParams;
+    use crate::rt_unit::{RtParams, StackParams};
 
     #[test]
     fn every_key_reads_back_what_it_sets_and_refuses_other_kinds() {
@@ -256,6 +256,7 @@ mod tests {
             }
         }
         round_trip(RtParams::KEYS);
+        round_trip(StackParams::KEYS);
         round_trip(MemParams::KEYS);
         assert!(!(MemParams::KEYS.iter().find(|k| k.key == "l1d_write").unwrap().set)(
             &mut MemParams::default(),
@@ -269,6 +270,7 @@ mod tests {
         let paths = RtParams::KEYS
             .iter()
             .map(|k| (k.path(), k.field))
+            .chain(StackParams::KEYS.iter().map(|k| (k.path(), k.field)))
             .chain(MemParams::KEYS.iter().map(|k| (k.path(), k.field)));
         for (path, field) in paths {
             assert!(seen.insert(path.clone()), "{path} declared twice");
@@ -285,7 +287,14 @@ mod tests {
         assert_eq!(e.reason, "operation latency must be at least 1 cycle");
         let m = MemParams { dram_queue: 0, ..MemParams::default() };
         assert_eq!(check_bounds(MemParams::KEYS, &m).unwrap_err().reason, "must be at least 1");
+        let s = StackParams { sh_latency: 1, ..StackParams::default() };
+        let e = check_bounds(StackParams::KEYS, &s).unwrap_err();
+        assert_eq!(
+            (e.parameter, e.reason.as_str()),
+            ("sh_latency", "an SH access takes at least 2 cycles (issue, then the bank)")
+        );
         assert!(check_bounds(RtParams::KEYS, &RtParams::default()).is_ok());
+        assert!(check_bounds(StackParams::KEYS, &StackParams::default()).is_ok());
         assert!(check_bounds(MemParams::KEYS, &MemParams::default()).is_ok());
     }
 }

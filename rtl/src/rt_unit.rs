@@ -42,8 +42,8 @@
 //! response wakes every thread waiting on that node and each counts down its own operation
 //! latency (1087-1160); the scheduler merges whatever lanes of the picked warp wait to fetch.
 //!
-//! The choices the paper and Vulkan-Sim leave open or disagree on are keys of [`RtParams`]
-//! (`store_gating`, `store_queue`, `port_priority`, `warp_select`), each with its sources in
+//! The choices the paper and Vulkan-Sim leave open or disagree on are keys of [`StackParams`]
+//! (`store_gating`, `store_queue`, `port_priority`) and [`RtParams`] (`warp_select`), each with its sources in
 //! docs/assumptions.md.
 //!
 //! Simplified, and why:
@@ -113,7 +113,8 @@ named_enum!(PortPriority, PortPriority::Stack => "stack", PortPriority::Node => 
 const LATENCY: Bound = Bound::at_least(1).because("operation latency must be at least 1 cycle");
 
 params! {
-    /// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and run options.
+    /// Operation-unit latencies in cycles (SPEC 7, Vulkan-Sim defaults) and the warp scheduler's
+    /// choice (`[rt]`).
     #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
     pub struct RtParams {
         /// Once per ray, when its warp is loaded (4).
@@ -134,14 +135,23 @@ params! {
         /// Procedural primitive (8).
         ["rt" "procedural", LATENCY]
         pub procedural: u32 = 8,
-        /// Jump over cycles in which every thread waits on memory (identical results, faster).
-        ["rt" "idle_skip"; run]
-        pub idle_skip: bool = true,
+        /// How the scheduler picks a warp. Default [`WarpSelect::Gto`] (the paper's).
+        ["rt" "warp_select"]
+        pub warp_select: WarpSelect = WarpSelect::Gto,
+    }
+}
+
+params! {
+    /// The stack unit's timing in the RT unit (`[stack]`): whether stack traffic is on the ray's
+    /// critical path, the SH access latency, which stores hold the next fetch, the store queue's
+    /// bound and the memory port's priority.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub struct StackParams {
         /// Whether stack traffic is on the ray's critical path (`Blocking`, the paper's sequence and
         /// the default) or overlaps the next node fetch with posted stores (`Overlapped`, the `legacy`
         /// preset's). See [`StackTiming`].
         ["stack" "timing"]
-        pub stack_timing: StackTiming = StackTiming::Blocking,
+        pub timing: StackTiming = StackTiming::Blocking,
         /// Total cycles of an unconflicted shared-memory (SH stack) access, from the cycle the
         /// sequencer issues it to the cycle it issues its next micro-op; each bank-conflict cycle adds
         /// one. Default 20: Vulkan-Sim's `-gpgpu_smem_latency 20`
@@ -167,9 +177,6 @@ params! {
         /// Which requests the memory port serves first. Default [`PortPriority::Stack`].
         ["stack" "port_priority"]
         pub port_priority: PortPriority = PortPriority::Stack,
-        /// How the scheduler picks a warp. Default [`WarpSelect::Gto`] (the paper's).
-        ["rt" "warp_select"]
-        pub warp_select: WarpSelect = WarpSelect::Gto,
     }
 }
 
@@ -186,21 +193,27 @@ impl RtParams {
         }
     }
 
+    /// Every latency must be at least one cycle (a thread is Busy for exactly that many cycles).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check_bounds(RtParams::KEYS, self)
+    }
+}
+
+impl StackParams {
     /// The `legacy` preset's stack timing ([`StackTiming::Overlapped`], `sh_latency` 2),
     /// other fields unchanged.
     pub fn overlapped(self) -> Self {
-        RtParams { stack_timing: StackTiming::Overlapped, sh_latency: MIN_SH_LATENCY, ..self }
+        StackParams { timing: StackTiming::Overlapped, sh_latency: MIN_SH_LATENCY, ..self }
     }
 
     /// Global stores wait for the L2's acknowledgement: with `Blocking`, unless posted.
     pub fn acked_stores(&self) -> bool {
-        self.stack_timing == StackTiming::Blocking && self.store_gating != StoreGating::Posted
+        self.timing == StackTiming::Blocking && self.store_gating != StoreGating::Posted
     }
 
-    /// Every latency must be at least one cycle (a thread is Busy for exactly that many cycles);
     /// `sh_latency` at least [`MIN_SH_LATENCY`]; `store_queue` within the scheduler queue's width.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        check_bounds(RtParams::KEYS, self)
+        check_bounds(StackParams::KEYS, self)
     }
 }
 
@@ -414,6 +427,7 @@ pub struct RtUnit {
     id: u32,
     cfg: Config,
     rt: RtParams,
+    stack: StackParams,
     w: Widths,
     /// Stack manager, bank arbiter and memory scheduler.
     pub stack_unit: StackUnit,
@@ -444,16 +458,19 @@ impl RtUnit {
         (self.stack_unit.stats(), self.fetch.requests, self.stack_unit.conflict_cycles())
     }
 
-    /// RT unit `id` (its SM) with stack configuration `cfg`, its stack manager running `policy`;
-    /// `sector_bytes` is the memory system's fetch granularity.
+    /// RT unit `id` (its SM) with stack configuration `cfg`, its operation latencies `rt` and
+    /// stack timing `stack`, its stack manager running `policy`; `sector_bytes` is the memory
+    /// system's fetch granularity.
     pub fn new(
         id: u32,
         cfg: Config,
         rt: RtParams,
+        stack: StackParams,
         sector_bytes: u32,
         policy: StackPolicy,
     ) -> Result<Self, ConfigError> {
         rt.validate()?;
+        stack.validate()?;
         // The node fetch splits nodes into sectors with shifts and masks.
         if !sector_bytes.is_power_of_two() {
             return Err(ConfigError {
@@ -466,8 +483,9 @@ impl RtUnit {
             id,
             cfg,
             rt,
+            stack,
             w: cfg.widths()?,
-            stack_unit: StackUnit::with_stores(cfg, id, rt.acked_stores(), rt.sh_latency, policy)?,
+            stack_unit: StackUnit::with_stores(cfg, id, stack.acked_stores(), stack.sh_latency, policy)?,
             fetch: NodeFetch::new(sector_bytes, cfg.threads()),
             warp_buffer: WarpBuffer::new(&cfg)?,
             scheduler: WarpScheduler::default(),
@@ -521,7 +539,7 @@ impl RtUnit {
     /// stack's head request or the node fetch queue's head.
     fn port(&self) -> Port {
         let (stack, node) = (self.stack_unit.req().is_some(), !self.fetch.queue_empty());
-        match self.rt.port_priority {
+        match self.stack.port_priority {
             PortPriority::Stack if stack => Port::Stack,
             PortPriority::Node if node => Port::Node,
             _ if stack => Port::Stack,
@@ -541,7 +559,7 @@ impl RtUnit {
             Port::Stack => {
                 let g = self.stack_unit.req()?;
                 Some(if g.write {
-                    let tag = if self.rt.acked_stores() { u64::from(g.thread) } else { self.store_seq };
+                    let tag = if self.stack.acked_stores() { u64::from(g.thread) } else { self.store_seq };
                     MemReq::write(tag << 2 | TAG_STORE, g.addr, bytes, ReqKind::StackSpill)
                 } else {
                     MemReq::read(u64::from(g.thread) << 2 | TAG_LOAD, g.addr, bytes, ReqKind::StackReload)
@@ -612,7 +630,7 @@ impl RtUnit {
     /// taking the last piece is the queue's ready signal); with the node-first port, not while a
     /// stack request waits (Vulkan-Sim schedules no new warp while stores are queued).
     fn decide_issue(&self, fetch_ready: u64, d: &mut RtStep) {
-        let stack_waits = self.rt.port_priority == PortPriority::Node && self.stack_unit.req().is_some();
+        let stack_waits = self.stack.port_priority == PortPriority::Node && self.stack_unit.req().is_some();
         if self.fetch.queue_len() == usize::from(d.node_taken) && !stack_waits {
             let leaving = &d.leaving;
             let ready = leaving.iter().fold(fetch_ready, |m, &w| m & !(1 << w));
@@ -651,7 +669,7 @@ impl RtUnit {
                 TAG_LOAD => d.completions.push((r.id >> 2) as u32),
                 _ => {
                     debug_assert_eq!(r.id & 3, TAG_STORE);
-                    if self.rt.acked_stores() {
+                    if self.stack.acked_stores() {
                         d.completions.push((r.id >> 2) as u32);
                     }
                 }
@@ -900,7 +918,7 @@ impl RtUnit {
     fn fetchable(&self, w: u32) -> u32 {
         let m = self.warp_buffer.lanes(w).fetch;
         let manager = &self.stack_unit.manager;
-        match (self.rt.stack_timing, self.rt.store_gating) {
+        match (self.stack.timing, self.stack.store_gating) {
             (StackTiming::Overlapped, _) => m,
             (StackTiming::Blocking, _) if m == 0 => 0,
             (StackTiming::Blocking, StoreGating::Acked) => m & manager.ready_lanes(w),
@@ -929,7 +947,7 @@ impl RtUnit {
     /// The stack manager may take commands: fewer than `store_queue` global stores wait for
     /// the port (always, when unbounded).
     fn store_room(&self) -> bool {
-        self.rt.store_queue == 0 || self.stack_unit.sched.queued_stores() < self.rt.store_queue
+        self.stack.store_queue == 0 || self.stack_unit.sched.queued_stores() < self.stack.store_queue
     }
 
     /// Thread `t` holds no stack entry anywhere, and with reallocation its own SH stack is idle

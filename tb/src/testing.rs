@@ -126,9 +126,12 @@ pub fn synthetic_jobs(seed: u64, warps: usize, hit: u64) -> Vec<WarpJob> {
         .collect()
 }
 
-/// The GPU of stack configuration `cfg` on hardware `hw` (its L1D carved as `hw` says).
-pub fn gpu(cfg: Config, hw: &Hardware) -> Gpu {
-    Gpu::new(cfg, hw.rt, hw.mem_for(&cfg)).unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
+/// The GPU of stack configuration `cfg` on hardware `hw` (its L1D carved as `hw` says), to run
+/// with `hw`'s run option (idle-cycle skipping).
+pub fn gpu(cfg: Config, hw: &Hardware) -> Runner {
+    Gpu::new(cfg, hw.rt, hw.stack, hw.mem_for(&cfg))
+        .unwrap_or_else(|e| panic!("{}: {e}", cfg.name()))
+        .with_idle_skip(hw.idle_skip)
 }
 
 /// Runs `gpu` (a GPU, or a GPU with run options) on `jobs`: its report or the error that stopped

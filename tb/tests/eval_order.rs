@@ -121,13 +121,13 @@ fn window_hardware() -> Vec<(&'static str, Hardware)> {
         ("rtx2060", tb::hw::preset("rtx2060").unwrap()),
         ("l2 latency 13", with(&|h| h.mem.l2_latency = 13)),
         ("l2 latency 8", with(&|h| h.mem.l2_latency = 8)),
-        ("overlapped", with(&|h| h.rt = h.rt.overlapped())),
+        ("overlapped", with(&|h| h.stack = h.stack.overlapped())),
         ("vulkansim-mobile", tb::hw::preset("vulkansim-mobile").unwrap()),
         (
             "sh-posted, store queue 4",
             with(&|h| {
-                h.rt.store_gating = rtl::rt_unit::StoreGating::ShPosted;
-                h.rt.store_queue = 4;
+                h.stack.store_gating = rtl::rt_unit::StoreGating::ShPosted;
+                h.stack.store_queue = 4;
             }),
         ),
     ]
@@ -174,7 +174,7 @@ fn windows_fail_as_the_reference_loop() {
     for hw in [Hardware::default(), tb::hw::preset("legacy").unwrap()] {
         for m in Mutant::ALL {
             let attempt = |windows: bool, parallel: bool| {
-                let g = Gpu::build(cfg, hw.rt, hw.mem_for(&cfg), m.policy())
+                let g = Gpu::build(cfg, hw.rt, hw.stack, hw.mem_for(&cfg), m.policy())
                     .unwrap()
                     .with_windows(windows)
                     .with_helper_thread(parallel);

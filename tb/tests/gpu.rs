@@ -6,16 +6,26 @@ use rtl::config::Config;
 use rtl::gpu::{carve_out, Gpu, GpuReport};
 use rtl::mem::MemParams;
 use rtl::ray_op::{NodeKind, RayOp, WarpJob};
-use rtl::rt_unit::{PortPriority, RtParams, RunError, StackTiming, StoreGating, WarpSelect};
+use rtl::rt_unit::{PortPriority, RtParams, RunError, StackParams, StackTiming, StoreGating, WarpSelect};
 use rtl::trace::{NullSink, Sink};
 use tb::hw::Hardware;
 
 mod common;
 use common::{gpu, run_gpu, synthetic_jobs as jobs};
 
-/// A run of `cfg` on the RT unit `rt` and memory `mem` (the SH stacks carved out of its L1D).
-fn run_with(cfg: &str, mem: MemParams, rt: RtParams, work: Vec<WarpJob>) -> Result<GpuReport, RunError> {
-    run_gpu(gpu(cfg.parse().unwrap(), &Hardware { rt, mem, shared_carveout: true }), work)
+/// A run of `cfg` with stack timing `stack` and memory `mem` (the SH stacks carved out of its
+/// L1D), the default latencies.
+fn run_with(
+    cfg: &str,
+    mem: MemParams,
+    stack: StackParams,
+    work: Vec<WarpJob>,
+) -> Result<GpuReport, RunError> {
+    run_on(cfg, Hardware { stack, mem, shared_carveout: true, ..Hardware::default() }, work)
+}
+
+fn run_on(cfg: &str, hw: Hardware, work: Vec<WarpJob>) -> Result<GpuReport, RunError> {
+    run_gpu(gpu(cfg.parse().unwrap(), &hw), work)
 }
 
 /// The paper's memory system with a small L2, so spilled lines do reach DRAM: 2 banks of 16 sets
@@ -25,7 +35,7 @@ fn small_l2() -> MemParams {
 }
 
 fn run(cfg: &str, work: Vec<WarpJob>) -> GpuReport {
-    run_with(cfg, small_l2(), RtParams::default(), work).unwrap()
+    run_with(cfg, small_l2(), StackParams::default(), work).unwrap()
 }
 
 fn one_sm() -> MemParams {
@@ -60,12 +70,12 @@ fn single_warp(lane0: Vec<RayOp>) -> WarpJob {
 /// stack sequencer is idle in the cycle after each command and neither timing adds a cycle.
 #[test]
 fn single_ray_cycle_count_derived_by_hand() {
-    for rt in [RtParams::default().overlapped(), RtParams::default()] {
-        single_ray_with(rt);
+    for stack in [StackParams::default().overlapped(), StackParams::default()] {
+        single_ray_with(stack);
     }
 }
 
-fn single_ray_with(rt: RtParams) {
+fn single_ray_with(stack: StackParams) {
     let (root, a, b) = (0x1_0000, 0x2_0000, 0x3_0000);
     let ops = vec![
         RayOp::Visit { addr: root, kind: NodeKind::Internal, bytes: 64 },
@@ -74,7 +84,7 @@ fn single_ray_with(rt: RtParams) {
         RayOp::Pop(a),
         RayOp::Visit { addr: a, kind: NodeKind::Triangle, bytes: 64 },
     ];
-    let r = run_with("RB_8", one_sm(), rt, vec![single_warp(ops.clone())]).unwrap();
+    let r = run_with("RB_8", one_sm(), stack, vec![single_warp(ops.clone())]).unwrap();
     assert_eq!(r.cycles, 822);
     assert_eq!((r.rays, r.visits, r.node_fetches, r.pops_checked), (1, 3, 6, 1));
     assert_eq!(r.dram_node, 6);
@@ -86,7 +96,10 @@ fn single_ray_with(rt: RtParams) {
     // 3 WaitMem, 4 Stack.
     let mut watch = Watch::new("sm0.rt_unit.warp_buffer.warp[0].thread[0].state");
     let cfg: Config = "RB_8".parse().unwrap();
-    Gpu::new(cfg, rt, one_sm()).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
+    Gpu::new(cfg, RtParams::default(), stack, one_sm())
+        .unwrap()
+        .run(vec![single_warp(ops)], &mut watch)
+        .unwrap();
     let (done, busy, fetch, wait, stack) = (0, 1, 2, 3, 4);
     #[rustfmt::skip]
     let derived = [
@@ -112,8 +125,10 @@ fn two_level_header_latency_is_paid_once() {
     };
     let rt = RtParams::default();
     assert_eq!(rt.latency(NodeKind::BvhHeader), rt.latency(NodeKind::LeafDescriptor));
-    let fetched = run_with("RB_8", one_sm(), rt, vec![single_warp(trace(NodeKind::BvhHeader))]).unwrap();
-    let at_load = run_with("RB_8", one_sm(), rt, vec![single_warp(trace(NodeKind::LeafDescriptor))]).unwrap();
+    let stack = StackParams::default();
+    let fetched = run_with("RB_8", one_sm(), stack, vec![single_warp(trace(NodeKind::BvhHeader))]).unwrap();
+    let at_load =
+        run_with("RB_8", one_sm(), stack, vec![single_warp(trace(NodeKind::LeafDescriptor))]).unwrap();
     assert_eq!(at_load.cycles, fetched.cycles + u64::from(rt.bvh_header) - 1);
     assert_eq!((fetched.node_fetches, fetched.dram_node), (at_load.node_fetches, at_load.dram_node));
 }
@@ -160,7 +175,7 @@ impl Sink for Watch {
 fn identical_nodes_in_a_warp_make_one_fetch() {
     let visit = RayOp::Visit { addr: 0x4000, kind: NodeKind::Internal, bytes: 32 };
     let job = WarpJob { lanes: vec![Some(vec![visit]); 32], walk: None };
-    let r = run_with("RB_8", one_sm(), RtParams::default(), vec![job]).unwrap();
+    let r = run_with("RB_8", one_sm(), StackParams::default(), vec![job]).unwrap();
     assert_eq!((r.rays, r.visits, r.node_fetches, r.dram_node), (32, 32, 1, 1));
     // Header until 4, scheduled at 5, sent at 6, back at 266, Busy (8) until 274, Finish at 275,
     // the slot frees at 276, the run ends at 277.
@@ -178,7 +193,10 @@ fn one_memory_request_per_cycle() {
     };
     let cfg: Config = "RB_8".parse().unwrap();
     let mut watch = Watch::new("sm0.rt_unit.port.req_node");
-    let r = Gpu::new(cfg, RtParams::default(), one_sm()).unwrap().run(vec![job], &mut watch).unwrap();
+    let r = Gpu::new(cfg, RtParams::default(), StackParams::default(), one_sm())
+        .unwrap()
+        .run(vec![job], &mut watch)
+        .unwrap();
     assert_eq!(r.node_fetches, 32);
     // The port drives a node request in cycles 6 to 37 and in no other.
     assert_eq!(watch.changes, [(0, 0), (6, 1), (38, 0)]);
@@ -256,7 +274,7 @@ fn every_pop_is_checked_and_a_wrong_pop_is_caught() {
         .unwrap();
     let p = lane.iter_mut().filter(|o| matches!(o, RayOp::Pop(_))).nth(1).unwrap();
     *p = RayOp::Pop(0xBAD0);
-    let e = run_with("RB_2+SH_8+SK+RA", small_l2(), RtParams::default(), bad).unwrap_err();
+    let e = run_with("RB_2+SH_8+SK+RA", small_l2(), StackParams::default(), bad).unwrap_err();
     assert!(matches!(e, RunError::PopMismatch { expected: 0xBAD0, .. }), "{e}");
 }
 
@@ -264,12 +282,12 @@ fn every_pop_is_checked_and_a_wrong_pop_is_caught() {
 fn bad_jobs_are_errors() {
     let short = WarpJob { lanes: vec![None; 8], walk: None };
     assert!(matches!(
-        run_with("RB_8", one_sm(), RtParams::default(), vec![short]),
+        run_with("RB_8", one_sm(), StackParams::default(), vec![short]),
         Err(RunError::BadJob { job: 0, .. })
     ));
     let unbalanced = single_warp(vec![RayOp::Push(8)]);
     assert!(matches!(
-        run_with("RB_8", one_sm(), RtParams::default(), vec![unbalanced]),
+        run_with("RB_8", one_sm(), StackParams::default(), vec![unbalanced]),
         Err(RunError::Stack { .. })
     ));
     let e = RtParams { triangle: 0, ..RtParams::default() }.validate().unwrap_err();
@@ -281,17 +299,18 @@ fn idle_skipping_equals_stepping_every_cycle() {
     // Dense (every SM full: little to skip) and sparse (one warp per SM: mostly waiting).
     // Both stack timings: Blocking adds waits on store acknowledgements, on the SH latency
     // pipeline and lanes that wait to fetch on their sequencer.
-    let old = RtParams::default().overlapped();
-    for (cfg, work, rt, min_skipped_percent) in [
+    let old = StackParams::default().overlapped();
+    for (cfg, work, stack, min_skipped_percent) in [
         ("RB_2", jobs(5, 24, 45), old, 5),
         ("RB_8+SH_8+SK+RA", jobs(5, 24, 45), old, 5),
         ("RB_2+SH_4", jobs(6, 6, 45), old, 50),
-        ("RB_2", jobs(5, 24, 45), RtParams::default(), 5),
-        ("RB_8+SH_8+SK+RA", jobs(5, 24, 45), RtParams::default(), 5),
-        ("RB_2+SH_4", jobs(6, 6, 45), RtParams::default(), 50),
+        ("RB_2", jobs(5, 24, 45), StackParams::default(), 5),
+        ("RB_8+SH_8+SK+RA", jobs(5, 24, 45), StackParams::default(), 5),
+        ("RB_2+SH_4", jobs(6, 6, 45), StackParams::default(), 50),
     ] {
-        let stepped = run_with(cfg, small_l2(), RtParams { idle_skip: false, ..rt }, work.clone()).unwrap();
-        let skipped = run_with(cfg, small_l2(), rt, work).unwrap();
+        let hw = Hardware { stack, mem: small_l2(), shared_carveout: true, ..Hardware::default() };
+        let stepped = run_on(cfg, Hardware { idle_skip: false, ..hw }, work.clone()).unwrap();
+        let skipped = run_on(cfg, hw, work).unwrap();
         assert_eq!(stepped, GpuReport { evaluated_cycles: stepped.evaluated_cycles, ..skipped }, "{cfg}");
         assert_eq!(stepped.evaluated_cycles, stepped.cycles);
         let skipped_percent = 100 - 100 * skipped.evaluated_cycles / stepped.cycles;
@@ -399,7 +418,7 @@ fn stack_requests_go_before_node_pieces() {
     let run = |path| {
         let mut watch = Watch::new(path);
         let job = WarpJob { lanes: lanes.clone(), walk: None };
-        Gpu::new(cfg, RtParams::default().overlapped(), one_sm())
+        Gpu::new(cfg, RtParams::default(), StackParams::default().overlapped(), one_sm())
             .unwrap()
             .run(vec![job], &mut watch)
             .unwrap();
@@ -418,7 +437,8 @@ fn residence_times_account_for_every_job() {
     let work = jobs(21, 40, 3);
     let n = work.len();
     let mut residence = Vec::new();
-    let gpu = Gpu::new(cfg, RtParams::default(), carve_out(&cfg, small_l2())).unwrap();
+    let gpu =
+        Gpu::new(cfg, RtParams::default(), StackParams::default(), carve_out(&cfg, small_l2())).unwrap();
     let r = gpu.run_timed(work, &mut NullSink, u64::MAX, |_| {}, &mut residence).unwrap();
     assert_eq!(residence.len(), n, "one time per job, in launch order");
     assert!(residence.iter().all(|&c| c > 0 && c < r.cycles), "{residence:?}");
@@ -430,7 +450,7 @@ fn residence_times_account_for_every_job() {
     // single ray loads at the end of cycle 0 and frees in cycle 821.
     let lone = jobs(5, 1, 3);
     let mut one = Vec::new();
-    let r1 = Gpu::new(cfg, RtParams::default(), carve_out(&cfg, one_sm()))
+    let r1 = Gpu::new(cfg, RtParams::default(), StackParams::default(), carve_out(&cfg, one_sm()))
         .unwrap()
         .run_timed(lone, &mut NullSink, u64::MAX, |_| {}, &mut one)
         .unwrap();
@@ -441,7 +461,7 @@ fn residence_times_account_for_every_job() {
 /// Lane 0 alone on one SM, RB_2 (no SH: a spill goes straight to global memory): push 1, 2, 3
 /// (the third spills 1), pop 3 (reloads 1 into the RB), visit a fresh 32-byte triangle, pop 2,
 /// pop 1. Returns, per watched signal, its changes.
-fn spill_then_fetch(rt: RtParams, paths: &[&'static str]) -> (GpuReport, Vec<Vec<(u64, u64)>>) {
+fn spill_then_fetch(stack: StackParams, paths: &[&'static str]) -> (GpuReport, Vec<Vec<(u64, u64)>>) {
     let mut ops: Vec<RayOp> = [1, 2, 3].map(RayOp::Push).into();
     ops.push(RayOp::Pop(3));
     ops.push(RayOp::Visit { addr: 0x9000, kind: NodeKind::Triangle, bytes: 32 });
@@ -452,7 +472,7 @@ fn spill_then_fetch(rt: RtParams, paths: &[&'static str]) -> (GpuReport, Vec<Vec
         .iter()
         .map(|&p| {
             let mut watch = Watch::new(p);
-            let gpu = Gpu::new(cfg, rt, one_sm()).unwrap();
+            let gpu = Gpu::new(cfg, RtParams::default(), stack, one_sm()).unwrap();
             report = Some(gpu.run(vec![single_warp(ops.clone())], &mut watch).unwrap());
             watch.changes
         })
@@ -477,8 +497,8 @@ const CMD: &str = "sm0.rt_unit.stack_manager.warp[0].thread[0].cmd_kind";
 ///   delivers it; 171 the sequencer completes the store; 172 the pop is accepted.
 #[test]
 fn blocking_stores_wait_for_the_l2_ack() {
-    let (_, old) = spill_then_fetch(RtParams::default().overlapped(), &[CMD, PORT_STACK]);
-    let (_, new) = spill_then_fetch(RtParams::default(), &[CMD, PORT_STACK]);
+    let (_, old) = spill_then_fetch(StackParams::default().overlapped(), &[CMD, PORT_STACK]);
+    let (_, new) = spill_then_fetch(StackParams::default(), &[CMD, PORT_STACK]);
     let pop_at = |c: &[(u64, u64)]| c.iter().find(|&&(_, k)| k == 2).unwrap().0;
     assert_eq!((pop_at(&old[0]), pop_at(&new[0])), (9, 172));
     // The store leaves through the port in cycle 9 in both.
@@ -501,8 +521,8 @@ fn blocking_stores_wait_for_the_l2_ack() {
 ///   finish 609; frees 610; ends 611.
 #[test]
 fn blocking_node_fetch_waits_for_the_reload() {
-    let (old_r, old) = spill_then_fetch(RtParams::default().overlapped(), &[PORT_STACK, PORT_NODE, CMD]);
-    let (new_r, new) = spill_then_fetch(RtParams::default(), &[PORT_STACK, PORT_NODE, CMD]);
+    let (old_r, old) = spill_then_fetch(StackParams::default().overlapped(), &[PORT_STACK, PORT_NODE, CMD]);
+    let (new_r, new) = spill_then_fetch(StackParams::default(), &[PORT_STACK, PORT_NODE, CMD]);
     assert_eq!(old[0], [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)], "store, reload");
     assert_eq!(old[1], [(0, 0), (12, 1), (13, 0)], "node piece right after the reload");
     assert_eq!(new[0], [(0, 0), (9, 1), (10, 0), (174, 1), (175, 0)]);
@@ -517,14 +537,14 @@ fn blocking_node_fetch_waits_for_the_reload() {
 /// both timings give the same run, cycle for cycle (SH latency plays no part either).
 #[test]
 fn stack_timing_is_invisible_without_stack_traffic() {
-    assert_eq!(RtParams::default().stack_timing, StackTiming::Blocking, "the paper's timing is the default");
+    assert_eq!(StackParams::default().timing, StackTiming::Blocking, "the paper's timing is the default");
     let work = jobs(11, 16, 45);
-    let old = run_with("RB_FULL", small_l2(), RtParams::default().overlapped(), work.clone()).unwrap();
-    let new = run_with("RB_FULL", small_l2(), RtParams::default(), work.clone()).unwrap();
+    let old = run_with("RB_FULL", small_l2(), StackParams::default().overlapped(), work.clone()).unwrap();
+    let new = run_with("RB_FULL", small_l2(), StackParams::default(), work.clone()).unwrap();
     assert_eq!(old, new);
     // With traffic the timings differ (and Blocking is slower).
-    let old = run_with("RB_2+SH_4", small_l2(), RtParams::default().overlapped(), work.clone()).unwrap();
-    let new = run_with("RB_2+SH_4", small_l2(), RtParams::default(), work).unwrap();
+    let old = run_with("RB_2+SH_4", small_l2(), StackParams::default().overlapped(), work.clone()).unwrap();
+    let new = run_with("RB_2+SH_4", small_l2(), StackParams::default(), work).unwrap();
     assert!(new.cycles > old.cycles, "{} vs {}", new.cycles, old.cycles);
     assert_eq!((old.stack, old.pops_checked), (new.stack, new.pops_checked), "same traffic");
 }
@@ -541,13 +561,16 @@ fn sh_accesses_take_the_shared_memory_latency() {
     let cfg: Config = "RB_2+SH_4".parse().unwrap();
     let pushes = |sh_latency: u32| {
         let mut watch = Watch { every: true, ..Watch::new(CMD) };
-        let rt = RtParams { sh_latency, ..RtParams::default().overlapped() };
-        Gpu::new(cfg, rt, one_sm()).unwrap().run(vec![single_warp(ops.clone())], &mut watch).unwrap();
+        let stack = StackParams { sh_latency, ..StackParams::default().overlapped() };
+        Gpu::new(cfg, RtParams::default(), stack, one_sm())
+            .unwrap()
+            .run(vec![single_warp(ops.clone())], &mut watch)
+            .unwrap();
         watch.changes.iter().filter(|&&(_, k)| k == 1).map(|c| c.0).collect::<Vec<_>>()
     };
     assert_eq!(pushes(2), [5, 6, 7, 11]);
     assert_eq!(pushes(20), [5, 6, 7, 29]);
-    let e = RtParams { sh_latency: 1, ..RtParams::default() }.validate().unwrap_err();
+    let e = StackParams { sh_latency: 1, ..StackParams::default() }.validate().unwrap_err();
     assert_eq!(e.parameter, "sh_latency");
 }
 
@@ -560,12 +583,12 @@ fn l2_requests_count_what_leaves_the_sm() {
     let visits: Vec<RayOp> = (0..6)
         .map(|i| RayOp::Visit { addr: 0x10_0000 + i * 0x1000, kind: NodeKind::Internal, bytes: 32 })
         .collect();
-    let once = run_with("RB_8", one_sm(), RtParams::default(), vec![single_warp(visits.clone())]).unwrap();
+    let once = run_with("RB_8", one_sm(), StackParams::default(), vec![single_warp(visits.clone())]).unwrap();
     assert_eq!((once.l2_node, once.l2_stack, once.dram_node), (6, 0, 6));
     let twice = run_with(
         "RB_8",
         one_sm(),
-        RtParams::default(),
+        StackParams::default(),
         vec![single_warp(visits.clone()), single_warp(visits.clone())],
     )
     .unwrap();
@@ -578,24 +601,24 @@ fn l2_requests_count_what_leaves_the_sm() {
         let a = 0x20_0000 + i * 0x1000;
         [RayOp::Pop(a), RayOp::Visit { addr: a, kind: NodeKind::Triangle, bytes: 32 }]
     }));
-    let r = run_with("RB_1", one_sm(), RtParams::default(), vec![single_warp(deep.clone())]).unwrap();
+    let r = run_with("RB_1", one_sm(), StackParams::default(), vec![single_warp(deep.clone())]).unwrap();
     let spilled = r.stack.rb_to_global;
     assert!(spilled >= 3, "4 pushes into 1 entry spill at least 3: {spilled}");
     assert!(r.l2_stack >= spilled, "every spill store leaves the SM: {} < {spilled}", r.l2_stack);
     assert_eq!(r.l2_node, 5, "root and four triangles, each a distinct sector");
-    let full = run_with("RB_FULL", one_sm(), RtParams::default(), vec![single_warp(deep)]).unwrap();
+    let full = run_with("RB_FULL", one_sm(), StackParams::default(), vec![single_warp(deep)]).unwrap();
     assert_eq!((full.l2_stack, full.l2_node), (0, 5), "no spills, no stack requests");
 }
 
 /// Lane 0 alone on one SM: pushes 1, 2, 3 on `cfg` (the third spills 1), then visits a fresh
 /// 32-byte triangle, then pops 3, 2, 1. Returns the cycle the node piece leaves through the port.
-fn push_spill_then_fetch(cfg: &str, rt: RtParams) -> u64 {
+fn push_spill_then_fetch(cfg: &str, stack: StackParams) -> u64 {
     let mut ops: Vec<RayOp> = [1, 2, 3].map(RayOp::Push).into();
     ops.push(RayOp::Visit { addr: 0x9000, kind: NodeKind::Triangle, bytes: 32 });
     ops.extend([3, 2, 1].map(RayOp::Pop));
     let cfg: Config = cfg.parse().unwrap();
     let mut watch = Watch::new(PORT_NODE);
-    let r = Gpu::new(cfg, rt, carve_out(&cfg, one_sm()))
+    let r = Gpu::new(cfg, RtParams::default(), stack, carve_out(&cfg, one_sm()))
         .unwrap()
         .run(vec![single_warp(ops)], &mut watch)
         .unwrap();
@@ -611,8 +634,9 @@ fn push_spill_then_fetch(cfg: &str, rt: RtParams) -> u64 {
 /// scheduled in 8; the port sends the store in 9 (stack first) and the piece in 10.
 #[test]
 fn posted_global_stores_let_the_fetch_go_before_the_ack() {
-    let at =
-        |g: StoreGating| push_spill_then_fetch("RB_2", RtParams { store_gating: g, ..RtParams::default() });
+    let at = |g: StoreGating| {
+        push_spill_then_fetch("RB_2", StackParams { store_gating: g, ..StackParams::default() })
+    };
     assert_eq!(at(StoreGating::Acked), 173);
     assert_eq!(at(StoreGating::ShPosted), 173, "a global store still waits for its ack");
     assert_eq!(at(StoreGating::Posted), 10);
@@ -624,8 +648,11 @@ fn posted_global_stores_let_the_fetch_go_before_the_ack() {
         ops.extend([4, 3, 2, 1].map(RayOp::Pop));
         let cfg: Config = "RB_2".parse().unwrap();
         let mut watch = Watch { every: true, ..Watch::new(CMD) };
-        let rt = RtParams { store_gating: g, ..RtParams::default() };
-        Gpu::new(cfg, rt, one_sm()).unwrap().run(vec![single_warp(ops)], &mut watch).unwrap();
+        let stack = StackParams { store_gating: g, ..StackParams::default() };
+        Gpu::new(cfg, RtParams::default(), stack, one_sm())
+            .unwrap()
+            .run(vec![single_warp(ops)], &mut watch)
+            .unwrap();
         watch.changes.iter().filter(|c| c.1 == 1).nth(3).unwrap().0
     };
     assert_eq!((fourth_push(StoreGating::Acked), fourth_push(StoreGating::ShPosted)), (172, 172));
@@ -640,7 +667,7 @@ fn posted_global_stores_let_the_fetch_go_before_the_ack() {
 #[test]
 fn posted_sh_stores_let_the_fetch_go_before_the_sh_store_completes() {
     let at = |g: StoreGating| {
-        push_spill_then_fetch("RB_2+SH_4", RtParams { store_gating: g, ..RtParams::default() })
+        push_spill_then_fetch("RB_2+SH_4", StackParams { store_gating: g, ..StackParams::default() })
     };
     assert_eq!(at(StoreGating::Acked), 30);
     assert_eq!(at(StoreGating::ShPosted), 9);
@@ -653,9 +680,9 @@ fn posted_sh_stores_let_the_fetch_go_before_the_sh_store_completes() {
 /// 11, and the reload in 12.
 #[test]
 fn node_first_port_serves_the_fetch_under_way_before_the_stack() {
-    let rt = |p: PortPriority| RtParams { port_priority: p, ..RtParams::default().overlapped() };
-    let (_, stack) = spill_then_fetch(rt(PortPriority::Stack), &[PORT_STACK, PORT_NODE]);
-    let (_, node) = spill_then_fetch(rt(PortPriority::Node), &[PORT_STACK, PORT_NODE]);
+    let with = |p: PortPriority| StackParams { port_priority: p, ..StackParams::default().overlapped() };
+    let (_, stack) = spill_then_fetch(with(PortPriority::Stack), &[PORT_STACK, PORT_NODE]);
+    let (_, node) = spill_then_fetch(with(PortPriority::Node), &[PORT_STACK, PORT_NODE]);
     assert_eq!(stack[0], [(0, 0), (9, 1), (10, 0), (11, 1), (12, 0)], "store, reload");
     assert_eq!(stack[1], [(0, 0), (12, 1), (13, 0)]);
     assert_eq!(node[0], [(0, 0), (9, 1), (10, 0), (12, 1), (13, 0)], "the reload waits for the piece");
@@ -670,8 +697,10 @@ fn oldest_first_changes_which_warp_fetches_next() {
         let cfg: Config = "RB_4".parse().unwrap();
         let mut watch = Watch { every: true, ..Watch::new("sm0.rt_unit.scheduler.issue_warp") };
         let rt = RtParams { warp_select: select, ..RtParams::default() };
-        let r =
-            Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap().run(jobs(5, 8, 45), &mut watch).unwrap();
+        let r = Gpu::new(cfg, rt, StackParams::default(), carve_out(&cfg, one_sm()))
+            .unwrap()
+            .run(jobs(5, 8, 45), &mut watch)
+            .unwrap();
         (r, watch.changes)
     };
     let (gto, gto_issues) = issues(WarpSelect::Gto);
@@ -690,8 +719,8 @@ fn a_full_store_queue_holds_stack_commands() {
     ops.extend((1..=12).rev().map(RayOp::Pop));
     let cfg: Config = "RB_1".parse().unwrap();
     let run = |store_queue: u32| {
-        let rt = RtParams { store_gating: StoreGating::Posted, store_queue, ..RtParams::default() };
-        let gpu = Gpu::new(cfg, rt, carve_out(&cfg, one_sm())).unwrap();
+        let stack = StackParams { store_gating: StoreGating::Posted, store_queue, ..StackParams::default() };
+        let gpu = Gpu::new(cfg, RtParams::default(), stack, carve_out(&cfg, one_sm())).unwrap();
         let job = WarpJob { lanes: (0..32).map(|_| Some(ops.clone())).collect(), walk: None };
         let mut watch = Watch::new("sm0.rt_unit.mem_sched.queue");
         let r = gpu.run(vec![job], &mut watch).unwrap();
@@ -703,6 +732,6 @@ fn a_full_store_queue_holds_stack_commands() {
     assert!(free_queue > 32, "unbounded: stores pile up ({free_queue})");
     assert!(held_queue <= 32, "one store per lane past the bound at most ({held_queue})");
     assert_eq!(held.stack, free.stack);
-    let e = RtParams { store_queue: 1 << 16, ..RtParams::default() }.validate().unwrap_err();
+    let e = StackParams { store_queue: 1 << 16, ..StackParams::default() }.validate().unwrap_err();
     assert_eq!(e.parameter, "store_queue");
 }

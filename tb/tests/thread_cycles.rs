@@ -61,7 +61,7 @@ fn the_categories_fill_every_slot_in_every_cycle() {
 fn every_runner_counts_the_same_thread_cycles() {
     let jobs = scene_jobs("clutter", 16);
     let mut stepped = Hardware::default();
-    stepped.rt.idle_skip = false;
+    stepped.idle_skip = false;
     for name in ["RB_2", "RB_8", "SMS"] {
         let cfg: Config = name.parse().unwrap();
         let hw = Hardware::default();
@@ -216,11 +216,11 @@ fn each_category_holds_the_slots_the_waveform_shows_there() {
     let mut hw = Hardware::default();
     hw.mem.sms = 2;
     let mut overlapped = hw;
-    overlapped.rt.stack_timing = StackTiming::Overlapped;
+    overlapped.stack.timing = StackTiming::Overlapped;
     for (timing, hw) in [("blocking", hw), ("overlapped", overlapped)] {
         for name in ["RB_2", "SMS"] {
             let cfg: Config = name.parse().unwrap();
-            let blocking = hw.rt.stack_timing == StackTiming::Blocking;
+            let blocking = hw.stack.timing == StackTiming::Blocking;
             let mut oracle =
                 Oracle::new(hw.mem.sms as usize, cfg.threads() as usize, cfg.warp_size as usize, blocking);
             let r = gpu(cfg, &hw).run(jobs.iter().cloned(), &mut oracle).unwrap();
@@ -249,7 +249,7 @@ fn the_stack_share_follows_the_design() {
     let (rb2, full) = (stack_share("RB_2", &hw), stack_share("RB_FULL", &hw));
     assert!(rb2 > 1.5 * full, "RB_2 {rb2:.4} vs RB_FULL {full:.4}");
     let mut overlapped = hw;
-    overlapped.rt.stack_timing = StackTiming::Overlapped;
+    overlapped.stack.timing = StackTiming::Overlapped;
     for cfg in ["RB_2", "RB_8+SH_8", "SMS"] {
         let (blocking, posted) = (stack_share(cfg, &hw), stack_share(cfg, &overlapped));
         assert!(posted < blocking, "{cfg}: overlapped {posted:.4} vs blocking {blocking:.4}");

@@ -1,5 +1,5 @@
 //! A GPU and how to run it: the run options (the evaluation check, the runner, a helper thread,
-//! a planted slip in test builds) beside the hardware, which holds none of them.
+//! idle-cycle skipping, a planted slip in test builds) beside the hardware, which holds none of them.
 //!
 //! `Gpu::run` and the other `Gpu::run_*` run with the default options; `Gpu::with_*` gives a
 //! [`Runner`] with one option set, whose own `with_*` set the others.
@@ -20,6 +20,8 @@ pub struct Runner {
     helper_thread: bool,
     /// The run goes by windows where it can ([`Runner::with_windows`]).
     windows: bool,
+    /// Cycles in which every thread waits on memory are jumped over ([`Runner::with_idle_skip`]).
+    idle_skip: bool,
     /// A slip planted in the runner ([`Runner::with_order_bug`]).
     #[cfg(feature = "mutants")]
     order_bug: Option<super::OrderBug>,
@@ -33,6 +35,7 @@ impl From<Gpu> for Runner {
             eval_check: EvalCheck::Dataflow,
             helper_thread: false,
             windows: true,
+            idle_skip: true,
             #[cfg(feature = "mutants")]
             order_bug: None,
         }
@@ -63,6 +66,13 @@ impl Runner {
     /// default; off for the reference loop.
     pub fn with_windows(mut self, on: bool) -> Self {
         self.windows = on;
+        self
+    }
+
+    /// Jumps over cycles in which every thread waits on memory: the same report, in less wall
+    /// time. On by default; off clocks every cycle.
+    pub fn with_idle_skip(mut self, on: bool) -> Self {
+        self.idle_skip = on;
         self
     }
 
@@ -148,7 +158,7 @@ impl Runner {
         residence: &mut Vec<u64>,
     ) -> Result<GpuReport, RunError> {
         let mut walks = walks;
-        let (warp_size, idle_skip) = (self.gpu.config().warp_size, self.gpu.rt_params().idle_skip);
+        let (warp_size, idle_skip) = (self.gpu.config().warp_size, self.idle_skip);
         let (units, mem) = self.gpu.parts_mut();
         let parts = Parts {
             units,
@@ -175,6 +185,11 @@ impl Gpu {
     /// [`Runner::with_helper_thread`] on this GPU's run.
     pub fn with_helper_thread(self, on: bool) -> Runner {
         Runner::from(self).with_helper_thread(on)
+    }
+
+    /// [`Runner::with_idle_skip`] on this GPU's run.
+    pub fn with_idle_skip(self, on: bool) -> Runner {
+        Runner::from(self).with_idle_skip(on)
     }
 
     /// [`Runner::with_windows`] on this GPU's run.

@@ -545,7 +545,7 @@ impl HardwareArgs {
             hw.mem.l1d_bytes =
                 kb.checked_mul(1024).ok_or_else(|| anyhow::anyhow!("--l1d-kb {kb}: too large"))?;
         }
-        hw.rt.stack_timing = self.stack_timing.unwrap_or(hw.rt.stack_timing);
+        hw.stack.timing = self.stack_timing.unwrap_or(hw.stack.timing);
         hw.mem.sms = self.sms.unwrap_or(hw.mem.sms);
         hw.mem.dram_latency = self.dram_latency.unwrap_or(hw.mem.dram_latency);
         // Every value checked before any work starts.
@@ -570,6 +570,6 @@ mod tests {
         let legacy = HardwareArgs { hw: Some("legacy".into()), ..HardwareArgs::default() };
         assert_eq!(legacy.hardware().unwrap(), crate::hw::preset("legacy").unwrap());
         let blocking = HardwareArgs { stack_timing: Some(rtl::rt_unit::StackTiming::Blocking), ..legacy };
-        assert_eq!(blocking.hardware().unwrap().rt.stack_timing, rtl::rt_unit::StackTiming::Blocking);
+        assert_eq!(blocking.hardware().unwrap().stack.timing, rtl::rt_unit::StackTiming::Blocking);
     }
 }

@@ -8,19 +8,28 @@
 
 use rtl::mem::MemParams;
 use rtl::params::{Bound, Key, Kind, Value};
-use rtl::rt_unit::RtParams;
+use rtl::rt_unit::{RtParams, StackParams};
 
 pub mod presets;
 
-/// Hardware parameters around the stack: operation latencies, stack timing and the memory system.
-/// `mem.l1d_bytes` is the L1D, or with `shared_carveout` the whole unified L1D/shared array from
-/// which each configuration's SH stacks are carved.
+/// What a description sets: the hardware around the stack (operation latencies, stack timing and
+/// the memory system) and the one run option a description may carry. `mem.l1d_bytes` is the
+/// L1D, or with `shared_carveout` the whole unified L1D/shared array from which each
+/// configuration's SH stacks are carved.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hardware {
+    /// `[rt]`: the RT unit's operation latencies and warp scheduler.
     pub rt: RtParams,
+    /// `[stack]`: the stack unit's timing.
+    pub stack: StackParams,
+    /// `[mem]`: the memory system.
     pub mem: MemParams,
     /// The key `mem.shared_carveout` ([`HARDWARE_KEYS`]).
     pub shared_carveout: bool,
+    /// The run option `rt.idle_skip` ([`HARDWARE_KEYS`]): the runner jumps over cycles in which
+    /// every thread waits on memory (the same report, in less wall time). Not hardware: the GPU
+    /// never sees it, the runner does (`Runner::with_idle_skip`).
+    pub idle_skip: bool,
 }
 
 impl Default for Hardware {
@@ -44,13 +53,20 @@ impl Hardware {
     /// Every value checked: the error names the first bad parameter.
     pub fn validate(&self) -> Result<(), String> {
         self.rt.validate().map_err(|e| e.to_string())?;
+        self.stack.validate().map_err(|e| e.to_string())?;
         self.mem.validate().map_err(|e| e.to_string())
     }
 }
 
 /// The model's built-in parameters before any description is applied (rtl's defaults).
 fn base() -> Hardware {
-    Hardware { rt: RtParams::default(), mem: MemParams::default(), shared_carveout: true }
+    Hardware {
+        rt: RtParams::default(),
+        stack: StackParams::default(),
+        mem: MemParams::default(),
+        shared_carveout: true,
+        idle_skip: true,
+    }
 }
 
 /// The shipped preset `name`, checked.
@@ -74,49 +90,74 @@ pub fn resolve(spec: &str) -> Result<Hardware, String> {
     Ok(hw)
 }
 
-/// The keys of the description that are neither [`RtParams`]' nor [`MemParams`]'.
-pub const HARDWARE_KEYS: &[Key<Hardware>] = &[rtl::param_key!(
-    Hardware,
-    "mem",
-    "shared_carveout",
-    shared_carveout: bool,
-    "SH stacks carved out of the L1D array (the paper, SPEC section 8); false: shared memory beside the L1D \
-     (Vulkan-Sim's configs, adaptive cache off).",
-    Bound::ANY,
-    false
-)];
+/// The keys of the description that are not [`RtParams`]', [`StackParams`]' or [`MemParams`]'.
+pub const HARDWARE_KEYS: &[Key<Hardware>] = &[
+    rtl::param_key!(
+        Hardware,
+        "mem",
+        "shared_carveout",
+        shared_carveout: bool,
+        "SH stacks carved out of the L1D array (the paper, SPEC section 8); false: shared memory beside the L1D \
+         (Vulkan-Sim's configs, adaptive cache off).",
+        Bound::ANY,
+        false
+    ),
+    rtl::param_key!(
+        Hardware,
+        "rt",
+        "idle_skip",
+        idle_skip: bool,
+        "Jump over cycles in which every thread waits on memory (identical results, faster).",
+        Bound::ANY,
+        true
+    ),
+];
 
 /// One key of a description, whichever struct it sets.
 #[derive(Clone, Copy)]
 pub enum AnyKey {
     Rt(&'static Key<RtParams>),
+    Stack(&'static Key<StackParams>),
     Mem(&'static Key<MemParams>),
     Hardware(&'static Key<Hardware>),
 }
 
+/// `$e` on the key inside `$k`, whichever struct it sets (`$key` names it).
+macro_rules! on_key {
+    ($k:expr, $key:ident => $e:expr) => {
+        match $k {
+            AnyKey::Rt($key) => $e,
+            AnyKey::Stack($key) => $e,
+            AnyKey::Mem($key) => $e,
+            AnyKey::Hardware($key) => $e,
+        }
+    };
+}
+
 impl AnyKey {
     pub fn section(&self) -> &'static str {
-        self.either(|k| k.section, |k| k.section, |k| k.section)
+        on_key!(self, k => k.section)
     }
     pub fn key(&self) -> &'static str {
-        self.either(|k| k.key, |k| k.key, |k| k.key)
+        on_key!(self, k => k.key)
     }
     pub fn kind(&self) -> Kind {
-        self.either(|k| k.kind, |k| k.kind, |k| k.kind)
+        on_key!(self, k => k.kind)
     }
     pub fn summary(&self) -> &'static str {
-        self.either(|k| k.summary(), |k| k.summary(), |k| k.summary())
+        on_key!(self, k => k.summary())
     }
     pub fn bound(&self) -> Bound {
-        self.either(|k| k.bound, |k| k.bound, |k| k.bound)
+        on_key!(self, k => k.bound)
     }
     /// A run option rather than hardware: presets need not set it.
     pub fn run_option(&self) -> bool {
-        self.either(|k| k.run_option, |k| k.run_option, |k| k.run_option)
+        on_key!(self, k => k.run_option)
     }
     pub fn get(&self, hw: &Hardware) -> Value {
         match self {
             AnyKey::Rt(k) => (k.get)(&hw.rt),
+            AnyKey::Stack(k) => (k.get)(&hw.stack),
             AnyKey::Mem(k) => (k.get)(&hw.mem),
             AnyKey::Hardware(k) => (k.get)(hw),
         }
@@ -125,20 +166,9 @@ impl AnyKey {
     pub fn set(&self, hw: &mut Hardware, v: Value) -> bool {
         match self {
             AnyKey::Rt(k) => (k.set)(&mut hw.rt, v),
+            AnyKey::Stack(k) => (k.set)(&mut hw.stack, v),
             AnyKey::Mem(k) => (k.set)(&mut hw.mem, v),
             AnyKey::Hardware(k) => (k.set)(hw, v),
-        }
-    }
-    fn either<R>(
-        &self,
-        rt: impl Fn(&Key<RtParams>) -> R,
-        mem: impl Fn(&Key<MemParams>) -> R,
-        hw: impl Fn(&Key<Hardware>) -> R,
-    ) -> R {
-        match self {
-            AnyKey::Rt(k) => rt(k),
-            AnyKey::Mem(k) => mem(k),
-            AnyKey::Hardware(k) => hw(k),
         }
     }
 }
@@ -148,6 +178,7 @@ pub fn keys() -> Vec<AnyKey> {
     let all: Vec<AnyKey> = RtParams::KEYS
         .iter()
         .map(AnyKey::Rt)
+        .chain(StackParams::KEYS.iter().map(AnyKey::Stack))
         .chain(MemParams::KEYS.iter().map(AnyKey::Mem))
         .chain(HARDWARE_KEYS.iter().map(AnyKey::Hardware))
         .collect();
@@ -245,7 +276,7 @@ mod tests {
         // forgot would keep the base's value. Run options are not hardware: no preset sets them.
         let a = base();
         // A field of `Hardware` outside the registry would not be compared: name them all.
-        let Hardware { rt: _, mem: _, shared_carveout: _ } = a;
+        let Hardware { rt: _, stack: _, mem: _, shared_carveout: _, idle_skip: _ } = a;
         let mut b = a;
         for k in keys().into_iter().filter(|k| !k.run_option()) {
             let other = match (k.kind(), k.get(&a)) {
@@ -278,7 +309,10 @@ mod tests {
     fn the_key_list_names_every_key_once_in_its_table() {
         let list = key_list();
         let all = keys();
-        assert_eq!(all.len(), RtParams::KEYS.len() + MemParams::KEYS.len() + HARDWARE_KEYS.len());
+        assert_eq!(
+            all.len(),
+            RtParams::KEYS.len() + StackParams::KEYS.len() + MemParams::KEYS.len() + HARDWARE_KEYS.len()
+        );
         for k in &all {
             let table = list.split("; ").find(|t| t.starts_with(&format!("[{}]", k.section()))).unwrap();
             let names: Vec<&str> = table
@@ -306,12 +340,12 @@ mod tests {
         // SPEC section 7 / the paper's text.
         assert_eq!((hw.mem.sms, hw.mem.l1d_bytes, hw.mem.l2_bytes), (8, 64 << 10, 3 << 20));
         assert_eq!((hw.mem.l2_latency, hw.mem.dram_latency), (160, 100));
-        assert_eq!(hw.rt.stack_timing, StackTiming::Blocking);
+        assert_eq!(hw.stack.timing, StackTiming::Blocking);
         // The open choices as docs/assumptions.md settles them: the paper's text where it speaks
         // (GTO), Vulkan-Sim's source where only it does (an unbounded store queue), and the
         // model's reading of the paper's sequence otherwise.
         assert_eq!(
-            (hw.rt.store_gating, hw.rt.store_queue, hw.rt.port_priority, hw.rt.warp_select),
+            (hw.stack.store_gating, hw.stack.store_queue, hw.stack.port_priority, hw.rt.warp_select),
             (StoreGating::Acked, 0, PortPriority::Stack, WarpSelect::Gto)
         );
         let mobile = preset("vulkansim-mobile").unwrap();
@@ -325,7 +359,7 @@ mod tests {
     #[test]
     fn legacy_preset_is_the_old_model() {
         let hw = preset("legacy").unwrap();
-        assert_eq!(hw.rt, RtParams::default().overlapped());
+        assert_eq!((hw.rt, hw.stack), (RtParams::default(), StackParams::default().overlapped()));
         assert_eq!(
             (
                 hw.mem.l1d_write,
@@ -346,7 +380,7 @@ mod tests {
             "[rt]\ntriangle = 12\nidle_skip = false\n[mem]\nl1d_ways = 4\nl2_latency = 200\n",
         )
         .unwrap();
-        assert_eq!((hw.rt.triangle, hw.rt.idle_skip, hw.mem.l2_latency), (12, false, 200));
+        assert_eq!((hw.rt.triangle, hw.idle_skip, hw.mem.l2_latency), (12, false, 200));
         assert_eq!(hw.mem.l1d_assoc, Assoc::Ways(4));
         assert_eq!(hw.rt.internal, 8, "keys not named keep their value");
         apply_toml(
@@ -355,7 +389,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(
-            (hw.rt.stack_timing, hw.rt.sh_latency, hw.shared_carveout),
+            (hw.stack.timing, hw.stack.sh_latency, hw.shared_carveout),
             (StackTiming::Overlapped, 2, false)
         );
         assert_eq!(
@@ -394,7 +428,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(
-            (hw.rt.store_gating, hw.rt.store_queue, hw.rt.port_priority, hw.rt.warp_select),
+            (hw.stack.store_gating, hw.stack.store_queue, hw.stack.port_priority, hw.rt.warp_select),
             (StoreGating::ShPosted, 16, PortPriority::Node, WarpSelect::Oldest)
         );
         assert!(err("[mem]\nshared_carveout = 1").contains("expected true or false"));

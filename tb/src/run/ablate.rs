@@ -45,7 +45,7 @@ pub const MECHANISMS: &[Mechanism] = &[
                sequencer, global stores complete at the L2's acknowledgement (the paper's RT unit; SPEC 3; \
                vulkan-sim shader.cc ~3090 retires a warp only without pending writes)",
         off_means: "overlapped: posted stores, the refill runs beside the next node fetch",
-        off: |hw, _| hw.rt.stack_timing = rtl::rt_unit::StackTiming::Overlapped,
+        off: |hw, _| hw.stack.timing = rtl::rt_unit::StackTiming::Overlapped,
     },
     Mechanism {
         name: "acked-stores",
@@ -53,13 +53,13 @@ pub const MECHANISMS: &[Mechanism] = &[
                it (the preset's reading of the paper's sequence, §VI-A; docs/assumptions.md)",
         off_means: "posted: only loads hold the fetch; global stores need no acknowledgement (Vulkan-Sim's \
                     store queue, shader.cc:2982-2997, 3090)",
-        off: |hw, _| hw.rt.store_gating = rtl::rt_unit::StoreGating::Posted,
+        off: |hw, _| hw.stack.store_gating = rtl::rt_unit::StoreGating::Posted,
     },
     Mechanism {
         name: "acked-sh-stores",
         what: "SH stores hold the thread's next node fetch like every other stack request (docs/assumptions.md)",
         off_means: "sh-posted: SH stores complete behind the fetch; global stores still wait for their ack",
-        off: |hw, _| hw.rt.store_gating = rtl::rt_unit::StoreGating::ShPosted,
+        off: |hw, _| hw.stack.store_gating = rtl::rt_unit::StoreGating::ShPosted,
     },
     Mechanism {
         name: "unbounded-store-queue",
@@ -68,8 +68,8 @@ pub const MECHANISMS: &[Mechanism] = &[
         off_means: "posted stores, and no stack command taken while 16 stores wait for the port (the depth of \
                     MOBILE's L1D miss queue, gpgpusim.config:101; no source gives the stack's)",
         off: |hw, _| {
-            hw.rt.store_gating = rtl::rt_unit::StoreGating::Posted;
-            hw.rt.store_queue = 16;
+            hw.stack.store_gating = rtl::rt_unit::StoreGating::Posted;
+            hw.stack.store_queue = 16;
         },
     },
     Mechanism {
@@ -77,7 +77,7 @@ pub const MECHANISMS: &[Mechanism] = &[
         what: "the stack's requests take the RT unit's memory port before node fetches (the paper does not say)",
         off_means: "Vulkan-Sim's order: the node fetch under way, then stack requests, then a new warp \
                     (rt_unit::memory_cycle, shader.cc:3237-3254; cycle, 3040-3061)",
-        off: |hw, _| hw.rt.port_priority = rtl::rt_unit::PortPriority::Node,
+        off: |hw, _| hw.stack.port_priority = rtl::rt_unit::PortPriority::Node,
     },
     Mechanism {
         name: "gto",
@@ -90,7 +90,7 @@ pub const MECHANISMS: &[Mechanism] = &[
         what: "shared-memory (SH) accesses take Vulkan-Sim's 20-cycle shared-memory latency after bank \
                serialisation (MOBILE gpgpusim.config:108 -gpgpu_smem_latency 20)",
         off_means: "2 cycles: issue, bank grant, done",
-        off: |hw, _| hw.rt.sh_latency = rtl::bank_arbiter::MIN_SH_LATENCY,
+        off: |hw, _| hw.stack.sh_latency = rtl::bank_arbiter::MIN_SH_LATENCY,
     },
     Mechanism {
         name: "address-map",

@@ -303,7 +303,7 @@ pub fn bench_scene(
     let on = &truth[&focus.name()];
     let name = focus.name();
     let mut no_skip = spec(focus, Fidelity::Cycle);
-    no_skip.hw.rt.idle_skip = false;
+    no_skip.hw.idle_skip = false;
     let off = simulate(&no_skip, &w, None, &mut NullSink, |_| {})?;
     let evaluated = on.gpu.map_or(0.0, |g| g.evaluated_cycles as f64 / g.cycles.max(1) as f64);
     report.savings.push(Saving {

@@ -536,8 +536,9 @@ fn run_cycle<S: Sink>(
         jobs_per_warp.borrow_mut().push(jobs.len());
         jobs
     });
-    let gpu = Gpu::new(spec.config, spec.hw.rt, spec.hw.mem_for(&spec.config))
+    let gpu = Gpu::new(spec.config, spec.hw.rt, spec.hw.stack, spec.hw.mem_for(&spec.config))
         .map_err(|e| Error::Invalid(e.to_string()))?
+        .with_idle_skip(spec.hw.idle_skip)
         .with_helper_thread(helper_thread());
     let gpu = match decisions_checked() {
         0 => gpu,
