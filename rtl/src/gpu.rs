@@ -46,7 +46,7 @@ pub fn shared_bytes(cfg: &Config) -> u32 {
 /// memory is carved out, the rest is L1D (SPEC 8: "shared memory is sized to exactly what the SH
 /// stacks need"). E.g. the L1D sweep: `carve_out(&cfg, MemParams { l1d_bytes: 16 << 10, ..d })`.
 pub fn carve_out(cfg: &Config, base: MemParams) -> MemParams {
-    MemParams { l1d_bytes: base.l1d_bytes.saturating_sub(shared_bytes(cfg)), ..base }
+    base.with_shared_carveout(shared_bytes(cfg))
 }
 
 /// What a run cost. Plain data: identical inputs give an identical report.

@@ -413,10 +413,11 @@ fn check_cache(
 }
 
 impl MemParams {
-    /// The defaults with `shared_bytes` of the L1D array given to shared memory.
-    pub fn with_shared_carveout(shared_bytes: u32) -> MemParams {
-        let d = MemParams::default();
-        MemParams { l1d_bytes: d.l1d_bytes.saturating_sub(shared_bytes), ..d }
+    /// These parameters with `shared_bytes` of the unified L1D/shared array given to shared
+    /// memory: the rest is L1D. The one place the carve-out is computed (`gpu::carve_out` gives
+    /// a configuration's SH stacks' bytes).
+    pub fn with_shared_carveout(self, shared_bytes: u32) -> MemParams {
+        MemParams { l1d_bytes: self.l1d_bytes.saturating_sub(shared_bytes), ..self }
     }
 
     /// Checks every parameter; the error names the first bad one.
@@ -552,7 +553,7 @@ mod tests {
     #[test]
     fn defaults_are_valid_and_56k_fully_associative_works() {
         MemParams::default().validate().unwrap();
-        let p = MemParams::with_shared_carveout(8 * 1024);
+        let p = MemParams::default().with_shared_carveout(8 * 1024);
         assert_eq!(p.l1d_bytes, 56 * 1024);
         p.validate().unwrap();
     }

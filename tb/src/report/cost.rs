@@ -225,7 +225,9 @@ impl CostReport {
             total_bytes: top_bottom_bytes + other_bytes,
             rb_enlarge_bytes: m as u64 * cfg.entry_bytes as u64 * t as u64,
         };
-        let sh_bytes = t as u64 * m as u64 * cfg.entry_bytes as u64;
+        let sh_bytes = u64::from(rtl::gpu::shared_bytes(cfg));
+        let unified =
+            rtl::mem::MemParams { l1d_bytes: UNIFIED_BYTES as u32, ..rtl::mem::MemParams::default() };
         let differences = fields
             .iter()
             .filter(|f| f.origin == Origin::Rtl)
@@ -247,7 +249,7 @@ impl CostReport {
             fields,
             paper,
             sh_bytes,
-            l1d_bytes: UNIFIED_BYTES.saturating_sub(sh_bytes),
+            l1d_bytes: u64::from(rtl::gpu::carve_out(cfg, unified).l1d_bytes),
             differences,
         })
     }

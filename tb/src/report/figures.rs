@@ -522,7 +522,8 @@ pub fn l1d_sweep(s: &Sweep) -> Figure {
             (Some(a), Some(b)) => Some(b / a),
             _ => None,
         };
-        let sms_l1d = sms_cfg.map(|c| (kb * 1024).saturating_sub(rtl::gpu::shared_bytes(&c)) as f64 / 1024.0);
+        let array = rtl::mem::MemParams { l1d_bytes: kb * 1024, ..rtl::mem::MemParams::default() };
+        let sms_l1d = sms_cfg.map(|c| f64::from(rtl::gpu::carve_out(&c, array).l1d_bytes) / 1024.0);
         let (ha, hb) = (mean_hit(BASELINE, kb), mean_hit(&sms_name, kb));
         table.row([
             kb.to_string(),
