@@ -127,7 +127,8 @@ pub fn cross_check_with(g: &Generated, cost: &CostReport, flip_flops: u64) -> Re
         g.unread_register_bits().into_iter().map(|(r, b)| (r.to_string(), b)).collect();
     let unread_bits: u64 = unread.iter().map(|x| x.1).sum();
     if flip_flops + unread_bits != report {
-        let less = if unread_bits > 0 { format!(", less {unread_bits} no output reads") } else { String::new() };
+        let less =
+            if unread_bits > 0 { format!(", less {unread_bits} no output reads") } else { String::new() };
         bail!(
             "{name}: yosys kept {flip_flops} flip-flops, the bit accounting (sms cost) has {report} register bits \
              ({} accounted, {} control{less})",
