@@ -45,6 +45,34 @@ fn the_invariant_holds_on_the_generated_verilog_and_a_planted_bug_is_caught_nami
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// A restart design without an SH level (RB_2+RT on two lanes) loads no micro-op program, so its
+/// invariant (the RB length, the spill pointer 0, the done bit) closes by induction; planted, a
+/// push into the full RB that drops nothing (the RB count past N) is a counterexample naming the
+/// clause.
+#[test]
+fn a_restart_designs_invariant_is_proved_by_induction_and_a_drop_that_keeps_everything_is_caught() {
+    if !tb::prereq::tools(&["yosys"], "yosys (apt-get install yosys)") {
+        return;
+    }
+    let mut g = generate(&config("RB_2+RT", 2), true).unwrap();
+    let f = formal::build(&mut g).unwrap();
+    let d = dir("restart");
+    let o = formal::prove(&f, &d, 3).unwrap();
+    assert_eq!(o.verdict, Verdict::Proved { k: 1 });
+
+    let line = "        lane0_rb_count <= ";
+    let at = f.text.find(line).expect("the register update to plant in") + line.len();
+    let mut bad = formal::Formal { text: f.text.clone(), ..f };
+    bad.text.insert_str(at, "(lane0_cmd_kind == 2'd1 && lane0_rb_count == 2'd2) ? 2'd3 : ");
+    // The load, two pushes that fill the RB and a third: the registers break the clause after
+    // the third push's edge, 4 cycles after the load's.
+    let o = formal::prove(&bad, &d.join("planted"), 5).unwrap();
+    let Verdict::Counterexample { step, failed } = &o.verdict else { panic!("{}", o.verdict) };
+    assert_eq!(*step, 4, "{}", o.verdict);
+    assert!(failed.iter().any(|c| c == "lane 0: RB length at most N"), "{failed:?}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 #[test]
 fn a_configuration_too_large_is_refused_in_one_line_with_the_limit() {
     let e = formal::too_large(&config("RB_1+SH_2", 8)).unwrap();

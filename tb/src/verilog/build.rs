@@ -22,7 +22,7 @@
 //! description's all-lanes-then-all-lanes order does; the plans run in the description's
 //! command order (lane order).
 
-use rtl::config::{Config, Widths};
+use rtl::config::{Config, Overflow, Widths};
 use rtl::logic::Logic;
 use rtl::stack_manager::cycle::{self, CycleIn, Journal, Registers, WriteOf};
 use rtl::stack_manager::policy::{Design, RbOp, Regs, Thread, UopL};
@@ -713,12 +713,14 @@ fn queue_parts(count: W, slots: &[Enc], out: &mut Vec<T>) {
 }
 
 /// Lane `j`'s plan stage from journal `d`: the warp's stack registers, the lane's thread
-/// registers, RB and program, and its answer (code, popped entry), as flat terms.
+/// registers, RB and program, and its answer (code, popped entry; with `restarts`, whether a pop
+/// answered Restart), as flat terms.
 #[allow(clippy::too_many_arguments)]
 fn plan_parts(
     s: &mut Sym,
     j: u32,
     q_slots: usize,
+    restarts: bool,
     stacks: &[Regs<Sym>],
     thread: Thread<Sym>,
     rb: &Rb,
@@ -770,6 +772,10 @@ fn plan_parts(
     };
     let code = s.word(code);
     out.extend([T::W(code), T::V(value)]);
+    if restarts {
+        let r = s.bit(d.restarts.contains(&j));
+        out.push(T::B(r));
+    }
     Ok(out)
 }
 
@@ -782,6 +788,8 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
     }
     let ws = cfg.warp_size;
     let q_slots = queue_slots(cfg);
+    // A restart design answers a pop of a stack emptied by drops with Restart: an output of its own.
+    let restarts = cfg.overflow == Overflow::Drop;
     let mut s = Sym::default();
     let mut decl = Decl { regs: Vec::new() };
     let lanes: Vec<Lane> = (0..ws).map(|j| Lane::declare(&mut s, &mut decl, cfg, &wd, j)).collect();
@@ -940,6 +948,9 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
             queue_parts(count, &slots, &mut out);
             let (z, zv) = (s.word(0), s.val(0));
             out.extend([T::W(z), T::V(zv)]);
+            if restarts {
+                out.push(T::B(s.bit(false)));
+            }
             results.push((cond, out));
         }
         for (k, cmd) in
@@ -963,7 +974,7 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
                 let stacks = view_stacks.iter().enumerate().map(|(k, r)| (l.word(k as u32), *r)).collect();
                 let mut d = Journal::<Sym> { stacks, ..Journal::<Sym>::default() };
                 cycle::plan(l, &Design, cfg, &wd, &view, &[(j, cmd)], &mut d);
-                plan_parts(l, j, q_slots, &view_stacks, lane.thread, &rb_after, (count, &slots), &d)
+                plan_parts(l, j, q_slots, restarts, &view_stacks, lane.thread, &rb_after, (count, &slots), &d)
             });
             shapes += 1;
             paths += found.len();
@@ -980,7 +991,7 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
         let rb = Rb { count: w(p), e: (0..lane.rb.e.len()).map(|_| v(p)).collect() };
         let count = w(p);
         let slots: Vec<Enc> = (0..q_slots).map(|_| enc_from(p)).collect();
-        answers.push((w(p), v(p)));
+        answers.push((w(p), v(p), restarts.then(|| b(p))));
         let seq = Seq { count, slots, inflight: so.inflight, latch_valid: so.latch_valid, latch: so.latch };
         next_lanes.push(Lane { stack: lane.stack, thread, rb, seq });
     }
@@ -1009,7 +1020,8 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
         let (ga, gwr, gslot) = so.g_req;
         let (wa, wst, we, wv) = so.sh_wr;
         let (xa, xslot, xv) = so.g_wr;
-        let (code, value) = answers[j];
+        let (code, value, restart) = answers[j];
+        let restart = restart.map(|r| ("restart", 1, T::B(r)));
         for (name, bits, t) in [
             ("ready", 1, T::B(ready)),
             ("sh_req_valid", 1, T::B(a)),
@@ -1028,7 +1040,10 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
             ("g_wr_data", wd.entry, T::V(xv)),
             ("answer", ANSWER_BITS, T::W(code)),
             ("answer_value", wd.entry, T::V(value)),
-        ] {
+        ]
+        .into_iter()
+        .chain(restart)
+        {
             outputs.push(Port { name: f(name), bits, t });
         }
     }

@@ -247,6 +247,7 @@ fn out_value(q: &StackManager, d: &StackStep, t: u32, name: &str) -> u64 {
         "g_wr_data" => g_wr.map_or(0, |w| w.1),
         "answer" => answer_code(&answer, cmd.is_some()).into(),
         "answer_value" => answer.ok().flatten().unwrap_or(0),
+        "restart" => b(j.restarts.contains(&t)),
         _ => unreachable!("no output {name}"),
     }
 }

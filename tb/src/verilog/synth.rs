@@ -57,11 +57,17 @@ fn register_of(row: &str) -> &str {
 }
 
 /// Register bits by row of the accounting, and the rows' total: the accounted ones (`fields`)
-/// and the control registers (`control`).
+/// and the control registers (`control`). `outside`: rows of registers that are not the stack
+/// manager's, so not in its Verilog and not compared (a restart design's trail, origin
+/// `restart`: the walk's registers, which the model does not clock). `unread`: register bits
+/// of the accounted or control rows that no output depends on
+/// ([`Generated::unread_register_bits`]), which synthesis removes.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Accounting {
     pub accounted: u64,
     pub control: Vec<(String, u64)>,
+    pub outside: Vec<(String, u64)>,
+    pub unread: Vec<(String, u64)>,
 }
 
 impl Accounting {
@@ -78,12 +84,19 @@ pub fn cross_check(g: &Generated, flip_flops: u64) -> Result<Accounting> {
 
 /// The flip-flop cross-check: every row of the cost report (its accounted fields and its control
 /// registers) has exactly its bits in the Verilog's registers of that row, every Verilog
-/// register belongs to a row, and yosys's flip-flops are exactly the report's bits. The error
-/// names the row or the counts that differ.
+/// register belongs to a row, and yosys's flip-flops are exactly the report's bits less the
+/// register bits no output depends on ([`Accounting::unread`], named in the report). The rows of
+/// origin `restart` (a restart design's trail) are the walk's registers, outside the stack
+/// manager: they are listed apart ([`Accounting::outside`]) and left out of both sides. The
+/// error names the row or the counts that differ.
 pub fn cross_check_with(g: &Generated, cost: &CostReport, flip_flops: u64) -> Result<Accounting> {
     let name = g.cfg.name();
     let declared = g.register_bits();
-    let rows = cost.fields.iter().chain(&cost.control);
+    let (walk, rows): (Vec<_>, Vec<_>) =
+        cost.fields.iter().chain(&cost.control).partition(|f| f.origin == Origin::Restart);
+    let outside: Vec<(String, u64)> = walk.iter().map(|f| (f.name.to_string(), f.bits_per_sm())).collect();
+    let outside_bits: u64 = outside.iter().map(|x| x.1).sum();
+    let rows = rows.into_iter();
     let mut accounted = 0;
     let mut control = Vec::new();
     let mut regs: Vec<&str> = Vec::new();
@@ -109,16 +122,21 @@ pub fn cross_check_with(g: &Generated, cost: &CostReport, flip_flops: u64) -> Re
             bail!("{name}: register {reg} ({bits} bits) is not in the bit accounting (sms cost)");
         }
     }
-    let report = cost.totals().bits_per_sm + cost.control_bits_per_sm();
-    if flip_flops != report {
+    let report = cost.totals().bits_per_sm - outside_bits + cost.control_bits_per_sm();
+    let unread: Vec<(String, u64)> =
+        g.unread_register_bits().into_iter().map(|(r, b)| (r.to_string(), b)).collect();
+    let unread_bits: u64 = unread.iter().map(|x| x.1).sum();
+    if flip_flops + unread_bits != report {
+        let less =
+            if unread_bits > 0 { format!(", less {unread_bits} no output reads") } else { String::new() };
         bail!(
             "{name}: yosys kept {flip_flops} flip-flops, the bit accounting (sms cost) has {report} register bits \
-             ({} accounted, {} control)",
-            cost.totals().bits_per_sm,
+             ({} accounted, {} control{less})",
+            cost.totals().bits_per_sm - outside_bits,
             cost.control_bits_per_sm()
         );
     }
-    Ok(Accounting { accounted, control })
+    Ok(Accounting { accounted, control, outside, unread })
 }
 
 /// Runs yosys on `path` (in its folder) and checks the flip-flops.
@@ -211,10 +229,29 @@ pub fn render(reports: &[SynthReport]) -> String {
             r.depth.to_string(),
         ]);
     }
-    format!(
+    let mut out = format!(
         "{}\nyosys generic flow (techmap, abc map; no share/opt_muxtree/opt_dff): a technology-independent \
          estimate in generic gates, not a process node's area. Flip-flops are exact and equal, row by row, \
          the bit accounting of `sms cost`: its fields and its control registers.\n",
         t.to_text()
-    )
+    );
+    let rows = |x: &[(String, u64)]| x.iter().map(|(n, b)| format!("{n} {b}")).collect::<Vec<_>>().join(", ");
+    for r in reports {
+        let a = &r.accounting;
+        if !a.unread.is_empty() {
+            out += &format!(
+                "{}: register bits no output reads, which synthesis removes (not among the flip-flops): {}.\n",
+                r.config,
+                rows(&a.unread)
+            );
+        }
+        if !a.outside.is_empty() {
+            out += &format!(
+                "{}: not compared, the walk's registers (sms cost origin restart), outside the stack manager: {}.\n",
+                r.config,
+                rows(&a.outside)
+            );
+        }
+    }
+    out
 }
