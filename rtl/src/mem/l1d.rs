@@ -26,16 +26,11 @@
 //! fill the tags at the clock edge and their waiters' responses are visible the next cycle. All
 //! responses visible in a cycle are delivered together.
 //!
-//! Two ways to connect the down port, both part of the unit's interface:
-//! - **attached** (the default): the L2's grant comes in as `down_ready` in the same cycle, and
-//!   the miss queue pops at the edge;
-//! - **detached** ([`L1d::detach_miss_queue`]): the L1D runs ahead of the L2 in its own window
-//!   (the windowed run, `sim::window`) and its miss queue is simulated again beside the L2's
-//!   front end ([`super::l2::L2::split_front_end`]). The L1D then lists each request it sends
-//!   down ([`L1d::take_sent`]), is told each that left ([`L1d::left_queue`]), and keeps the
-//!   requests not yet known to have left, so its queue's length ([`L1d::queue_len`]) is an
-//!   upper bound, exact once the front end has run the cycles before. An L1D with nothing to do
-//!   only has its clock moved ([`L1d::skip_to`]), which is all committing a quiet step does.
+//! The down port: the L2's grant comes in as `down_ready` in the same cycle, and the miss queue
+//! pops at the edge; a queued request that is not granted changes nothing, so a cycle with no
+//! request, fill or grant coming in and no work held is quiet whatever the queue holds.
+//! [`L1d::miss_queue`], [`L1d::pop_miss_queue`] and [`L1d::next_event_inside`] are there for a
+//! runner that keeps the queue's grants itself (the windowed run's detached L1D, `sim::split`).
 
 use super::cache::{Geometry, TagStore};
 use super::mshr::{Mshr, Outcome, Waiter};
@@ -150,12 +145,6 @@ pub struct L1d {
     out: Vec<MemResp>,
     now: u64,
     counters: Counters,
-    /// The miss queue is detached ([`L1d::detach_miss_queue`]): its real copy is the windowed
-    /// runner's, which grants and pops it; `miss_queue` here keeps the requests sent down that are
-    /// not yet known to have left (an upper bound on the real queue) and `sent` each one's push.
-    detached: bool,
-    /// Detached only: (cycle of the clock edge that queued it, request), for the real queue.
-    sent: Vec<(u64, MemReq)>,
 }
 
 impl L1d {
@@ -173,35 +162,23 @@ impl L1d {
             out: Vec::new(),
             now: 0,
             counters: Counters::default(),
-            detached: false,
-            sent: Vec::new(),
         }
     }
 
-    /// Detaches the miss queue (see the module documentation): from now on every request sent down is also listed with the cycle of
-    /// the edge that queued it ([`L1d::take_sent`]), nothing pops the queue but
-    /// [`L1d::left_queue`], and [`L1d::next_event`] leaves the queue out (the runner counts it).
-    /// `eval` must then get `down_ready` false. The queue's length here is an upper bound on the
-    /// real one: the requests the runner has not yet reported leaving are still counted.
-    pub fn detach_miss_queue(&mut self) {
-        self.detached = true;
+    /// The miss queue: requests for the L2, the head offered on the down port ([`L1d::down_req`]).
+    pub(crate) fn miss_queue(&self) -> &VecDeque<MemReq> {
+        &self.miss_queue
     }
 
-    /// Detached: the requests sent down since the last call, with the cycle of the edge that
-    /// queued each (they are the real queue's from the next cycle on).
-    pub fn take_sent(&mut self, into: &mut Vec<(u64, MemReq)>) {
-        into.append(&mut self.sent);
-    }
-
-    /// Detached: the head of the queue went to the L2 (the front end granted it in a cycle
-    /// before this one).
-    pub fn left_queue(&mut self) {
+    /// The head of the miss queue leaves for the L2: what a granted down request does at the
+    /// clock edge.
+    pub(crate) fn pop_miss_queue(&mut self) {
         self.miss_queue.pop_front();
     }
 
-    /// Detached: the queue's length bound ([`L1d::detach_miss_queue`]).
-    pub fn queue_len(&self) -> usize {
-        self.miss_queue.len()
+    /// The cycle the L1D evaluates next.
+    pub(crate) fn cycle(&self) -> u64 {
+        self.now
     }
 
     /// Register output: the L1D takes a request this cycle.
@@ -239,11 +216,25 @@ impl L1d {
         &self.tags
     }
 
-    /// No request or fill comes in and the registers have no event this cycle
-    /// ([`L1d::next_event`]: nothing parked, queued for L2 or shown, no hit visible at the edge).
+    /// The first cycle, from now on, in which the L1D acts with no input, its down port left out:
+    /// a request parked (retried), responses shown (cleared at the edge) or a hit becoming
+    /// visible at the edge. [`L1d::next_event`] adds the down port.
+    pub(crate) fn next_event_inside(&self) -> Option<u64> {
+        if self.parked.is_some() || !self.out.is_empty() {
+            return Some(self.now);
+        }
+        self.hit_pipe.front().map(|&(visible, _)| visible - 1)
+    }
+
+    /// No request, fill or grant comes in and the registers have no event of their own this cycle
+    /// ([`L1d::next_event_inside`]: nothing parked or shown, no hit visible at the edge). A queued
+    /// request that is not granted changes nothing.
     #[inline]
     fn quiet(&self, i: &L1dIn) -> bool {
-        i.req.is_none() && i.fills.is_empty() && self.next_event().is_none_or(|e| e > self.now)
+        i.req.is_none()
+            && i.fills.is_empty()
+            && (!i.down_ready || self.miss_queue.is_empty())
+            && self.next_event_inside().is_none_or(|e| e > self.now)
     }
 
     fn eval_full(&self, i: &L1dIn, d: &mut L1dStep) {
@@ -286,16 +277,13 @@ impl L1d {
         let id = self.next_down_id;
         self.next_down_id += 1;
         self.miss_queue.push_back(MemReq { id, ..req });
-        if self.detached {
-            self.sent.push((self.now, MemReq { id, ..req }));
-        }
         self.pending.insert(id, pending);
     }
 
     fn commit_full(&mut self, d: &L1dStep) {
         let next = self.now + 1;
         if d.out.down_fire {
-            self.miss_queue.pop_front();
+            self.pop_miss_queue();
         }
         if let Some((r, action)) = d.work {
             self.parked = None;
@@ -367,12 +355,13 @@ impl Unit for L1d {
         self.now = cycle;
     }
 
-    /// Next cycle whose commit changes something, ignoring L2 responses; `None` when idle.
+    /// Next cycle whose commit changes something, ignoring L2 responses; `None` when idle. A
+    /// request in the miss queue is offered down every cycle until the L2 grants it.
     fn next_event(&self) -> Option<u64> {
-        if self.parked.is_some() || !self.out.is_empty() || (!self.detached && !self.miss_queue.is_empty()) {
+        if !self.miss_queue.is_empty() {
             return Some(self.now);
         }
-        self.hit_pipe.front().map(|&(visible, _)| visible - 1)
+        self.next_event_inside()
     }
 
     type In<'a> = L1dIn<'a>;
@@ -381,8 +370,8 @@ impl Unit for L1d {
     /// Combinational logic of one cycle: a pure function of the registers and `i`, written into
     /// `d` (every field overwritten; the fills buffer is reused, so no allocation once warm).
     ///
-    /// A quiet cycle ([`L1d::quiet`]: no request or fill comes in, nothing is parked, queued for
-    /// L2 or shown, and no hit becomes visible at the edge) evaluates to the same step every time
+    /// A quiet cycle ([`L1d::quiet`]: no request, fill or grant comes in, nothing is parked or
+    /// shown, and no hit becomes visible at the edge) evaluates to the same step every time
     /// but for the cycle it carries; when `d` already holds one, only that is updated, and
     /// [`L1d::commit`] only advances the cycle. Test:
     /// `quiet_cycles_skip_work_with_identical_steps_and_state`.

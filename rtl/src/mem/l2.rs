@@ -27,14 +27,10 @@
 //! grants ([`L2Out::granted`], the L1Ds' `down_ready`) and the cycle's decisions into a step,
 //! which [`L2::commit`] applies at the clock edge.
 //!
-//! Two ways to clock it, both part of the unit's interface:
-//! - **whole** (the default): one [`Unit`], as above;
-//! - **split** ([`L2::split_front_end`]), for a runner whose SMs run ahead of each other (the
-//!   windowed run, `sim::window`): the front end (the banks' arbiters and the pipelines'
-//!   entrances: [`L2::front_eval`] into a [`FrontStep`], applied by [`L2::front_commit`]) and the
-//!   back end (the tag checks on: [`L2::eval`] and [`L2::commit`] with no request coming in)
-//!   keep clocks of their own, the back end up to the pipelines' delay ahead. The same results as
-//!   the whole L2 (tested below).
+//! A runner whose SMs run ahead of each other (the windowed run) clocks the banks' arbiters and
+//! the pipelines' entrances apart from the rest (`sim::split`): [`L2::arbiter_first`] and
+//! [`L2::enter_pipeline`] are the arbiters' state and the grant's edge, and
+//! [`L2Step::checked_out`] the banks whose head left its pipeline in a cycle.
 
 use super::cache::{Geometry, TagStore, Victim};
 use super::mshr::{Mshr, Outcome, Waiter};
@@ -105,6 +101,14 @@ pub struct L2Step {
     fills: Vec<MemResp>,
 }
 
+impl L2Step {
+    /// The banks whose head left its pipeline at this step's edge (checked, not stalled), in bank
+    /// order.
+    pub(crate) fn checked_out(&self) -> impl Iterator<Item = usize> + '_ {
+        self.checks.iter().filter(|c| c.1 != Check::Stall).map(|c| c.0)
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct L2 {
     params: MemParams,
@@ -123,39 +127,6 @@ pub struct L2 {
     out: Vec<Vec<MemResp>>,
     now: u64,
     counters: Counters,
-    /// The windowed run's front end, once split ([`L2::split_front_end`]).
-    front: Option<FrontEnd>,
-}
-
-/// One cycle's inputs of a split L2's front end ([`L2::front_eval`]).
-#[derive(Clone, Copy, Debug)]
-pub struct FrontIn<'a> {
-    /// The front end's cycle.
-    pub at: u64,
-    /// Per bank: bit `sm` set when SM `sm`'s down request is for that bank ([`L2::bank_of`]).
-    pub want: &'a [u64],
-    /// Per SM: its down request (read only where `want` has the SM's bit).
-    pub heads: &'a [MemReq],
-}
-
-/// One cycle of a split L2's front end ([`L2::front_eval`]), applied by [`L2::front_commit`]:
-/// the cycle, the granted SMs (one bit each) and (bank, SM, request) of each grant.
-#[derive(Clone, Debug, Default)]
-pub struct FrontStep {
-    at: u64,
-    pub granted: u64,
-    accepted: Vec<(usize, u32, MemReq)>,
-}
-
-/// What the front end of a split L2 keeps per bank to know the bank's length in its own cycle.
-#[derive(Clone, Debug)]
-struct FrontEnd {
-    /// Requests the arbiter let in.
-    let_in: Vec<u64>,
-    /// Cycles in which the back end checked out a request, not yet seen by the front end.
-    out_log: Vec<VecDeque<u64>>,
-    /// Check-outs the front end has seen (in cycles before its own).
-    out_seen: Vec<u64>,
 }
 
 impl L2 {
@@ -174,7 +145,6 @@ impl L2 {
             out: vec![Vec::new(); sms],
             now: 0,
             counters: Counters::default(),
-            front: None,
         }
     }
 
@@ -205,78 +175,20 @@ impl L2 {
         self.dram_queue.len()
     }
 
-    /// Splits the L2 in two halves with clocks of their own, for a runner that runs the SMs
-    /// ahead of each other (the windowed run, `sim::window`): from now on the front end
-    /// ([`L2::front_eval`] and [`L2::front_commit`]: the grants and the bank pipelines' entrances) and the back end (the
-    /// tag checks onward: [`L2::eval`] and [`L2::commit`] with no request, which is all they then
-    /// do) keep clocks of their own, the back end ahead. A bank's length as the front end's
-    /// arbiter must see it in its cycle is then the requests it let in before that cycle less
-    /// those the back end checked out before it, so the back end logs each check-out's cycle.
-    pub fn split_front_end(&mut self) {
-        let banks = self.banks.len();
-        self.front = Some(FrontEnd {
-            let_in: vec![0; banks],
-            out_log: vec![VecDeque::new(); banks],
-            out_seen: vec![0; banks],
-        });
+    pub(crate) fn params(&self) -> &MemParams {
+        &self.params
     }
 
-    /// Split only ([`L2::split_front_end`]): the front end's cycle `i.at`, combinational. Each
-    /// requested bank with room grants one SM as [`L2::eval`]'s arbiter does (the first from the
-    /// SM after the one it granted last); writes the grants, with the requests they take, into
-    /// `d`, which [`L2::front_commit`] applies. The back end must have run every cycle before
-    /// `i.at`.
-    pub fn front_eval(&self, i: FrontIn, d: &mut FrontStep) {
-        let f = self.front.as_ref().expect("split_front_end first");
-        let x = i.at;
-        d.at = x;
-        d.granted = 0;
-        d.accepted.clear();
-        for (b, &mask) in i.want.iter().enumerate() {
-            if mask == 0 {
-                continue;
-            }
-            // The bank's length in cycle `x`: let in less checked out before `x`.
-            let out = f.out_seen[b] + f.out_log[b].iter().take_while(|&&c| c < x).count() as u64;
-            if f.let_in[b] - out >= u64::from(self.params.l2_bank_queue) {
-                continue;
-            }
-            // The first requesting SM from `rr[b]` on, round the ring.
-            let from = mask & (u64::MAX << self.rr[b]);
-            let sm = if from != 0 { from.trailing_zeros() } else { mask.trailing_zeros() };
-            d.granted |= 1 << sm;
-            d.accepted.push((b, sm, i.heads[sm as usize]));
-        }
-    }
-
-    /// The front end's clock edge for the step of [`L2::front_eval`]: the granted requests
-    /// enter their bank pipelines, due at their tag check `l2_latency - 3` cycles later, and each
-    /// granting bank's arbiter moves on. The back end must not yet have reached the cycle a
-    /// request let in now is due.
-    pub fn front_commit(&mut self, d: &FrontStep) {
-        let f = self.front.as_mut().expect("split_front_end first");
-        let delay = u64::from(self.params.l2_latency - 3);
-        debug_assert!(d.at + delay >= self.now, "the back end ran past a request's tag check");
-        for (b, log) in f.out_log.iter_mut().enumerate() {
-            while log.front().is_some_and(|&c| c < d.at) {
-                log.pop_front();
-                f.out_seen[b] += 1;
-            }
-        }
-        for &(b, sm, req) in &d.accepted {
-            self.enter_pipeline(b, sm, req, d.at + delay);
-        }
+    /// Bank `b`'s arbiter: the SM it considers first (the one after the SM it granted last).
+    pub(crate) fn arbiter_first(&self, b: usize) -> u32 {
+        self.rr[b]
     }
 
     /// Bank `b`'s arbiter granted SM `sm`'s request `req`: it enters the bank pipeline, due at its
-    /// tag check in cycle `due` (counted for the front end's bank length when split), and the
-    /// arbiter starts after `sm` next time. The clock edge's part of a grant, in [`L2::commit`]
-    /// and [`L2::front_commit`].
-    fn enter_pipeline(&mut self, b: usize, sm: u32, req: MemReq, due: u64) {
+    /// tag check in cycle `due`, and the arbiter starts after `sm` next time. The clock edge's
+    /// part of a grant ([`L2::commit`]).
+    pub(crate) fn enter_pipeline(&mut self, b: usize, sm: u32, req: MemReq, due: u64) {
         self.banks[b].push_back(Lane { due, sm, req });
-        if let Some(f) = self.front.as_mut() {
-            f.let_in[b] += 1;
-        }
         self.rr[b] = if sm + 1 < self.params.sms { sm + 1 } else { 0 };
     }
 
@@ -288,14 +200,14 @@ impl L2 {
         }
     }
 
-    /// The cycle the L2 (the back end, when split) evaluates next.
+    /// The cycle the L2 evaluates next.
     pub fn cycle(&self) -> u64 {
         self.now
     }
 }
 
 impl Unit for L2 {
-    /// Moves the clock (the back end's, when split) to `cycle` over cycles with no event.
+    /// Moves the clock to `cycle` over cycles with no event.
     fn skip_to(&mut self, cycle: u64) {
         self.now = cycle;
     }
@@ -400,9 +312,6 @@ impl Unit for L2 {
                 continue;
             }
             let Lane { sm, req: r, .. } = self.banks[b].pop_front().expect("checked head");
-            if let Some(f) = self.front.as_mut() {
-                f.out_log[b].push_back(self.now);
-            }
             let key = self.params.sector_of(r.addr);
             match check {
                 Check::Hit => {
@@ -471,68 +380,9 @@ impl Unit for L2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mem::testutil::L2Bench as Bench;
     use crate::mem::{Assoc, ReqKind};
     use crate::trace::Snapshot;
-
-    /// An L2 with a stand-in DRAM answering every read `dram` cycles after it is offered.
-    struct Bench {
-        l2: L2,
-        dram: u64,
-        in_dram: VecDeque<(u64, MemResp)>,
-        dram_out: Vec<MemResp>,
-        dram_log: Vec<MemReq>,
-        resp_log: Vec<(u64, usize, MemResp)>,
-        cycle: u64,
-    }
-
-    impl Bench {
-        fn new(p: MemParams, dram: u64) -> Bench {
-            Bench {
-                l2: L2::new(&p),
-                dram,
-                in_dram: VecDeque::new(),
-                dram_out: Vec::new(),
-                dram_log: Vec::new(),
-                resp_log: Vec::new(),
-                cycle: 0,
-            }
-        }
-
-        fn step(&mut self, reqs: &[Option<MemReq>]) -> Vec<bool> {
-            for sm in 0..self.l2.out.len() {
-                for r in self.l2.resp(sm) {
-                    self.resp_log.push((self.cycle, sm, *r));
-                }
-            }
-            let to_dram = self.l2.dram_req();
-            let fills = std::mem::take(&mut self.dram_out);
-            let mut d = L2Step::default();
-            self.l2.eval(L2In { reqs, dram_ready: true, fills: &fills }, &mut d);
-            let granted = d.out.granted.clone();
-            self.l2.commit(&d);
-            if let Some(r) = to_dram {
-                self.dram_log.push(r);
-                if !r.write {
-                    self.in_dram.push_back((self.cycle + self.dram, r.response()));
-                }
-            }
-            while self.in_dram.front().is_some_and(|&(c, _)| c <= self.cycle + 1) {
-                self.dram_out.push(self.in_dram.pop_front().unwrap().1);
-            }
-            self.cycle += 1;
-            granted
-        }
-
-        fn settle(&mut self, sms: usize) {
-            for _ in 0..10_000 {
-                if self.l2.next_event().is_none() && self.in_dram.is_empty() && self.dram_out.is_empty() {
-                    return;
-                }
-                self.step(&vec![None; sms]);
-            }
-            panic!("did not settle");
-        }
-    }
 
     fn p(sms: u32) -> MemParams {
         MemParams { sms, ..MemParams::default() }
@@ -540,88 +390,6 @@ mod tests {
 
     fn read(id: u64, addr: u64) -> Option<MemReq> {
         Some(MemReq::read(id, addr, 32, ReqKind::NodeFetch))
-    }
-
-    /// Random traffic from four SMs through the L2, each SM offering the head of its own queue of
-    /// requests (reads and writes to a few hot lines, so hits, misses, merges and write-backs
-    /// happen; pipelines of six, so banks fill): `ahead` < 0 runs the L2 whole (`eval` and
-    /// `commit` every cycle); otherwise split as the windowed run splits it, the front end cycle
-    /// by cycle and the back end run `ahead` cycles in front of it. Returns every response with
-    /// its cycle, and the counters.
-    fn queued_traffic(p: MemParams, ahead: i64, seed: u64) -> (Vec<(u64, usize, MemResp)>, Counters) {
-        use crate::mem::testutil::XorShift;
-        let sms = p.sms as usize;
-        let mut rng = XorShift(seed);
-        let mut b = Bench::new(p, 30);
-        let mut queues = vec![VecDeque::new(); sms];
-        let mut id = 0;
-        let none = vec![None; sms];
-        let (mut want, mut heads, mut fs) = (
-            vec![0u64; p.l2_banks as usize],
-            vec![MemReq::read(0, 0, 0, ReqKind::NodeFetch); sms],
-            FrontStep::default(),
-        );
-        if ahead >= 0 {
-            b.l2.split_front_end();
-        }
-        for x in 0..3_000u64 {
-            for q in queues.iter_mut() {
-                if rng.below(2) == 0 {
-                    id += 1;
-                    let addr = rng.below(48) * 32;
-                    q.push_back(if rng.below(5) == 0 {
-                        MemReq::write(id, addr, 8, ReqKind::StackSpill)
-                    } else {
-                        MemReq::read(id, addr, 32, ReqKind::NodeFetch)
-                    });
-                }
-            }
-            let reqs: Vec<Option<MemReq>> = queues.iter().map(|q| q.front().copied()).collect();
-            let granted: Vec<bool> = if ahead < 0 {
-                b.step(&reqs)
-            } else {
-                want.iter_mut().for_each(|w| *w = 0);
-                for (k, r) in reqs.iter().enumerate() {
-                    if let Some(r) = r {
-                        want[b.l2.bank_of(r.addr)] |= 1 << k;
-                        heads[k] = *r;
-                    }
-                }
-                b.l2.front_eval(FrontIn { at: x, want: &want, heads: &heads }, &mut fs);
-                b.l2.front_commit(&fs);
-                // The back end runs on to `ahead` cycles in front of the front end.
-                while b.cycle < x + 1 + ahead as u64 {
-                    b.step(&none);
-                }
-                (0..sms).map(|k| fs.granted & 1 << k != 0).collect()
-            };
-            for (q, g) in queues.iter_mut().zip(granted) {
-                if g {
-                    q.pop_front();
-                }
-            }
-        }
-        b.settle(sms);
-        (b.resp_log, *b.l2.counters())
-    }
-
-    /// The windowed run's split L2: the front end at its cycle and the back end up to
-    /// the bank pipelines' delay in front of it give the whole L2's responses, at the same
-    /// cycles, and its counters; a back end further ahead than that (the windowed run's planted
-    /// `WindowBackEndTooFar`) checks a bank's head before a request let in later would have been
-    /// in front of it, and the comparison catches it.
-    #[test]
-    fn split_front_and_back_end_equal_the_whole_l2() {
-        let p = MemParams { sms: 4, l2_bank_queue: 6, l2_latency: 30, l2_mshrs: 8, ..MemParams::default() };
-        let delay = i64::from(p.l2_latency - 3);
-        for seed in 1..4 {
-            let whole = queued_traffic(p, -1, seed);
-            assert!(whole.0.len() > 1_000 && whole.1.hits > 0 && whole.1.misses > 0, "traffic of every kind");
-            for ahead in [0, 1, delay / 2, delay] {
-                assert_eq!(queued_traffic(p, ahead, seed), whole, "seed {seed}, back end {ahead} ahead");
-            }
-            assert_ne!(queued_traffic(p, delay + 8, seed), whole, "a back end too far ahead must show");
-        }
     }
 
     #[test]

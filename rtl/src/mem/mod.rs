@@ -526,6 +526,82 @@ impl MemParams {
 
 #[cfg(test)]
 pub(crate) mod testutil {
+    use super::l2::{L2In, L2Step, L2};
+    use super::{MemParams, MemReq, MemResp};
+    use crate::clock::Unit;
+    use std::collections::VecDeque;
+
+    /// An L2 with a stand-in DRAM answering every read `dram` cycles after it is offered.
+    pub struct L2Bench {
+        pub l2: L2,
+        pub dram: u64,
+        pub in_dram: VecDeque<(u64, MemResp)>,
+        pub dram_out: Vec<MemResp>,
+        pub dram_log: Vec<MemReq>,
+        pub resp_log: Vec<(u64, usize, MemResp)>,
+        pub cycle: u64,
+    }
+
+    impl L2Bench {
+        pub fn new(p: MemParams, dram: u64) -> L2Bench {
+            L2Bench {
+                l2: L2::new(&p),
+                dram,
+                in_dram: VecDeque::new(),
+                dram_out: Vec::new(),
+                dram_log: Vec::new(),
+                resp_log: Vec::new(),
+                cycle: 0,
+            }
+        }
+
+        /// One cycle on the SMs' down requests `reqs`; returns the grants.
+        pub fn step(&mut self, reqs: &[Option<MemReq>]) -> Vec<bool> {
+            self.step_committing(reqs, |l2, d| l2.commit(d))
+        }
+
+        /// [`L2Bench::step`], the clock edge made by `commit`.
+        pub fn step_committing(
+            &mut self,
+            reqs: &[Option<MemReq>],
+            commit: impl FnOnce(&mut L2, &L2Step),
+        ) -> Vec<bool> {
+            for sm in 0..self.l2.params().sms as usize {
+                for r in self.l2.resp(sm) {
+                    self.resp_log.push((self.cycle, sm, *r));
+                }
+            }
+            let to_dram = self.l2.dram_req();
+            let fills = std::mem::take(&mut self.dram_out);
+            let mut d = L2Step::default();
+            self.l2.eval(L2In { reqs, dram_ready: true, fills: &fills }, &mut d);
+            let granted = d.out.granted.clone();
+            commit(&mut self.l2, &d);
+            if let Some(r) = to_dram {
+                self.dram_log.push(r);
+                if !r.write {
+                    self.in_dram.push_back((self.cycle + self.dram, r.response()));
+                }
+            }
+            while self.in_dram.front().is_some_and(|&(c, _)| c <= self.cycle + 1) {
+                self.dram_out.push(self.in_dram.pop_front().unwrap().1);
+            }
+            self.cycle += 1;
+            granted
+        }
+
+        /// Steps with no request until the L2 and the stand-in DRAM are idle.
+        pub fn settle(&mut self, sms: usize) {
+            for _ in 0..10_000 {
+                if self.l2.next_event().is_none() && self.in_dram.is_empty() && self.dram_out.is_empty() {
+                    return;
+                }
+                self.step(&vec![None; sms]);
+            }
+            panic!("did not settle");
+        }
+    }
+
     /// Tiny deterministic generator for test streams (xorshift64).
     pub struct XorShift(pub u64);
 

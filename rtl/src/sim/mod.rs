@@ -28,6 +28,7 @@ mod reference;
 mod runner;
 #[cfg(feature = "mutants")]
 mod slips;
+mod split;
 mod window;
 
 #[cfg(feature = "mutants")]

@@ -13,7 +13,7 @@
 //! - **grants**: a bank's arbiter picks one of the SMs requesting it in a cycle, so when an L1D's
 //!   request leaves its miss queue depends on the other SMs. The SM itself sees that only as the
 //!   miss queue's length, when it is full (a request that needs a slot parks). So the miss queue
-//!   is simulated beside the front end ([`L1d::detach_miss_queue`]); the L1D keeps an upper bound
+//!   is simulated beside the front end ([`DetachedL1d`]); the L1D keeps an upper bound
 //!   of its length (the requests not yet known to have left), exact once the front end has run
 //!   the cycles before. An SM whose bound reaches the queue's depth before that stops and waits;
 //! - **jobs**: the dispatcher hands the next job to the first SM with a free warp slot, round
@@ -36,12 +36,13 @@
 //! (the back end may have run further: [`Back::snapshots`]).
 
 use super::helper::Helper;
+use super::split::{DetachedL1d, FrontEnd, FrontIn, FrontStep, SplitL2};
 use super::{Dispatcher, Progress, Steps};
 use crate::clock::Unit;
 use crate::mem::dram::{Dram, DramIn, DramStep};
 use crate::mem::hierarchy::MemSystem;
 use crate::mem::l1d::{L1d, L1dStep};
-use crate::mem::l2::{FrontIn, FrontStep, L2In, L2Step, L2};
+use crate::mem::l2::{L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp, ReqKind};
 use crate::ray_op::WarpJob;
 use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
@@ -173,13 +174,13 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
         // parked; the bound answers unless it has reached the queue's depth.
         if steps.stops_for_full_queue()
             && (offer.req.is_some() || !offer.ready)
-            && l1.queue_len() >= lim.queue_depth
+            && l1.queue_bound() >= lim.queue_depth
             && lim.front < c
         {
             break;
         }
         let rt_due = u.next_event().is_some_and(|e| e <= c);
-        let l1_due = l1.next_event().is_some_and(|e| e <= c);
+        let l1_due = l1.next_event_detached().is_some_and(|e| e <= c);
         lane.now_fills.clear();
         while let Some(&(at, r)) = lane.fills.front() {
             if at > c {
@@ -195,7 +196,7 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
             // Nothing happens in this SM before its next event or response: only the L1D's clock
             // moves (as the reference loop's quiet units), to there or to the window's end.
             let rt_next = u.next_event().map(|e| steps.rt_wakes_at(e));
-            let next = [rt_next, l1.next_event(), lane.fills.front().map(|f| f.0)]
+            let next = [rt_next, l1.next_event_detached(), lane.fills.front().map(|f| f.0)]
                 .into_iter()
                 .flatten()
                 .min()
@@ -223,8 +224,7 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
                 break;
             }
         }
-        l1.commit(&lane.l1_step);
-        l1.take_sent(&mut lane.sent);
+        l1.commit_sending(&lane.l1_step, &mut lane.sent);
         c += 1;
     }
     lane.frontier = c;
@@ -277,6 +277,8 @@ struct Front {
     /// Per SM: its head this cycle (scratch; stale where it has none).
     heads: Vec<MemReq>,
     step: FrontStep,
+    /// The L2's front end's count of each bank's requests.
+    end: FrontEnd,
     /// Cycles with a request in some miss queue, and cycles with a dispatch.
     due: CycleSet,
 }
@@ -313,8 +315,8 @@ impl Front {
                 continue;
             }
             self.due.set(x);
-            l2.front_eval(FrontIn { at: x, want: &self.want, heads: &self.heads }, &mut self.step);
-            l2.front_commit(&self.step);
+            l2.front_eval(&self.end, FrontIn { at: x, want: &self.want, heads: &self.heads }, &mut self.step);
+            l2.front_commit(&mut self.end, &self.step);
             for k in Bits::of(self.step.granted).map(|k| k as usize) {
                 self.queues[k].pop_front();
                 if self.queues[k].is_empty() {
@@ -354,7 +356,7 @@ impl Back {
     /// Runs the cycles before `to`: each cycle in which the L2 or DRAM has an event due is their
     /// evaluation and clock edge with no request coming in; the others only move their clocks
     /// (they would change nothing else).
-    fn run_to(&mut self, to: u64, l2: &mut L2, dram: &mut Dram) {
+    fn run_to(&mut self, to: u64, l2: &mut L2, dram: &mut Dram, front: &mut FrontEnd) {
         while l2.cycle() < to {
             let y = l2.cycle();
             let next = l2.next_event().into_iter().chain(dram.next_event()).min();
@@ -369,7 +371,7 @@ impl Back {
             l2.eval(L2In { reqs: &self.none, dram_ready: dram.ready(), fills: dram.resp() }, &mut self.step);
             dram.eval(DramIn { req: l2.dram_req() }, &mut self.dram_step);
             dram.commit(&self.dram_step);
-            l2.commit(&self.step);
+            l2.back_commit(front, &self.step);
             for (k, staged) in self.staged.iter_mut().enumerate() {
                 staged.extend(l2.resp(k).iter().map(|&r| (y + 1, r)));
             }
@@ -438,15 +440,11 @@ pub(super) fn run<P: Steps, I: Iterator<Item = WarpJob>>(
 }
 
 impl Windows {
-    /// Detaches the L1Ds' miss queues and the L2's front end from the memory system, for the
-    /// run to clock them apart.
-    fn new(n: usize, mem: &mut MemSystem, w: u64) -> Windows {
+    /// The run's state before its first round: the L1Ds' miss queues and the L2's front end are
+    /// to be clocked apart ([`DetachedL1d`], [`SplitL2`]), from a memory system with no request
+    /// in flight.
+    fn new(n: usize, mem: &MemSystem, w: u64) -> Windows {
         let params = *mem.params();
-        let (l1ds, l2, _) = mem.parts_mut();
-        for l1 in l1ds.iter_mut() {
-            l1.detach_miss_queue();
-        }
-        l2.split_front_end();
         Windows {
             lanes: (0..n).map(|_| Lane::default()).collect(),
             front: Front {
@@ -456,6 +454,7 @@ impl Windows {
                 want: vec![0; params.l2_banks as usize],
                 heads: vec![MemReq::read(0, 0, 0, ReqKind::NodeFetch); n],
                 step: FrontStep::default(),
+                end: FrontEnd::new(params.l2_banks as usize),
                 due: CycleSet::default(),
             },
             back: Back {
@@ -562,7 +561,7 @@ impl Windows {
             .map(|((lane, u), l1)| {
                 lane.due
                     .first_in(after, lane.frontier)
-                    .or_else(|| [u.next_event(), l1.next_event()].into_iter().flatten().min())
+                    .or_else(|| [u.next_event(), l1.next_event_detached()].into_iter().flatten().min())
             })
             .chain([front.due.first_in(after, front.next).or_else(|| front.next_head(front.next))])
             .chain([self
@@ -590,7 +589,7 @@ impl Windows {
                 && lane.fills.is_empty()
                 && lane.error.is_none()
                 && u.next_event().is_none()
-                && l1.next_event().is_none()
+                && l1.next_event_detached().is_none()
                 && !(jobs_left && u.free_slot().is_some())
         }) && self.front.queued == 0
             && self.back.staged.iter().all(Vec::is_empty)
@@ -632,6 +631,7 @@ impl Windows {
         }
         let back = &mut self.back;
         let lanes = &mut self.lanes;
+        let front_end = &mut self.front.end;
         match helper {
             Some(h) => {
                 let a = split_point(units.len());
@@ -640,14 +640,14 @@ impl Windows {
                 let (na, nb) = lanes.split_at_mut(a);
                 h.join(
                     || {
-                        back.run_to(back_to, l2, dram);
+                        back.run_to(back_to, l2, dram, front_end);
                         run_group(ua, la, na, lim, steps);
                     },
                     move || run_group(ub, lb, nb, lim, steps),
                 );
             }
             None => {
-                back.run_to(back_to, l2, dram);
+                back.run_to(back_to, l2, dram, front_end);
                 run_group(units, l1ds, lanes, lim, steps);
             }
         }
