@@ -10,6 +10,14 @@ fn config(name: &str, lanes: u32) -> Config {
     Config { warp_size: lanes, warps: 1, ..name.parse().unwrap() }
 }
 
+/// `f` with `insert` written right after the first `line` (a register update), checked for `steps`.
+fn planted(f: &formal::Formal, line: &str, insert: &str, d: &std::path::Path, steps: u32) -> formal::Outcome {
+    let at = f.text.find(line).expect("the register update to plant in") + line.len();
+    let mut bad = formal::Formal { text: f.text.clone(), ..f.clone() };
+    bad.text.insert_str(at, insert);
+    formal::prove(&bad, &d.join("planted"), steps).unwrap()
+}
+
 fn dir(tag: &str) -> std::path::PathBuf {
     std::env::temp_dir().join(format!("sms-formal-{}-{tag}", std::process::id()))
 }
@@ -33,14 +41,10 @@ fn the_invariant_holds_on_the_generated_verilog_and_a_planted_bug_is_caught_nami
     assert_eq!(o.asserts, f.asserts.len());
 
     // Planted: lane 0's SH-empty flag inverted on every edge.
-    let line = "        lane0_sh_empty <= ";
-    let at = f.text.find(line).expect("the register update to plant in");
-    let mut bad = formal::Formal { text: f.text.clone(), ..f };
-    bad.text.insert_str(at + line.len(), "~");
-    let o = formal::prove(&bad, &d.join("planted"), 3).unwrap();
+    let o = planted(&f, "        lane0_sh_empty <= ", "~", &d, 3);
     let Verdict::Counterexample { step, failed } = &o.verdict else { panic!("{}", o.verdict) };
     assert!(*step >= 1, "{step}");
-    assert!(!failed.is_empty() && failed.iter().all(|c| bad.asserts.contains(c)), "{failed:?}");
+    assert!(!failed.is_empty() && failed.iter().all(|c| f.asserts.contains(c)), "{failed:?}");
     assert!(o.verdict.to_string().starts_with("counterexample"), "{}", o.verdict);
     let _ = std::fs::remove_dir_all(&d);
 }
@@ -60,13 +64,10 @@ fn a_restart_designs_invariant_is_proved_by_induction_and_a_drop_that_keeps_ever
     let o = formal::prove(&f, &d, 3).unwrap();
     assert_eq!(o.verdict, Verdict::Proved { k: 1 });
 
-    let line = "        lane0_rb_count <= ";
-    let at = f.text.find(line).expect("the register update to plant in") + line.len();
-    let mut bad = formal::Formal { text: f.text.clone(), ..f };
-    bad.text.insert_str(at, "(lane0_cmd_kind == 2'd1 && lane0_rb_count == 2'd2) ? 2'd3 : ");
     // The load, two pushes that fill the RB and a third: the registers break the clause after
     // the third push's edge, 4 cycles after the load's.
-    let o = formal::prove(&bad, &d.join("planted"), 5).unwrap();
+    let plant = "(lane0_cmd_kind == 2'd1 && lane0_rb_count == 2'd2) ? 2'd3 : ";
+    let o = planted(&f, "        lane0_rb_count <= ", plant, &d, 5);
     let Verdict::Counterexample { step, failed } = &o.verdict else { panic!("{}", o.verdict) };
     assert_eq!(*step, 4, "{}", o.verdict);
     assert!(failed.iter().any(|c| c == "lane 0: RB length at most N"), "{failed:?}");

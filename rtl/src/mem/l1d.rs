@@ -503,13 +503,7 @@ mod tests {
         let (mut fills, mut quiet) = (Vec::new(), 0);
         for now in 0..8000u64 {
             // Bursts of requests (reads, some stores) over a few lines, then pauses.
-            let req = (now % 300 < 100 && rng.below(2) == 0).then(|| {
-                let addr = rng.below(64) * 32;
-                match rng.below(5) {
-                    0 => MemReq::write(now, addr, 8, ReqKind::StackSpill),
-                    _ => MemReq::read(now, addr, 8, ReqKind::NodeFetch),
-                }
-            });
+            let req = rng.burst_request(now);
             let down = fast.down_req();
             let i = L1dIn { req, down_ready: rng.below(3) != 0, fills: &fills };
             quiet += u64::from(fast.quiet(&i));

@@ -619,6 +619,20 @@ pub(crate) mod testutil {
         pub fn below(&mut self, n: u64) -> u64 {
             self.next() % n
         }
+
+        /// An L1D's input in cycle `now` of a bursty stream: in the first 100 cycles of every 300,
+        /// a request half the time (a 32-byte-aligned address among 64, one in five a stack
+        /// store, the rest node reads); none in the pauses.
+        pub fn burst_request(&mut self, now: u64) -> Option<super::MemReq> {
+            use super::{MemReq, ReqKind};
+            (now % 300 < 100 && self.below(2) == 0).then(|| {
+                let addr = self.below(64) * 32;
+                match self.below(5) {
+                    0 => MemReq::write(now, addr, 8, ReqKind::StackSpill),
+                    _ => MemReq::read(now, addr, 8, ReqKind::NodeFetch),
+                }
+            })
+        }
     }
 }
 

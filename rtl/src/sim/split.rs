@@ -191,13 +191,7 @@ mod tests {
         let mut l2: VecDeque<(u64, MemResp)> = VecDeque::new();
         let (mut fills, mut went_down, mut sent) = (Vec::new(), Vec::new(), Vec::new());
         for now in 0..6_000u64 {
-            let req = (now % 300 < 100 && rng.below(2) == 0).then(|| {
-                let addr = rng.below(64) * 32;
-                match rng.below(5) {
-                    0 => MemReq::write(now, addr, 8, ReqKind::StackSpill),
-                    _ => MemReq::read(now, addr, 8, ReqKind::NodeFetch),
-                }
-            });
+            let req = rng.burst_request(now);
             let granted = rng.below(3) != 0;
             let down = attached.down_req().filter(|_| granted);
             attached.eval(L1dIn { req, down_ready: granted, fills: &fills }, &mut da);

@@ -43,6 +43,7 @@ pub const MAX_SH_ENTRIES: u32 = 4;
 pub const MAX_RB_ENTRIES: u32 = 4;
 
 /// The warp module of one configuration with its formal block.
+#[derive(Clone)]
 pub struct Formal {
     /// The configuration in one line ([`super::describe`]).
     pub config: String,
