@@ -230,3 +230,52 @@ impl Unit for Sm {
         self.l1d.skip_to(cycle);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::gpu::Gpu;
+    use crate::trace::Snapshot;
+
+    /// An SM's probe shows its RT unit (scope `rt_unit`) and its L1D (scope `l1d`), each with
+    /// its own signals.
+    #[test]
+    fn probe_shows_the_rt_unit_and_the_l1d() {
+        let gpu = Gpu::paper(Config::sms()).unwrap();
+        let sm = &gpu.sms()[0];
+        let mut s = Snapshot::default();
+        sm.probe(&SmStep::default(), &mut s);
+        assert_eq!(s.get("rt_unit.port.req_fire"), Some(0));
+        assert_eq!(s.get("l1d.req_ready"), Some(1));
+        assert_eq!(s.get("l1d.miss_queue_depth"), Some(0));
+        assert!(s.signals.iter().all(|(p, _, _)| p.starts_with("rt_unit.") || p.starts_with("l1d.")));
+    }
+
+    /// An SM with nothing to do: its RT unit is not evaluated under the design's evaluation, and
+    /// is under one that evaluates every unit; the committed registers are the same either way.
+    #[test]
+    fn a_quiet_rt_unit_is_left_unevaluated_unless_every_unit_is() {
+        #[derive(Clone, Copy)]
+        struct EveryUnit;
+        impl Evaluation for EveryUnit {
+            fn skips_quiet_units(self) -> bool {
+                false
+            }
+        }
+        let gpu = Gpu::paper(Config::sms()).unwrap();
+        let (mut a, mut b) = (gpu.sms()[0].clone(), gpu.sms()[0].clone());
+        let (mut da, mut db) = (SmStep::default(), SmStep::default());
+        for now in 0..3 {
+            let i = SmIn { now, granted: false, fills: &[], job: None };
+            a.eval_by(i, &mut da, Dataflow);
+            b.eval_by(i, &mut db, EveryUnit);
+            assert!(!da.rt_stepped() && db.rt_stepped());
+            a.commit(&da);
+            b.commit(&db);
+        }
+        assert_eq!(format!("{:?}", a.l1d), format!("{:?}", b.l1d));
+        assert_eq!(a.rt.next_event(), b.rt.next_event());
+        assert_eq!(a.rt.stats, b.rt.stats);
+    }
+}
