@@ -23,8 +23,9 @@
 //!
 //! The decisions a runner makes (which SM the dispatcher tries next, when an SM in a window must
 //! stop, how far the L2's back end may run ahead, …, and how an RT unit is evaluated: the
-//! [`crate::sm::Evaluation`] it extends) go through the `Steps` trait; the product runs `Design`. Test builds (the `mutants` feature) also have `slips::Slipped`, which replaces
-//! one of those decisions with a planted bug (`OrderBug`, `slips.rs`) so the tests can show they catch it.
+//! [`crate::sm::Evaluation`] it extends) go through the `Steps` trait; the product runs `Design`.
+//! Test builds (the `mutants` feature) also have `slips::Slipped`, which replaces one of those
+//! decisions with a planted bug (`OrderBug`, `slips.rs`) so the tests can show they catch it.
 
 mod check;
 pub mod helper;
