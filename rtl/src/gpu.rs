@@ -12,8 +12,8 @@
 //!
 //! One cycle ([`Gpu::eval_by`]): the L2 and DRAM on the L1Ds' down requests (register outputs);
 //! then every SM (siblings: in index order, or as the evaluation says) on the L2's grant and
-//! responses for it and the job landing in it. The clock edge: every SM's, then the memory's
-//! ([`Gpu::commit_then`]).
+//! responses for it and the job landing in it. The clock edge: every RT unit's, then the
+//! memory's (the L1Ds', the L2's and DRAM's; [`Gpu::commit_then`]).
 //!
 //! This module holds the netlist and what a run reports; the runners above it ([`crate::sim`])
 //! clock it: the reference loop, cycle by cycle through [`Gpu::eval_by`] and
@@ -28,7 +28,7 @@ use crate::mem::hierarchy::{MemStep, MemSystem};
 use crate::mem::l1d::{L1d, L1dStep};
 use crate::mem::{Counters, MemParams, MemReq, ReqKind};
 use crate::ray_op::WarpJob;
-use crate::rt_unit::{RtParams, RtUnit, StackParams};
+use crate::rt_unit::{RtParams, RtUnit, RunError, StackParams};
 use crate::sm::{Dataflow, Evaluation, Sm, SmIn, SmStep};
 use crate::stack_manager::{StackPolicy, StackStats};
 use crate::thread_cycles::ThreadCycles;
@@ -137,7 +137,7 @@ impl GpuStep {
 
     /// The cycle's failed check: of the SMs' failed checks, the lowest SM's (whatever the
     /// evaluation order).
-    pub fn check(&self) -> Result<(), crate::rt_unit::RunError> {
+    pub fn check(&self) -> Result<(), RunError> {
         self.sms.iter().try_for_each(SmStep::check)
     }
 }
