@@ -1,31 +1,35 @@
-//! The GPU: `sms` SMs, one RT unit each, sharing one memory system (per-SM L1D, one L2, DRAM).
+//! The GPU: `sms` SMs (an RT unit and its L1D each), sharing the L2 and DRAM.
 //!
 //! ```text
 //!  warp jobs ──► dispatcher (round-robin over SMs with a free warp slot, ≤ 1 job per SM per cycle)
 //!                   │
 //!        ┌──────────┼──────────────┐
 //!        ▼          ▼              ▼
-//!     RT unit 0  RT unit 1  …  RT unit n-1      each: req ≤ 1 (from registers), eval on responses
+//!      SM 0       SM 1     …    SM n-1        each: RT unit ─ req ─► L1D (crate::sm)
 //!        │          │              │
-//!        └──────────┴── MemSystem ─┘  (eval: ready + responses per SM; commit: clock edge)
+//!        └──────────┴── MemSystem ─┘          the L2 and DRAM (crate::mem::hierarchy)
 //! ```
 //!
-//! One cycle: the RT units' requests (from registers) go to [`MemSystem::eval`]; the RT units
-//! evaluate on its outputs (siblings: in index order, or as the run's evaluation check says);
-//! then every RT unit and the memory system commit at the clock edge. What an SM's RT unit and
-//! L1D see of each other is wired in [`crate::sm`].
+//! One cycle ([`Gpu::eval_by`]): the L2 and DRAM on the L1Ds' down requests (register outputs);
+//! then every SM (siblings: in index order, or as the evaluation says) on the L2's grant and
+//! responses for it and the job landing in it. The clock edge: every RT unit's, then the
+//! memory's (the L1Ds', the L2's and DRAM's; [`Gpu::commit_then`]).
 //!
-//! This module holds the parts (the netlist) and what a run reports; the runners above it
-//! ([`crate::sim`]) clock them: the reference loop, cycle by cycle, or by windows of cycles (the
-//! default, on one thread or two), with the same report bit for bit. How a GPU is run (the
-//! runner, the evaluation check, a helper thread) is the run's, not the hardware's:
-//! [`crate::sim::Runner`], which `Gpu::run` and the `Gpu::with_*` run options make.
+//! This module holds the netlist and what a run reports; the runners above it ([`crate::sim`])
+//! clock it: the reference loop, cycle by cycle through [`Gpu::eval_by`] and
+//! [`Gpu::commit_then`], or by windows of cycles (the default, on one thread or two), each SM on
+//! its own, with the same report bit for bit. How a GPU is run (the runner, the evaluation check,
+//! a helper thread) is the run's, not the hardware's: [`crate::sim::Runner`], which `Gpu::run` and
+//! the `Gpu::with_*` run options make.
 
 use crate::clock::Unit;
 use crate::config::{Config, ConfigError};
 use crate::mem::hierarchy::{MemStep, MemSystem};
-use crate::mem::{Counters, MemParams, ReqKind};
-use crate::rt_unit::{RtParams, RtStep, RtUnit, StackParams};
+use crate::mem::l1d::{L1d, L1dStep};
+use crate::mem::{Counters, MemParams, MemReq, ReqKind};
+use crate::ray_op::WarpJob;
+use crate::rt_unit::{RtParams, RtUnit, RunError, StackParams};
+use crate::sm::{Dataflow, Evaluation, Sm, SmIn, SmStep};
 use crate::stack_manager::{StackPolicy, StackStats};
 use crate::thread_cycles::ThreadCycles;
 use crate::trace::{Probe, Sink};
@@ -96,12 +100,46 @@ fn hit_rate(c: &Counters) -> f64 {
     }
 }
 
-/// The GPU's parts: one RT unit per SM and the memory system, built from a stack configuration
-/// and the hardware parameters. Running it is [`crate::sim`]'s (`Gpu::run`, `Gpu::run_timed`, …).
+/// The GPU's registers: one [`Sm`] per SM and the memory they share, built from a stack
+/// configuration and the hardware parameters. Running it is [`crate::sim`]'s (`Gpu::run`,
+/// `Gpu::run_timed`, …).
+#[derive(Clone, Debug)]
 pub struct Gpu {
     cfg: Config,
-    units: Vec<RtUnit>,
+    sms: Vec<Sm>,
     mem: MemSystem,
+}
+
+/// The GPU's inputs in a cycle: the job the dispatcher sends each SM (landing at the edge).
+#[derive(Clone, Copy, Debug)]
+pub struct GpuIn<'a> {
+    pub jobs: &'a [Option<WarpJob>],
+}
+
+/// The GPU's cycle: every unit's step, the wires between them and the SMs' evaluation order. A
+/// buffer reused from cycle to cycle.
+#[derive(Clone, Debug, Default)]
+pub struct GpuStep {
+    /// Each L1D's down request (its register output): the memory's input.
+    down: Vec<Option<MemReq>>,
+    mem: MemStep,
+    sms: Vec<SmStep>,
+    /// The order in which the SMs were evaluated (and are committed).
+    order: Vec<usize>,
+}
+
+impl GpuStep {
+    /// SM `sm`'s step.
+    #[inline]
+    pub fn sm(&self, sm: usize) -> &SmStep {
+        &self.sms[sm]
+    }
+
+    /// The cycle's failed check: of the SMs' failed checks, the lowest SM's (whatever the
+    /// evaluation order).
+    pub fn check(&self) -> Result<(), RunError> {
+        self.sms.iter().try_for_each(SmStep::check)
+    }
 }
 
 impl Gpu {
@@ -121,13 +159,14 @@ impl Gpu {
         policy: StackPolicy,
     ) -> Result<Gpu, ConfigError> {
         let sys = MemSystem::new(mem)?;
-        let mut units = (0..mem.sms)
-            .map(|sm| RtUnit::new(sm, cfg, rt, stack, mem.sector_bytes, policy.clone()))
-            .collect::<Result<Vec<_>, _>>()?;
-        for u in &mut units {
-            u.stack_unit.manager.set_local_layout(mem.local_layout, mem.sms);
-        }
-        Ok(Gpu { cfg, units, mem: sys })
+        let sms = (0..mem.sms)
+            .map(|sm| {
+                let mut rt = RtUnit::new(sm, cfg, rt, stack, mem.sector_bytes, policy.clone())?;
+                rt.stack_unit.manager.set_local_layout(mem.local_layout, mem.sms);
+                Ok(Sm { rt, l1d: L1d::new(&mem) })
+            })
+            .collect::<Result<Vec<_>, ConfigError>>()?;
+        Ok(Gpu { cfg, sms, mem: sys })
     }
 
     /// SPEC 7 defaults: 8 SMs, the L1D is 64 KB less the SH stacks' shared memory.
@@ -148,8 +187,8 @@ impl Gpu {
 
     /// Every stack manager gets a scoreboard from `make`, checking each cycle it commits.
     pub fn with_scoreboard(mut self, make: &dyn Fn() -> Box<dyn crate::stack_manager::Scoreboard>) -> Self {
-        for u in &mut self.units {
-            u.stack_unit.manager.set_scoreboard(make());
+        for sm in &mut self.sms {
+            sm.rt.stack_unit.manager.set_scoreboard(make());
         }
         self
     }
@@ -159,24 +198,94 @@ impl Gpu {
         &self.cfg
     }
 
-    pub fn units(&self) -> &[RtUnit] {
-        &self.units
+    pub fn sms(&self) -> &[Sm] {
+        &self.sms
     }
 
+    /// The memory the SMs share (the L2 and DRAM) and its parameters.
     pub fn memory(&self) -> &MemSystem {
         &self.mem
     }
 
-    /// The parts, lent to a runner for one run.
-    pub(crate) fn parts_mut(&mut self) -> (&mut [RtUnit], &mut MemSystem) {
-        (&mut self.units, &mut self.mem)
+    /// The current cycle.
+    pub fn cycle(&self) -> u64 {
+        self.mem.cycle()
     }
 
-    /// The report of a run that evaluated `evaluated` cycles and dispatched its last job in
-    /// `last_dispatch`, from the units' and the memory system's counters; `l2_dram`: the L2's
-    /// and DRAM's counters at the run's end where the runner ran them further (else theirs).
+    /// The SMs and the shared memory, to clock apart (the windowed run).
+    pub(crate) fn parts_mut(&mut self) -> (&mut [Sm], &mut MemSystem) {
+        (&mut self.sms, &mut self.mem)
+    }
+
+    /// L1D counters summed over SMs.
+    pub fn l1d_counters(&self) -> Counters {
+        let mut total = Counters::default();
+        for sm in &self.sms {
+            total.add(sm.l1d.counters());
+        }
+        total
+    }
+
+    /// [`Unit::eval`] with the choices of `e` ([`Evaluation`]): the L2 and DRAM, then the SMs in
+    /// the order `e` gives, each kernel as many times as it says.
+    pub fn eval_by<E: Evaluation>(&self, i: GpuIn<'_>, d: &mut GpuStep, e: E) {
+        let n = self.sms.len();
+        assert_eq!(i.jobs.len(), n, "one job slot per SM");
+        let now = self.cycle();
+        d.down.clear();
+        d.down.extend(self.sms.iter().map(|sm| sm.l1d.down_req()));
+        for _ in 0..e.passes() {
+            self.mem.eval(&d.down, &mut d.mem);
+        }
+        d.sms.resize_with(n, SmStep::default);
+        e.order(now, n, &mut d.order);
+        for &k in &d.order {
+            let i = SmIn {
+                now,
+                granted: d.mem.granted(k),
+                fills: self.mem.l2().resp(k),
+                job: i.jobs[k].as_ref(),
+            };
+            self.sms[k].eval_by(i, &mut d.sms[k], e);
+        }
+    }
+
+    /// [`Unit::commit`], calling `between` after the SMs' RT units took their edge and before the
+    /// memory (the L1Ds, the L2 and DRAM) takes its: where walk-driven warps take their next
+    /// segments ([`Gpu::follow_walks`]) and a waveform samples the cycle ([`Unit::probe`]: the RT
+    /// units' registers after the edge, the memory's before it, with the cycle's signals). Each
+    /// unit's edge writes only its own registers, so their order does not matter (the SMs take
+    /// theirs in the order they were evaluated in).
+    pub fn commit_then(&mut self, d: &GpuStep, between: impl FnOnce(&mut Gpu)) {
+        for &k in &d.order {
+            let s = &d.sms[k];
+            if s.rt_stepped() {
+                self.sms[k].rt.commit(&s.rt);
+            }
+        }
+        between(self);
+        for &k in &d.order {
+            self.sms[k].l1d.commit(&d.sms[k].l1d);
+        }
+        self.mem.commit(&d.mem);
+    }
+
+    /// The rest of the clock edge for walk-driven warps ([`RtUnit::follow_walks`]): every RT
+    /// unit that took an edge in `d`, in the order it was evaluated in.
+    pub fn follow_walks(&mut self, d: &GpuStep, walks: &mut Option<&mut dyn crate::ray_op::Walks>, now: u64) {
+        for &k in &d.order {
+            if d.sms[k].rt_stepped() {
+                self.sms[k].rt.follow_walks(walks, now);
+            }
+        }
+    }
+
+    /// The report of a run that evaluated `evaluated` cycles of `cycles` and dispatched its last
+    /// job in `last_dispatch`, from the units' counters; `l2_dram`: the L2's and DRAM's counters
+    /// at the run's end where the runner ran them further (else theirs).
     pub(crate) fn report(
         &self,
+        cycles: u64,
         evaluated: u64,
         last_dispatch: u64,
         l2_dram: Option<(Counters, Counters)>,
@@ -184,13 +293,13 @@ impl Gpu {
         let (l2, dram) = l2_dram.unwrap_or((*self.mem.l2().counters(), *self.mem.dram().counters()));
         // Every L2 access is a request an SM's L1D sent down (the L2 serves nothing else).
         let mut stack = StackStats::default();
-        for u in &self.units {
+        let units = || self.sms.iter().map(|sm| &sm.rt);
+        for u in units() {
             stack.add(u.counters().0);
         }
-        let sum = |f: fn(&RtUnit) -> u64| self.units.iter().map(f).sum::<u64>();
-        let cycles = self.mem.cycle();
+        let sum = |f: fn(&RtUnit) -> u64| units().map(f).sum::<u64>();
         let mut thread_cycles = ThreadCycles::default();
-        for u in &self.units {
+        for u in units() {
             thread_cycles.add(&u.thread_cycles(cycles));
         }
         GpuReport {
@@ -204,7 +313,7 @@ impl Gpu {
             dram_stack: dram.kind(ReqKind::StackSpill).accesses + dram.kind(ReqKind::StackReload).accesses,
             l2_node: l2.kind(ReqKind::NodeFetch).accesses,
             l2_stack: l2.kind(ReqKind::StackSpill).accesses + l2.kind(ReqKind::StackReload).accesses,
-            l1d_hit_rate: hit_rate(&self.mem.l1d_counters()),
+            l1d_hit_rate: hit_rate(&self.l1d_counters()),
             l2_hit_rate: hit_rate(&l2),
             stack,
             bank_conflict_cycles: sum(|u| u.counters().2),
@@ -215,32 +324,69 @@ impl Gpu {
     }
 }
 
-/// Every SM's RT unit (with its step of the cycle, `step(sm)`) and the memory system (with its
-/// step, `mem_step`), to the sink: the GPU's waveform scopes `sm<k>` and `mem`.
-pub(crate) fn probe<'a, S: Sink>(
-    units: &[RtUnit],
-    step: impl Fn(usize) -> &'a RtStep,
-    mem: &MemSystem,
-    mem_step: &MemStep,
-    s: &mut S,
-) {
-    if !s.enabled() {
-        return;
+impl Unit for Gpu {
+    type In<'a> = GpuIn<'a>;
+    type Step = GpuStep;
+
+    /// The GPU's cycle as the design evaluates it ([`Gpu::eval_by`] with [`Dataflow`]).
+    fn eval(&self, i: GpuIn<'_>, d: &mut GpuStep) {
+        self.eval_by(i, d, Dataflow);
     }
-    for (sm, u) in units.iter().enumerate() {
-        s.push_scope(&format!("sm{sm}"));
-        u.probe(step(sm), s);
+
+    /// The clock edge of every unit ([`Gpu::commit_then`]). A step with a failed check
+    /// ([`GpuStep::check`]) is not committed.
+    fn commit(&mut self, d: &GpuStep) {
+        self.commit_then(d, |_| {});
+    }
+
+    /// The waveform's scopes: `sm<k>`, each SM's RT unit, and `mem`, the memory: every SM's L1D
+    /// (`l1d<k>`), the L2 and DRAM, grouped as the memory hierarchy is (so this probe shows the
+    /// SMs' L1Ds itself rather than through [`Sm`]'s probe). Sampled where
+    /// [`Gpu::commit_then`] calls `between`.
+    fn probe<S: Sink>(&self, d: &GpuStep, s: &mut S) {
+        if !s.enabled() {
+            return;
+        }
+        let idle = SmStep::default();
+        let step = |k: usize| d.sms.get(k).unwrap_or(&idle);
+        for (k, sm) in self.sms.iter().enumerate() {
+            s.push_scope(&format!("sm{k}"));
+            sm.rt.probe(&step(k).rt, s);
+            s.pop_scope();
+        }
+        s.push_scope("mem");
+        let idle_l1d = L1dStep::default();
+        for (k, sm) in self.sms.iter().enumerate() {
+            s.push_scope(&format!("l1d{k}"));
+            sm.l1d.probe(d.sms.get(k).map_or(&idle_l1d, |x| &x.l1d), s);
+            s.pop_scope();
+        }
+        self.mem.probe(&d.mem, s);
         s.pop_scope();
     }
-    s.push_scope("mem");
-    mem.probe(mem_step, s);
-    s.pop_scope();
+
+    /// The first cycle in which some unit acts with no new input.
+    fn next_event(&self) -> Option<u64> {
+        self.sms.iter().filter_map(Sm::next_event).chain(self.mem.next_event()).min()
+    }
+
+    /// Jumps to `cycle` over cycles in which nothing happens. Panics if that would skip an event
+    /// ([`Gpu::next_event`]: a caller bug).
+    fn skip_to(&mut self, cycle: u64) {
+        assert!(cycle >= self.cycle(), "cannot go back to cycle {cycle}");
+        if let Some(event) = self.next_event() {
+            assert!(cycle <= event, "skipping to {cycle} would miss the event at {event}");
+        }
+        for sm in &mut self.sms {
+            sm.skip_to(cycle);
+        }
+        self.mem.skip_to(cycle);
+    }
 }
 
-/// The GPU's registers, between runs (every RT unit with an empty step).
+/// The GPU's registers, between runs.
 impl Probe for Gpu {
     fn probe<S: Sink>(&self, s: &mut S) {
-        let idle = RtStep::default();
-        probe(&self.units, |_| &idle, &self.mem, &Default::default(), s);
+        Unit::probe(self, &GpuStep::default(), s);
     }
 }

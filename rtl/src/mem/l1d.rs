@@ -176,11 +176,6 @@ impl L1d {
         self.miss_queue.pop_front();
     }
 
-    /// The cycle the L1D evaluates next.
-    pub(crate) fn cycle(&self) -> u64 {
-        self.now
-    }
-
     /// Register output: the L1D takes a request this cycle.
     pub fn ready(&self) -> bool {
         self.parked.is_none()

@@ -8,10 +8,11 @@
 //! ```
 //!
 //! One unit per file: [`cache`] (tag store with true LRU), [`mshr`] (miss status holding
-//! registers), [`l1d`], [`l2`], [`dram`], and [`hierarchy`] which composes them into
-//! [`hierarchy::MemSystem`].
+//! registers), [`l1d`], [`l2`], [`dram`], and [`hierarchy`], the L2 and DRAM together
+//! ([`hierarchy::MemSystem`], the memory the SMs share). Each L1D is its SM's ([`crate::sm::Sm`]);
+//! the GPU wires the L1Ds to the L2 ([`crate::gpu::Gpu`]).
 //!
-//! Clocking (see [`hierarchy`] for the wiring and docs/memory.md "One cycle"):
+//! Clocking (see [`hierarchy`] for the dataflow and docs/memory.md "One cycle"):
 //! every unit is a [`crate::clock::Unit`] with register outputs (`ready`, `down_req`,
 //! `dram_req`, `resp`: functions of its registers alone), `eval(&self, In, &mut Step)`, a pure function of its registers and this
 //! cycle's inputs that writes the cycle's combinational outputs (`Step::out`) and next-state
@@ -22,8 +23,9 @@
 //! anything new. One output is combinational: the L2's per-SM grant depends on this cycle's
 //! requests (the banks' round-robin arbiters), so the L2 is evaluated before the L1Ds, which take
 //! the grant as their `down_ready` input. Every other value a unit passes another in a cycle is a
-//! register output, so the L1Ds and DRAM are siblings whose evaluation order does not matter
-//! (tested by evaluating them in a random order each cycle, and every kernel twice). Probes show
+//! register output, so the SMs (and their L1Ds) are siblings whose evaluation order does not
+//! matter (the reference loop's evaluation checks evaluate them in a random order each cycle, and
+//! every kernel twice). Probes show
 //! a unit's registers and a step: sampled between `eval` and `commit`, the cycle's inputs and
 //! decisions.
 //!

@@ -1,13 +1,16 @@
 //! The runners: what clocks the GPU's units, cycle after cycle, until every job is done.
 //!
 //! Two runners, each written once:
-//! - the **reference loop** (`reference.rs`): one cycle at a time, phase by phase (every RT unit's
-//!   request, the memory system's evaluation, every RT unit's evaluation, every clock edge). It is
-//!   the model as the hardware describes it; waveforms, the evaluation checks
-//!   ([`EvalCheck`]), runs without idle skipping and an L2 too short for windows use it;
-//! - the **windowed run** (`window.rs`): each SM runs a window of up to 64 cycles on its own
-//!   between meetings at the L2, on one thread or split between two ([`helper`]). Every other run
-//!   uses it. Its report is the reference loop's, bit for bit (`tb/tests/eval_order.rs`).
+//! - the **reference loop** (`reference.rs`): one cycle at a time, the GPU's evaluation
+//!   ([`crate::gpu::Gpu::eval_by`]: the L2 and DRAM, then every SM) and its clock edge
+//!   ([`crate::gpu::Gpu::commit_then`]). It is the model as the hardware describes it; waveforms,
+//!   the evaluation checks ([`EvalCheck`], `check.rs`), runs without idle skipping and an L2 too
+//!   short for windows use it;
+//! - the **windowed run** (`window.rs`): each SM ([`crate::sm::Sm`]) runs a window of up to 64
+//!   cycles on its own between meetings at the L2, on one thread or split between two
+//!   ([`helper`]), its L1D's miss queue and the L2 clocked apart through the interfaces of
+//!   `split.rs`. Every other run uses it. Its report is the reference loop's, bit for bit
+//!   (`tb/tests/eval_order.rs`).
 //!
 //! Both dispatch jobs the same way (`Dispatcher`, below): a kernel launch's round robin, job i to the
 //! next SM after the one that took job i-1 that has a free warp slot, so at launch SM k gets jobs
@@ -19,10 +22,12 @@
 //! were evaluated (`GpuReport::evaluated_cycles`), the same for both.
 //!
 //! The decisions a runner makes (which SM the dispatcher tries next, when an SM in a window must
-//! stop, how far the L2's back end may run ahead, …) go through the `Steps` trait; the product
-//! runs `Design`. Test builds (the `mutants` feature) also have `slips::Slipped`, which replaces
-//! one of those decisions with a planted bug (`OrderBug`, `slips.rs`) so the tests can show they catch it.
+//! stop, how far the L2's back end may run ahead, …, and how an RT unit is evaluated: the
+//! [`crate::sm::Evaluation`] it extends) go through the `Steps` trait; the product runs `Design`.
+//! Test builds (the `mutants` feature) also have `slips::Slipped`, which replaces one of those
+//! decisions with a planted bug (`OrderBug`, `slips.rs`) so the tests can show they catch it.
 
+mod check;
 pub mod helper;
 mod reference;
 mod runner;
@@ -36,11 +41,12 @@ pub use slips::OrderBug;
 #[cfg(feature = "mutants")]
 pub(crate) use slips::Slipped;
 
-use crate::clock::{EvalCheck, Unit};
-use crate::mem::hierarchy::MemSystem;
+use crate::clock::EvalCheck;
+use crate::gpu::Gpu;
 use crate::mem::{Counters, MemResp};
 use crate::ray_op::WarpJob;
-use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
+use crate::rt_unit::RunError;
+use crate::sm::{Evaluation, Sm};
 use crate::trace::Sink;
 use std::iter::Peekable;
 
@@ -49,8 +55,7 @@ pub use runner::Runner;
 
 /// The GPU's parts and how to run them, lent to a runner for one run.
 pub(crate) struct Parts<'a> {
-    pub units: &'a mut [RtUnit],
-    pub mem: &'a mut MemSystem,
+    pub gpu: &'a mut Gpu,
     pub warp_size: u32,
     pub idle_skip: bool,
     pub eval_check: EvalCheck,
@@ -66,6 +71,8 @@ pub(crate) struct Parts<'a> {
 /// What a run reports beside the units' and the memory system's counters.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Outcome {
+    /// The run's cycles: the cycle after the last.
+    pub cycles: u64,
     /// Cycles evaluated (the others were skipped as idle).
     pub evaluated: u64,
     /// Cycle of the last dispatch.
@@ -75,9 +82,9 @@ pub(crate) struct Outcome {
     pub l2_dram_counters: Option<(Counters, Counters)>,
 }
 
-/// The decisions a runner makes that a planted bug may get wrong; the default methods are the
-/// design's ([`Design`]).
-pub(crate) trait Steps: Copy + Send + Sync {
+/// The decisions a runner makes that a planted bug may get wrong, and the evaluation of the SMs'
+/// cycles it extends; the default methods are the design's ([`Design`]).
+pub(crate) trait Steps: Evaluation + Send + Sync {
     /// Whether the run may go by windows (a slip of the reference loop needs that loop to run).
     fn windows_allowed(self) -> bool {
         true
@@ -88,20 +95,6 @@ pub(crate) trait Steps: Copy + Send + Sync {
     #[inline]
     fn dispatch_to(self, k: usize, start: usize, n: usize, _order: &[usize]) -> usize {
         (start + k) % n
-    }
-
-    /// The `pass`-th evaluation of RT unit `u` in its cycle ([`EvalCheck::passes`]; the windowed
-    /// run makes one). Both runners evaluate every RT unit through it.
-    #[inline]
-    fn eval_rt(self, u: &RtUnit, i: RtIn, step: &mut RtStep, _pass: u32) -> Result<(), RunError> {
-        u.eval(i, step);
-        step.check()
-    }
-
-    /// Whether responses `resp` wake an RT unit that has nothing else to do.
-    #[inline]
-    fn wakes_for(self, resp: &[MemResp]) -> bool {
-        !resp.is_empty()
     }
 
     /// Whether an SM in a window stops where a job may be dispatched to it (a free warp slot
@@ -140,6 +133,8 @@ pub(crate) trait Steps: Copy + Send + Sync {
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Design;
 
+impl Evaluation for Design {}
+
 impl Steps for Design {}
 
 /// Runs `jobs` on `parts` to completion, by windows where they apply, else on the reference loop;
@@ -153,9 +148,9 @@ pub(crate) fn run<S: Sink, P: Steps>(
     progress: impl FnMut(Progress),
     residence: &mut Vec<u64>,
 ) -> Result<Outcome, RunError> {
-    let n = parts.units.len();
+    let n = parts.gpu.sms().len();
     let mut dispatcher = Dispatcher::new(jobs, n, parts.warp_size);
-    let delay = u64::from(parts.mem.params().l2_latency - 3);
+    let delay = u64::from(parts.gpu.memory().params().l2_latency - 3);
     let windowed = window::window_for(delay).filter(|_| {
         parts.windows
             && parts.walks.is_none()
@@ -165,29 +160,22 @@ pub(crate) fn run<S: Sink, P: Steps>(
             && n <= 64
             && sink.next_wanted(0).is_none()
     });
-    let (evaluated, l2_dram_counters) = match windowed {
+    let o = match windowed {
         Some(w) if parts.helper_thread && n >= 2 => helper::with_helper(|h| {
-            window::run(
-                &mut *parts.units,
-                &mut *parts.mem,
-                steps,
-                Some(h),
-                &mut dispatcher,
-                w,
-                every,
-                progress,
-            )
+            window::run(&mut *parts.gpu, steps, Some(h), &mut dispatcher, w, every, progress)
         })?,
-        Some(w) => {
-            window::run(&mut *parts.units, &mut *parts.mem, steps, None, &mut dispatcher, w, every, progress)?
+        Some(w) => window::run(&mut *parts.gpu, steps, None, &mut dispatcher, w, every, progress)?,
+        None => {
+            let evaluated = reference::run(&mut parts, steps, &mut dispatcher, sink, every, progress)?;
+            let last_dispatch = dispatcher.last_dispatch;
+            Outcome { cycles: parts.gpu.cycle(), evaluated, last_dispatch, l2_dram_counters: None }
         }
-        None => (reference::run(&mut parts, steps, &mut dispatcher, sink, every, progress)?, None),
     };
     if windowed.is_some() {
-        sink.end_run(parts.mem.cycle());
+        sink.end_run(o.cycles);
     }
-    dispatcher.residence(parts.units, residence);
-    Ok(Outcome { evaluated, last_dispatch: dispatcher.last_dispatch, l2_dram_counters })
+    dispatcher.residence(parts.gpu.sms(), residence);
+    Ok(o)
 }
 
 /// The dispatcher: hands the next jobs to SMs with a free warp slot, round robin.
@@ -250,11 +238,11 @@ impl<I: Iterator<Item = WarpJob>> Dispatcher<I> {
     }
 
     /// Each job's cycles in its RT unit's warp buffer, by job.
-    fn residence(&self, units: &[RtUnit], residence: &mut Vec<u64>) {
+    fn residence(&self, sms: &[Sm], residence: &mut Vec<u64>) {
         residence.clear();
         residence.resize(self.dispatched as usize, 0);
-        for (u, jobs) in units.iter().zip(&self.loaded) {
-            for (&job, &cycles) in jobs.iter().zip(&u.residence) {
+        for (sm, jobs) in sms.iter().zip(&self.loaded) {
+            for (&job, &cycles) in jobs.iter().zip(&sm.rt.residence) {
                 residence[job as usize] = cycles;
             }
         }

@@ -43,12 +43,10 @@ impl From<Gpu> for Runner {
 }
 
 impl Runner {
-    /// Evaluate the RT units, and within the memory system the L1Ds and DRAM, in the order, and
-    /// as many times per cycle, that `check` says (the report must not change: tests compare it
-    /// with the [`EvalCheck::Dataflow`] run's).
+    /// Evaluate the SMs in the order, and every kernel as many times per cycle, that `check` says
+    /// (the report must not change: tests compare it with the [`EvalCheck::Dataflow`] run's).
     pub fn with_eval_check(mut self, check: EvalCheck) -> Self {
         self.eval_check = check;
-        self.gpu.parts_mut().1.set_eval_check(check);
         self
     }
 
@@ -56,7 +54,7 @@ impl Runner {
     /// results as one thread, in less wall time when a second core is free. The reference loop
     /// runs on one thread either way.
     pub fn with_helper_thread(mut self, on: bool) -> Self {
-        self.helper_thread = on && self.gpu.units().len() >= 2;
+        self.helper_thread = on && self.gpu.sms().len() >= 2;
         self
     }
 
@@ -159,10 +157,8 @@ impl Runner {
     ) -> Result<GpuReport, RunError> {
         let mut walks = walks;
         let (warp_size, idle_skip) = (self.gpu.config().warp_size, self.idle_skip);
-        let (units, mem) = self.gpu.parts_mut();
         let parts = Parts {
-            units,
-            mem,
+            gpu: &mut self.gpu,
             warp_size,
             idle_skip,
             eval_check: self.eval_check,
@@ -171,7 +167,7 @@ impl Runner {
             walks: walks.as_mut().map(|w| &mut **w as &mut dyn Walks),
         };
         let o = super::run(parts, steps, jobs, sink, every, progress, residence)?;
-        Ok(self.gpu.report(o.evaluated, o.last_dispatch, o.l2_dram_counters))
+        Ok(self.gpu.report(o.cycles, o.evaluated, o.last_dispatch, o.l2_dram_counters))
     }
 }
 

@@ -7,7 +7,8 @@
 use super::{Design, Steps};
 use crate::clock::Unit;
 use crate::mem::MemResp;
-use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
+use crate::rt_unit::{RtIn, RtStep, RtUnit};
+use crate::sm::Evaluation;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A slip planted in a runner (`Gpu::with_order_bug`). Test builds only.
@@ -67,6 +68,26 @@ impl OrderBug {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Slipped<'a>(pub OrderBug, pub &'a AtomicU64);
 
+impl Evaluation for Slipped<'_> {
+    fn eval_rt(self, u: &RtUnit, i: RtIn, step: &mut RtStep, pass: u32) {
+        let earlier = (self.0 == OrderBug::StaleStep && pass > 0).then(|| step.visits());
+        u.eval(i, step);
+        if let Some(v) = earlier {
+            step.count_visits_again(v);
+        }
+        if self.0 == OrderBug::SmsShareACounter {
+            let shared = self.1.fetch_add(step.visits(), Ordering::Relaxed);
+            if shared % 2 == 1 {
+                step.count_visits_again(step.visits());
+            }
+        }
+    }
+
+    fn wakes_for(self, resp: &[MemResp]) -> bool {
+        self.0 != OrderBug::SleepThroughResponses && Design.wakes_for(resp)
+    }
+}
+
 impl Steps for Slipped<'_> {
     fn windows_allowed(self) -> bool {
         self.0.in_windows()
@@ -77,26 +98,6 @@ impl Steps for Slipped<'_> {
             OrderBug::DispatchInEvalOrder => order[k],
             _ => Design.dispatch_to(k, start, n, order),
         }
-    }
-
-    fn eval_rt(self, u: &RtUnit, i: RtIn, step: &mut RtStep, pass: u32) -> Result<(), RunError> {
-        let earlier = (self.0 == OrderBug::StaleStep && pass > 0).then(|| step.visits());
-        u.eval(i, step);
-        let r = step.check();
-        if let Some(v) = earlier {
-            step.count_visits_again(v);
-        }
-        if self.0 == OrderBug::SmsShareACounter {
-            let shared = self.1.fetch_add(step.visits(), Ordering::Relaxed);
-            if shared % 2 == 1 {
-                step.count_visits_again(step.visits());
-            }
-        }
-        r
-    }
-
-    fn wakes_for(self, resp: &[MemResp]) -> bool {
-        self.0 != OrderBug::SleepThroughResponses && Design.wakes_for(resp)
     }
 
     fn stops_for_job(self) -> bool {

@@ -5,7 +5,7 @@
 //! - [`DetachedL1d`]: an L1D running ahead of the L2 in its SM's window. It is never granted
 //!   (`down_ready` false), so its miss queue only grows; the run keeps the real queue beside the
 //!   L2's front end, reads each request the L1D sends down off its queue's tail
-//!   ([`DetachedL1d::commit_sending`]) and pops the L1D's copy when the front end granted the head
+//!   ([`DetachedL1d::sent_at`]) and pops the L1D's copy when the front end granted the head
 //!   ([`DetachedL1d::left_queue`]). The L1D's queue then holds the requests not yet known to have
 //!   left: its length is an upper bound on the real one's, exact once the front end has run the
 //!   cycles before.
@@ -18,7 +18,7 @@
 //!   before it; [`FrontEnd`] keeps both counts. The same results as the whole L2 (tested below).
 
 use crate::clock::Unit;
-use crate::mem::l1d::{L1d, L1dStep};
+use crate::mem::l1d::L1d;
 use crate::mem::l2::{L2Step, L2};
 use crate::mem::MemReq;
 use std::collections::VecDeque;
@@ -26,9 +26,10 @@ use std::collections::VecDeque;
 /// An L1D whose miss queue the windowed run keeps beside the L2's front end (see the module
 /// documentation). Evaluated with `down_ready` false.
 pub(crate) trait DetachedL1d {
-    /// The clock edge of step `d` ([`Unit::commit`]), adding the request it sent down, if any,
-    /// to `sent` with the cycle of that edge (the real queue's from the next cycle on).
-    fn commit_sending(&mut self, d: &L1dStep, sent: &mut Vec<(u64, MemReq)>);
+    /// After the clock edge of cycle `at`, with the queue `before` long before it: adds the
+    /// requests sent down at that edge to `sent`, each with `at` (the real queue's from the next
+    /// cycle on).
+    fn sent_at(&self, at: u64, before: usize, sent: &mut Vec<(u64, MemReq)>);
 
     /// The head of the queue went to the L2 (the front end granted it in a cycle before this
     /// one).
@@ -44,11 +45,13 @@ pub(crate) trait DetachedL1d {
 
 impl DetachedL1d for L1d {
     #[inline]
-    fn commit_sending(&mut self, d: &L1dStep, sent: &mut Vec<(u64, MemReq)>) {
-        let (at, before) = (self.cycle(), self.miss_queue().len());
-        self.commit(d);
-        // Never granted, the queue only grows at an edge: what it grew by was sent down at it.
-        sent.extend(self.miss_queue().range(before..).map(|&r| (at, r)));
+    fn sent_at(&self, at: u64, before: usize, sent: &mut Vec<(u64, MemReq)>) {
+        // Never granted, the queue only grows at an edge: what it grew by was sent down at it
+        // (most edges send nothing).
+        let queue = self.miss_queue();
+        if queue.len() > before {
+            sent.extend(queue.range(before..).map(|&r| (at, r)));
+        }
     }
 
     #[inline]
@@ -174,7 +177,7 @@ impl SplitL2 for L2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mem::l1d::L1dIn;
+    use crate::mem::l1d::{L1dIn, L1dStep};
     use crate::mem::testutil::{L2Bench, XorShift};
     use crate::mem::{Counters, MemParams, MemResp, ReqKind};
 
@@ -198,7 +201,9 @@ mod tests {
             detached.eval(L1dIn { req, down_ready: false, fills: &fills }, &mut dd);
             assert_eq!(da.out.req_fire, dd.out.req_fire, "cycle {now}");
             attached.commit(&da);
-            detached.commit_sending(&dd, &mut sent);
+            let before = detached.queue_bound();
+            detached.commit(&dd);
+            detached.sent_at(now, before, &mut sent);
             if let Some(d) = down {
                 went_down.push((now, d));
                 detached.left_queue();

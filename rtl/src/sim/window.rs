@@ -37,16 +37,16 @@
 
 use super::helper::Helper;
 use super::split::{DetachedL1d, FrontEnd, FrontIn, FrontStep, SplitL2};
-use super::{Dispatcher, Progress, Steps};
+use super::{Dispatcher, Outcome, Progress, Steps};
 use crate::clock::Unit;
+use crate::gpu::Gpu;
 use crate::mem::dram::{Dram, DramIn, DramStep};
 use crate::mem::hierarchy::MemSystem;
-use crate::mem::l1d::{L1d, L1dStep};
 use crate::mem::l2::{L2In, L2Step, L2};
 use crate::mem::{Counters, MemReq, MemResp, ReqKind};
 use crate::ray_op::WarpJob;
-use crate::rt_unit::{RtIn, RtStep, RtUnit, RunError};
-use crate::sm::Offer;
+use crate::rt_unit::{RtUnit, RunError};
+use crate::sm::{Offer, Sm, SmIn, SmStep};
 use crate::warp_buffer::Bits;
 use std::collections::VecDeque;
 
@@ -130,8 +130,7 @@ struct Lane {
     sent: Vec<(u64, MemReq)>,
     /// This cycle's fills (scratch).
     now_fills: Vec<MemResp>,
-    rt_step: RtStep,
-    l1_step: L1dStep,
+    step: SmStep,
     /// The check that failed, in the cycle `frontier`.
     error: Option<RunError>,
     /// The cycle from which its RT unit has been empty (after the edge that emptied it).
@@ -153,10 +152,11 @@ struct Limits {
     queue_depth: usize,
 }
 
-/// Runs SM `u`/`l1` from its frontier to the window's end, or to the first cycle in which it
-/// needs what another SM decides (a job, or its miss queue's exact length), or to a failed
-/// check. Each cycle is the reference loop's cycle of this SM, on the same inputs.
-fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, steps: P) {
+/// Runs SM `sm` from its frontier to the window's end, or to the first cycle in which it needs
+/// what another SM decides (a job, or its miss queue's exact length), or to a failed check. Each
+/// cycle is the reference loop's cycle of this SM, on the same inputs but the L2's grant (none:
+/// its miss queue is the front end's, [`DetachedL1d`]).
+fn run_sm<P: Steps>(sm: &mut Sm, lane: &mut Lane, lim: Limits, steps: P) {
     if lane.error.is_some() {
         return;
     }
@@ -164,8 +164,9 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
     while c < lim.end {
         while lane.pops.front().is_some_and(|&p| p < c) {
             lane.pops.pop_front();
-            l1.left_queue();
+            sm.l1d.left_queue();
         }
+        let (u, l1) = (&sm.rt, &sm.l1d);
         if steps.stops_for_job() && lane.job.is_none() && lim.jobs_left && u.free_slot().is_some() {
             break;
         }
@@ -202,29 +203,27 @@ fn run_sm<P: Steps>(u: &mut RtUnit, l1: &mut L1d, lane: &mut Lane, lim: Limits, 
                 .min()
                 .map_or(lim.end, |e| e.min(lim.end));
             debug_assert!(next > c);
-            l1.skip_to(next);
+            sm.l1d.skip_to(next);
             c = next;
             continue;
         }
         if rt_due || l1_due {
             lane.due.set(c);
         }
-        l1.eval(offer.l1d_in(false, &lane.now_fills), &mut lane.l1_step);
-        let i = offer.rt_in(c, l1, &lane.l1_step, lane.job.as_ref());
-        match rt_cycle(u, &mut lane.rt_step, rt_idle, i, steps) {
-            Ok(stepped) => {
-                // The job (if one came) landed: an idle unit gets none.
-                lane.job = None;
-                if stepped && u.empty() {
-                    lane.empty_since = c + 1;
-                }
-            }
-            Err(e) => {
-                lane.error = Some(e);
-                break;
-            }
+        let i = SmIn { now: c, granted: false, fills: &lane.now_fills, job: lane.job.as_ref() };
+        sm.eval_offered(offer, i, &mut lane.step, steps);
+        if let Err(e) = lane.step.check() {
+            lane.error = Some(e);
+            break;
         }
-        l1.commit_sending(&lane.l1_step, &mut lane.sent);
+        let before = sm.l1d.queue_bound();
+        sm.commit(&lane.step);
+        sm.l1d.sent_at(c, before, &mut lane.sent);
+        // The job (if one came) landed: an idle unit gets none.
+        lane.job = None;
+        if lane.step.rt_stepped() && sm.rt.empty() {
+            lane.empty_since = c + 1;
+        }
         c += 1;
     }
     lane.frontier = c;
@@ -237,29 +236,10 @@ fn idle(u: &RtUnit, req: Option<MemReq>, job: &Option<WarpJob>, now: u64) -> boo
     req.is_none() && job.is_none() && u.next_event().is_none_or(|e| e > now)
 }
 
-/// One RT unit's cycle: evaluated on `i` (as `steps` evaluates it, like the reference loop) and
-/// committed, unless it is idle and gets no response, when its step would change nothing.
-/// Returns whether it was stepped.
-#[inline]
-fn rt_cycle<P: Steps>(
-    u: &mut RtUnit,
-    step: &mut RtStep,
-    rt_idle: bool,
-    i: RtIn,
-    steps: P,
-) -> Result<bool, RunError> {
-    if rt_idle && i.resp.is_empty() {
-        return Ok(false);
-    }
-    steps.eval_rt(u, i, step, 0)?;
-    u.commit(step);
-    Ok(true)
-}
-
 /// A group of SMs' windows, in index order.
-fn run_group<P: Steps>(units: &mut [RtUnit], l1ds: &mut [L1d], lanes: &mut [Lane], lim: Limits, steps: P) {
-    for ((u, l1), lane) in units.iter_mut().zip(l1ds.iter_mut()).zip(lanes.iter_mut()) {
-        run_sm(u, l1, lane, lim, steps);
+fn run_group<P: Steps>(sms: &mut [Sm], lanes: &mut [Lane], lim: Limits, steps: P) {
+    for (sm, lane) in sms.iter_mut().zip(lanes.iter_mut()) {
+        run_sm(sm, lane, lim, steps);
     }
 }
 
@@ -395,43 +375,43 @@ struct Windows {
 }
 
 /// Runs every job to completion by windows (see the module documentation), the SMs split between
-/// this thread and `helper`'s if there is one; returns the cycles the reference loop would have
-/// evaluated and the L2's and DRAM's counters as it would have left them (the back end may have
-/// run further). Every unit's clock is left where that loop leaves it.
-#[allow(clippy::too_many_arguments)]
+/// this thread and `helper`'s if there is one; returns what the reference loop would have: the
+/// cycle at which it ends, the cycles it evaluates and the L2's and DRAM's counters as it leaves
+/// them (the back end may have run further).
 pub(super) fn run<P: Steps, I: Iterator<Item = WarpJob>>(
-    units: &mut [RtUnit],
-    mem: &mut MemSystem,
+    gpu: &mut Gpu,
     steps: P,
     helper: Option<&Helper>,
     dispatcher: &mut Dispatcher<I>,
     w: u64,
     every: u64,
     mut progress: impl FnMut(Progress),
-) -> Result<(u64, Option<(Counters, Counters)>), RunError> {
-    let mut r = Windows::new(units.len(), mem, w);
+) -> Result<Outcome, RunError> {
+    let (sms, mem) = gpu.parts_mut();
+    let mut r = Windows::new(sms.len(), mem, w);
     let mut next_report = every;
     loop {
         let m = r.exchange(mem);
-        r.front.run_to(m, mem.parts_mut().1, &mut r.lanes);
+        r.front.run_to(m, mem.parts_mut().0, &mut r.lanes);
         if dispatcher.jobs_left() {
-            r.dispatch(m, units, steps, dispatcher)?;
+            r.dispatch(m, sms, steps, dispatcher)?;
         }
         r.first_error()?;
         let jobs_left = dispatcher.jobs_left();
         let drained =
-            !jobs_left && r.lanes.iter().all(|l| l.job.is_none()) && units.iter().all(RtUnit::empty);
+            !jobs_left && r.lanes.iter().all(|l| l.job.is_none()) && sms.iter().all(|sm| sm.rt.empty());
         if drained {
-            if let Some(end) = r.finish(m, units, mem) {
+            if let Some(mut end) = r.finish(m, sms, mem) {
+                end.last_dispatch = dispatcher.last_dispatch;
                 return Ok(end);
             }
         }
         r.rounds += 1;
-        if !drained && r.rounds.is_multiple_of(64) && r.stalled(units, mem, jobs_left) {
+        if !drained && r.rounds.is_multiple_of(64) && r.stalled(sms, mem, jobs_left) {
             let last = r.due_sets().filter_map(CycleSet::last).max();
             return Err(RunError::Stalled { cycle: last.unwrap_or(0) });
         }
-        r.round(m, units, mem, steps, helper, jobs_left, drained);
+        r.round(m, sms, mem, steps, helper, jobs_left, drained);
         if m >= next_report {
             progress(Progress { cycle: m, warps_dispatched: dispatcher.dispatched });
             next_report = m.saturating_add(every);
@@ -492,7 +472,7 @@ impl Windows {
     fn dispatch<P: Steps, I: Iterator<Item = WarpJob>>(
         &mut self,
         m: u64,
-        units: &[RtUnit],
+        sms: &[Sm],
         steps: P,
         dispatcher: &mut Dispatcher<I>,
     ) -> Result<(), RunError> {
@@ -500,9 +480,9 @@ impl Windows {
         let takes = self
             .lanes
             .iter()
-            .zip(units)
+            .zip(sms)
             .enumerate()
-            .filter(|(_, (l, u))| l.frontier == m && l.job.is_none() && u.free_slot().is_some())
+            .filter(|(_, (l, sm))| l.frontier == m && l.job.is_none() && sm.rt.free_slot().is_some())
             .fold(0u64, |b, (sm, _)| b | 1 << sm);
         let (lanes, due) = (&mut self.lanes, &mut self.front.due);
         dispatcher.dispatch(
@@ -538,16 +518,11 @@ impl Windows {
 
     /// Every unit is empty with no job left (`m`: the slowest SM's frontier): the reference loop
     /// ends at the first cycle after the edge that emptied the last unit in which some unit has an
-    /// event due. Once every part has run up to there, sets every unit's clock there and returns
-    /// the cycles that loop evaluated and the L2's and DRAM's counters as it leaves them (when the
-    /// back end ran further); `None` until then.
-    fn finish(
-        &mut self,
-        m: u64,
-        units: &[RtUnit],
-        mem: &mut MemSystem,
-    ) -> Option<(u64, Option<(Counters, Counters)>)> {
-        let (l1ds, l2, dram) = mem.parts_mut();
+    /// event due. Once every part has run up to there, returns that cycle, the cycles that loop
+    /// evaluated and the L2's and DRAM's counters as it leaves them (when the back end ran
+    /// further); `None` until then.
+    fn finish(&mut self, m: u64, sms: &[Sm], mem: &MemSystem) -> Option<Outcome> {
+        let (l2, dram) = (mem.l2(), mem.dram());
         let after = self.lanes.iter().map(|l| l.empty_since).max().unwrap_or(0);
         if m < after || self.front.next < after || l2.cycle() < after {
             return None;
@@ -556,12 +531,11 @@ impl Windows {
         let end = self
             .lanes
             .iter()
-            .zip(units)
-            .zip(l1ds.iter())
-            .map(|((lane, u), l1)| {
-                lane.due
-                    .first_in(after, lane.frontier)
-                    .or_else(|| [u.next_event(), l1.next_event_detached()].into_iter().flatten().min())
+            .zip(sms)
+            .map(|(lane, sm)| {
+                lane.due.first_in(after, lane.frontier).or_else(|| {
+                    [sm.rt.next_event(), sm.l1d.next_event_detached()].into_iter().flatten().min()
+                })
             })
             .chain([front.due.first_in(after, front.next).or_else(|| front.next_head(front.next))])
             .chain([self
@@ -575,16 +549,16 @@ impl Windows {
         // The L2's and DRAM's counts as they were after the cycle before `end`.
         let counters = self.back.snapshots.iter().find(|s| s.0 >= end).map(|&(_, l2c, dramc)| (l2c, dramc));
         let evaluated = count_union(self.due_sets(), end);
-        mem.set_now(end);
-        Some((evaluated, counters))
+        Some(Outcome { cycles: end, evaluated, last_dispatch: 0, l2_dram_counters: counters })
     }
 
     /// Nothing will ever happen again, yet work remains: the reference loop's `Stalled`. (Looked
     /// at every 64th round: it reads every unit, some in the other core's cache, and a run that
     /// has stalled stays so.)
-    fn stalled(&self, units: &[RtUnit], mem: &mut MemSystem, jobs_left: bool) -> bool {
-        let (l1ds, l2, dram) = mem.parts_mut();
-        self.lanes.iter().zip(units).zip(l1ds.iter()).all(|((lane, u), l1)| {
+    fn stalled(&self, sms: &[Sm], mem: &MemSystem, jobs_left: bool) -> bool {
+        let (l2, dram) = (mem.l2(), mem.dram());
+        self.lanes.iter().zip(sms).all(|(lane, sm)| {
+            let (u, l1) = (&sm.rt, &sm.l1d);
             lane.job.is_none()
                 && lane.fills.is_empty()
                 && lane.error.is_none()
@@ -606,14 +580,14 @@ impl Windows {
     fn round<P: Steps>(
         &mut self,
         m: u64,
-        units: &mut [RtUnit],
+        sms: &mut [Sm],
         mem: &mut MemSystem,
         steps: P,
         helper: Option<&Helper>,
         jobs_left: bool,
         drained: bool,
     ) {
-        let (l1ds, l2, dram) = mem.parts_mut();
+        let (l2, dram) = mem.parts_mut();
         let lim = Limits {
             end: (m + self.w).min(l2.cycle() + 1),
             front: self.front.next,
@@ -634,21 +608,20 @@ impl Windows {
         let front_end = &mut self.front.end;
         match helper {
             Some(h) => {
-                let a = split_point(units.len());
-                let (ua, ub) = units.split_at_mut(a);
-                let (la, lb) = l1ds.split_at_mut(a);
+                let a = split_point(sms.len());
+                let (sa, sb) = sms.split_at_mut(a);
                 let (na, nb) = lanes.split_at_mut(a);
                 h.join(
                     || {
                         back.run_to(back_to, l2, dram, front_end);
-                        run_group(ua, la, na, lim, steps);
+                        run_group(sa, na, lim, steps);
                     },
-                    move || run_group(ub, lb, nb, lim, steps),
+                    move || run_group(sb, nb, lim, steps),
                 );
             }
             None => {
                 back.run_to(back_to, l2, dram, front_end);
-                run_group(units, l1ds, lanes, lim, steps);
+                run_group(sms, lanes, lim, steps);
             }
         }
     }
