@@ -21,6 +21,21 @@
 //! Idle) commutes, so running completion and issue lane by lane computes what the
 //! description's all-lanes-then-all-lanes order does; the plans run in the description's
 //! command order (lane order).
+//!
+//! The warp's stack registers are where the terms grow (each lane reads and writes stacks at
+//! indices only known at run time), so they are built to be shared:
+//!
+//! - **Reads** ([`Stacks`]): a read at an index is made once per stage and reused by every
+//!   path; an index that multiplexers choose among indices already read or constant (an idle
+//!   search's result, a chain walk's next member) reads as a multiplexer of those reads; any
+//!   other index through a tree on its bits, as deep as the index is wide.
+//! - **Writes** ([`merge_plans`]): a path's writes keep only the fields they change
+//!   ([`writes_of`]), and the paths' write sequences are laid on common slots (a shortest common
+//!   sequence of their targets, [`write_slots`]), merged slot by slot like the other results,
+//!   and applied to the warp's stacks once per lane rather than once per path.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
 
 use rtl::config::{Config, Overflow, Widths};
 use rtl::logic::Logic;
@@ -28,8 +43,8 @@ use rtl::stack_manager::cycle::{self, CycleIn, Journal, Registers, WriteOf};
 use rtl::stack_manager::policy::{Design, RbOp, Regs, Thread, UopL};
 use rtl::stack_manager::{CmdOf, SrcOf, StackError, StackRegsOf, ThreadRegsOf, UopOf, POISON};
 
-use crate::prove::query::{code, compact, encode, mux_enc, Enc};
-use crate::prove::sym::{Sort, Sym, B, V, W};
+use crate::prove::query::{self, code, encode, mux_enc, Enc};
+use crate::prove::sym::{Node, Sort, Sym, B, V, W};
 
 /// Micro-op encodings a sequencer register can hold: (kind code, data from the latch).
 const KINDS: [(u32, Option<bool>); 8] = [
@@ -187,8 +202,8 @@ struct LaneIn {
 
 /// The registers and memories as a stage reads them ([`Registers`]).
 struct View<'a> {
-    /// The stack registers `stack_q` reads; `None`: every read goes to the cycle's list.
-    stacks: Option<&'a [Regs<Sym>]>,
+    /// The stack registers `stack_q` reads.
+    stacks: &'a Stacks,
     threads: &'a [Thread<Sym>],
     busy: &'a [B],
     rb: &'a [Rb],
@@ -207,21 +222,79 @@ fn outside(s: &mut Sym) -> Regs<Sym> {
     StackRegsOf { top: z, bottom: z, empty: no, idle: no, next_tid: z, priority: z, flush: z }
 }
 
-fn read_lanes(l: &mut Sym, stacks: &[Regs<Sym>], s: W) -> Regs<Sym> {
-    let mut v = outside(l);
-    for (k, r) in stacks.iter().enumerate().rev() {
-        let hit = l.eq_k(s, k as u32);
-        v = StackRegsOf::mux(l, hit, *r, v);
+/// The warp's stack registers as a stage reads them, and the reads made so far by index term.
+struct Stacks {
+    regs: Vec<Regs<Sym>>,
+    reads: RefCell<HashMap<u32, Regs<Sym>>>,
+}
+
+/// How many multiplexers deep an index is read through ([`Stacks::read`]).
+const READ_DEPTH: u32 = 8;
+
+impl Stacks {
+    fn new(regs: Vec<Regs<Sym>>) -> Stacks {
+        Stacks { regs, reads: RefCell::default() }
     }
-    v
+
+    /// Stack `s`. An index multiplexers choose among indices already read or constant
+    /// (`c ? a : b`, as a search over a chain's members gives) reads as
+    /// `c ? stack a : stack b` from those reads; any other through a multiplexer tree on its
+    /// bits ([`read_tree`]). An index reads as the same term every time.
+    fn read(&self, l: &mut Sym, s: W) -> Regs<Sym> {
+        if let Some(&r) = self.reads.borrow().get(&s.0) {
+            return r;
+        }
+        let r = match *l.node(s.0) {
+            Node::Ite(Sort::Word, c, a, b)
+                if self.known(l, a, READ_DEPTH) && self.known(l, b, READ_DEPTH) =>
+            {
+                let (ra, rb) = (self.read(l, W(a)), self.read(l, W(b)));
+                StackRegsOf::mux(l, B(c), ra, rb)
+            }
+            _ => read_tree(l, &self.regs, s),
+        };
+        self.reads.borrow_mut().insert(s.0, r);
+        r
+    }
+
+    /// Index `i` reads from reads already made: it was read, is a constant, or multiplexers
+    /// at most `depth` deep choose among such indices.
+    fn known(&self, l: &Sym, i: u32, depth: u32) -> bool {
+        match *l.node(i) {
+            Node::Word(_) => true,
+            _ if self.reads.borrow().contains_key(&i) => true,
+            Node::Ite(Sort::Word, _, a, b) => {
+                depth > 0 && self.known(l, a, depth - 1) && self.known(l, b, depth - 1)
+            }
+            _ => false,
+        }
+    }
+}
+
+/// Stack `s` of the warp's `stacks`: a multiplexer tree on the bits of `s`, as deep as the
+/// index is wide rather than as the warp is long; past the warp, [`outside`].
+fn read_tree(l: &mut Sym, stacks: &[Regs<Sym>], s: W) -> Regs<Sym> {
+    if let Node::Word(k) = *l.node(s.0) {
+        return stacks.get(k as usize).copied().unwrap_or_else(|| outside(l));
+    }
+    let past = outside(l);
+    let n = stacks.len().next_power_of_two();
+    let mut level: Vec<Regs<Sym>> = (0..n).map(|k| stacks.get(k).copied().unwrap_or(past)).collect();
+    let mut bit = 1;
+    while level.len() > 1 {
+        let m = l.word(bit);
+        let masked = l.mask(s, m);
+        let clear = l.eq_k(masked, 0);
+        level = level.chunks(2).map(|p| StackRegsOf::mux(l, clear, p[0], p[1])).collect();
+        bit <<= 1;
+    }
+    let inside = l.lt_k(s, n as u32);
+    StackRegsOf::mux(l, inside, level[0], past)
 }
 
 impl Registers<Sym> for View<'_> {
     fn stack_q(&self, l: &mut Sym, s: W) -> Regs<Sym> {
-        match self.stacks {
-            Some(st) => read_lanes(l, st, s),
-            None => outside(l),
-        }
+        self.stacks.read(l, s)
     }
     fn thread_q(&self, _: &mut Sym, t: u32) -> Thread<Sym> {
         self.threads[t as usize]
@@ -398,18 +471,33 @@ fn merge(s: &mut Sym, mut paths: Vec<(B, Vec<T>)>) -> Vec<T> {
     out
 }
 
-/// Stack registers `list` (the cycle's changes, in order) leaves the warp's `stacks` at.
-fn resolve(s: &mut Sym, stacks: &[Regs<Sym>], list: &[(W, Regs<Sym>)]) -> Vec<Regs<Sym>> {
+/// Stack registers `stacks` after `writes`, in order ([`write_stack`]).
+fn resolve(s: &mut Sym, stacks: &[Regs<Sym>], writes: &[Write]) -> Vec<Regs<Sym>> {
     let mut out = stacks.to_vec();
-    for &(i, r) in list {
-        for (k, x) in out.iter_mut().enumerate() {
-            let hit = s.eq_k(i, k as u32);
-            if s.maybe(hit) {
-                *x = StackRegsOf::mux(s, hit, r, *x);
-            }
-        }
+    for x in writes {
+        let mut parts = Vec::new();
+        stack_parts(&x.regs, &mut parts);
+        let fields: Vec<(B, T)> = x.sets.iter().zip(parts).map(|(&set, t)| (s.bit(set), t)).collect();
+        write_stack(s, &mut out, x.at, &fields);
     }
     out
+}
+
+/// Writes to stack `at` of `stacks` each field whose bit is set (`fields`, in
+/// [`stack_parts`]'s order): a multiplexer per stack the index may name and field written.
+fn write_stack(s: &mut Sym, stacks: &mut [Regs<Sym>], at: W, fields: &[(B, T)]) {
+    for (k, x) in stacks.iter_mut().enumerate() {
+        let here = s.eq_k(at, k as u32);
+        let mut parts = Vec::new();
+        stack_parts(x, &mut parts);
+        for (part, &(set, value)) in parts.iter_mut().zip(fields) {
+            let hit = s.and(set, here);
+            if s.maybe(hit) {
+                *part = T::mux(s, hit, value, *part);
+            }
+        }
+        *x = stack_from(&mut parts.into_iter());
+    }
 }
 
 /// The registers as they are declared, in order.
@@ -601,11 +689,13 @@ impl SeqOut {
 /// Lane `j`'s sequencer stage from journal `d` of a cycle that ran only it.
 fn seq_out(
     s: &mut Sym,
+    wd: &Widths,
     lane: &Lane,
     j: u32,
-    stacks: &[Regs<Sym>],
+    stacks: &Stacks,
     d: &Journal<Sym>,
 ) -> Result<SeqOut, String> {
+    let writes: Vec<Write> = writes_of(s, stacks, &d.stacks).iter().map(|x| fit(s, wd, x)).collect();
     let (no, z, zv) = (s.bit(false), s.word(0), s.val(0));
     let yes = s.bit(true);
     let mut o = SeqOut {
@@ -618,7 +708,7 @@ fn seq_out(
         g_wr: (no, z, zv),
         sh_req: (no, z, z, no),
         g_req: (no, no, z),
-        stacks: resolve(s, stacks, &d.stacks),
+        stacks: resolve(s, &stacks.regs, &writes),
     };
     let twice = |what: &str| Err(format!("lane {j}: two {what} in one cycle"));
     for x in &d.writes {
@@ -660,6 +750,86 @@ fn seq_out(
         return twice("requests");
     }
     Ok(o)
+}
+
+/// The program `prog` (micro-ops appended when their bit is set) as `slots` fixed positions:
+/// `(valid, micro-op)`, valid ones first. A micro-op goes to the slot its position names, the
+/// number of valid micro-ops before it; only the positions that number can take are built:
+/// the earlier micro-ops that are valid whenever this one is (a set bit, or a bit this one's
+/// implies: a flush's `i < n` implies every `i' < n` for `i' < i`) count as one each, and the
+/// others add what their bits can sum to.
+fn compact(s: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> {
+    if prog.iter().all(|(g, _)| s.bool_of(g.0).is_some()) {
+        // Every position is a constant: the proofs' compaction builds nothing to prune.
+        return query::compact(s, prog, slots);
+    }
+    let none = no_uop(s);
+    let no = s.bit(false);
+    let mut out = vec![(no, none); slots];
+    for (i, &(g, u)) in prog.iter().enumerate() {
+        if !s.maybe(g) {
+            continue;
+        }
+        let e = encode(s, &u);
+        let mut base = 0usize;
+        let mut open: Vec<B> = Vec::new();
+        for &(h, _) in &prog[..i] {
+            if s.bool_of(h.0) == Some(true) || implies(s, g, h) {
+                base += 1;
+            } else if s.maybe(h) {
+                open.push(h);
+            }
+        }
+        // What the open bits can sum to: each distinct bit adds its multiplicity or nothing.
+        let mut sums = vec![true];
+        let mut seen: Vec<B> = Vec::new();
+        for &h in &open {
+            if seen.contains(&h) {
+                continue;
+            }
+            seen.push(h);
+            let m = open.iter().filter(|&&x| x == h).count();
+            let mut next = sums.clone();
+            next.resize(sums.len() + m, false);
+            for (k, &on) in sums.iter().enumerate() {
+                next[k + m] |= on;
+            }
+            sums = next;
+        }
+        let mut pos = s.word(base as u32);
+        for &h in &open {
+            let one = s.count(h);
+            pos = s.add(pos, one);
+        }
+        for (k, slot) in out.iter_mut().enumerate().skip(base) {
+            if !sums.get(k - base).copied().unwrap_or(false) {
+                continue;
+            }
+            let at = s.eq_k(pos, k as u32);
+            let here = s.and(g, at);
+            if !s.maybe(here) {
+                continue;
+            }
+            slot.0 = s.or(slot.0, here);
+            slot.1 = mux_enc(s, here, e, slot.1);
+        }
+    }
+    out
+}
+
+/// `g` implies `h`, as far as the terms show: the same bit, or `a < x` and `b < x` with
+/// constants `b <= a`.
+fn implies(s: &Sym, g: B, h: B) -> bool {
+    if g == h {
+        return true;
+    }
+    match (s.node(g.0), s.node(h.0)) {
+        (&Node::Lt(a, x), &Node::Lt(b, y)) if x == y => match (s.node(a), s.node(b)) {
+            (&Node::Word(a), &Node::Word(b)) => b <= a,
+            _ => false,
+        },
+        _ => false,
+    }
 }
 
 /// A change to a lane's RB.
@@ -712,22 +882,23 @@ fn queue_parts(count: W, slots: &[Enc], out: &mut Vec<T>) {
     }
 }
 
-/// Lane `j`'s plan stage from journal `d`: the warp's stack registers, the lane's thread
-/// registers, RB and program, and its answer (code, popped entry; with `restarts`, whether a pop
-/// answered Restart), as flat terms.
+/// Lane `j`'s plan stage from journal `d`, over the warp's stack registers `stacks`: the
+/// path's stack writes ([`writes_of`]) and, as flat terms, the lane's thread registers, RB and
+/// program, and its answer (code, popped entry; with `restarts`, whether a pop answered
+/// Restart).
 #[allow(clippy::too_many_arguments)]
 fn plan_parts(
     s: &mut Sym,
     j: u32,
     q_slots: usize,
     restarts: bool,
-    stacks: &[Regs<Sym>],
+    stacks: &Stacks,
     thread: Thread<Sym>,
     rb: &Rb,
     queue: (W, &[Enc]),
     d: &Journal<Sym>,
-) -> Result<Vec<T>, String> {
-    let stacks = resolve(s, stacks, &d.stacks);
+) -> Result<PlanOut, String> {
+    let writes = writes_of(s, stacks, &d.stacks);
     let mut thread = thread;
     let mut rb = rb.clone();
     let mut emits = Vec::new();
@@ -742,9 +913,6 @@ fn plan_parts(
         }
     }
     let mut out = Vec::new();
-    for r in &stacks {
-        stack_parts(r, &mut out);
-    }
     out.extend([T::B(thread.overflow), T::W(thread.spill_ptr), T::B(thread.done), T::W(rb.count)]);
     out.extend(rb.e.iter().map(|&x| T::V(x)));
     if emits.is_empty() {
@@ -776,7 +944,222 @@ fn plan_parts(
         let r = s.bit(d.restarts.contains(&j));
         out.push(T::B(r));
     }
-    Ok(out)
+    Ok((writes, out))
+}
+
+/// What one path of a lane's plan leaves: its stack writes in order, and its other results as
+/// flat terms.
+type PlanOut = (Vec<Write>, Vec<T>);
+
+/// Stack registers as a list of fields, in [`stack_parts`]'s order.
+const STACK_FIELDS: usize = 7;
+
+/// One write of a plan to the stack registers: the stack's index, its registers after the
+/// write, and which fields the write sets (the others hold what the stack held just before).
+#[derive(Clone, Copy, Debug)]
+struct Write {
+    at: W,
+    regs: Regs<Sym>,
+    sets: [bool; STACK_FIELDS],
+}
+
+/// The writes of one path's list `list` (its stack changes in order, over the warp's `stacks`),
+/// each value cut to its registers' widths ([`fit`]). A field a write sets is one whose term
+/// differs from the field as the list so far leaves that stack, the read the plan made before
+/// writing: a write that moves one stack's Priority leaves its other six fields alone, and
+/// later lanes see them through no multiplexer of this one.
+fn writes_of(s: &mut Sym, stacks: &Stacks, list: &[(W, Regs<Sym>)]) -> Vec<Write> {
+    (0..list.len())
+        .map(|m| {
+            let (at, regs) = list[m];
+            let held = stacks.read(s, at);
+            let before = cycle::lookup(s, &list[..m], at, held);
+            let (mut now, mut was) = (Vec::new(), Vec::new());
+            stack_parts(&regs, &mut now);
+            stack_parts(&before, &mut was);
+            let sets = std::array::from_fn(|f| now[f] != was[f]);
+            Write { at, regs, sets }
+        })
+        .collect()
+}
+
+/// `x` cut to its low `bits` (its register's width); a variable or a constant as it is.
+fn cut(s: &mut Sym, x: W, bits: u32) -> W {
+    if bits == 0 || bits >= 32 || matches!(s.node(x.0), Node::Var(..) | Node::Word(_)) {
+        return x;
+    }
+    let m = s.word((1u32 << bits) - 1);
+    s.mask(x, m)
+}
+
+/// Write `x` with the fields it sets cut to their registers' widths.
+fn fit(s: &mut Sym, wd: &Widths, x: &Write) -> Write {
+    let mut parts = Vec::new();
+    stack_parts(&x.regs, &mut parts);
+    let bits = [wd.top, wd.bottom, 0, 0, wd.next_tid, wd.priority, wd.flush];
+    for ((part, &set), &bits) in parts.iter_mut().zip(&x.sets).zip(&bits) {
+        if let (true, T::W(w)) = (set, *part) {
+            *part = T::W(cut(s, w, bits));
+        }
+    }
+    Write { regs: stack_from(&mut parts.into_iter()), ..*x }
+}
+
+/// Where a stack write may land: a constant index names its stack, any other index may name
+/// any stack.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Target {
+    Stack(u32),
+    Any,
+}
+
+fn target(s: &Sym, i: W) -> Target {
+    match *s.node(i.0) {
+        Node::Word(k) => Target::Stack(k),
+        _ => Target::Any,
+    }
+}
+
+/// A short sequence of write slots that holds every path's write sequence in order, built path
+/// by path: each step keeps a longest common subsequence of the slots so far and the next
+/// path's targets, and interleaves the rest.
+fn write_slots(paths: &[Vec<Target>]) -> Vec<Target> {
+    let mut all: Vec<Target> = Vec::new();
+    for p in paths {
+        let (n, m) = (all.len(), p.len());
+        // lcs[a][b]: longest common subsequence of all[a..] and p[b..].
+        let mut lcs = vec![vec![0usize; m + 1]; n + 1];
+        for a in (0..n).rev() {
+            for b in (0..m).rev() {
+                lcs[a][b] =
+                    if all[a] == p[b] { lcs[a + 1][b + 1] + 1 } else { lcs[a + 1][b].max(lcs[a][b + 1]) };
+            }
+        }
+        let (mut a, mut b) = (0, 0);
+        let mut next = Vec::with_capacity(n + m);
+        while a < n || b < m {
+            if a < n && b < m && all[a] == p[b] {
+                next.push(all[a]);
+                a += 1;
+                b += 1;
+            } else if b == m || (a < n && lcs[a + 1][b] >= lcs[a][b + 1]) {
+                next.push(all[a]);
+                a += 1;
+            } else {
+                next.push(p[b]);
+                b += 1;
+            }
+        }
+        all = next;
+    }
+    all
+}
+
+/// The write each slot of `slots` takes from `writes` (targets `targets`): the leftmost
+/// embedding, in order.
+fn slot_of(slots: &[Target], targets: &[Target], writes: &[Write]) -> Vec<Option<Write>> {
+    let mut at = vec![None; slots.len()];
+    let mut k = 0;
+    for (t, &x) in targets.iter().zip(writes) {
+        while slots[k] != *t {
+            k += 1;
+        }
+        at[k] = Some(x);
+        k += 1;
+    }
+    at
+}
+
+/// `writes` without those the same path repeats later to the same index term: the later write
+/// sets what the earlier one set as well (its fields hold the earlier one's values).
+fn last_writes(writes: &[Write]) -> Vec<Write> {
+    let mut out: Vec<Write> = Vec::new();
+    for (k, x) in writes.iter().enumerate() {
+        let mut x = *x;
+        for y in &writes[..k] {
+            if y.at == x.at {
+                for f in 0..STACK_FIELDS {
+                    x.sets[f] |= y.sets[f];
+                }
+            }
+        }
+        if writes[k + 1..].iter().all(|y| y.at != x.at) {
+            out.push(x);
+        }
+    }
+    out
+}
+
+/// Every path's results and stack writes merged into one ([`merge`]), the writes resolved
+/// once against `stacks`. The paths' write sequences ([`last_writes`]) are laid out on common
+/// slots ([`write_slots`]): a slot holds the index, the value and, per field, whether it is
+/// set; its index is a constant when every path writing there names that stack. A lane's plan
+/// then resolves each slot's set fields once against the warp's stacks rather than each
+/// path's writes. Each path's valid slots are its own writes in its own order, so the stacks
+/// come out as each path's writes leave them.
+fn merge_plans(
+    s: &mut Sym,
+    wd: &Widths,
+    stacks: &[Regs<Sym>],
+    paths: Vec<(B, PlanOut)>,
+) -> (Vec<Regs<Sym>>, Vec<T>) {
+    let writes: Vec<Vec<Write>> =
+        paths.iter().map(|(_, (w, _))| last_writes(w).iter().map(|x| fit(s, wd, x)).collect()).collect();
+    let targets: Vec<Vec<Target>> =
+        writes.iter().map(|w| w.iter().map(|x| target(s, x.at)).collect()).collect();
+    let slots = write_slots(&targets);
+    let laid: Vec<Vec<Option<Write>>> =
+        targets.iter().zip(&writes).map(|(t, w)| slot_of(&slots, t, w)).collect();
+    // Where a path leaves a slot or a field unset it carries the value of one that sets it: the
+    // slot's multiplexers then have only the written values to choose among.
+    let filler: Vec<(W, Vec<T>)> = (0..slots.len())
+        .map(|k| {
+            let any = laid.iter().rev().find_map(|l| l[k]).expect("a path writes each slot");
+            let mut parts = Vec::new();
+            stack_parts(&any.regs, &mut parts);
+            for (f, part) in parts.iter_mut().enumerate() {
+                if let Some(x) = laid.iter().rev().find_map(|l| l[k].filter(|x| x.sets[f])) {
+                    let mut p = Vec::new();
+                    stack_parts(&x.regs, &mut p);
+                    *part = p[f];
+                }
+            }
+            (any.at, parts)
+        })
+        .collect();
+    let (yes, no) = (s.bit(true), s.bit(false));
+    let flat = paths
+        .into_iter()
+        .zip(laid)
+        .map(|((c, (_, rest)), l)| {
+            let mut out = Vec::new();
+            for (k, x) in l.iter().enumerate() {
+                let (at, fill) = &filler[k];
+                out.push(T::W(x.map_or(*at, |x| x.at)));
+                let mut parts = Vec::new();
+                if let Some(x) = x {
+                    stack_parts(&x.regs, &mut parts);
+                }
+                for f in 0..STACK_FIELDS {
+                    let set = x.is_some_and(|x| x.sets[f]);
+                    out.push(T::B(if set { yes } else { no }));
+                    out.push(if set { parts[f] } else { fill[f] });
+                }
+            }
+            out.extend(rest);
+            (c, out)
+        })
+        .collect();
+    let merged = merge(s, flat);
+    let p = &mut merged.into_iter();
+    let mut out = stacks.to_vec();
+    for _ in &slots {
+        let at = w(p);
+        let fields: Vec<(B, T)> = (0..STACK_FIELDS).map(|_| (b(p), p.next().expect("a field"))).collect();
+        write_stack(s, &mut out, at, &fields);
+    }
+    let stacks = out;
+    (stacks, p.collect())
 }
 
 /// Builds one warp of `cfg`'s stack manager (global stores acknowledged when `acked`), lanes
@@ -852,6 +1235,7 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
         let at = s.eq_k(deq_lane, j);
         let deq_here = s.and(deq_valid, at);
         let completes = s.or(ins[j as usize].sh_done, deq_here);
+        let seq_view = Stacks::new(view_stacks.clone());
         let mut results = Vec::new();
         for inf in [None].into_iter().chain(waiting.iter().map(|&k| Some(k))) {
             let c_inf = match inf {
@@ -882,7 +1266,7 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
                         let cond = s.and(cond, c_h);
                         let cond = s.and(cond, c_l);
                         let view = View {
-                            stacks: Some(&view_stacks),
+                            stacks: &seq_view,
                             threads: &threads,
                             busy: &busy,
                             rb: &rbs,
@@ -900,7 +1284,7 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
                         let found = s.explore(|l| {
                             let mut d = Journal::<Sym>::default();
                             cycle::eval(l, &Design, cfg, &wd, &view, &cin, &mut d);
-                            seq_out(l, lane, j, &view_stacks, &d).map(|o| o.parts())
+                            seq_out(l, &wd, lane, j, &seq_view, &d).map(|o| o.parts())
                         });
                         shapes += 1;
                         paths += found.len();
@@ -936,12 +1320,10 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
             (count, slots)
         };
         let mut results = Vec::new();
+        let plan_view = Stacks::new(view_stacks.clone());
         {
             let cond = s.eq_k(li.cmd_kind, CMD_NONE);
             let mut out = Vec::new();
-            for r in &view_stacks {
-                stack_parts(r, &mut out);
-            }
             let th = lane.thread;
             out.extend([T::B(th.overflow), T::W(th.spill_ptr), T::B(th.done), T::W(rb_after.count)]);
             out.extend(rb_after.e.iter().map(|&x| T::V(x)));
@@ -951,14 +1333,14 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
             if restarts {
                 out.push(T::B(s.bit(false)));
             }
-            results.push((cond, out));
+            results.push((cond, (Vec::new(), out)));
         }
         for (k, cmd) in
             [(CMD_PUSH, CmdOf::Push(li.cmd_value)), (CMD_POP, CmdOf::Pop), (CMD_FINISH, CmdOf::Finish)]
         {
             let cond = s.eq_k(li.cmd_kind, k);
             let view = View {
-                stacks: None,
+                stacks: &plan_view,
                 threads: &threads,
                 busy: &busy,
                 rb: &rbs,
@@ -971,10 +1353,9 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
                 acked,
             };
             let found = s.explore(|l| {
-                let stacks = view_stacks.iter().enumerate().map(|(k, r)| (l.word(k as u32), *r)).collect();
-                let mut d = Journal::<Sym> { stacks, ..Journal::<Sym>::default() };
+                let mut d = Journal::<Sym>::default();
                 cycle::plan(l, &Design, cfg, &wd, &view, &[(j, cmd)], &mut d);
-                plan_parts(l, j, q_slots, restarts, &view_stacks, lane.thread, &rb_after, (count, &slots), &d)
+                plan_parts(l, j, q_slots, restarts, &plan_view, lane.thread, &rb_after, (count, &slots), &d)
             });
             shapes += 1;
             paths += found.len();
@@ -984,9 +1365,9 @@ pub fn warp(cfg: &Config, acked: bool) -> Result<Circuit, String> {
                 results.push((c, r?));
             }
         }
-        let merged = merge(&mut s, results);
+        let (stacks, merged) = merge_plans(&mut s, &wd, &view_stacks, results);
+        view_stacks = stacks;
         let p = &mut merged.into_iter();
-        view_stacks = (0..ws).map(|_| stack_from(p)).collect();
         let thread = ThreadRegsOf { overflow: b(p), spill_ptr: w(p), done: b(p) };
         let rb = Rb { count: w(p), e: (0..lane.rb.e.len()).map(|_| v(p)).collect() };
         let count = w(p);
