@@ -328,6 +328,16 @@ fn random_streams_cosimulation_agrees_where_lanes_borrow_in_the_same_cycles() {
     cosimulate_with_plants(&g, &cycles, &[("a wrong link", wrong, first, thread, "next_tid")]);
 }
 
+/// The paper's SMS at its own 32-lane warps (one warp slot) on the `clutter` scene: spills to SH
+/// and refills; the first lane to request SH made to say read where it writes is caught.
+#[test]
+fn sms_at_32_lanes_cosimulation_agrees_every_cycle_and_catches_a_planted_difference() {
+    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+        return;
+    }
+    cosimulate_and_plant(Config { warps: 1, ..Config::sms() }, 2000, "sh_req");
+}
+
 /// An SH design with reallocation at 4-lane warps (the scene's rays regrouped): spills to SH and
 /// to global memory, refills, borrowing and releases on a real scene.
 #[test]

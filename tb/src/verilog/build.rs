@@ -1438,3 +1438,65 @@ fn nonzero(s: &mut Sym, x: W) -> B {
     let z = s.word(0);
     s.ne(x, z)
 }
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    fn target() -> impl Strategy<Value = Target> {
+        prop_oneof![(0u32..3).prop_map(Target::Stack), Just(Target::Any)]
+    }
+
+    /// `p` is `slots` with some entries left out, in order.
+    fn embeds(p: &[Target], slots: &[Target]) -> bool {
+        let mut it = slots.iter();
+        p.iter().all(|t| it.any(|s| s == t))
+    }
+
+    proptest! {
+        /// Every path's write targets embed in the common slots in order, so each path's writes
+        /// apply in its own order; the slots are at least as long as the longest path and no
+        /// longer than all paths together, and a path the slots already hold adds none.
+        #[test]
+        fn every_paths_writes_embed_in_the_slots_in_order(
+            paths in prop::collection::vec(prop::collection::vec(target(), 0..6), 1..6),
+        ) {
+            let slots = write_slots(&paths);
+            for p in &paths {
+                prop_assert!(embeds(p, &slots), "{p:?} in {slots:?}");
+            }
+            prop_assert!(slots.len() >= paths.iter().map(Vec::len).max().unwrap_or(0));
+            prop_assert!(slots.len() <= paths.iter().map(Vec::len).sum::<usize>());
+            let mut again = paths.clone();
+            again.push(paths[0].clone());
+            prop_assert_eq!(write_slots(&again), slots);
+        }
+
+        /// A path's writes reduced to the last write to each index: one per index, in the order
+        /// of their last writes, each setting every field any write to that index set.
+        #[test]
+        fn last_writes_keep_one_write_per_index_with_every_field_set(
+            list in prop::collection::vec((0u32..3, prop::array::uniform7(any::<bool>())), 0..8),
+        ) {
+            let mut s = Sym::default();
+            let regs = outside(&mut s);
+            let at: Vec<W> = (0..3).map(|k| s.var_word(&format!("i{k}"))).collect();
+            let writes: Vec<Write> =
+                list.iter().map(|&(i, sets)| Write { at: at[i as usize], regs, sets }).collect();
+            let out = last_writes(&writes);
+            let mut order: Vec<u32> = Vec::new();
+            for &(i, _) in list.iter().rev() {
+                if !order.contains(&i) {
+                    order.insert(0, i);
+                }
+            }
+            prop_assert_eq!(out.iter().map(|x| x.at).collect::<Vec<_>>(), order.iter().map(|&i| at[i as usize]).collect::<Vec<_>>());
+            for (x, &i) in out.iter().zip(&order) {
+                let want: [bool; STACK_FIELDS] = std::array::from_fn(|f| list.iter().any(|&(j, sets)| j == i && sets[f]));
+                prop_assert_eq!(x.sets, want);
+            }
+        }
+    }
+}
