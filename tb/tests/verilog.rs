@@ -13,15 +13,16 @@ fn cosim_config() -> Config {
     Config { warps: 1, ..Config::default() }
 }
 
-/// `cycles` cycles of SM 0's stack manager on the `clutter` scene, recorded for co-simulation.
-/// The scene's 32-ray warps are regrouped into warps of `cfg.warp_size` rays, in order.
-fn record(cfg: Config, cycles: usize) -> (Generated, Vec<cosim::Cycle>) {
+/// `cycles` cycles of SM 0's stack manager on `scene` at 16 × 16 pixels, recorded for
+/// co-simulation. The scene's 32-ray warps are regrouped into warps of `cfg.warp_size` rays, in
+/// order.
+fn record(cfg: Config, scene: &str, cycles: usize) -> (Generated, Vec<cosim::Cycle>) {
     let g = generate(&cfg, true).unwrap();
     let rec = Recorder::new(Layout::of(&g), cycles);
     let out = rec.out.clone();
     let hw = tb::hw::preset("paper").unwrap();
     let gpu = tb::testing::gpu(cfg, &hw).with_scoreboard(&|| Box::new(rec.clone()));
-    let jobs = tb::testing::scene_jobs("clutter", 16).into_iter().flat_map(|j| {
+    let jobs = tb::testing::scene_jobs(scene, 16).into_iter().flat_map(|j| {
         let lanes: Vec<_> = j.lanes.chunks(cfg.warp_size as usize).map(|c| c.to_vec()).collect();
         lanes.into_iter().map(|lanes| rtl::ray_op::WarpJob { lanes, walk: None })
     });
@@ -246,11 +247,11 @@ fn yosys_flip_flops_of_a_restart_design_equal_the_accounting_less_what_no_output
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Co-simulates `n` cycles of `cfg` and plants a difference: the first lane to make a request
-/// of `signal`'s kind (`g_req` or `sh_req`) says read where it writes; the report must name that
-/// cycle, thread and signal.
-fn cosimulate_and_plant(cfg: Config, n: usize, signal: &str) {
-    let (g, cycles) = record(cfg, n);
+/// Co-simulates `n` cycles of `cfg` on `scene` and plants a difference: the first lane to make a
+/// request of `signal`'s kind (`g_req` or `sh_req`) says read where it writes; the report must
+/// name that cycle, thread and signal. Returns the module and the recorded cycles.
+fn cosimulate_and_plant(cfg: Config, scene: &str, n: usize, signal: &str) -> (Generated, Vec<cosim::Cycle>) {
+    let (g, cycles) = record(cfg, scene, n);
     assert_eq!(cycles.len(), n, "the run is long enough");
     let dir = std::env::temp_dir().join(format!("sms-cosim-{}-{signal}", std::process::id()));
     let r = cosim::run(&g, &g.text, &cycles, &dir.join("design")).unwrap_or_else(|e| panic!("{e}"));
@@ -273,6 +274,7 @@ fn cosimulate_and_plant(cfg: Config, n: usize, signal: &str) {
     assert!(e.starts_with(&format!("cycle {first} ")), "{e}");
     assert!(e.contains(&format!("thread {lane} ")) && e.contains(&format!("{signal}_write")), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
+    (g, cycles)
 }
 
 #[test]
@@ -280,7 +282,7 @@ fn cosimulation_agrees_every_cycle_and_catches_a_planted_difference() {
     if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
         return;
     }
-    cosimulate_and_plant(cosim_config(), 2000, "g_req");
+    cosimulate_and_plant(cosim_config(), "clutter", 2000, "g_req");
 }
 
 /// Random stack streams (climb, wander, drain: `run::verify::streams`) on 8-lane warps of an SH
@@ -335,7 +337,15 @@ fn sms_at_32_lanes_cosimulation_agrees_every_cycle_and_catches_a_planted_differe
     if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
         return;
     }
-    cosimulate_and_plant(Config { warps: 1, ..Config::sms() }, 2000, "sh_req");
+    let n = 6000;
+    let (g, cycles) =
+        cosimulate_and_plant(Config { warps: 1, ..Config::sms() }, "party-partial", n, "sh_req");
+    let i = Layout::of(&g).fields.iter().position(|f| f.name == "next_tid").unwrap();
+    let relinks = (1..cycles.len())
+        .map(|k| (0..32).filter(|&t| cycles[k].records[t][i] != cycles[k - 1].records[t][i]).count())
+        .sum::<usize>();
+    println!("{relinks} relinks");
+    assert!(relinks > 0, "the run borrows");
 }
 
 /// An SH design with reallocation at 4-lane warps (the scene's rays regrouped): spills to SH and
@@ -350,7 +360,7 @@ fn sh_design_cosimulation_agrees_every_cycle_and_catches_a_planted_difference() 
     if let Some(ra) = cfg.policy.realloc_mut() {
         ra.borrow_limit = 2;
     }
-    cosimulate_and_plant(cfg, 3000, "sh_req");
+    cosimulate_and_plant(cfg, "clutter", 3000, "sh_req");
 }
 
 /// A restart design without an SH level (RB_2+RT, one slot of 4-lane warps, a walk-driven run):
