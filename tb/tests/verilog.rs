@@ -13,6 +13,19 @@ fn cosim_config() -> Config {
     Config { warps: 1, ..Config::default() }
 }
 
+/// Configuration `name` (one with reallocation) at one slot of `warp_size`-lane warps, lending
+/// chains of at most `borrow_limit` borrowed stacks.
+fn lending(name: &str, warp_size: u32, borrow_limit: u32) -> Config {
+    let mut cfg = Config { warp_size, warps: 1, ..name.parse().unwrap() };
+    cfg.policy.realloc_mut().expect("a configuration with reallocation").borrow_limit = borrow_limit;
+    cfg
+}
+
+/// Icarus Verilog is installed (or its absence is reported, failing unless `SMS_SKIP_MISSING`).
+fn icarus() -> bool {
+    tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)")
+}
+
 /// `cycles` cycles of SM 0's stack manager on `scene` at 16 × 16 pixels, recorded for
 /// co-simulation. The scene's 32-ray warps are regrouped into warps of `cfg.warp_size` rays, in
 /// order.
@@ -221,8 +234,7 @@ fn yosys_flip_flops_of_a_restart_design_equal_the_accounting_less_what_no_output
     if !tb::prereq::tools(&["yosys"], "yosys (apt-get install yosys)") {
         return;
     }
-    let mut cfg = Config { warp_size: 2, warps: 1, .."RB_1+SH_2+SK+RA+RT".parse().unwrap() };
-    cfg.policy.realloc_mut().unwrap().borrow_limit = 1;
+    let cfg = lending("RB_1+SH_2+SK+RA+RT", 2, 1);
     let g = generate(&cfg, true).unwrap();
     let cost = CostReport::new(&cfg, 1, 0).unwrap();
     let dir = std::env::temp_dir().join(format!("sms-synth-rt-{}", std::process::id()));
@@ -279,7 +291,7 @@ fn cosimulate_and_plant(cfg: Config, scene: &str, n: usize, signal: &str) -> (Ge
 
 #[test]
 fn cosimulation_agrees_every_cycle_and_catches_a_planted_difference() {
-    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+    if !icarus() {
         return;
     }
     cosimulate_and_plant(cosim_config(), "clutter", 2000, "g_req");
@@ -295,13 +307,10 @@ fn random_streams_cosimulation_agrees_where_lanes_borrow_in_the_same_cycles() {
     use rtl::stack_manager::StackTiming;
     use rtl::stack_unit::StandaloneStack;
     use tb::run::verify::harness::{run_cycle, CycleOpts};
-    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+    if !icarus() {
         return;
     }
-    let mut cfg = Config { warp_size: 8, warps: 1, .."RB_1+SH_1+SK+RA".parse().unwrap() };
-    if let Some(ra) = cfg.policy.realloc_mut() {
-        ra.borrow_limit = 3;
-    }
+    let cfg = lending("RB_1+SH_1+SK+RA", 8, 3);
     let g = generate(&cfg, true).unwrap();
     let rec = Recorder::new(Layout::of(&g), 4000);
     let out = rec.out.clone();
@@ -334,7 +343,7 @@ fn random_streams_cosimulation_agrees_where_lanes_borrow_in_the_same_cycles() {
 /// and refills; the first lane to request SH made to say read where it writes is caught.
 #[test]
 fn sms_at_32_lanes_cosimulation_agrees_every_cycle_and_catches_a_planted_difference() {
-    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+    if !icarus() {
         return;
     }
     let n = 6000;
@@ -352,15 +361,10 @@ fn sms_at_32_lanes_cosimulation_agrees_every_cycle_and_catches_a_planted_differe
 /// to global memory, refills, borrowing and releases on a real scene.
 #[test]
 fn sh_design_cosimulation_agrees_every_cycle_and_catches_a_planted_difference() {
-    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+    if !icarus() {
         return;
     }
-    let cfg: Config = "RB_2+SH_8+SK+RA".parse().unwrap();
-    let mut cfg = Config { warp_size: 4, warps: 1, ..cfg };
-    if let Some(ra) = cfg.policy.realloc_mut() {
-        ra.borrow_limit = 2;
-    }
-    cosimulate_and_plant(cfg, "clutter", 3000, "sh_req");
+    cosimulate_and_plant(lending("RB_2+SH_8+SK+RA", 4, 2), "clutter", 3000, "sh_req");
 }
 
 /// A restart design without an SH level (RB_2+RT, one slot of 4-lane warps, a walk-driven run):
@@ -369,7 +373,7 @@ fn sh_design_cosimulation_agrees_every_cycle_and_catches_a_planted_difference() 
 /// restart that never reaches its output, are caught at their first cycle.
 #[test]
 fn restart_design_cosimulation_agrees_every_cycle_and_catches_a_planted_drop() {
-    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+    if !icarus() {
         return;
     }
     let cfg = Config { warp_size: 4, warps: 1, .."RB_2+RT".parse().unwrap() };
@@ -400,13 +404,10 @@ fn restart_design_cosimulation_agrees_every_cycle_and_catches_a_planted_drop() {
 /// cycle; planted, a drop that leaves the Overflow bit clear is caught at the first drop.
 #[test]
 fn sh_restart_design_cosimulation_agrees_every_cycle_and_catches_a_planted_drop() {
-    if !tb::prereq::tools(&["iverilog", "vvp"], "Icarus Verilog (apt-get install iverilog)") {
+    if !icarus() {
         return;
     }
-    let mut cfg = Config { warp_size: 4, warps: 1, .."RB_2+SH_4+SK+RA+RT".parse().unwrap() };
-    if let Some(ra) = cfg.policy.realloc_mut() {
-        ra.borrow_limit = 2;
-    }
+    let cfg = lending("RB_2+SH_4+SK+RA+RT", 4, 2);
     let (g, cycles) = record_walks(cfg, 3000);
     assert_eq!(cycles.len(), 3000, "the run is long enough");
     let (drop, t) = first_set(&g, &cycles, "overflow").expect("a drop in the recorded cycles");

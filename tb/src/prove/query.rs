@@ -568,29 +568,35 @@ pub fn mux_enc(l: &mut Sym, c: B, x: Enc, y: Enc) -> Enc {
 
 /// The program as `slots` fixed positions: `(valid, micro-op)`, valid ones first.
 pub fn compact(l: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> {
-    let none = {
-        let z = l.word(0);
-        let no = l.bit(false);
-        let zv = l.val(0);
-        Enc { kind: z, a: z, b: z, latch: no, value: zv }
-    };
+    let none = no_uop(l);
     let mut out = vec![(l.bit(false), none); slots];
     let mut pos = l.word(0);
     let enc: Vec<(B, Enc)> = prog.iter().map(|(g, u)| (*g, encode(l, u))).collect();
     for (g, e) in enc {
         for (k, slot) in out.iter_mut().enumerate() {
-            let at = l.eq_k(pos, k as u32);
-            let here = l.and(g, at);
-            if !l.maybe(here) {
-                continue;
-            }
-            slot.0 = l.or(slot.0, here);
-            slot.1 = mux_enc(l, here, e, slot.1);
+            place(l, slot, g, pos, k as u32, e);
         }
         let one = l.count(g);
         pos = l.add(pos, one);
     }
     out
+}
+
+/// The encoding of an empty program slot (every field zero).
+pub fn no_uop(l: &mut Sym) -> Enc {
+    let (z, no, zv) = (l.word(0), l.bit(false), l.val(0));
+    Enc { kind: z, a: z, b: z, latch: no, value: zv }
+}
+
+/// Puts micro-op `e`, valid under `g`, in `slot` (number `k`) where its position `pos` is `k`;
+/// nothing where that cannot hold.
+pub fn place(l: &mut Sym, slot: &mut (B, Enc), g: B, pos: W, k: u32, e: Enc) {
+    let at = l.eq_k(pos, k);
+    let here = l.and(g, at);
+    if l.maybe(here) {
+        slot.0 = l.or(slot.0, here);
+        slot.1 = mux_enc(l, here, e, slot.1);
+    }
 }
 
 /// What a plan did to the RB: which of its changes happened (each at most once per plan), and

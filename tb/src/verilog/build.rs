@@ -385,11 +385,6 @@ fn holds(s: &mut Sym, k: usize, e: &Enc) -> B {
     }
 }
 
-fn no_uop(s: &mut Sym) -> Enc {
-    let (z, no, zv) = (s.word(0), s.bit(false), s.val(0));
-    Enc { kind: z, a: z, b: z, latch: no, value: zv }
-}
-
 fn enc_parts(e: &Enc, out: &mut Vec<T>) {
     out.extend([T::W(e.kind), T::W(e.a), T::W(e.b), T::B(e.latch), T::V(e.value)]);
 }
@@ -616,7 +611,7 @@ impl Lane {
             StackRegsOf { top: base, bottom: base, empty: yes, idle, next_tid: lane, priority: z, flush: z };
         let thread = ThreadRegsOf { overflow: no, spill_ptr: z, done: finished };
         let rb = Rb { count: z, e: self.rb.e.clone() };
-        let none = no_uop(s);
+        let none = query::no_uop(s);
         let seq = Seq {
             count: z,
             slots: self.seq.slots.clone(),
@@ -717,7 +712,7 @@ fn seq_out(
                 o.issued = s.bit(issued);
                 o.inflight = match inflight {
                     Some(u) => encode(s, &u),
-                    None => no_uop(s),
+                    None => query::no_uop(s),
                 };
                 o.latch_valid = s.bit(latch.is_some());
                 o.latch = latch.unwrap_or(lane.seq.latch);
@@ -763,7 +758,7 @@ fn compact(s: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> 
         // Every position is a constant: the proofs' compaction builds nothing to prune.
         return query::compact(s, prog, slots);
     }
-    let none = no_uop(s);
+    let none = query::no_uop(s);
     let no = s.bit(false);
     let mut out = vec![(no, none); slots];
     for (i, &(g, u)) in prog.iter().enumerate() {
@@ -805,13 +800,7 @@ fn compact(s: &mut Sym, prog: &[(B, UopL<Sym>)], slots: usize) -> Vec<(B, Enc)> 
             if !sums.get(k - base).copied().unwrap_or(false) {
                 continue;
             }
-            let at = s.eq_k(pos, k as u32);
-            let here = s.and(g, at);
-            if !s.maybe(here) {
-                continue;
-            }
-            slot.0 = s.or(slot.0, here);
-            slot.1 = mux_enc(s, here, e, slot.1);
+            query::place(s, slot, g, pos, k as u32, e);
         }
     }
     out
